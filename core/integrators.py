@@ -1,0 +1,555 @@
+"""Time steppers with one interface, and a per-run report of invariant drift.
+
+Every method integrates a *model*: any object with
+
+``state_size : int``
+    Length ``m`` of the flat state vector.
+``rhs(t, state) -> state_dot``
+    The first-order equations, ``(m,) -> (m,)``; must not mutate ``state``.
+``invariants(states) -> dict[str, ndarray]`` (optional)
+    Quantities that the exact flow conserves (or that the user wants
+    watched), vectorized over leading axes: ``(..., m) -> (..., k)`` or
+    ``(...,)``. Their drift is reported for each run and a blow-up stops
+    the run with :class:`DivergenceError`.
+``split_flows``, ``to_split_state(state)``, ``from_split_state(z)`` (optional)
+    For the splitting methods only: a tuple of exact flows
+    ``flow(z, h) -> z`` of the pieces of a split Hamiltonian, acting on an
+    internal state ``z`` (see :class:`core.rigid_body.FreeBodyModel`).
+
+Single steps are pure functions ``step(model, state, dt, *, t=0.0) -> state``
+(:func:`rk4_step`, :func:`implicit_midpoint_step`, :func:`splitting_step`,
+:func:`splitting4_step`, :func:`splitting6_step`); inputs are never mutated.
+:func:`integrate` runs any method (fixed step or scipy's adaptive
+``solve_ivp``) and returns a frozen :class:`Trajectory` with a
+:class:`DriftReport`.
+
+Methods (``integrate(..., method=name)``):
+
+============== ====== ===================================================
+name           order  notes
+============== ====== ===================================================
+``rk4``        4      classical Runge-Kutta, explicit, 4 rhs calls/step
+``midpoint``   2      implicit midpoint; symplectic, conserves every
+                      quadratic invariant (``|p|``, energy, ``|L|`` of a
+                      free body) to the iteration tolerance
+``splitting``  2      Strang splitting into exact flows (planar
+                      rotations for the free body); symplectic, keeps
+                      ``|p| = 1`` to round-off with no renormalization
+``splitting4`` 4      Suzuki's 5-stage composition of ``splitting``
+``splitting6`` 6      Yoshida's 7-stage composition of ``splitting``
+``RK45``       5(4)   scipy ``solve_ivp``, adaptive (``rtol``, ``atol``)
+``DOP853``     8(5,3) scipy ``solve_ivp``, adaptive
+``LSODA``      1-12   scipy ``solve_ivp``, adaptive stiff/non-stiff switch
+============== ====== ===================================================
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+__all__ = [
+    "ADAPTIVE_METHODS",
+    "FIXED_STEP_METHODS",
+    "METHOD_ORDERS",
+    "DivergenceError",
+    "DriftReport",
+    "IntegrationError",
+    "Trajectory",
+    "drift_report",
+    "implicit_midpoint_step",
+    "integrate",
+    "rk4_step",
+    "splitting4_step",
+    "splitting6_step",
+    "splitting_step",
+]
+
+
+class IntegrationError(ValueError):
+    """A run could not continue; ``step`` and ``t`` say where it stopped."""
+
+    def __init__(self, message: str, *, step: int | None = None, t: float | None = None):
+        super().__init__(message)
+        self.step = step
+        self.t = t
+
+
+class DivergenceError(IntegrationError):
+    """The state became non-finite or an invariant blew up."""
+
+
+# ---------------------------------------------------------------- results
+@dataclass(frozen=True)
+class DriftReport:
+    """Drift of each invariant over the recorded times of one run.
+
+    Attributes
+    ----------
+    initial : mapping name -> (k,) or () array
+        Value at the first recorded state.
+    max_abs : mapping name -> float
+        ``max_t |I(t) - I(t0)|`` (Euclidean norm for vector invariants).
+    max_rel : mapping name -> float
+        ``max_abs / |I(t0)|`` (``inf`` when ``I(t0) = 0`` and it moved).
+    final_abs : mapping name -> float
+        ``|I(t_end) - I(t0)|``.
+    """
+
+    initial: Mapping[str, np.ndarray] = field(default_factory=dict)
+    max_abs: Mapping[str, float] = field(default_factory=dict)
+    max_rel: Mapping[str, float] = field(default_factory=dict)
+    final_abs: Mapping[str, float] = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        lines = [f"{'invariant':<28}{'max |dI|':>12}{'max |dI|/|I0|':>15}"]
+        for name in self.max_abs:
+            lines.append(f"{name:<28}{self.max_abs[name]:>12.3e}{self.max_rel[name]:>15.3e}")
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Result of :func:`integrate` (read-only arrays).
+
+    Attributes
+    ----------
+    t : (n,) recorded times.
+    states : (n, m) recorded states, ``states[i]`` at ``t[i]``.
+    method : name of the method.
+    n_steps : accepted steps taken.
+    n_rhs : right-hand-side evaluations (0 for splitting methods, which call
+        exact flows instead).
+    drift : :class:`DriftReport` of the model's invariants (empty when the
+        model has none).
+    """
+
+    t: np.ndarray  # (n,)
+    states: np.ndarray  # (n, m)
+    method: str
+    n_steps: int
+    n_rhs: int
+    drift: DriftReport
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+def drift_report(model: Any, states: np.ndarray) -> DriftReport:
+    """Drift of ``model.invariants`` along ``states`` (n, m); empty if none."""
+    inv = getattr(model, "invariants", None)
+    if inv is None:
+        return DriftReport()
+    values = inv(np.asarray(states))
+    initial, max_abs, max_rel, final_abs = {}, {}, {}, {}
+    for name, val in values.items():
+        val = np.asarray(val, dtype=float).reshape(len(states), -1)
+        d = np.linalg.norm(val - val[0], axis=-1)
+        ref = float(np.linalg.norm(val[0]))
+        m = float(d.max()) if d.size else 0.0
+        initial[name] = val[0].copy() if val.shape[1] > 1 else np.float64(val[0, 0])
+        max_abs[name] = m
+        max_rel[name] = m / ref if ref > 0 else (0.0 if m == 0 else math.inf)
+        final_abs[name] = float(d[-1]) if d.size else 0.0
+    return DriftReport(initial, max_abs, max_rel, final_abs)
+
+
+# ---------------------------------------------------------------- steps
+def rk4_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
+    """One step of the classical fourth-order Runge-Kutta method.
+
+    Parameters
+    ----------
+    model : object with ``rhs(t, state) -> (m,)``.
+    state : (m,) state at time ``t`` (not modified).
+    dt : step size.
+    t : time of ``state`` (keyword).
+
+    Returns
+    -------
+    (m,) state at ``t + dt``.
+    """
+    y = np.asarray(state, dtype=float)
+    f = model.rhs
+    k1 = f(t, y)
+    k2 = f(t + 0.5 * dt, y + (0.5 * dt) * k1)
+    k3 = f(t + 0.5 * dt, y + (0.5 * dt) * k2)
+    k4 = f(t + dt, y + dt * k3)
+    return y + (dt / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+
+
+def implicit_midpoint_step(
+    model: Any,
+    state: np.ndarray,
+    dt: float,
+    *,
+    t: float = 0.0,
+    tol: float = 4e-16,
+    max_iter: int = 100,
+) -> np.ndarray:
+    """One step of the implicit midpoint rule ``y1 = y0 + dt f(t + dt/2, (y0 + y1)/2)``.
+
+    Symplectic and symmetric, order 2; conserves every quadratic invariant
+    of the model exactly (up to the fixed-point tolerance). For the rigid
+    body in Euler parameters, ``p_dot = G_bar(p).T omega_body / 2``
+    (Eq. 8.54) is linear and skew in ``p``, so ``|p|`` is such an invariant,
+    as are the kinetic energy and ``|L|`` of a free body.
+
+    The nonlinear equation is solved by fixed-point iteration started from
+    an explicit Euler predictor, until the update is below
+    ``tol * (1 + |y|)`` (or stops decreasing at round-off).
+
+    Raises
+    ------
+    IntegrationError
+        If the iteration does not converge in ``max_iter`` iterations (the
+        step is too large for the problem's stiffness).
+    """
+    y0 = np.asarray(state, dtype=float)
+    th = t + 0.5 * dt
+    f = model.rhs
+    y1 = y0 + dt * f(th, y0)
+    scale = 1.0 + float(np.max(np.abs(y0)))
+    prev = math.inf
+    for _ in range(max_iter):
+        y_new = y0 + dt * f(th, 0.5 * (y0 + y1))
+        delta = float(np.max(np.abs(y_new - y1)))
+        y1 = y_new
+        if delta <= tol * scale or (delta <= 1e-12 * scale and delta >= prev):
+            return y1
+        prev = delta
+    raise IntegrationError(
+        f"implicit midpoint: fixed-point iteration did not converge in {max_iter} "
+        f"iterations at t={t:.6g} with dt={dt:.3g} (last update {delta:.3e}); "
+        "reduce dt",
+        t=t,
+    )
+
+
+def _require_split(model: Any, method: str) -> None:
+    if not all(hasattr(model, a) for a in ("split_flows", "to_split_state", "from_split_state")):
+        raise ValueError(
+            f"method '{method}' needs a model with split_flows, to_split_state and "
+            f"from_split_state (e.g. core.rigid_body.FreeBodyModel); got {type(model).__name__}"
+        )
+
+
+def _strang(flows: tuple[Callable[[Any, float], Any], ...], z: Any, h: float) -> Any:
+    """Symmetric (Strang) composition f1(h/2) ... f_{n-1}(h/2) f_n(h) f_{n-1}(h/2) ... f1(h/2)."""
+    *outer, last = flows
+    half = 0.5 * h
+    for fl in outer:
+        z = fl(z, half)
+    z = last(z, h)
+    for fl in reversed(outer):
+        z = fl(z, half)
+    return z
+
+
+# Suzuki's fourth-order 5-stage composition (p, p, 1 - 4p, p, p).
+_P4 = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))
+_SUZUKI4 = (_P4, _P4, 1.0 - 4.0 * _P4, _P4, _P4)
+# Yoshida's sixth-order 7-stage composition (solution A), symmetric.
+_W1, _W2, _W3 = -1.17767998417887, 0.235573213359357, 0.784513610477560
+_W0 = 1.0 - 2.0 * (_W1 + _W2 + _W3)
+_YOSHIDA6 = (_W3, _W2, _W1, _W0, _W1, _W2, _W3)
+_COMPOSITIONS = {"splitting": (1.0,), "splitting4": _SUZUKI4, "splitting6": _YOSHIDA6}
+
+
+def _split_advance(model: Any, z: Any, h: float, gammas: tuple[float, ...]) -> Any:
+    flows = model.split_flows
+    for g in gammas:
+        z = _strang(flows, z, g * h)
+    return z
+
+
+def splitting_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
+    """One Strang-splitting step (order 2) built from the model's exact flows.
+
+    For the free rigid body (:class:`core.rigid_body.FreeBodyModel`) the
+    flows are exact rotations, so the Euler-parameter norm stays 1 to
+    round-off and the method is symplectic. ``t`` is accepted for the common
+    interface; split models are autonomous.
+    """
+    _require_split(model, "splitting")
+    z = model.to_split_state(np.asarray(state, dtype=float))
+    return model.from_split_state(_split_advance(model, z, dt, _COMPOSITIONS["splitting"]))
+
+
+def splitting4_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
+    """Fourth-order step: Suzuki's composition of five Strang steps."""
+    _require_split(model, "splitting4")
+    z = model.to_split_state(np.asarray(state, dtype=float))
+    return model.from_split_state(_split_advance(model, z, dt, _SUZUKI4))
+
+
+def splitting6_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
+    """Sixth-order step: Yoshida's composition of seven Strang steps."""
+    _require_split(model, "splitting6")
+    z = model.to_split_state(np.asarray(state, dtype=float))
+    return model.from_split_state(_split_advance(model, z, dt, _YOSHIDA6))
+
+
+FIXED_STEP_METHODS: Mapping[str, Callable[..., np.ndarray]] = {
+    "rk4": rk4_step,
+    "midpoint": implicit_midpoint_step,
+    "splitting": splitting_step,
+    "splitting4": splitting4_step,
+    "splitting6": splitting6_step,
+}
+ADAPTIVE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "LSODA")
+METHOD_ORDERS: Mapping[str, int] = {
+    "rk4": 4,
+    "midpoint": 2,
+    "splitting": 2,
+    "splitting4": 4,
+    "splitting6": 6,
+    "RK45": 5,
+    "DOP853": 8,
+}
+
+
+# ---------------------------------------------------------------- runs
+class _CountingModel:
+    """Wraps a model to count rhs calls (internal)."""
+
+    def __init__(self, model: Any):
+        self._model = model
+        self.calls = 0
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        self.calls += 1
+        return self._model.rhs(t, y)
+
+
+def _check_finite_and_drift(
+    model: Any, y: np.ndarray, inv0: dict[str, np.ndarray] | None, max_drift: float, step: int, t: float
+) -> None:
+    if not np.all(np.isfinite(y)):
+        raise DivergenceError(
+            f"run diverged: non-finite state at step {step} (t={t:.6g}); reduce the step "
+            "or tighten the tolerances",
+            step=step,
+            t=t,
+        )
+    if inv0 is None:
+        return
+    now = model.invariants(y[None, :])
+    for name, v0 in inv0.items():
+        v = np.asarray(now[name], dtype=float).reshape(-1)
+        ref = float(np.linalg.norm(v0))
+        d = float(np.linalg.norm(v - v0))
+        if d > max_drift * max(ref, 1e-300):
+            raise DivergenceError(
+                f"run diverged: invariant '{name}' drifted by {d:.3e} (relative "
+                f"{d / max(ref, 1e-300):.3e} > max_drift={max_drift:g}) at step {step} "
+                f"(t={t:.6g}); reduce the step or tighten the tolerances",
+                step=step,
+                t=t,
+            )
+
+
+def integrate(
+    model: Any,
+    state0: np.ndarray,
+    t_span: tuple[float, float],
+    *,
+    method: str = "rk4",
+    dt: float | None = None,
+    save_every: int = 1,
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    t_eval: np.ndarray | None = None,
+    max_drift: float = 1.0,
+) -> Trajectory:
+    """Integrate ``model`` from ``state0`` over ``t_span`` with one method.
+
+    Parameters
+    ----------
+    model : object with ``state_size``, ``rhs(t, y)`` and optionally
+        ``invariants(states)`` and split flows (see the module docstring).
+    state0 : (m,) initial state (not modified).
+    t_span : (t0, t1) with t1 > t0.
+    method : one of ``FIXED_STEP_METHODS`` (``rk4``, ``midpoint``,
+        ``splitting``, ``splitting4``, ``splitting6``) or
+        ``ADAPTIVE_METHODS`` (``RK45``, ``DOP853``, ``LSODA``).
+    dt : fixed-step methods: nominal step; the run takes
+        ``n = ceil((t1 - t0) / dt)`` equal steps of ``(t1 - t0) / n``.
+    save_every : fixed-step methods: record every ``save_every``-th step
+        (and always the first and last state).
+    rtol, atol : adaptive methods: scipy's tolerances.
+    t_eval : adaptive methods: times to record (default: scipy's steps).
+    max_drift : a run stops with :class:`DivergenceError` when an invariant
+        moves by more than ``max_drift`` times its initial magnitude.
+
+    Returns
+    -------
+    Trajectory
+        ``t`` (n,), ``states`` (n, m), step and rhs counts and the drift
+        report of the model's invariants.
+
+    Raises
+    ------
+    ValueError
+        For an unknown method, a bad ``t_span``, ``dt``, ``state0`` shape or
+        option that does not apply to the method.
+    DivergenceError
+        When the state becomes non-finite or an invariant blows up (the
+        message names the step and time).
+    IntegrationError
+        When scipy's solver or the implicit iteration fails.
+    """
+    y0 = np.array(state0, dtype=float)
+    m = int(getattr(model, "state_size", y0.size))
+    if y0.shape != (m,):
+        raise ValueError(f"state0: expected shape ({m},), got {y0.shape}")
+    if not np.all(np.isfinite(y0)):
+        raise ValueError(f"state0: expected finite values, got {y0}")
+    try:
+        t0, t1 = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise ValueError(f"t_span: expected (t0, t1), got {t_span!r}") from None
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise ValueError(f"t_span: expected finite t0 < t1, got {t_span!r}")
+    if not max_drift > 0:
+        raise ValueError(f"max_drift: expected > 0, got {max_drift!r}")
+    inv0 = None
+    if getattr(model, "invariants", None) is not None:
+        inv0 = {k: np.asarray(v, dtype=float).reshape(-1) for k, v in model.invariants(y0[None, :]).items()}
+
+    if method in FIXED_STEP_METHODS:
+        if dt is None or not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt: method '{method}' needs a finite step dt > 0, got {dt!r}")
+        if t_eval is not None:
+            raise ValueError(f"t_eval: applies to adaptive methods only, got it with method '{method}'")
+        if not (isinstance(save_every, int) and save_every >= 1):
+            raise ValueError(f"save_every: expected an integer >= 1, got {save_every!r}")
+        n = max(1, math.ceil((t1 - t0) / dt - 1e-9))
+        h = (t1 - t0) / n
+        return _run_fixed(model, y0, t0, h, n, method, save_every, inv0, max_drift)
+
+    if method in ADAPTIVE_METHODS:
+        if dt is not None:
+            raise ValueError(f"dt: adaptive method '{method}' takes rtol/atol, not dt (got dt={dt!r})")
+        return _run_adaptive(model, y0, t0, t1, method, rtol, atol, t_eval, inv0, max_drift)
+
+    raise ValueError(
+        f"method: expected one of {sorted(FIXED_STEP_METHODS) + list(ADAPTIVE_METHODS)}, got {method!r}"
+    )
+
+
+def _run_fixed(
+    model: Any,
+    y0: np.ndarray,
+    t0: float,
+    h: float,
+    n: int,
+    method: str,
+    save_every: int,
+    inv0: dict[str, np.ndarray] | None,
+    max_drift: float,
+) -> Trajectory:
+    save_idx = list(range(0, n + 1, save_every))
+    if save_idx[-1] != n:
+        save_idx.append(n)
+    out = np.empty((len(save_idx), y0.size))
+    out[0] = y0
+    k_out = 1
+    if method.startswith("splitting"):
+        _require_split(model, method)
+        gammas = _COMPOSITIONS[method]
+        z = model.to_split_state(y0)
+        for k in range(1, n + 1):
+            z = _split_advance(model, z, h, gammas)
+            if k == save_idx[k_out]:
+                y = model.from_split_state(z)
+                _check_finite_and_drift(model, y, inv0, max_drift, k, t0 + k * h)
+                out[k_out] = y
+                k_out += 1
+        n_rhs = 0
+    else:
+        counter = _CountingModel(model)
+        step = FIXED_STEP_METHODS[method]
+        y = y0
+        check_inv = inv0 if inv0 is not None else None
+        for k in range(1, n + 1):
+            tk = t0 + (k - 1) * h
+            try:
+                y = step(counter, y, h, t=tk)
+            except IntegrationError as e:
+                raise type(e)(f"step {k}: {e}", step=k, t=tk) from e
+            saving = k == save_idx[k_out]
+            if saving:
+                _check_finite_and_drift(model, y, check_inv, max_drift, k, tk + h)
+                out[k_out] = y
+                k_out += 1
+            elif not np.isfinite(y).all():
+                _check_finite_and_drift(model, y, None, max_drift, k, tk + h)
+        n_rhs = counter.calls
+    t = t0 + h * np.asarray(save_idx, dtype=float)
+    return Trajectory(_frozen(t), _frozen(out), method, n, n_rhs, drift_report(model, out))
+
+
+def _run_adaptive(
+    model: Any,
+    y0: np.ndarray,
+    t0: float,
+    t1: float,
+    method: str,
+    rtol: float,
+    atol: float,
+    t_eval: np.ndarray | None,
+    inv0: dict[str, np.ndarray] | None,
+    max_drift: float,
+) -> Trajectory:
+    if not (rtol > 0 and atol > 0):
+        raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}")
+    if t_eval is not None:
+        t_eval = np.asarray(t_eval, dtype=float)
+        if t_eval.ndim != 1 or np.any(t_eval < t0) or np.any(t_eval > t1) or np.any(np.diff(t_eval) < 0):
+            raise ValueError(f"t_eval: expected sorted 1-D times within t_span, got shape {t_eval.shape}")
+    counter = _CountingModel(model)
+    # t_eval is served from scipy's dense output (what solve_ivp itself does
+    # for t_eval), so the accepted steps stay countable.
+    sol = solve_ivp(
+        counter.rhs, (t0, t1), y0, method=method, rtol=rtol, atol=atol, dense_output=t_eval is not None
+    )
+    if not sol.success:
+        tf = float(sol.t[-1]) if sol.t.size else t0
+        raise IntegrationError(
+            f"{method} failed at step {sol.t.size} (t={tf:.6g}): {sol.message}", step=sol.t.size, t=tf
+        )
+    n_steps = int(sol.t.size - 1)
+    if t_eval is None:
+        t_out, states = sol.t, sol.y.T
+    else:
+        t_out, states = t_eval, sol.sol(t_eval).T
+    bad = ~np.all(np.isfinite(states), axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise DivergenceError(
+            f"run diverged: non-finite state at output {i} (t={t_out[i]:.6g})", step=i, t=float(t_out[i])
+        )
+    if inv0 is not None:
+        vals = model.invariants(states)
+        for name, v0 in inv0.items():
+            v = np.asarray(vals[name], dtype=float).reshape(len(states), -1)
+            d = np.linalg.norm(v - v0, axis=-1)
+            lim = max_drift * max(float(np.linalg.norm(v0)), 1e-300)
+            if np.any(d > lim):
+                i = int(np.argmax(d > lim))
+                raise DivergenceError(
+                    f"run diverged: invariant '{name}' drifted by {d[i]:.3e} > max_drift="
+                    f"{max_drift:g} times its initial size at output {i} (t={t_out[i]:.6g})",
+                    step=i,
+                    t=float(t_out[i]),
+                )
+    return Trajectory(_frozen(t_out), _frozen(states), method, n_steps, counter.calls, drift_report(model, states))

@@ -1,0 +1,219 @@
+"""Tests of core.integrators on models with closed-form solutions.
+
+Oracles: the harmonic oscillator's exact solution and energy, the
+convergence order of every fixed-step method, and a finite-time blow-up
+(y' = y**2) for the divergence error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import FrozenInstanceError
+
+import numpy as np
+import pytest
+
+from core import integrators as itg
+
+
+class Oscillator:
+    """q'' = -w**2 q as a first-order system, with exact split flows."""
+
+    state_size = 2
+
+    def __init__(self, w: float = 1.3):
+        self.w = w
+        # H = p^2/2 (drift) + w^2 q^2/2 (kick): both flows are exact.
+        self.split_flows = (self._kick, self._drift)
+
+    def rhs(self, t, y):
+        return np.array([y[1], -self.w**2 * y[0]])
+
+    def invariants(self, ys):
+        ys = np.asarray(ys)
+        return {"energy": 0.5 * ys[..., 1] ** 2 + 0.5 * self.w**2 * ys[..., 0] ** 2}
+
+    def exact(self, y0, t):
+        q0, p0 = y0
+        c, s = math.cos(self.w * t), math.sin(self.w * t)
+        return np.array([q0 * c + p0 / self.w * s, -q0 * self.w * s + p0 * c])
+
+    def to_split_state(self, y):
+        return (float(y[0]), float(y[1]))
+
+    def from_split_state(self, z):
+        return np.array(z)
+
+    def _kick(self, z, h):
+        return (z[0], z[1] - h * self.w**2 * z[0])
+
+    def _drift(self, z, h):
+        return (z[0] + h * z[1], z[1])
+
+
+class Forced:
+    """y' = cos(t): checks that the time argument reaches the rhs."""
+
+    state_size = 1
+
+    def rhs(self, t, y):
+        return np.array([math.cos(t)])
+
+
+class BlowUp:
+    """y' = y**2 with y(0) = 1 blows up at t = 1."""
+
+    state_size = 1
+
+    def rhs(self, t, y):
+        with np.errstate(over="ignore", invalid="ignore"):
+            return y**2
+
+
+Y0 = np.array([1.0, 0.4])
+
+
+def _error(method, dt, t_end=2.0):
+    model = Oscillator()
+    run = itg.integrate(model, Y0, (0.0, t_end), method=method, dt=dt)
+    return float(np.max(np.abs(run.states[-1] - model.exact(Y0, t_end))))
+
+
+@pytest.mark.parametrize(
+    ("method", "dt"),
+    [("rk4", 0.1), ("midpoint", 0.1), ("splitting", 0.1), ("splitting4", 0.1), ("splitting6", 0.25)],
+)
+def test_convergence_order(method, dt):
+    # Halving the step divides the global error by ~2**k. The observed
+    # exponent differs from k by higher-order terms of relative size O(dt);
+    # 0.25 on log2 separates order k from k +- 1 at these steps while
+    # errors stay far above round-off (>= 1e-11).
+    k = itg.METHOD_ORDERS[method]
+    e = [_error(method, dt / 2**i) for i in range(3)]
+    assert e[-1] > 1e-11
+    rates = [math.log2(e[i] / e[i + 1]) for i in range(2)]
+    assert all(abs(r - k) < 0.25 for r in rates), (method, e, rates)
+
+
+def test_rk4_uses_time_argument():
+    # y' = cos t integrates to sin t; RK4 with dt = 0.01 has error ~ dt^4 = 1e-8.
+    run = itg.integrate(Forced(), np.zeros(1), (0.0, 3.0), method="rk4", dt=0.01)
+    assert abs(run.states[-1, 0] - math.sin(3.0)) < 1e-8
+    assert run.n_rhs == 4 * run.n_steps
+
+
+def test_symplectic_methods_bound_energy_error():
+    # Over 1000 periods, RK4's energy error grows linearly (dissipative)
+    # while the symplectic methods oscillate within an O(dt^k) band.
+    model = Oscillator()
+    T = 1000 * 2 * math.pi / model.w
+    for method in ("midpoint", "splitting"):
+        run = itg.integrate(model, Y0, (0.0, T), method=method, dt=0.2, save_every=100)
+        e = model.invariants(run.states)["energy"]
+        # Midpoint conserves this quadratic energy exactly (round-off,
+        # ~1e-16 per step over 3.7e4 steps with random-walk growth); the
+        # Strang splitting conserves a modified energy, within O(dt^2) = 4e-2.
+        bound = 1e-12 if method == "midpoint" else 0.05
+        assert np.max(np.abs(e - e[0])) / e[0] < bound
+        first, last = np.ptp(e[: len(e) // 2]), np.ptp(e[len(e) // 2 :])
+        if method == "splitting":
+            assert last < 1.5 * first  # no secular growth
+    run = itg.integrate(model, Y0, (0.0, T), method="rk4", dt=0.2, save_every=100)
+    e = model.invariants(run.states)["energy"]
+    assert e[-1] < 0.95 * e[0]  # RK4 damps the oscillator: ~10% here, a visible drift
+
+
+def test_trajectory_is_frozen_and_inputs_untouched():
+    y0 = Y0.copy()
+    run = itg.integrate(Oscillator(), y0, (0.0, 1.0), method="rk4", dt=0.1, save_every=3)
+    np.testing.assert_array_equal(y0, Y0)
+    assert run.t.shape == (5,) and run.states.shape == (5, 2)  # steps 0, 3, 6, 9, 10
+    np.testing.assert_allclose(run.t, [0.0, 0.3, 0.6, 0.9, 1.0], rtol=0, atol=1e-15)
+    with pytest.raises(ValueError, match="read-only"):
+        run.states[0, 0] = 1.0
+    with pytest.raises(FrozenInstanceError):
+        run.method = "x"  # type: ignore[misc]
+    assert set(run.drift.max_abs) == {"energy"}
+    assert "energy" in str(run.drift)
+
+
+def test_steps_are_pure():
+    model = Oscillator()
+    for name, step in itg.FIXED_STEP_METHODS.items():
+        y = Y0.copy()
+        y1 = step(model, y, 0.1)
+        np.testing.assert_array_equal(y, Y0, err_msg=name)
+        # one step agrees with integrate() over one step
+        run = itg.integrate(model, Y0, (0.0, 0.1), method=name, dt=0.1)
+        np.testing.assert_allclose(run.states[-1], y1, rtol=0, atol=1e-15, err_msg=name)
+
+
+@pytest.mark.parametrize("method", itg.ADAPTIVE_METHODS)
+def test_adaptive_wrappers(method):
+    # Tolerances rtol=1e-10, atol=1e-12 give a global error of ~1e-8 over
+    # two periods (error accumulates over ~100 steps; LSODA is the loosest).
+    model = Oscillator()
+    t_eval = np.linspace(0.0, 10.0, 11)
+    run = itg.integrate(model, Y0, (0.0, 10.0), method=method, rtol=1e-10, atol=1e-12, t_eval=t_eval)
+    assert run.states.shape == (11, 2) and run.n_steps > 0 and run.n_rhs > run.n_steps
+    ref = np.array([model.exact(Y0, t) for t in t_eval])
+    assert np.max(np.abs(run.states - ref)) < 1e-7
+
+
+def test_divergence_error_names_step_and_time():
+    with pytest.raises(itg.DivergenceError, match=r"non-finite state at step \d+ \(t=1\.0\d*"):
+        itg.integrate(BlowUp(), np.ones(1), (0.0, 2.0), method="rk4", dt=1e-3)
+
+
+def test_invariant_blow_up_is_divergence():
+    # Explicit steps far beyond the stability limit (w dt = 3.9 > 2.83 for
+    # RK4) make the energy grow geometrically; the run stops with a clear error.
+    with pytest.raises(itg.DivergenceError, match=r"invariant 'energy' drifted .* at step \d+ \(t="):
+        itg.integrate(Oscillator(w=1.3), Y0, (0.0, 100.0), method="rk4", dt=3.0)
+    assert issubclass(itg.DivergenceError, ValueError)
+
+
+def test_adaptive_failure_is_integration_error():
+    with pytest.raises(itg.IntegrationError, match=r"RK45 failed at step \d+ \(t=(0\.99\d*|1)\)"):
+        itg.integrate(BlowUp(), np.ones(1), (0.0, 2.0), method="RK45")
+
+
+def test_midpoint_nonconvergence_message():
+    # Fixed-point iteration contracts only for w dt < 2; w dt = 13 diverges.
+    with pytest.raises(itg.IntegrationError, match=r"step 1: implicit midpoint: .* did not converge"):
+        itg.integrate(Oscillator(w=1.3), Y0, (0.0, 20.0), method="midpoint", dt=10.0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        (dict(method="euler", dt=0.1), r"method: expected one of .* got 'euler'"),
+        (dict(method="rk4"), r"dt: method 'rk4' needs a finite step dt > 0, got None"),
+        (dict(method="rk4", dt=-1.0), r"dt: .* got -1.0"),
+        (dict(method="rk4", dt=0.1, t_eval=[0.5]), r"t_eval: applies to adaptive methods only"),
+        (dict(method="rk4", dt=0.1, save_every=0), r"save_every: expected an integer >= 1, got 0"),
+        (dict(method="DOP853", dt=0.1), r"dt: adaptive method 'DOP853' takes rtol/atol"),
+        (dict(method="RK45", rtol=0.0), r"rtol, atol: expected > 0"),
+        (dict(method="RK45", t_eval=[3.0]), r"t_eval: expected sorted 1-D times within t_span"),
+        (dict(method="rk4", dt=0.1, max_drift=0), r"max_drift: expected > 0, got 0"),
+    ],
+)
+def test_argument_errors(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        itg.integrate(Oscillator(), Y0, (0.0, 1.0), **kwargs)
+
+
+def test_state_and_span_errors():
+    with pytest.raises(ValueError, match=r"state0: expected shape \(2,\), got \(3,\)"):
+        itg.integrate(Oscillator(), np.zeros(3), (0.0, 1.0), dt=0.1)
+    with pytest.raises(ValueError, match=r"state0: expected finite values"):
+        itg.integrate(Oscillator(), np.array([np.nan, 0.0]), (0.0, 1.0), dt=0.1)
+    with pytest.raises(ValueError, match=r"t_span: expected finite t0 < t1, got \(1.0, 0.0\)"):
+        itg.integrate(Oscillator(), Y0, (1.0, 0.0), dt=0.1)
+    with pytest.raises(ValueError, match=r"t_span: expected \(t0, t1\)"):
+        itg.integrate(Oscillator(), Y0, 1.0, dt=0.1)
+
+
+def test_splitting_needs_split_model():
+    with pytest.raises(ValueError, match=r"method 'splitting4' needs a model with split_flows.*got Forced"):
+        itg.integrate(Forced(), np.zeros(1), (0.0, 1.0), method="splitting4", dt=0.1)
