@@ -1,0 +1,584 @@
+"""Euler angles for all 12 sequences, intrinsic and extrinsic (Eqs. 8.1-8.11).
+
+A sequence is three axis letters. Upper case (``"ZXZ"``) is intrinsic: each
+rotation is about an axis of the moving (body) frame, so
+``A = R_Z(a) @ R_X(b) @ R_Z(c)`` for angles ``(a, b, c)``; ``"ZXZ"`` with
+``(phi, theta, psi)`` is the chapter's precession, nutation, spin
+(Eq. 8.4). Lower case (``"zxz"``) is extrinsic: each rotation is about an
+axis of the fixed (global) frame, applied in the order given, so
+``A = R_z(c) @ R_x(b) @ R_z(a)``. These are scipy's letters.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ._euler_parameters import _p_from_matrix
+from ._matrix import elementary_matrix
+from ._validation import (
+    _index_str,
+    broadcast_batch,
+    check_euler_parameters,
+    check_matrix,
+    check_vector,
+    parse_seq,
+)
+
+#: Distance (rad) of the middle angle from its singular value below which
+#: :func:`euler_angles_from_matrix` reports gimbal lock and sets the third
+#: angle to zero.
+GIMBAL_LOCK_TOL = 1e-7
+
+
+class GimbalLockWarning(UserWarning):
+    """The middle Euler angle is at its singular value; see
+    :func:`euler_angles_from_matrix` for the choice of the lost angle."""
+
+
+def _intrinsic_form(seq, angles):
+    """Axes and angle columns of the equivalent intrinsic sequence.
+
+    An extrinsic sequence ``"ijk"`` with angles ``(a, b, c)`` is the
+    intrinsic sequence ``"KJI"`` with angles ``(c, b, a)``.
+    """
+    axes, intrinsic = parse_seq(seq)
+    if intrinsic:
+        return axes, (0, 1, 2), intrinsic
+    return axes[::-1], (2, 1, 0), intrinsic
+
+
+# Entries of the symbolic 3x3 products are 0.0, 1.0 or arrays; the helpers
+# skip the multiplications and additions with structural zeros and ones so
+# that the product costs exactly the flops of the closed form.
+def _mul(x, y):
+    if isinstance(x, float):
+        if x == 0.0:
+            return 0.0
+        if x == 1.0:
+            return y
+    if isinstance(y, float):
+        if y == 0.0:
+            return 0.0
+        if y == 1.0:
+            return x
+    return x * y
+
+
+def _add(x, y):
+    if isinstance(x, float) and x == 0.0:
+        return y
+    if isinstance(y, float) and y == 0.0:
+        return x
+    return x + y
+
+
+def _elementary(axis, c, s, ns):
+    R = [[0.0] * 3 for _ in range(3)]
+    i1 = (axis + 1) % 3
+    i2 = (axis + 2) % 3
+    R[axis][axis] = 1.0
+    R[i1][i1] = c
+    R[i1][i2] = ns
+    R[i2][i1] = s
+    R[i2][i2] = c
+    return R
+
+
+def _matmul_sym(X, Y):
+    out = [[0.0] * 3 for _ in range(3)]
+    for r in range(3):
+        for col in range(3):
+            acc = 0.0
+            for m in range(3):
+                acc = _add(acc, _mul(X[r][m], Y[m][col]))
+            out[r][col] = acc
+    return out
+
+
+def _matrix_from_angles(angles, seq):
+    (i, j, k), cols, _ = _intrinsic_form(seq, angles)
+    c = np.cos(angles)
+    s = np.sin(angles)
+    Rs = []
+    for axis, col in zip((i, j, k), cols):
+        sc = s[..., col]
+        Rs.append(_elementary(axis, c[..., col], sc, -sc))
+    M = _matmul_sym(_matmul_sym(Rs[0], Rs[1]), Rs[2])
+    out = np.empty(angles.shape[:-1] + (3, 3))
+    for r in range(3):
+        for col in range(3):
+            out[..., r, col] = M[r][col]
+    return out
+
+
+def matrix_from_euler_angles(angles, seq="ZXZ"):
+    """Rotation matrix of Euler angles (Eq. 8.4 for ``"ZXZ"``).
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Angles in radians, in the order of ``seq``. For ``"ZXZ"``:
+        precession phi, nutation theta, spin psi.
+    seq : str
+        One of the 12 sequences; upper case intrinsic (moving axes),
+        lower case extrinsic (fixed axes), as in scipy.
+
+    Returns
+    -------
+    A : ndarray, shape (..., 3, 3)
+        Active rotation matrix, body to global. Intrinsic ``"IJK"``:
+        ``R_I(a) @ R_J(b) @ R_K(c)``; extrinsic ``"ijk"``:
+        ``R_k(c) @ R_j(b) @ R_i(a)``.
+    """
+    parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    return _matrix_from_angles(angles, seq)
+
+
+def _angles_from_p(p, seq, warn=True):
+    """Euler angles of unit Euler parameters (Bernardes and Viollet, 2022)."""
+    axes, intrinsic = parse_seq(seq)
+    extrinsic = not intrinsic
+    i, j, k = axes if extrinsic else axes[::-1]
+    symmetric = i == k
+    if symmetric:
+        k = 3 - i - j
+    sign = (i - j) * (j - k) * (k - i) // 2
+    w = p[..., 0]
+    qi = p[..., i + 1]
+    qj = p[..., j + 1]
+    qk = p[..., k + 1] * sign
+    if symmetric:
+        a, b, c, d = w, qi, qj, qk
+    else:
+        a, b, c, d = w - qj, qi + qk, qj + w, qk - qi
+    half_sum = np.arctan2(b, a)
+    half_diff = np.arctan2(d, c)
+    out = np.zeros(p.shape[:-1] + (3,))
+    middle = 2.0 * np.arctan2(np.hypot(c, d), np.hypot(a, b))
+    case1 = np.abs(middle) <= GIMBAL_LOCK_TOL
+    case2 = np.abs(middle - np.pi) <= GIMBAL_LOCK_TOL
+    case0 = ~(case1 | case2)
+    if warn and not case0.all():
+        index = np.argwhere(~case0)[0] if case0.ndim else ()
+        warnings.warn(
+            f"Gimbal lock in sequence {seq!r}{_index_str(index)}: the middle "
+            "angle is at its singular value, so only the sum or difference of "
+            "the first and third angles is defined; the third angle is set "
+            "to zero.",
+            GimbalLockWarning,
+            stacklevel=3,
+        )
+    first = 0 if extrinsic else 2
+    third = 2 if extrinsic else 0
+    out[..., 1] = middle
+    out[..., 0] = np.where(case1, 2.0 * half_sum, 2.0 * half_diff * (-1.0 if extrinsic else 1.0))
+    out[..., first] = np.where(case0, half_sum - half_diff, out[..., first])
+    a3 = np.where(case0, half_sum + half_diff, out[..., third])
+    if not symmetric:
+        a3 = a3 * sign
+        out[..., 1] -= 0.5 * np.pi
+    out[..., third] = a3
+    return (out + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def euler_angles_from_matrix(A, seq="ZXZ"):
+    """Euler angles of a rotation matrix (inverse of Eq. 8.4), any sequence.
+
+    Computed from the Euler parameters of ``A`` (Shepperd's method) with the
+    quaternion method of Bernardes and Viollet (2022), accurate for every
+    rotation.
+
+    Parameters
+    ----------
+    A : array_like, shape (..., 3, 3)
+        Rotation matrices (active, body to global).
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+
+    Returns
+    -------
+    angles : ndarray, shape (..., 3)
+        In the order of ``seq``. First and third angle in ``[-pi, pi)``;
+        middle angle in ``[0, pi]`` for proper Euler sequences (first and
+        third axis equal, e.g. ``"ZXZ"``) and in ``[-pi/2, pi/2]`` for
+        Tait-Bryan sequences (three different axes, e.g. ``"ZYX"``).
+
+    Warns
+    -----
+    GimbalLockWarning
+        When the middle angle is within :data:`GIMBAL_LOCK_TOL` of its
+        singular value (0 or pi for proper sequences, +-pi/2 for Tait-Bryan
+        ones). Then only a combination of the first and third angles is
+        defined; the third angle is set to 0 and the first angle carries the
+        rotation, so ``matrix_from_euler_angles(angles, seq)`` still equals
+        ``A``.
+    """
+    parse_seq(seq)
+    A = check_matrix(A, "A")
+    return _angles_from_p(_p_from_matrix(A), seq)
+
+
+def euler_angles_from_euler_parameters(p, seq="ZXZ"):
+    """Euler angles of Euler parameters, any sequence.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+
+    Returns
+    -------
+    angles : ndarray, shape (..., 3)
+        As :func:`euler_angles_from_matrix`, including its gimbal-lock
+        warning and choice.
+    """
+    parse_seq(seq)
+    p = check_euler_parameters(p, "p")
+    return _angles_from_p(p, seq)
+
+
+def euler_parameters_from_euler_angles(angles, seq="ZXZ"):
+    """Euler parameters of Euler angles, any sequence.
+
+    The product of the three elementary rotations' parameters
+    ``(cos(a/2), e sin(a/2))`` in the order of the matrix product.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Angles in radians, in the order of ``seq``.
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+
+    Returns
+    -------
+    p : ndarray, shape (..., 4)
+        Unit Euler parameters, scalar first, with ``theta0 >= 0``.
+    """
+    from ._quaternion import _product
+
+    parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    (i, j, k), cols, _ = _intrinsic_form(seq, angles)
+    half = 0.5 * angles
+    c = np.cos(half)
+    s = np.sin(half)
+    ps = []
+    for axis, col in zip((i, j, k), cols):
+        q = np.zeros(angles.shape[:-1] + (4,))
+        q[..., 0] = c[..., col]
+        q[..., axis + 1] = s[..., col]
+        ps.append(q)
+    p = _product(ps[0], ps[1], np.empty_like(ps[0]))
+    p = _product(p, ps[2], np.empty_like(p))
+    return np.where(p[..., :1] < 0.0, -p, p)
+
+
+def _G_intrinsic(axes, ang):
+    """Columns e_i, R_i(a) e_j, R_i(a) R_j(b) e_k for intrinsic axes."""
+    i, j, k = axes
+    Ri = elementary_matrix(i, ang[..., 0])
+    Rij = Ri @ elementary_matrix(j, ang[..., 1])
+    G = np.zeros(ang.shape[:-1] + (3, 3))
+    G[..., i, 0] = 1.0
+    G[..., :, 1] = Ri[..., :, j]
+    G[..., :, 2] = Rij[..., :, k]
+    return G
+
+
+def _intrinsic_angles(angles, seq):
+    axes, cols, intrinsic = _intrinsic_form(seq, angles)
+    return axes, angles[..., list(cols)], intrinsic
+
+
+def euler_angle_G(angles, seq="ZXZ"):
+    """Matrix G with ``omega = G @ angle_rates`` (Eq. 8.8 for ``"ZXZ"``).
+
+    For ``"ZXZ"`` (phi, theta, psi):
+    ``G = [[0, cos phi, sin theta sin phi], [0, sin phi, -sin theta cos phi],
+    [1, 0, cos theta]]``.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+
+    Returns
+    -------
+    G : ndarray, shape (..., 3, 3)
+        Column n is the global-frame axis of the n-th rotation of ``seq``.
+        Singular where :func:`euler_angles_near_singularity` is true.
+    """
+    parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    return _G(angles, seq)
+
+
+def _G(angles, seq):
+    axes, ang, intrinsic = _intrinsic_angles(angles, seq)
+    G = _G_intrinsic(axes, ang)
+    return G if intrinsic else G[..., ::-1].copy()
+
+
+def euler_angle_G_bar(angles, seq="ZXZ"):
+    """Matrix G_bar with ``omega_body = G_bar @ angle_rates`` (Eq. 8.9 for ``"ZXZ"``).
+
+    For ``"ZXZ"`` (phi, theta, psi):
+    ``G_bar = [[sin theta sin psi, cos psi, 0], [sin theta cos psi, -sin psi, 0],
+    [cos theta, 0, 1]]``; in general ``G_bar = A.T @ G``.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+
+    Returns
+    -------
+    G_bar : ndarray, shape (..., 3, 3)
+        Column n is the body-frame axis of the n-th rotation of ``seq``.
+    """
+    parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    A = _matrix_from_angles(angles, seq)
+    return np.swapaxes(A, -1, -2) @ _G(angles, seq)
+
+
+def euler_angles_near_singularity(angles, seq="ZXZ", tol=1e-6):
+    """Whether Euler angles are near the singular configuration of ``seq``.
+
+    G and G_bar (Eqs. 8.8-8.9) are singular when the first and third
+    rotation axes align: for proper Euler sequences (``"ZXZ"``, ...) when
+    ``sin(b) = 0``, for Tait-Bryan sequences (``"ZYX"``, ...) when
+    ``cos(b) = 0``, with ``b`` the middle angle. ``|det G|`` equals that
+    sine or cosine.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    tol : float
+        Threshold on ``|det G|``.
+
+    Returns
+    -------
+    near : ndarray of bool, shape (...)
+    """
+    return np.abs(_det_G(angles, seq)) <= tol
+
+
+def _det_G(angles, seq):
+    axes, _ = parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    b = angles[..., 1]
+    return np.sin(b) if axes[0] == axes[2] else np.cos(b)
+
+
+def _solve_rates(angles, omega, seq, tol, name, body):
+    parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    omega = check_vector(omega, name, 3)
+    (angles, omega), _ = broadcast_batch(("angles", angles, 1), (name, omega, 1))
+    det = np.abs(_det_G(angles, seq))
+    bad = det <= tol
+    if bad.any():
+        index = np.argwhere(bad)[0] if bad.ndim else ()
+        raise ValueError(
+            f"Expected `angles` away from the singular configuration of {seq!r} "
+            f"(|det G| > {tol:g}), got angles {angles[tuple(index)]!r} with "
+            f"|det G| = {float(det[tuple(index)]):.3g}{_index_str(index)}; the "
+            "angle rates are not defined there (use Euler parameters)"
+        )
+    G = _G(angles, seq)
+    if body:
+        A = _matrix_from_angles(angles, seq)
+        G = np.swapaxes(A, -1, -2) @ G
+    return np.linalg.solve(G, omega[..., None])[..., 0]
+
+
+def euler_angle_rates_from_omega(angles, omega, seq="ZXZ", *, tol=1e-6):
+    """Euler angle rates from the global angular velocity (Eq. 8.8 inverted).
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    omega : array_like, shape (..., 3)
+        Angular velocity in the global frame, rad/s.
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    tol : float
+        Angles with ``|det G| <= tol`` are rejected
+        (see :func:`euler_angles_near_singularity`).
+
+    Returns
+    -------
+    rates : ndarray, shape (..., 3)
+        Time derivatives of the angles, rad/s.
+
+    Raises
+    ------
+    ValueError
+        At (or within ``tol`` of) the singular configuration.
+    """
+    return _solve_rates(angles, omega, seq, tol, "omega", False)
+
+
+def euler_angle_rates(angles, omega_body, seq="ZXZ", *, tol=1e-6):
+    """Euler angle rates from the body angular velocity (Eq. 8.9 inverted).
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    omega_body : array_like, shape (..., 3)
+        Angular velocity in the body frame (omega-bar), rad/s.
+    seq : str
+        One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    tol : float
+        Angles with ``|det G_bar| <= tol`` are rejected.
+
+    Returns
+    -------
+    rates : ndarray, shape (..., 3)
+
+    Raises
+    ------
+    ValueError
+        At (or within ``tol`` of) the singular configuration.
+    """
+    return _solve_rates(angles, omega_body, seq, tol, "omega_body", True)
+
+
+def _angles_rates(angles, rates, seq):
+    parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    rates = check_vector(rates, "rates", 3)
+    (angles, rates), _ = broadcast_batch(("angles", angles, 1), ("rates", rates, 1))
+    return angles, rates
+
+
+def omega_from_euler_angle_rates(angles, rates, seq="ZXZ"):
+    """Global angular velocity ``omega = G @ rates`` (Eq. 8.8).
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    rates : array_like, shape (..., 3)
+        Their time derivatives, rad/s.
+    seq : str
+        One of the 12 sequences.
+
+    Returns
+    -------
+    omega : ndarray, shape (..., 3)
+        Angular velocity in the global frame.
+    """
+    angles, rates = _angles_rates(angles, rates, seq)
+    return np.einsum("...ij,...j->...i", _G(angles, seq), rates)
+
+
+def omega_body_from_euler_angle_rates(angles, rates, seq="ZXZ"):
+    """Body angular velocity ``omega_body = G_bar @ rates`` (Eq. 8.9).
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    rates : array_like, shape (..., 3)
+        Their time derivatives, rad/s.
+    seq : str
+        One of the 12 sequences.
+
+    Returns
+    -------
+    omega_body : ndarray, shape (..., 3)
+        Angular velocity in the body frame (omega-bar).
+    """
+    angles, rates = _angles_rates(angles, rates, seq)
+    A = _matrix_from_angles(angles, seq)
+    omega = np.einsum("...ij,...j->...i", _G(angles, seq), rates)
+    return np.einsum("...ji,...j->...i", A, omega)
+
+
+def _alpha(angles, rates, rates_dot, seq):
+    parse_seq(seq)
+    angles = check_vector(angles, "angles", 3)
+    rates = check_vector(rates, "rates", 3)
+    rates_dot = check_vector(rates_dot, "rates_dot", 3)
+    (angles, rates, rates_dot), _ = broadcast_batch(
+        ("angles", angles, 1), ("rates", rates, 1), ("rates_dot", rates_dot, 1)
+    )
+    axes, cols, _ = _intrinsic_form(seq, angles)
+    cols = list(cols)
+    ang = angles[..., cols]
+    rd = rates[..., cols]
+    rdd = rates_dot[..., cols]
+    G = _G_intrinsic(axes, ang)
+    g0, g1, g2 = G[..., 0], G[..., 1], G[..., 2]
+    ad, bd, cd = rd[..., 0:1], rd[..., 1:2], rd[..., 2:3]
+    # d/dt of the columns: g1' = a' g0 x g1, g2' = a' g0 x g2 + b' g1 x g2.
+    g_dot_rates = ad * bd * np.cross(g0, g1) + cd * (
+        ad * np.cross(g0, g2) + bd * np.cross(g1, g2)
+    )
+    alpha = np.einsum("...ij,...j->...i", G, rdd) + g_dot_rates
+    return angles, alpha
+
+
+def alpha_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
+    """Global angular acceleration ``alpha = G @ rates_dot + G_dot @ rates`` (Eq. 8.10).
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    rates : array_like, shape (..., 3)
+        First time derivatives of the angles, rad/s.
+    rates_dot : array_like, shape (..., 3)
+        Second time derivatives of the angles, rad/s**2.
+    seq : str
+        One of the 12 sequences.
+
+    Returns
+    -------
+    alpha : ndarray, shape (..., 3)
+        Angular acceleration in the global frame.
+    """
+    return _alpha(angles, rates, rates_dot, seq)[1]
+
+
+def alpha_body_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
+    """Body angular acceleration ``alpha_body = G_bar @ rates_dot + G_bar_dot @ rates`` (Eq. 8.11).
+
+    Equal to ``A.T @ alpha``.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Euler angles in radians, in the order of ``seq``.
+    rates : array_like, shape (..., 3)
+        First time derivatives of the angles, rad/s.
+    rates_dot : array_like, shape (..., 3)
+        Second time derivatives of the angles, rad/s**2.
+    seq : str
+        One of the 12 sequences.
+
+    Returns
+    -------
+    alpha_body : ndarray, shape (..., 3)
+        Angular acceleration in the body frame.
+    """
+    angles, alpha = _alpha(angles, rates, rates_dot, seq)
+    A = _matrix_from_angles(angles, seq)
+    return np.einsum("...ji,...j->...i", A, alpha)

@@ -1,0 +1,481 @@
+"""Euler parameters: unit quaternions, scalar first (Eqs. 8.46-8.57).
+
+Euler parameters ``p = (theta0, theta1, theta2, theta3)`` of a rotation by
+``angle`` about the unit ``axis`` are ``theta0 = cos(angle / 2)`` and
+``(theta1, theta2, theta3) = axis * sin(angle / 2)`` (Eq. 8.46). They are
+scalar first, the same order as viser's ``wxyz``. ``p`` and ``-p`` describe
+the same rotation; functions returning parameters from a matrix pick
+``theta0 >= 0``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._validation import (
+    broadcast_batch,
+    check_euler_parameters,
+    check_matrix,
+    check_quaternion,
+    check_scalar_array,
+    check_unit_vector,
+    check_vector,
+    _index_str,
+)
+
+
+def _matrix_from_unit_p(p):
+    """Rotation matrices of unit Euler parameters (no validation)."""
+    w = p[..., 0]
+    x = p[..., 1]
+    y = p[..., 2]
+    z = p[..., 3]
+    out = np.empty(p.shape[:-1] + (3, 3))
+    ww = w * w
+    xx = x * x
+    yy = y * y
+    zz = z * z
+    xy = x * y
+    zw = z * w
+    xz = x * z
+    yw = y * w
+    yz = y * z
+    xw = x * w
+    out[..., 0, 0] = ww + xx - yy - zz
+    out[..., 0, 1] = 2.0 * (xy - zw)
+    out[..., 0, 2] = 2.0 * (xz + yw)
+    out[..., 1, 0] = 2.0 * (xy + zw)
+    out[..., 1, 1] = ww - xx + yy - zz
+    out[..., 1, 2] = 2.0 * (yz - xw)
+    out[..., 2, 0] = 2.0 * (xz - yw)
+    out[..., 2, 1] = 2.0 * (yz + xw)
+    out[..., 2, 2] = ww - xx - yy + zz
+    return out
+
+
+def matrix_from_euler_parameters(p):
+    """Rotation matrix of Euler parameters (Eq. 8.48).
+
+    .. math::
+
+        A = (2\\theta_0^2 - 1) I + 2 (\\theta \\theta^T + \\theta_0 \\tilde\\theta)
+
+    evaluated in the equivalent form whose diagonal is
+    ``theta0**2 + theta_i**2 - theta_j**2 - theta_k**2``.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Euler parameters (theta0, theta1, theta2, theta3), scalar first;
+        unit norm within :data:`UNIT_NORM_TOL` (normalized before use).
+
+    Returns
+    -------
+    A : ndarray, shape (..., 3, 3)
+        Active rotation matrix, body to global: ``u_global = A @ u_body``.
+    """
+    return _matrix_from_unit_p(check_euler_parameters(p, "p"))
+
+
+def _p_from_matrix(A):
+    """Euler parameters of rotation matrices (no validation), theta0 >= 0."""
+    a00 = A[..., 0, 0]
+    a11 = A[..., 1, 1]
+    a22 = A[..., 2, 2]
+    a01 = A[..., 0, 1]
+    a10 = A[..., 1, 0]
+    a02 = A[..., 0, 2]
+    a20 = A[..., 2, 0]
+    a12 = A[..., 1, 2]
+    a21 = A[..., 2, 1]
+    trace = a00 + a11 + a22
+    # 4 theta_a theta_b for every pair (a, b) (Eqs. 8.49-8.50); the row of
+    # the largest diagonal entry is the best conditioned (Shepperd's method).
+    d0 = 1.0 + trace
+    d1 = 1.0 - trace + 2.0 * a00
+    d2 = 1.0 - trace + 2.0 * a11
+    d3 = 1.0 - trace + 2.0 * a22
+    s01 = a21 - a12
+    s02 = a02 - a20
+    s03 = a10 - a01
+    s12 = a10 + a01
+    s13 = a02 + a20
+    s23 = a21 + a12
+    choice = np.argmax(np.stack([d0, d1, d2, d3]), axis=0)
+    q0 = np.choose(choice, (d0, s01, s02, s03))
+    q1 = np.choose(choice, (s01, d1, s12, s13))
+    q2 = np.choose(choice, (s02, s12, d2, s23))
+    q3 = np.choose(choice, (s03, s13, s23, d3))
+    scale = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    # 1 / norm with the sign of theta0, so that theta0 >= 0.
+    np.copysign(1.0 / scale, q0, out=scale)
+    out = np.empty(A.shape[:-2] + (4,))
+    np.multiply(q0, scale, out=out[..., 0])
+    np.multiply(q1, scale, out=out[..., 1])
+    np.multiply(q2, scale, out=out[..., 2])
+    np.multiply(q3, scale, out=out[..., 3])
+    return out
+
+
+def euler_parameters_from_matrix(A):
+    """Euler parameters of a rotation matrix (Eqs. 8.49-8.50).
+
+    Uses Shepperd's method: of the four expressions ``4 theta_k**2``
+    (``1 + tr A`` and ``1 - tr A + 2 A_kk``) the largest is used as pivot,
+    so the result is accurate for every rotation including angles near pi.
+
+    Parameters
+    ----------
+    A : array_like, shape (..., 3, 3)
+        Rotation matrices (active, body to global), orthogonal within
+        :data:`ORTHOGONALITY_TOL` with determinant +1.
+
+    Returns
+    -------
+    p : ndarray, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar
+        first, with ``theta0 >= 0``.
+    """
+    return _p_from_matrix(check_matrix(A, "A"))
+
+
+def euler_parameters_from_axis_angle(axis, angle):
+    """Euler parameters of a rotation about an axis (Eq. 8.46).
+
+    ``theta0 = cos(angle / 2)``, ``(theta1, theta2, theta3) = axis sin(angle / 2)``.
+
+    Parameters
+    ----------
+    axis : array_like, shape (..., 3)
+        Unit rotation axis (same components in body and global frame).
+    angle : array_like, shape (...)
+        Rotation angle in radians, right-hand rule about ``axis``. Any real
+        value; for ``|angle| > pi`` theta0 is negative (no sign is changed).
+
+    Returns
+    -------
+    p : ndarray, shape (..., 4)
+        Euler parameters, scalar first; batch shape is the broadcast of the
+        batch shapes of ``axis`` and ``angle``.
+    """
+    axis = check_unit_vector(axis, "axis")
+    angle = check_scalar_array(angle, "angle")
+    (axis, angle), batch = broadcast_batch(("axis", axis, 1), ("angle", angle, 0))
+    half = 0.5 * angle
+    s = np.sin(half)
+    out = np.empty(batch + (4,))
+    out[..., 0] = np.cos(half)
+    out[..., 1:] = axis * s[..., None]
+    return out
+
+
+def axis_angle_from_euler_parameters(p):
+    """Axis and angle of Euler parameters (inverse of Eq. 8.46).
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+
+    Returns
+    -------
+    axis : ndarray, shape (..., 3)
+        Unit rotation axis; ``(0, 0, 1)`` where the rotation is the identity
+        (any axis would do).
+    angle : ndarray, shape (...)
+        Rotation angle in ``[0, pi]`` (``p`` and ``-p`` give the same
+        result).
+    """
+    p = check_euler_parameters(p, "p")
+    return _axis_angle_from_unit_p(p)
+
+
+def _axis_angle_from_unit_p(p):
+    p = np.where(p[..., :1] < 0.0, -p, p)
+    vec = p[..., 1:]
+    s = np.sqrt(np.einsum("...i,...i->...", vec, vec))
+    angle = 2.0 * np.arctan2(s, p[..., 0])
+    zero = s == 0.0
+    safe = np.where(zero, 1.0, s)
+    axis = vec / safe[..., None]
+    axis = np.where(zero[..., None], np.array([0.0, 0.0, 1.0]), axis)
+    return axis, angle
+
+
+def normalize_euler_parameters(p):
+    """Renormalize Euler parameters to unit norm.
+
+    For parameters that drifted during integration. Rejects only what
+    cannot be normalized (zero norm, non-finite entries).
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Euler parameters (theta0, theta1, theta2, theta3), scalar first, of
+        any non-zero norm.
+
+    Returns
+    -------
+    p_unit : ndarray, shape (..., 4)
+        ``p / ||p||``.
+    """
+    p = check_quaternion(p, "p")
+    norm = np.sqrt(np.einsum("...i,...i->...", p, p))
+    zero = norm == 0.0
+    if zero.any():
+        index = np.argwhere(zero)[0] if zero.ndim else ()
+        raise ValueError(
+            f"Expected `p` to have non-zero norm, got norm 0.0{_index_str(index)}"
+        )
+    return p / norm[..., None]
+
+
+def canonical_euler_parameters(p):
+    """Sign-canonical Euler parameters: ``theta0 >= 0``.
+
+    Where theta0 is zero, the first non-zero of theta1..theta3 is made
+    positive, so ``p`` and ``-p`` map to the same array.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters, scalar first.
+
+    Returns
+    -------
+    p : ndarray, shape (..., 4)
+    """
+    p = check_euler_parameters(p, "p")
+    flip = np.zeros(p.shape[:-1], dtype=bool)
+    undecided = np.ones(p.shape[:-1], dtype=bool)
+    for k in range(4):
+        c = p[..., k]
+        flip |= undecided & (c < 0.0)
+        undecided &= c == 0.0
+    return np.where(flip[..., None], -p, p)
+
+
+def _G_from_p(p, sign):
+    """3x4 matrices ``[-theta, sign * theta~ + theta0 I]``."""
+    w = p[..., 0]
+    x = p[..., 1]
+    y = p[..., 2]
+    z = p[..., 3]
+    out = np.empty(p.shape[:-1] + (3, 4))
+    out[..., 0, 0] = -x
+    out[..., 1, 0] = -y
+    out[..., 2, 0] = -z
+    out[..., 0, 1] = w
+    out[..., 1, 2] = w
+    out[..., 2, 3] = w
+    out[..., 0, 2] = -sign * z
+    out[..., 0, 3] = sign * y
+    out[..., 1, 1] = sign * z
+    out[..., 1, 3] = -sign * x
+    out[..., 2, 1] = -sign * y
+    out[..., 2, 2] = sign * x
+    return out
+
+
+def euler_parameter_G(p):
+    """Matrix G of Euler parameters (Eq. 8.51): ``omega = 2 G p_dot``.
+
+    .. math:: G = [-\\theta, \\; \\tilde\\theta + \\theta_0 I]
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+
+    Returns
+    -------
+    G : ndarray, shape (..., 3, 4)
+        Maps parameter rates to half the angular velocity in the global
+        frame. Identities (Eqs. 8.55-8.56): ``G p = 0``, ``G G.T = I``,
+        ``G.T G = I4 - p p.T``, ``A = G G_bar.T``.
+    """
+    return _G_from_p(check_euler_parameters(p, "p"), 1.0)
+
+
+def euler_parameter_G_bar(p):
+    """Matrix G_bar of Euler parameters (Eq. 8.53): ``omega_body = 2 G_bar p_dot``.
+
+    .. math:: \\bar G = [-\\theta, \\; -\\tilde\\theta + \\theta_0 I]
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+
+    Returns
+    -------
+    G_bar : ndarray, shape (..., 3, 4)
+        Maps parameter rates to half the angular velocity in the body
+        frame. Identities (Eqs. 8.55-8.56): ``G_bar p = 0``,
+        ``G_bar G_bar.T = I``, ``G_bar.T G_bar = I4 - p p.T``.
+    """
+    return _G_from_p(check_euler_parameters(p, "p"), -1.0)
+
+
+def _p_and_vec(p, v, vname, size):
+    p = check_euler_parameters(p, "p")
+    v = check_vector(v, vname, size)
+    (p, v), _ = broadcast_batch(("p", p, 1), (vname, v, 1))
+    return p, v
+
+
+def euler_parameter_rates(p, omega_body):
+    """Euler parameter rates from the body angular velocity (Eq. 8.54).
+
+    ``p_dot = G_bar.T @ omega_body / 2``.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    omega_body : array_like, shape (..., 3)
+        Angular velocity in the body frame (the chapter's omega-bar), rad/s.
+
+    Returns
+    -------
+    p_dot : ndarray, shape (..., 4)
+        Time derivative of the Euler parameters; ``p . p_dot = 0``.
+    """
+    p, w = _p_and_vec(p, omega_body, "omega_body", 3)
+    return 0.5 * np.einsum("...ji,...j->...i", _G_from_p(p, -1.0), w)
+
+
+def euler_parameter_rates_from_omega(p, omega):
+    """Euler parameter rates from the global angular velocity (Eq. 8.52).
+
+    ``p_dot = G.T @ omega / 2``.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    omega : array_like, shape (..., 3)
+        Angular velocity in the global frame, rad/s.
+
+    Returns
+    -------
+    p_dot : ndarray, shape (..., 4)
+    """
+    p, w = _p_and_vec(p, omega, "omega", 3)
+    return 0.5 * np.einsum("...ji,...j->...i", _G_from_p(p, 1.0), w)
+
+
+def omega_from_euler_parameter_rates(p, p_dot):
+    """Global angular velocity from Euler parameter rates (Eq. 8.51).
+
+    ``omega = 2 G @ p_dot``.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    p_dot : array_like, shape (..., 4)
+        Their time derivative.
+
+    Returns
+    -------
+    omega : ndarray, shape (..., 3)
+        Angular velocity in the global frame.
+    """
+    p, pd = _p_and_vec(p, p_dot, "p_dot", 4)
+    return 2.0 * np.einsum("...ij,...j->...i", _G_from_p(p, 1.0), pd)
+
+
+def omega_body_from_euler_parameter_rates(p, p_dot):
+    """Body angular velocity from Euler parameter rates (Eq. 8.53).
+
+    ``omega_body = 2 G_bar @ p_dot``.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    p_dot : array_like, shape (..., 4)
+        Their time derivative.
+
+    Returns
+    -------
+    omega_body : ndarray, shape (..., 3)
+        Angular velocity in the body frame (omega-bar).
+    """
+    p, pd = _p_and_vec(p, p_dot, "p_dot", 4)
+    return 2.0 * np.einsum("...ij,...j->...i", _G_from_p(p, -1.0), pd)
+
+
+def alpha_from_euler_parameters(p, p_ddot):
+    """Global angular acceleration from Euler parameters (Eq. 8.57).
+
+    ``alpha = 2 G @ p_ddot`` (the term ``2 G_dot @ p_dot`` vanishes
+    identically).
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters, scalar first.
+    p_ddot : array_like, shape (..., 4)
+        Their second time derivative.
+
+    Returns
+    -------
+    alpha : ndarray, shape (..., 3)
+        Angular acceleration in the global frame.
+    """
+    p, pdd = _p_and_vec(p, p_ddot, "p_ddot", 4)
+    return 2.0 * np.einsum("...ij,...j->...i", _G_from_p(p, 1.0), pdd)
+
+
+def alpha_body_from_euler_parameters(p, p_ddot):
+    """Body angular acceleration from Euler parameters (Eq. 8.57).
+
+    ``alpha_body = 2 G_bar @ p_ddot`` (``G_bar_dot @ p_dot`` vanishes).
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters, scalar first.
+    p_ddot : array_like, shape (..., 4)
+        Their second time derivative.
+
+    Returns
+    -------
+    alpha_body : ndarray, shape (..., 3)
+        Angular acceleration in the body frame.
+    """
+    p, pdd = _p_and_vec(p, p_ddot, "p_ddot", 4)
+    return 2.0 * np.einsum("...ij,...j->...i", _G_from_p(p, -1.0), pdd)
+
+
+def euler_parameter_accelerations(p, omega_body, alpha_body):
+    """Second derivative of Euler parameters (Eq. 8.57 solved for p_ddot).
+
+    ``p_ddot = G_bar.T @ alpha_body / 2 - |omega_body|**2 p / 4``, the
+    unique solution of ``alpha_body = 2 G_bar p_ddot`` consistent with the
+    second derivative of the unit-norm constraint ``p . p = 1``.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters, scalar first.
+    omega_body : array_like, shape (..., 3)
+        Angular velocity in the body frame.
+    alpha_body : array_like, shape (..., 3)
+        Angular acceleration in the body frame.
+
+    Returns
+    -------
+    p_ddot : ndarray, shape (..., 4)
+    """
+    p = check_euler_parameters(p, "p")
+    w = check_vector(omega_body, "omega_body", 3)
+    a = check_vector(alpha_body, "alpha_body", 3)
+    (p, w, a), _ = broadcast_batch(
+        ("p", p, 1), ("omega_body", w, 1), ("alpha_body", a, 1)
+    )
+    w2 = np.einsum("...i,...i->...", w, w)
+    Gb = _G_from_p(p, -1.0)
+    return 0.5 * np.einsum("...ji,...j->...i", Gb, a) - 0.25 * w2[..., None] * p

@@ -1,0 +1,99 @@
+"""Rotation vectors ``r = axis * angle`` (as in scipy's ``as_rotvec``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._axis_angle import _matrix_from_unit_axis_angle
+from ._euler_parameters import _matrix_from_unit_p, _p_from_matrix
+from ._validation import check_euler_parameters, check_matrix, check_vector
+
+
+def euler_parameters_from_rotation_vector(r):
+    """Euler parameters of rotation vectors (Eq. 8.46 with ``angle = |r|``).
+
+    Parameters
+    ----------
+    r : array_like, shape (..., 3)
+        Rotation vectors: unit axis times angle in radians.
+
+    Returns
+    -------
+    p : ndarray, shape (..., 4)
+        Unit Euler parameters, scalar first (``theta0 < 0`` when
+        ``|r| > pi``).
+    """
+    r = check_vector(r, "r", 3)
+    angle = np.sqrt(np.einsum("...i,...i->...", r, r))
+    # sin(angle / 2) / angle = sinc(angle / (2 pi)) / 2, exact at angle 0.
+    scale = 0.5 * np.sinc(angle / (2.0 * np.pi))
+    out = np.empty(r.shape[:-1] + (4,))
+    out[..., 0] = np.cos(0.5 * angle)
+    out[..., 1:] = r * scale[..., None]
+    return out
+
+
+def rotation_vector_from_euler_parameters(p):
+    """Rotation vectors of Euler parameters.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+
+    Returns
+    -------
+    r : ndarray, shape (..., 3)
+        ``axis * angle`` with angle in ``[0, pi]``.
+    """
+    p = check_euler_parameters(p, "p")
+    return _rotvec_from_unit_p(p)
+
+
+def _rotvec_from_unit_p(p):
+    p = np.where(p[..., :1] < 0.0, -p, p)
+    v = p[..., 1:]
+    s = np.sqrt(np.einsum("...i,...i->...", v, v))
+    angle = 2.0 * np.arctan2(s, p[..., 0])
+    zero = s == 0.0
+    # angle / s -> 2 / theta0 = 2 as s -> 0 (theta0 -> 1).
+    scale = np.where(zero, 2.0, angle / np.where(zero, 1.0, s))
+    return v * scale[..., None]
+
+
+def matrix_from_rotation_vector(r):
+    """Rotation matrices of rotation vectors (Rodriguez formula, Eq. 8.29).
+
+    Parameters
+    ----------
+    r : array_like, shape (..., 3)
+        Rotation vectors: unit axis times angle in radians.
+
+    Returns
+    -------
+    A : ndarray, shape (..., 3, 3)
+        Active rotation matrix, body to global.
+    """
+    r = check_vector(r, "r", 3)
+    angle = np.sqrt(np.einsum("...i,...i->...", r, r))
+    zero = angle == 0.0
+    axis = r / np.where(zero, 1.0, angle)[..., None]
+    axis[zero] = (0.0, 0.0, 1.0)
+    return _matrix_from_unit_axis_angle(axis, angle, angle.shape)
+
+
+def rotation_vector_from_matrix(A):
+    """Rotation vectors of rotation matrices.
+
+    Parameters
+    ----------
+    A : array_like, shape (..., 3, 3)
+        Rotation matrices (active, body to global).
+
+    Returns
+    -------
+    r : ndarray, shape (..., 3)
+        ``axis * angle`` with angle in ``[0, pi]``.
+    """
+    A = check_matrix(A, "A")
+    return _rotvec_from_unit_p(_p_from_matrix(A))

@@ -1,0 +1,297 @@
+"""Input validation shared by every representation.
+
+Every public function of :mod:`core.rotations` validates its inputs here and
+raises :class:`ValueError` naming the argument, what was expected and what
+was given. Conventions are stated once in ``docs/conventions.md``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Largest accepted deviation ``| ||p|| - 1 |`` of Euler parameters (and of
+#: unit axes) from unit norm. Inputs within it are accepted (and normalized
+#: where the result must be a rotation); inputs beyond it are rejected.
+UNIT_NORM_TOL = 1e-6
+
+#: Largest accepted entry of ``|A @ A.T - I|`` for a rotation matrix ``A``.
+ORTHOGONALITY_TOL = 1e-6
+
+_AXES = "xyz"
+
+
+def _index_str(index):
+    """Format a batch index for an error message."""
+    if len(index) == 0:
+        return ""
+    return f" at batch index {tuple(int(i) for i in index)}"
+
+
+def as_float_array(x, name):
+    """Convert ``x`` to a float64 array or raise a ValueError naming it."""
+    try:
+        arr = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"Expected `{name}` to be an array of real numbers, got {x!r}"
+        ) from exc
+    return arr
+
+
+def _raise_non_finite(arr, name, n_trailing):
+    bad = ~np.isfinite(arr)
+    if n_trailing:
+        bad_batch = bad.reshape(*arr.shape[: arr.ndim - n_trailing], -1).any(axis=-1)
+    else:
+        bad_batch = bad
+    index = np.argwhere(bad_batch)[0] if bad_batch.ndim else ()
+    value = arr[tuple(index)]
+    raise ValueError(
+        f"Expected `{name}` to be finite, got {value!r}{_index_str(index)}"
+    )
+
+
+def check_finite(arr, name, n_trailing=0):
+    """Raise a ValueError naming ``name`` if ``arr`` holds NaN or infinity."""
+    if not np.isfinite(arr).all():
+        _raise_non_finite(arr, name, n_trailing)
+    return arr
+
+
+def check_vector(x, name, size=3):
+    """Validate an array of shape ``(..., size)`` with finite float64 entries.
+
+    Parameters
+    ----------
+    x : array_like, shape (..., size)
+    name : str
+        Argument name used in error messages.
+    size : int
+        Length of the last axis.
+
+    Returns
+    -------
+    arr : ndarray, shape (..., size), float64
+    """
+    arr = as_float_array(x, name)
+    if arr.ndim < 1 or arr.shape[-1] != size:
+        raise ValueError(
+            f"Expected `{name}` to have shape (..., {size}), got shape {arr.shape}"
+        )
+    return check_finite(arr, name, 1)
+
+
+def check_scalar_array(x, name):
+    """Validate an array of finite float64 scalars of shape ``(...)``."""
+    arr = as_float_array(x, name)
+    return check_finite(arr, name, 0)
+
+
+def check_unit_vector(x, name, tol=UNIT_NORM_TOL):
+    """Validate unit vectors of shape ``(..., 3)`` (e.g. rotation axes).
+
+    Returns the vectors divided by their norm (a change of at most ``tol``).
+    """
+    arr = check_vector(x, name, 3)
+    norm = np.sqrt(np.einsum("...i,...i->...", arr, arr))
+    ok = np.abs(norm - 1.0) <= tol
+    if not ok.all():
+        index = np.argwhere(~ok)[0] if ok.ndim else ()
+        raise ValueError(
+            f"Expected `{name}` to be a unit vector (| |{name}| - 1 | <= {tol:g}), "
+            f"got norm {float(norm[tuple(index)])!r}{_index_str(index)}"
+        )
+    return arr / norm[..., None]
+
+
+def check_euler_parameters(p, name="p", tol=UNIT_NORM_TOL):
+    """Validate Euler parameters and return them normalized.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 4)
+        Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    name : str
+        Argument name used in error messages.
+    tol : float
+        Largest accepted ``| ||p|| - 1 |``; default :data:`UNIT_NORM_TOL`.
+
+    Returns
+    -------
+    p : ndarray, shape (..., 4), float64
+        ``p / ||p||``; differs from the input by at most ``tol``.
+
+    Raises
+    ------
+    ValueError
+        If the shape is not (..., 4), an entry is not finite or the norm
+        deviates from 1 by more than ``tol``.
+    """
+    arr = as_float_array(p, name)
+    if arr.ndim < 1 or arr.shape[-1] != 4:
+        raise ValueError(
+            f"Expected `{name}` to have shape (..., 4), got shape {arr.shape}"
+        )
+    p0 = arr[..., 0]
+    p1 = arr[..., 1]
+    p2 = arr[..., 2]
+    p3 = arr[..., 3]
+    norm = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)
+    # NaN and infinity fail this comparison too, so finiteness costs nothing
+    # on the valid path.
+    ok = np.abs(norm - 1.0) <= tol
+    if not ok.all():
+        check_finite(arr, name, 1)
+        index = np.argwhere(~ok)[0] if ok.ndim else ()
+        raise ValueError(
+            f"Expected `{name}` to be unit Euler parameters "
+            f"(| |{name}| - 1 | <= {tol:g}), got norm "
+            f"{float(norm[tuple(index)])!r}{_index_str(index)}; "
+            "use normalize_euler_parameters to renormalize"
+        )
+    return arr / norm[..., None]
+
+
+def check_quaternion(q, name="q"):
+    """Validate general (not necessarily unit) quaternions, scalar first.
+
+    Returns
+    -------
+    q : ndarray, shape (..., 4), float64
+    """
+    return check_vector(q, name, 4)
+
+
+def check_matrix(A, name="A", tol=ORTHOGONALITY_TOL):
+    """Validate rotation matrices: shape, finiteness, orthogonality, det +1.
+
+    Parameters
+    ----------
+    A : array_like, shape (..., 3, 3)
+        Rotation matrices (active, body to global).
+    name : str
+        Argument name used in error messages.
+    tol : float
+        Largest accepted entry of ``|A @ A.T - I|``; default
+        :data:`ORTHOGONALITY_TOL`.
+
+    Returns
+    -------
+    A : ndarray, shape (..., 3, 3), float64
+
+    Raises
+    ------
+    ValueError
+        If the shape is not (..., 3, 3), an entry is not finite, the matrix
+        is not orthogonal within ``tol`` or its determinant is not +1.
+    """
+    arr = as_float_array(A, name)
+    if arr.ndim < 2 or arr.shape[-2:] != (3, 3):
+        raise ValueError(
+            f"Expected `{name}` to have shape (..., 3, 3), got shape {arr.shape}"
+        )
+    a00 = arr[..., 0, 0]
+    a01 = arr[..., 0, 1]
+    a02 = arr[..., 0, 2]
+    a10 = arr[..., 1, 0]
+    a11 = arr[..., 1, 1]
+    a12 = arr[..., 1, 2]
+    a20 = arr[..., 2, 0]
+    a21 = arr[..., 2, 1]
+    a22 = arr[..., 2, 2]
+    # Rows of an orthogonal matrix are orthonormal: check the six distinct
+    # entries of A A^T - I. NaN and infinity fail the comparison as well.
+    dev = np.abs(a00 * a00 + a01 * a01 + a02 * a02 - 1.0)
+    np.maximum(dev, np.abs(a10 * a10 + a11 * a11 + a12 * a12 - 1.0), out=dev)
+    np.maximum(dev, np.abs(a20 * a20 + a21 * a21 + a22 * a22 - 1.0), out=dev)
+    np.maximum(dev, np.abs(a00 * a10 + a01 * a11 + a02 * a12), out=dev)
+    np.maximum(dev, np.abs(a00 * a20 + a01 * a21 + a02 * a22), out=dev)
+    np.maximum(dev, np.abs(a10 * a20 + a11 * a21 + a12 * a22), out=dev)
+    ok = dev <= tol
+    if not ok.all():
+        check_finite(arr, name, 2)
+        index = np.argwhere(~ok)[0] if ok.ndim else ()
+        raise ValueError(
+            f"Expected `{name}` to be orthogonal (max |{name} {name}^T - I| <= "
+            f"{tol:g}), got deviation {float(dev[tuple(index)]):.3g}"
+            f"{_index_str(index)}"
+        )
+    # For an orthogonal matrix det = (row0 x row1) . row2 = +-1.
+    det = (
+        (a01 * a12 - a02 * a11) * a20
+        + (a02 * a10 - a00 * a12) * a21
+        + (a00 * a11 - a01 * a10) * a22
+    )
+    bad = det < 0.0
+    if bad.any():
+        index = np.argwhere(bad)[0] if bad.ndim else ()
+        raise ValueError(
+            f"Expected `{name}` to have determinant +1 (a proper rotation), got "
+            f"determinant {float(det[tuple(index)]):.6g}{_index_str(index)}"
+        )
+    return arr
+
+
+def parse_seq(seq):
+    """Parse an Euler-angle sequence.
+
+    Parameters
+    ----------
+    seq : str
+        Three letters from ``xyz`` (extrinsic, fixed axes) or ``XYZ``
+        (intrinsic, moving axes), no two consecutive equal.
+
+    Returns
+    -------
+    axes : tuple of int
+        Axis indices (0, 1, 2) of the three rotations, in the order given.
+    intrinsic : bool
+    """
+    if not isinstance(seq, str) or len(seq) != 3:
+        raise ValueError(
+            f"Expected `seq` to be a string of 3 axes such as 'ZXZ', got {seq!r}"
+        )
+    if seq.isupper() and set(seq) <= set("XYZ"):
+        intrinsic = True
+    elif seq.islower() and set(seq) <= set("xyz"):
+        intrinsic = False
+    else:
+        raise ValueError(
+            "Expected `seq` axes all from 'XYZ' (intrinsic) or all from 'xyz' "
+            f"(extrinsic), got {seq!r}"
+        )
+    if seq[0] == seq[1] or seq[1] == seq[2]:
+        raise ValueError(
+            f"Expected consecutive axes of `seq` to be different, got {seq!r}"
+        )
+    axes = tuple(_AXES.index(c) for c in seq.lower())
+    return axes, intrinsic
+
+
+def broadcast_batch(*triples):
+    """Broadcast the batch shapes of arrays with given trailing ranks.
+
+    Parameters
+    ----------
+    *triples : (str, ndarray, int)
+        Argument name, array and number of trailing (representation) axes.
+
+    Returns
+    -------
+    arrays : list of ndarray
+        Arrays broadcast to a common batch shape (read-only views).
+    batch : tuple
+        The common batch shape.
+    """
+    shapes = [a.shape[: a.ndim - n] for _, a, n in triples]
+    try:
+        batch = np.broadcast_shapes(*shapes)
+    except ValueError as exc:
+        given = ", ".join(
+            f"`{name}` batch {shape}" for (name, _, _), shape in zip(triples, shapes)
+        )
+        raise ValueError(
+            f"Expected broadcastable batch shapes, got {given}"
+        ) from exc
+    out = [np.broadcast_to(a, batch + a.shape[a.ndim - n :]) for _, a, n in triples]
+    return out, batch
