@@ -1,0 +1,413 @@
+"""Manipulator scene: the three-joint arm of Fig. 8.3 (Eqs. 8.39-8.45, problem 12).
+
+Three links and an end object (a gripper) turned by three joint-angle sliders.
+The core computes the link poses in two ways and the scene draws both:
+
+* solid links and their frames: successive relative rotations
+  ``A = A21 A32 A43`` (Eqs. 8.39-8.42, :func:`core.manipulator.link_frames_successive`);
+* ghost links and longer, thinner ghost frames: Rodriguez rotations about the
+  joint axes fixed in the global frame, applied joint 3 first
+  (Eqs. 8.43-8.45, :func:`core.manipulator.link_frames_global_axis_rotations`),
+  with those fixed global axes drawn as lines. A "Rodriguez steps" slider
+  shows the construction after 0, 1, 2 or 3 of its rotations.
+
+A readout shows the end-link matrix, the largest difference between the two
+procedures, and the Euler-angle form of the result (Z-X-Z for these joints).
+"Animate joints" sweeps the three joints smoothly. The scene holds no
+kinematics of its own: it calls :mod:`core.manipulator` and converts matrices
+to viser's ``wxyz`` (Euler parameters, scalar first) with
+:func:`core.rotations.euler_parameters_from_matrix`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from typing import Any, ClassVar
+
+import numpy as np
+import trimesh
+
+from app.scenes.base import Scene
+from core.manipulator import (
+    DEFAULT_GEOMETRY,
+    ManipulatorGeometry,
+    euler_form,
+    link_frames_global_axis_rotations,
+    link_frames_successive,
+)
+from core.rotations import (
+    euler_angles_from_matrix,
+    euler_parameters_from_matrix,
+    matrix_from_euler_angles,
+)
+
+__all__ = ["ManipulatorScene", "joint_sweep", "wrap_deg"]
+
+_LINK_COLORS = ((225, 125, 60), (70, 150, 225), (95, 190, 110))
+_END_COLOR = (235, 200, 60)
+_GHOST_COLOR = (170, 170, 255)
+_GHOST_OPACITY = 0.3
+_AXIS_COLORS = ((230, 60, 60), (60, 180, 60), (60, 90, 230))
+_LINK_RADIUS = 0.05
+_INITIAL_DEG = (30.0, 45.0, 60.0)
+_READOUT_PERIOD = 0.1  # s: readout refresh while animating (poses go at the loop rate)
+
+# Joint sweep of "animate joints": amplitude (deg) and frequency (Hz) per joint.
+_SWEEP_AMPLITUDE_DEG = (150.0, 70.0, 170.0)
+_SWEEP_FREQUENCY_HZ = (0.07, 0.11, 0.17)
+
+
+def joint_sweep(t: float, start: np.ndarray) -> np.ndarray:
+    """Joint angles (3,) in radians of the "animate joints" sweep at time ``t`` (s).
+
+    Each joint swings sinusoidally about its ``start`` angle (3,) in radians
+    with its own amplitude and frequency, so the sweep begins exactly where
+    the sliders are and passes through general configurations and, now and
+    then, the Z-X-Z gimbal lock (joint 2 at 0).
+    """
+    amplitude = np.radians(_SWEEP_AMPLITUDE_DEG)
+    omega = 2.0 * np.pi * np.array(_SWEEP_FREQUENCY_HZ)
+    return np.asarray(start, dtype=float) + amplitude * np.sin(omega * t)
+
+
+def wrap_deg(angle: float) -> float:
+    """``angle`` in degrees wrapped to [-180, 180)."""
+    return (angle + 180.0) % 360.0 - 180.0
+
+
+def _z_to(direction: np.ndarray) -> np.ndarray:
+    """4x4 transform turning +Z onto the unit ``direction``."""
+    return trimesh.geometry.align_vectors([0.0, 0.0, 1.0], direction)
+
+
+def _link_mesh(geometry: ManipulatorGeometry, k: int, radius: float) -> trimesh.Trimesh:
+    """Link ``k`` (0-based) in its own frame: a rod from the joint to the far end and a
+    joint housing along the joint axis (which the joint rotation leaves fixed)."""
+    length = float(geometry.link_lengths[k])
+    rod = trimesh.creation.cylinder(radius=radius, height=length, sections=24)
+    rod.apply_translation([0.0, 0.0, length / 2])
+    rod.apply_transform(_z_to(geometry.link_directions[k]))
+    housing = trimesh.creation.cylinder(radius=1.7 * radius, height=5.0 * radius, sections=24)
+    housing.apply_transform(_z_to(geometry.joint_axes[k]))
+    return trimesh.util.concatenate([rod, housing])
+
+
+def _end_mesh(geometry: ManipulatorGeometry, scale: float = 1.0) -> trimesh.Trimesh:
+    """The end object (a two-finger gripper) in the last link's frame, at its far end.
+
+    The fingers lie in the link's x-z plane, so the spin of joint 3 shows."""
+    parts = [trimesh.creation.box(extents=(0.26, 0.07, 0.05))]
+    parts[0].apply_translation([0.0, 0.0, 0.025])
+    for side in (-1.0, 1.0):
+        finger = trimesh.creation.box(extents=(0.035, 0.06, 0.16))
+        finger.apply_translation([side * 0.11, 0.0, 0.05 + 0.08])
+        parts.append(finger)
+    mesh = trimesh.util.concatenate(parts)
+    mesh.apply_scale(scale)
+    mesh.apply_transform(_z_to(geometry.link_directions[2]))
+    mesh.apply_translation(geometry.link_vectors[2])
+    return mesh
+
+
+def _format_matrix(matrix: np.ndarray) -> str:
+    return "\n".join(" ".join(f"{x:+.4f}" for x in row) for row in matrix)
+
+
+def _format_deg(angles: np.ndarray) -> str:
+    return ", ".join(f"{math.degrees(a):.1f}°" for a in angles)
+
+
+@dataclasses.dataclass
+class _Gui:
+    """Handles of the scene's GUI elements (created once in ``build``)."""
+
+    joint_sliders: tuple[Any, Any, Any]
+    animate: Any
+    show_global_axes: Any
+    steps: Any
+    readout: Any
+
+
+class ManipulatorScene(Scene):
+    """Three-joint manipulator drawn by both procedures of the chapter (Fig. 8.3)."""
+
+    name: ClassVar[str] = "manipulator"
+    title: ClassVar[str] = "Manipulator (Fig. 8.3)"
+    order: ClassVar[int] = 20
+
+    def __init__(self, target: Any, notify: Any, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY) -> None:
+        super().__init__(target, notify)
+        self.geometry = geometry
+        # State recorded by GUI callbacks (guarded by self.lock).
+        self._joint_deg = list(_INITIAL_DEG)
+        self._animate = False
+        self._show_global = True
+        self._steps = 3
+        self._dirty = True
+        # State owned by update() (the session loop thread).
+        self._time = 0.0
+        self._sweep_start = np.radians(_INITIAL_DEG)
+        self._since_readout = _READOUT_PERIOD
+        self._was_animating = False
+        self._in_gimbal_lock = False
+        self.joint_angles = np.radians(_INITIAL_DEG)  # (3,) radians, as last drawn
+        self.difference = 0.0  # max |A_a - A_b| of the last drawn pose
+        self.gui: _Gui | None = None
+
+    # -- build ----------------------------------------------------------------
+    def build(self) -> None:
+        scene = self.target.scene
+        geometry = self.geometry
+        self.make_root()
+        root = self.root
+        scene.add_frame(f"{root}/global", axes_length=0.45, axes_radius=0.008)
+        base = trimesh.creation.cylinder(radius=0.22, height=0.06, sections=40)
+        base.apply_translation([0.0, 0.0, -0.03])
+        scene.add_mesh_simple(
+            f"{root}/base", base.vertices, base.faces, color=(120, 120, 130), flat_shading=False
+        )
+
+        # Procedure (a): solid links; each mesh is a child of its link frame, so
+        # a frame's pose is all that changes per frame.
+        scene.add_frame(f"{root}/a", show_axes=False)
+        self.solid_frames = []
+        for k in range(3):
+            frame = scene.add_frame(f"{root}/a/link{k + 1}", axes_length=0.3, axes_radius=0.012)
+            mesh = _link_mesh(geometry, k, _LINK_RADIUS)
+            scene.add_mesh_simple(
+                f"{root}/a/link{k + 1}/mesh", mesh.vertices, mesh.faces, color=_LINK_COLORS[k]
+            )
+            self.solid_frames.append(frame)
+        end = _end_mesh(geometry)
+        scene.add_mesh_simple(f"{root}/a/link3/end", end.vertices, end.faces, color=_END_COLOR)
+
+        # Procedure (b): ghost links (slightly fatter, translucent) and frames.
+        self.ghost_root = scene.add_frame(f"{root}/b", show_axes=False)
+        self.ghost_frames = []
+        for k in range(3):
+            frame = scene.add_frame(f"{root}/b/link{k + 1}", axes_length=0.45, axes_radius=0.005)
+            mesh = _link_mesh(geometry, k, 1.35 * _LINK_RADIUS)
+            scene.add_mesh_simple(
+                f"{root}/b/link{k + 1}/mesh",
+                mesh.vertices,
+                mesh.faces,
+                color=_GHOST_COLOR,
+                opacity=_GHOST_OPACITY,
+            )
+            self.ghost_frames.append(frame)
+        ghost_end = _end_mesh(geometry, scale=1.12)
+        scene.add_mesh_simple(
+            f"{root}/b/link3/end",
+            ghost_end.vertices,
+            ghost_end.faces,
+            color=_GHOST_COLOR,
+            opacity=_GHOST_OPACITY,
+        )
+
+        # The joint axes fixed in the global frame used by procedure (b): lines
+        # through the joint centres of the zero configuration.
+        zero = link_frames_global_axis_rotations(np.zeros(3), geometry=geometry, steps=0)
+        half = 0.8
+        points = np.stack(
+            [
+                np.stack([c - half * a, c + half * a])
+                for c, a in zip(zero.origins, geometry.joint_axes)
+            ]
+        ).astype(np.float32)
+        colors = np.repeat(np.array(_AXIS_COLORS, dtype=np.uint8)[:, None, :], 2, axis=1)
+        self.global_axes = scene.add_frame(f"{root}/global_axes", show_axes=False)
+        scene.add_line_segments(
+            f"{root}/global_axes/lines", points, colors, thickness=0.006
+        )
+        for k in range(3):
+            # Joint 1's label goes to the lower end, clear of the arm.
+            end = 0 if k == 0 else 1
+            scene.add_label(
+                f"{root}/global_axes/a{k + 1}",
+                f"a{k + 1} (fixed)",
+                position=tuple(float(x) for x in points[k, end]),
+            )
+
+        with self.make_folder():
+            self.target.gui.add_markdown(
+                "Joints turn links 1-3 (the chapter's bodies 2-4). **Solid**: successive "
+                "rotations A = A21 A32 A43 (Eqs. 8.39-8.42). **Ghost**: Rodriguez "
+                "rotations about the joint axes fixed in the global frame, joint 3 "
+                "first (Eqs. 8.43-8.45)."
+            )
+            sliders = tuple(
+                self.target.gui.add_slider(
+                    f"θ{k + 1} (deg)",
+                    min=-180.0,
+                    max=180.0,
+                    step=0.1,
+                    initial_value=_INITIAL_DEG[k],
+                    hint=f"Joint {k + 1} angle about axis {geometry.joint_axes[k].tolist()}",
+                )
+                for k in range(3)
+            )
+            animate = self.target.gui.add_checkbox(
+                "Animate joints", False, hint="Sweep the three joints smoothly"
+            )
+            show_global = self.target.gui.add_checkbox(
+                "Show procedure (b)", True, hint="Ghost links, ghost frames and the fixed global joint axes"
+            )
+            steps = self.target.gui.add_slider(
+                "Rodriguez steps",
+                min=0,
+                max=3,
+                step=1,
+                initial_value=3,
+                hint="How many global-axis rotations of procedure (b) are applied (joint 3 first)",
+            )
+            readout = self.target.gui.add_markdown("")
+        self.gui = _Gui(sliders, animate, show_global, steps, readout)  # type: ignore[arg-type]
+        for k, slider in enumerate(sliders):
+            slider.on_update(lambda event, k=k: self._on_joint(k, event.target.value))
+        animate.on_update(self._on_animate)
+        show_global.on_update(self._on_show_global)
+        steps.on_update(self._on_steps)
+
+    # -- GUI callbacks: record only ----------------------------------------------
+    def _on_joint(self, k: int, value: Any) -> None:
+        with self.lock:
+            self._joint_deg[k] = float(value)
+            self._dirty = True
+
+    def _on_animate(self, event: Any) -> None:
+        with self.lock:
+            self._animate = bool(event.target.value)
+            self._dirty = True
+
+    def _on_show_global(self, event: Any) -> None:
+        with self.lock:
+            self._show_global = bool(event.target.value)
+            self._dirty = True
+
+    def _on_steps(self, event: Any) -> None:
+        with self.lock:
+            self._steps = int(round(float(event.target.value)))
+            self._dirty = True
+
+    # -- update ---------------------------------------------------------------
+    def update(self, dt: float) -> None:
+        with self.lock:
+            animate = self._animate
+            if not (self._dirty or animate):
+                return
+            self._dirty = False
+            joint_deg = tuple(self._joint_deg)
+            show_global = self._show_global
+            steps = min(max(self._steps, 0), 3)
+        assert self.gui is not None
+
+        if animate:
+            if not self._was_animating:
+                # The sweep starts where the sliders are; they are disabled meanwhile.
+                self._time = 0.0
+                self._sweep_start = np.radians(joint_deg)
+                for slider in self.gui.joint_sliders:
+                    slider.disabled = True
+            self._time += dt
+            angles = joint_sweep(self._time, self._sweep_start)
+        else:
+            if self._was_animating:
+                for slider in self.gui.joint_sliders:
+                    slider.disabled = False
+                # Leave the arm where the sweep stopped: the sliders take over
+                # (their callbacks record the same angles).
+                stopped_deg = [round(wrap_deg(math.degrees(a)), 1) for a in self.joint_angles]
+                for slider, value in zip(self.gui.joint_sliders, stopped_deg):
+                    slider.value = value
+                joint_deg = tuple(stopped_deg)
+            angles = np.radians(joint_deg)
+        self._was_animating = animate
+
+        geometry = self.geometry
+        frames_a = link_frames_successive(angles, geometry=geometry)
+        frames_b = link_frames_global_axis_rotations(angles, geometry=geometry)
+        ghost = (
+            frames_b
+            if steps == 3
+            else link_frames_global_axis_rotations(angles, geometry=geometry, steps=steps)
+        )
+        wxyz_a = euler_parameters_from_matrix(frames_a.orientations)
+        wxyz_ghost = euler_parameters_from_matrix(ghost.orientations)
+        self.joint_angles = angles
+        self.difference = float(
+            np.max(np.abs(frames_a.orientations[2] - frames_b.orientations[2]))
+        )
+
+        self._since_readout += dt
+        refresh_readout = not animate or self._since_readout >= _READOUT_PERIOD
+        readout = self._readout(angles, frames_a, frames_b, steps) if refresh_readout else None
+
+        with self.target.atomic():
+            for k in range(3):
+                self.solid_frames[k].wxyz = wxyz_a[k]
+                self.solid_frames[k].position = frames_a.origins[k]
+            self.ghost_root.visible = show_global
+            self.global_axes.visible = show_global
+            if show_global:
+                for k in range(3):
+                    self.ghost_frames[k].wxyz = wxyz_ghost[k]
+                    self.ghost_frames[k].position = ghost.origins[k]
+            if readout is not None:
+                self._since_readout = 0.0
+                self.gui.readout.content = readout
+
+    def _readout(self, angles: np.ndarray, frames_a: Any, frames_b: Any, steps: int) -> str:
+        """Markdown readout: the matrix, the difference of the procedures, the Euler form."""
+        matrix = frames_a.orientations[2]
+        position_difference = max(
+            float(np.max(np.abs(frames_a.origins - frames_b.origins))),
+            float(np.max(np.abs(frames_a.end_point - frames_b.end_point))),
+        )
+        lines = [
+            f"**Joint angles**: {_format_deg(angles)}",
+            "",
+            "**End link** A = A21 A32 A43 (successive rotations, Eq. 8.42):",
+            "```",
+            _format_matrix(matrix),
+            "```",
+            "**Procedures (a) vs (b)** (all three Rodriguez steps):",
+            "",
+            f"- max |A_a − A_b| = {self.difference:.1e}",
+            f"- max |r_a − r_b| = {position_difference:.1e} m",
+        ]
+        if steps < 3:
+            lines.append(f"- Ghost shows (b) after {steps} of 3 steps (joint 3 first).")
+        try:
+            form = euler_form(angles, geometry=self.geometry)
+        except ValueError as exc:
+            lines += ["", f"**Euler-angle form**: none for these joint axes ({exc})."]
+            return "\n".join(lines)
+        euler_matrix = matrix_from_euler_angles(form.angles, form.seq)
+        lines += [
+            "",
+            f"**Euler-angle form** ({form.seq}, intrinsic):",
+            "",
+            f"- A = A_{form.seq}({_format_deg(form.angles)})",
+            f"- max |A − A_{form.seq}| = {float(np.max(np.abs(matrix - euler_matrix))):.1e}",
+        ]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            # A leading batch axis of one keeps this call on the batched path.
+            recovered = euler_angles_from_matrix(matrix[None], form.seq)[0]
+        singular = bool(caught)
+        lines.append(f"- Euler angles recovered from A: {_format_deg(recovered)}")
+        if singular:
+            lines.append(
+                "- **gimbal lock**: the first and third axes align, only the sum "
+                "(or difference) of their angles is determined."
+            )
+        if singular and not self._in_gimbal_lock:
+            self.notify(
+                "Gimbal lock",
+                f"Joints 1 and 3 are aligned: the {form.seq} angles of A are not unique.",
+                "info",
+            )
+        self._in_gimbal_lock = singular
+        return "\n".join(lines)

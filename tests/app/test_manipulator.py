@@ -1,0 +1,279 @@
+"""Tests of the manipulator scene (app/scenes/manipulator.py) on a real viser server.
+
+Unit tests build the scene on a bare ``viser.ViserServer`` on a free loopback
+port and call ``update`` themselves (deterministic); integration tests use the
+running app (``running_app``) and a plain websocket client (``ws_client``)
+that changes GUI values exactly as a browser does. Expected poses come from
+scipy's ``Rotation`` (an oracle independent of core.rotations).
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+import viser
+from scipy.spatial.transform import Rotation
+
+from app.scenes.manipulator import ManipulatorScene, joint_sweep, wrap_deg
+from core.manipulator import ManipulatorGeometry
+
+DT = 1.0 / 60.0
+# Poses travel as float64 wxyz / positions built from rotation matrices;
+# 1e-12 leaves room for the matrix-to-quaternion conversion's rounding.
+POSE_TOL = 1e-12
+
+
+def expected_wxyz(deg: tuple[float, float, float]) -> np.ndarray:
+    """wxyz of the three links for Z-X-Z joints (scipy, scalar first, w >= 0)."""
+    chain = Rotation.from_euler("ZXZ", [deg[0], deg[1], deg[2]], degrees=True)
+    links = [
+        Rotation.from_euler("Z", deg[0], degrees=True),
+        Rotation.from_euler("ZX", deg[:2], degrees=True),
+        chain,
+    ]
+    quats = np.array([r.as_quat(scalar_first=True) for r in links])
+    return quats * np.where(quats[:, :1] < 0, -1.0, 1.0)
+
+
+def same_rotation(wxyz: np.ndarray, expected: np.ndarray, atol: float = POSE_TOL) -> bool:
+    # q and -q are the same rotation.
+    wxyz = np.asarray(wxyz)
+    return bool(np.allclose(wxyz, expected, atol=atol) or np.allclose(wxyz, -expected, atol=atol))
+
+
+class Notices:
+    def __init__(self) -> None:
+        self.items: list[tuple[str, str, str]] = []
+
+    def __call__(self, title: str, body: str, level: str) -> None:
+        self.items.append((title, body, level))
+
+
+@pytest.fixture(scope="module")
+def server() -> Iterator[viser.ViserServer]:
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def make_scene(server: viser.ViserServer) -> Iterator[Callable[..., tuple[ManipulatorScene, Notices]]]:
+    scenes: list[ManipulatorScene] = []
+
+    def make(**kwargs: Any) -> tuple[ManipulatorScene, Notices]:
+        notices = Notices()
+        scene = ManipulatorScene(server, notices, **kwargs)
+        scene.build()
+        scene.set_active(True)
+        scenes.append(scene)
+        return scene, notices
+
+    yield make
+    for scene in scenes:
+        scene.close()
+
+
+def difference_in_readout(scene: ManipulatorScene) -> float:
+    match = re.search(r"max \|A_a − A_b\| = ([0-9.e+-]+)", scene.gui.readout.content)
+    assert match is not None, scene.gui.readout.content
+    return float(match.group(1))
+
+
+# -- unit tests on a bare server ---------------------------------------------
+
+
+def test_initial_pose_matches_zxz_oracle_and_both_procedures_agree(make_scene) -> None:
+    scene, _ = make_scene()
+    scene.update(DT)
+    expected = expected_wxyz((30.0, 45.0, 60.0))
+    for k in range(3):
+        assert same_rotation(scene.solid_frames[k].wxyz, expected[k])
+        assert same_rotation(scene.ghost_frames[k].wxyz, expected[k])
+    # Joint 2 sits on top of the 0.6 m column, joint 3 0.8 m further along link 2.
+    np.testing.assert_allclose(scene.solid_frames[1].position, [0, 0, 0.6], atol=POSE_TOL)
+    link2_axis = Rotation.from_euler("ZX", [30, 45], degrees=True).apply([0, 0, 0.8])
+    np.testing.assert_allclose(scene.solid_frames[2].position, [0, 0, 0.6] + link2_axis, atol=POSE_TOL)
+    np.testing.assert_allclose(scene.ghost_frames[2].position, scene.solid_frames[2].position, atol=POSE_TOL)
+    # Rounding only: three 3x3 products of unit-size entries.
+    assert scene.difference < 1e-14
+    assert difference_in_readout(scene) < 1e-14
+
+
+def test_readout_shows_matrix_and_euler_angle_form(make_scene) -> None:
+    scene, notices = make_scene()
+    scene.update(DT)
+    text = scene.gui.readout.content
+    matrix = Rotation.from_euler("ZXZ", [30, 45, 60], degrees=True).as_matrix()
+    first_row = " ".join(f"{x:+.4f}" for x in matrix[0])
+    assert first_row in text
+    assert "Euler-angle form** (ZXZ, intrinsic)" in text
+    assert "- A = A_ZXZ(30.0°, 45.0°, 60.0°)" in text
+    assert "Euler angles recovered from A: 30.0°, 45.0°, 60.0°" in text
+    assert "gimbal lock" not in text
+    assert notices.items == []
+
+
+def test_joint_slider_changes_pose(make_scene) -> None:
+    scene, _ = make_scene()
+    scene.update(DT)
+    before = scene.solid_frames[2].wxyz.copy()
+    scene.gui.joint_sliders[0].value = -120.0
+    scene.gui.joint_sliders[2].value = 10.0
+    scene.update(DT)
+    expected = expected_wxyz((-120.0, 45.0, 10.0))
+    for k in range(3):
+        assert same_rotation(scene.solid_frames[k].wxyz, expected[k])
+    assert not same_rotation(scene.solid_frames[2].wxyz, before, atol=1e-3)
+    np.testing.assert_allclose(scene.joint_angles, np.radians([-120.0, 45.0, 10.0]))
+
+
+def test_update_without_changes_sends_nothing_new(make_scene) -> None:
+    scene, _ = make_scene()
+    scene.update(DT)
+    content = scene.gui.readout.content
+    scene.gui.readout.content = "sentinel"
+    scene.update(DT)  # nothing dirty, not animating: no recomputation
+    assert scene.gui.readout.content == "sentinel"
+    scene.gui.joint_sliders[1].value = 46.0
+    scene.update(DT)
+    assert scene.gui.readout.content not in ("sentinel", content)
+
+
+def test_rodriguez_steps_show_the_construction_of_procedure_b(make_scene) -> None:
+    scene, _ = make_scene()
+    scene.gui.steps.value = 0
+    scene.update(DT)
+    for frame in scene.ghost_frames:
+        assert same_rotation(frame.wxyz, np.array([1.0, 0, 0, 0]))
+    np.testing.assert_allclose(scene.ghost_frames[2].position, [0, 0, 1.4], atol=POSE_TOL)
+    scene.gui.steps.value = 1  # only joint 3 (global Z through (0, 0, 1.4)) applied
+    scene.update(DT)
+    spin = Rotation.from_euler("Z", 60, degrees=True).as_quat(scalar_first=True)
+    assert same_rotation(scene.ghost_frames[2].wxyz, spin)
+    assert same_rotation(scene.ghost_frames[1].wxyz, np.array([1.0, 0, 0, 0]))
+    assert "Ghost shows (b) after 1 of 3 steps" in scene.gui.readout.content
+    # The difference readout always compares the full procedures.
+    assert difference_in_readout(scene) < 1e-14
+    scene.gui.steps.value = 3
+    scene.update(DT)
+    for k in range(3):
+        assert same_rotation(scene.ghost_frames[k].wxyz, scene.solid_frames[k].wxyz)
+
+
+def test_hiding_procedure_b_hides_ghosts_and_global_axes(make_scene) -> None:
+    scene, _ = make_scene()
+    scene.update(DT)
+    assert scene.ghost_root.visible and scene.global_axes.visible
+    scene.gui.show_global_axes.value = False
+    scene.update(DT)
+    assert not scene.ghost_root.visible and not scene.global_axes.visible
+    scene.gui.show_global_axes.value = True
+    scene.update(DT)
+    assert scene.ghost_root.visible
+
+
+def test_animation_sweeps_then_hands_back_to_the_sliders(make_scene) -> None:
+    scene, _ = make_scene()
+    scene.update(DT)
+    scene.gui.animate.value = True
+    poses = []
+    for _ in range(30):
+        scene.update(DT)
+        poses.append(scene.solid_frames[2].wxyz.copy())
+        assert all(np.isfinite(scene.solid_frames[k].wxyz).all() for k in range(3))
+    assert all(slider.disabled for slider in scene.gui.joint_sliders)
+    expected = np.degrees(joint_sweep(30 * DT, np.radians([30.0, 45.0, 60.0])))
+    np.testing.assert_allclose(np.degrees(scene.joint_angles), expected, atol=1e-9)
+    # Smooth: consecutive frames differ, but by small rotations (q ~ -q).
+    steps = [min(np.linalg.norm(b - a), np.linalg.norm(b + a)) for a, b in zip(poses, poses[1:])]
+    assert min(steps) > 0 and max(steps) < 0.05
+    scene.gui.animate.value = False
+    scene.update(DT)
+    assert not any(slider.disabled for slider in scene.gui.joint_sliders)
+    values = [slider.value for slider in scene.gui.joint_sliders]
+    np.testing.assert_allclose(values, [round(wrap_deg(a), 1) for a in expected])
+    scene.update(DT)
+    assert same_rotation(scene.solid_frames[2].wxyz, expected_wxyz(tuple(values))[2])
+
+
+def test_gimbal_lock_gives_a_notice_and_no_nan(make_scene) -> None:
+    scene, notices = make_scene()
+    scene.gui.joint_sliders[1].value = 0.0
+    scene.update(DT)
+    assert [n[0] for n in notices.items] == ["Gimbal lock"]
+    assert "gimbal lock" in scene.gui.readout.content
+    for frame in scene.solid_frames + scene.ghost_frames:
+        assert np.isfinite(frame.wxyz).all() and np.isfinite(frame.position).all()
+    # The Euler form itself is still exact at the singularity.
+    assert "A = A_ZXZ(30.0°, 0.0°, 60.0°)" in scene.gui.readout.content
+    scene.gui.joint_sliders[2].value = 61.0
+    scene.update(DT)
+    assert len(notices.items) == 1  # once per entry into the singular state
+
+
+def test_general_joint_axes_have_no_euler_form_but_procedures_agree(make_scene) -> None:
+    s = np.sqrt(0.5)
+    geometry = ManipulatorGeometry(joint_axes=[[0, 0, 1], [s, s, 0], [0, s, s]])
+    scene, _ = make_scene(geometry=geometry)
+    scene.update(DT)
+    assert "none for these joint axes" in scene.gui.readout.content
+    assert scene.difference < 1e-14
+    for k in range(3):
+        assert same_rotation(scene.ghost_frames[k].wxyz, scene.solid_frames[k].wxyz, atol=1e-14)
+
+
+def test_hidden_scene_and_close(make_scene, server) -> None:
+    scene, _ = make_scene()
+    scene.update(DT)
+    scene.set_active(False)
+    assert not scene.root_frame.visible and not scene._gui_folder.visible
+    scene.set_active(True)
+    assert scene.root_frame.visible
+
+
+# -- integration with the running app -------------------------------------
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return
+        time.sleep(0.02)
+    raise AssertionError("condition not met within the timeout")
+
+
+def test_app_serves_the_manipulator_and_a_websocket_client_moves_a_joint(running_app, ws_client) -> None:
+    app = running_app(scene="manipulator")
+    scene = app.scene_for()
+    assert isinstance(scene, ManipulatorScene)
+    client, _ = ws_client(app)
+    client.set_gui_value(scene.gui.joint_sliders[0], 100.0)
+    expected = expected_wxyz((100.0, 45.0, 60.0))
+    wait_until(lambda: same_rotation(scene.solid_frames[0].wxyz, expected[0]))
+    wait_until(lambda: same_rotation(scene.solid_frames[2].wxyz, expected[2]))
+    assert scene.difference < 1e-14
+
+
+def test_switching_away_stops_updates_and_back_resumes(running_app) -> None:
+    app = running_app(scene="manipulator")
+    scene = app.scene_for()
+    scene.gui.animate.value = True
+    session = app.session_for()
+    wait_until(lambda: session.update_counts["manipulator"] > 5)
+    app.switch_scene("sandbox")
+    assert app.scene_for().name == "sandbox"
+    assert not scene.root_frame.visible
+    frozen = scene.solid_frames[2].wxyz.copy()
+    count = session.update_counts["manipulator"]
+    time.sleep(0.2)
+    assert session.update_counts["manipulator"] == count
+    np.testing.assert_array_equal(scene.solid_frames[2].wxyz, frozen)
+    app.switch_scene("manipulator")
+    assert scene.root_frame.visible
+    wait_until(lambda: not np.allclose(scene.solid_frames[2].wxyz, frozen))
