@@ -537,8 +537,9 @@ def _top_constants(params: RotorParams, s: np.ndarray) -> _TopConstants:
     x1 = _cubic_root_bisect(f0, f1, f2, f3, -op_u0, np.zeros_like(u0), positive_at_lo=False)
     # theta stays constant: turning point that is a double root (steady
     # precession, sleeping top, equilibria).
-    scale = np.abs(w) + a**2 + beta + 1e-300
-    steady = (f0 == 0.0) & (np.abs(f1) <= 1e-13 * scale)
+    # |f1| at the level of its own round-off means a double root at u0
+    f1_scale = np.abs(sn**2 * beta) + np.abs(2.0 * u0 * w) + np.abs(2.0 * a * h)
+    steady = (f0 == 0.0) & (np.abs(f1) <= 16.0 * np.finfo(float).eps * f1_scale)
     x1 = np.where(steady, 0.0, x1)
     x2 = np.where(steady, 0.0, x2)
     delta = x2 - x1
@@ -1081,7 +1082,7 @@ def simulate(
     if tt.ndim != 1 or tt.shape[0] == 0:
         raise ValueError(f"t: expected a non-empty 1-D array of times, got shape {tt.shape}")
     if tt[0] < 0.0 or np.any(np.diff(tt) < 0.0):
-        raise ValueError(f"t: expected non-decreasing times >= 0, got t[0]={tt[0]!r} and {int(np.sum(np.diff(tt) < 0))} decreases")
+        raise ValueError(f"t: expected non-decreasing times >= 0, got t[0]={float(tt[0])!r} and {int(np.sum(np.diff(tt) < 0))} decreases")
     if not (rtol > 0 and atol > 0):
         raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}")
     torque = _torque_function(torques)
