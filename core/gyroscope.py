@@ -56,10 +56,12 @@ __all__ = [
     "Invariants",
     "NutationResult",
     "RotorParams",
+    "RotorVectors",
     "SteadyPrecessionRates",
     "equations_of_motion",
     "invariants",
     "nutation",
+    "rotor_vectors",
     "simulate",
     "sleeping_top_critical_spin",
     "steady_precession_rates",
@@ -321,6 +323,77 @@ def invariants(params: RotorParams, state: Any) -> Invariants:
     d2 = params.I * phid * sn**2 + d1 * cs
     energy = 0.5 * params.I * (thetad**2 + (phid * sn) ** 2) + 0.5 * d1**2 / params.I3 + params.mgl * cs
     return Invariants(d1=d1, d2=d2, energy=energy)
+
+
+@dataclass(frozen=True)
+class RotorVectors:
+    """Vectors of the rotor in the global frame (for drawing and checks).
+
+    Attributes
+    ----------
+    rotor_axis : (..., 3) unit vector e3 along the rotor axis Z3.
+    omega : (..., 3) angular velocity ``phi_dot Z1 + theta_dot X2 + psi_dot e3``
+        in the global frame (Eq. 8.8), rad/s.
+    angular_momentum : (..., 3) about the fixed point, global frame:
+        ``I omega + (I3 - I) omega3 e3`` (kg m^2/s).
+    torque : (..., 3) total torque about the fixed point, global frame:
+        gravity ``mgl Z1 x e3`` plus the vector ``M`` of the applied
+        generalized torques, ``G^T M = (M_phi, M_theta, M_psi)`` (N m).
+    """
+
+    rotor_axis: np.ndarray  # (..., 3)
+    omega: np.ndarray  # (..., 3)
+    angular_momentum: np.ndarray  # (..., 3)
+    torque: np.ndarray  # (..., 3)
+
+
+def rotor_vectors(params: RotorParams, state: Any, torques: Any = (0.0, 0.0, 0.0)) -> RotorVectors:
+    r"""Rotor axis, angular velocity, angular momentum and torque (global frame).
+
+    With ``G = [Z1, X2, e3]`` the ZXZ velocity matrix (Eq. 8.8),
+    ``omega = G (phi_dot, theta_dot, psi_dot)``. The generalized torques are
+    the projections ``G^T M`` of a torque vector
+    ``M = alpha Z1 + M_theta X2 + gamma e3`` with
+    ``alpha = (M_phi - M_psi cos theta) / sin^2 theta`` and
+    ``gamma = (M_psi - M_phi cos theta) / sin^2 theta``; at
+    ``sin theta = 0`` (where Z1 = +-e3 and only ``M_phi = +-M_psi`` is
+    consistent) ``M = M_theta X2 + M_psi e3`` is used.
+
+    Parameters
+    ----------
+    params : RotorParams
+    state : (..., 6) ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)``.
+    torques : (..., 3) ``(M_phi, M_theta, M_psi)`` (N m).
+
+    Returns
+    -------
+    RotorVectors
+        Each field (..., 3), global frame.
+    """
+    params = _check_params(params)
+    s_ = _check_state(state)
+    m = _check_array(torques, "torques")
+    if m.ndim == 0 or m.shape[-1] != 3:
+        raise ValueError(f"torques: expected shape (..., 3) = (M_phi, M_theta, M_psi), got {m.shape}")
+    phi, theta = s_[..., 0], s_[..., 1]
+    phid, thetad, psid = s_[..., 3], s_[..., 4], s_[..., 5]
+    sp, cp, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
+    zero = np.zeros_like(phi)
+    z1 = np.stack([zero, zero, zero + 1.0], -1)
+    x2 = np.stack([cp, sp, zero], -1)
+    e3 = np.stack([sp * st, -cp * st, ct], -1)
+    omega = phid[..., None] * z1 + thetad[..., None] * x2 + psid[..., None] * e3
+    omega3 = psid + phid * ct
+    L = params.I * omega + ((params.I3 - params.I) * omega3)[..., None] * e3
+    m_phi, m_theta, m_psi = m[..., 0], m[..., 1], m[..., 2]
+    s2 = st**2
+    regular = s2 > 1e-12
+    safe = np.where(regular, s2, 1.0)
+    alpha = np.where(regular, (m_phi - m_psi * ct) / safe, 0.0)
+    gamma = np.where(regular, (m_psi - m_phi * ct) / safe, m_psi)
+    gravity = params.mgl * np.cross(z1, e3)
+    torque = gravity + alpha[..., None] * z1 + np.asarray(m_theta)[..., None] * x2 + gamma[..., None] * e3
+    return RotorVectors(rotor_axis=e3, omega=omega, angular_momentum=L, torque=torque)
 
 
 # ---------------------------------------------------------- steady precession

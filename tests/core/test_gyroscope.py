@@ -17,6 +17,7 @@ from core.gyroscope import (
     equations_of_motion,
     invariants,
     nutation,
+    rotor_vectors,
     simulate,
     sleeping_top_critical_spin,
     steady_precession_rates,
@@ -266,3 +267,33 @@ def test_public_functions_validate_input():
         simulate(params, good, [0, 1], torques=lambda t, s: (1.0, 2.0))
     with pytest.raises(ValueError, match=r"rtol, atol: expected > 0"):
         simulate(params, good, [0, 1], torques=(0, 1, 0), rtol=0.0)
+
+
+def test_rotor_vectors_against_scipy_and_generalized_forces():
+    rng = np.random.default_rng(RNG_SEED + 4)
+    from scipy.spatial.transform import Rotation
+
+    params = RotorParams(I=1.2, I3=0.9, mgl=1.7)
+    s = np.concatenate([rng.uniform(-3, 3, (20, 1)), rng.uniform(0.2, 2.9, (20, 1)), rng.uniform(-3, 3, (20, 4))], -1)
+    Q = rng.uniform(-1, 1, (20, 3))
+    v = rotor_vectors(params, s, Q)
+    A = Rotation.from_euler("ZXZ", s[:, :3]).as_matrix()
+    np.testing.assert_allclose(v.rotor_axis, A[:, :, 2], atol=1e-14)
+    # omega from a central difference of A(t): skew(omega) = A_dot A^T
+    h = 1e-6
+    Ap = Rotation.from_euler("ZXZ", s[:, :3] + h * s[:, 3:]).as_matrix()
+    Am = Rotation.from_euler("ZXZ", s[:, :3] - h * s[:, 3:]).as_matrix()
+    W = np.einsum("nij,nkj->nik", (Ap - Am) / (2 * h), A)
+    omega_fd = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], -1)
+    # central difference: h^2 truncation + eps/h round-off ~ 1e-10
+    np.testing.assert_allclose(v.omega, omega_fd, atol=1e-8)
+    J = np.diag([params.I, params.I, params.I3])
+    L = np.einsum("nij,jk,nlk,nl->ni", A, J, A, v.omega)
+    np.testing.assert_allclose(v.angular_momentum, L, atol=1e-12)
+    # the torque vector's power with each angle rate reproduces Q (virtual work)
+    # plus the gravity generalized force mgl sin(theta) on theta
+    G = np.stack([np.broadcast_to([0, 0, 1.0], (20, 3)),
+                  np.stack([np.cos(s[:, 0]), np.sin(s[:, 0]), 0 * s[:, 0]], -1), A[:, :, 2]], -1)
+    gen = np.einsum("nij,ni->nj", G, v.torque)
+    want = Q + np.stack([0 * s[:, 1], params.mgl * np.sin(s[:, 1]), 0 * s[:, 1]], -1)
+    np.testing.assert_allclose(gen, want, atol=1e-12)
