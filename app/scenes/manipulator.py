@@ -5,14 +5,15 @@ The core computes the link poses in two ways and the scene draws both:
 
 * solid links and their frames: successive relative rotations
   ``A = A21 A32 A43`` (Eqs. 8.39-8.42, :func:`core.manipulator.link_frames_successive`);
-* ghost links and longer, thinner ghost frames: Rodriguez rotations about the
-  joint axes fixed in the global frame, applied joint 3 first
-  (Eqs. 8.43-8.45, :func:`core.manipulator.link_frames_global_axis_rotations`),
-  with those fixed global axes drawn as lines. A "Rodriguez steps" slider
-  shows the construction after 0, 1, 2 or 3 of its rotations.
+* longer, thinner ghost frames: Rodriguez rotations about the joint axes
+  fixed in the global frame, applied joint 3 first (Eqs. 8.43-8.45,
+  :func:`core.manipulator.link_frames_global_axis_rotations`), with those
+  fixed global axes drawn as lines. A "Rodriguez steps" slider shows the
+  construction after 0, 1 or 2 of its rotations with translucent ghost links.
 
 A readout shows the end-link matrix, the largest difference between the two
-procedures, and the Euler-angle form of the result (Z-X-Z for these joints).
+procedures, and the Euler-angle form of the result (Z-X-Z for these joints);
+it is rewritten at most every 0.1 s, while poses stream at the loop rate.
 "Animate joints" sweeps the three joints smoothly. The scene holds no
 kinematics of its own: it calls :mod:`core.manipulator` and converts matrices
 to viser's ``wxyz`` (Euler parameters, scalar first) with
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 import warnings
 from typing import Any, ClassVar
 
@@ -52,7 +54,7 @@ _GHOST_OPACITY = 0.3
 _AXIS_COLORS = ((230, 60, 60), (60, 180, 60), (60, 90, 230))
 _LINK_RADIUS = 0.05
 _INITIAL_DEG = (30.0, 45.0, 60.0)
-_READOUT_PERIOD = 0.1  # s: readout refresh while animating (poses go at the loop rate)
+_READOUT_PERIOD = 0.1  # s: shortest time between readout refreshes (poses go at the loop rate)
 
 # Joint sweep of "animate joints": amplitude (deg) and frequency (Hz) per joint.
 _SWEEP_AMPLITUDE_DEG = (150.0, 70.0, 170.0)
@@ -131,13 +133,30 @@ class _Gui:
 
 
 class ManipulatorScene(Scene):
-    """Three-joint manipulator drawn by both procedures of the chapter (Fig. 8.3)."""
+    """Three-joint manipulator drawn by both procedures of the chapter (Fig. 8.3).
+
+    Parameters
+    ----------
+    target, notify
+        As for every scene (see :mod:`app.scenes.base`).
+    geometry : ManipulatorGeometry, keyword-only
+        Joint axes and links; default Z, X, Z joints.
+    readout_period : float, keyword-only
+        Shortest time (s) between two rewrites of the text readout.
+    """
 
     name: ClassVar[str] = "manipulator"
     title: ClassVar[str] = "Manipulator (Fig. 8.3)"
     order: ClassVar[int] = 20
 
-    def __init__(self, target: Any, notify: Any, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY) -> None:
+    def __init__(
+        self,
+        target: Any,
+        notify: Any,
+        *,
+        geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
+        readout_period: float = _READOUT_PERIOD,
+    ) -> None:
         super().__init__(target, notify)
         self.geometry = geometry
         # State recorded by GUI callbacks (guarded by self.lock).
@@ -149,7 +168,10 @@ class ManipulatorScene(Scene):
         # State owned by update() (the session loop thread).
         self._time = 0.0
         self._sweep_start = np.radians(_INITIAL_DEG)
-        self._since_readout = _READOUT_PERIOD
+        self._readout_period = float(readout_period)
+        self._readout_time = -math.inf
+        self._readout_due = False
+        self._drawn: tuple[Any, ...] | None = None
         self._was_animating = False
         self._in_gimbal_lock = False
         self.joint_angles = np.radians(_INITIAL_DEG)  # (3,) radians, as last drawn
@@ -183,23 +205,34 @@ class ManipulatorScene(Scene):
         end = _end_mesh(geometry)
         scene.add_mesh_simple(f"{root}/a/link3/end", end.vertices, end.faces, color=_END_COLOR)
 
-        # Procedure (b): ghost links (slightly fatter, translucent) and frames.
+        # Procedure (b): ghost frames (longer, thinner axes), one batched node so
+        # the three poses travel as one message. The translucent ghost links
+        # show the construction (fewer than three Rodriguez steps); after all
+        # three they would only coincide with the solid links, so they hide.
         self.ghost_root = scene.add_frame(f"{root}/b", show_axes=False)
-        self.ghost_frames = []
+        self.ghost_axes = scene.add_batched_axes(
+            f"{root}/b/frames",
+            batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (3, 1)),
+            batched_positions=np.zeros((3, 3)),
+            axes_length=0.45,
+            axes_radius=0.005,
+        )
+        self.ghost_links = scene.add_frame(f"{root}/b/links", show_axes=False, visible=False)
+        self.ghost_link_frames = []
         for k in range(3):
-            frame = scene.add_frame(f"{root}/b/link{k + 1}", axes_length=0.45, axes_radius=0.005)
+            frame = scene.add_frame(f"{root}/b/links/link{k + 1}", show_axes=False)
             mesh = _link_mesh(geometry, k, 1.35 * _LINK_RADIUS)
             scene.add_mesh_simple(
-                f"{root}/b/link{k + 1}/mesh",
+                f"{root}/b/links/link{k + 1}/mesh",
                 mesh.vertices,
                 mesh.faces,
                 color=_GHOST_COLOR,
                 opacity=_GHOST_OPACITY,
             )
-            self.ghost_frames.append(frame)
+            self.ghost_link_frames.append(frame)
         ghost_end = _end_mesh(geometry, scale=1.12)
         scene.add_mesh_simple(
-            f"{root}/b/link3/end",
+            f"{root}/b/links/link3/end",
             ghost_end.vertices,
             ghost_end.faces,
             color=_GHOST_COLOR,
@@ -293,9 +326,12 @@ class ManipulatorScene(Scene):
 
     # -- update ---------------------------------------------------------------
     def update(self, dt: float) -> None:
+        now = time.monotonic()
         with self.lock:
             animate = self._animate
             if not (self._dirty or animate):
+                if self._readout_due and now - self._readout_time >= self._readout_period:
+                    self._refresh_readout(now)
                 return
             self._dirty = False
             joint_deg = tuple(self._joint_deg)
@@ -339,10 +375,8 @@ class ManipulatorScene(Scene):
         self.difference = float(
             np.max(np.abs(frames_a.orientations[2] - frames_b.orientations[2]))
         )
-
-        self._since_readout += dt
-        refresh_readout = not animate or self._since_readout >= _READOUT_PERIOD
-        readout = self._readout(angles, frames_a, frames_b, steps) if refresh_readout else None
+        self._drawn = (angles, frames_a, frames_b, steps)
+        self._readout_due = True
 
         with self.target.atomic():
             for k in range(3):
@@ -351,12 +385,22 @@ class ManipulatorScene(Scene):
             self.ghost_root.visible = show_global
             self.global_axes.visible = show_global
             if show_global:
-                for k in range(3):
-                    self.ghost_frames[k].wxyz = wxyz_ghost[k]
-                    self.ghost_frames[k].position = ghost.origins[k]
-            if readout is not None:
-                self._since_readout = 0.0
-                self.gui.readout.content = readout
+                self.ghost_axes.batched_wxyzs = wxyz_ghost
+                self.ghost_axes.batched_positions = ghost.origins
+                self.ghost_links.visible = steps < 3
+                if steps < 3:
+                    for k in range(3):
+                        self.ghost_link_frames[k].wxyz = wxyz_ghost[k]
+                        self.ghost_link_frames[k].position = ghost.origins[k]
+            if now - self._readout_time >= self._readout_period:
+                self._refresh_readout(now)
+
+    def _refresh_readout(self, now: float) -> None:
+        """Rewrite the readout for the last drawn pose (at most every readout period)."""
+        assert self.gui is not None and self._drawn is not None
+        self.gui.readout.content = self._readout(*self._drawn)
+        self._readout_time = now
+        self._readout_due = False
 
     def _readout(self, angles: np.ndarray, frames_a: Any, frames_b: Any, steps: int) -> str:
         """Markdown readout: the matrix, the difference of the procedures, the Euler form."""

@@ -26,6 +26,16 @@ DT = 1.0 / 60.0
 # Poses travel as float64 wxyz / positions built from rotation matrices;
 # 1e-12 leaves room for the matrix-to-quaternion conversion's rounding.
 POSE_TOL = 1e-12
+# The ghost frames are one batched node, whose poses viser stores as float32.
+GHOST_TOL = 1e-6
+
+
+def ghost_wxyz(scene: ManipulatorScene, k: int) -> np.ndarray:
+    return np.asarray(scene.ghost_axes.batched_wxyzs[k], dtype=float)
+
+
+def ghost_position(scene: ManipulatorScene, k: int) -> np.ndarray:
+    return np.asarray(scene.ghost_axes.batched_positions[k], dtype=float)
 
 
 def expected_wxyz(deg: tuple[float, float, float]) -> np.ndarray:
@@ -67,6 +77,7 @@ def make_scene(server: viser.ViserServer) -> Iterator[Callable[..., tuple[Manipu
 
     def make(**kwargs: Any) -> tuple[ManipulatorScene, Notices]:
         notices = Notices()
+        kwargs.setdefault("readout_period", 0.0)  # deterministic: refresh on every change
         scene = ManipulatorScene(server, notices, **kwargs)
         scene.build()
         scene.set_active(True)
@@ -93,12 +104,12 @@ def test_initial_pose_matches_zxz_oracle_and_both_procedures_agree(make_scene) -
     expected = expected_wxyz((30.0, 45.0, 60.0))
     for k in range(3):
         assert same_rotation(scene.solid_frames[k].wxyz, expected[k])
-        assert same_rotation(scene.ghost_frames[k].wxyz, expected[k])
+        assert same_rotation(ghost_wxyz(scene, k), expected[k], atol=GHOST_TOL)
     # Joint 2 sits on top of the 0.6 m column, joint 3 0.8 m further along link 2.
     np.testing.assert_allclose(scene.solid_frames[1].position, [0, 0, 0.6], atol=POSE_TOL)
     link2_axis = Rotation.from_euler("ZX", [30, 45], degrees=True).apply([0, 0, 0.8])
     np.testing.assert_allclose(scene.solid_frames[2].position, [0, 0, 0.6] + link2_axis, atol=POSE_TOL)
-    np.testing.assert_allclose(scene.ghost_frames[2].position, scene.solid_frames[2].position, atol=POSE_TOL)
+    np.testing.assert_allclose(ghost_position(scene, 2), scene.solid_frames[2].position, atol=GHOST_TOL)
     # Rounding only: three 3x3 products of unit-size entries.
     assert scene.difference < 1e-14
     assert difference_in_readout(scene) < 1e-14
@@ -146,23 +157,30 @@ def test_update_without_changes_sends_nothing_new(make_scene) -> None:
 
 def test_rodriguez_steps_show_the_construction_of_procedure_b(make_scene) -> None:
     scene, _ = make_scene()
+    scene.update(DT)
+    assert not scene.ghost_links.visible  # all three steps: ghost links would coincide
     scene.gui.steps.value = 0
     scene.update(DT)
-    for frame in scene.ghost_frames:
-        assert same_rotation(frame.wxyz, np.array([1.0, 0, 0, 0]))
-    np.testing.assert_allclose(scene.ghost_frames[2].position, [0, 0, 1.4], atol=POSE_TOL)
+    assert scene.ghost_links.visible
+    for k in range(3):
+        assert same_rotation(ghost_wxyz(scene, k), np.array([1.0, 0, 0, 0]), atol=GHOST_TOL)
+        assert same_rotation(scene.ghost_link_frames[k].wxyz, np.array([1.0, 0, 0, 0]))
+    np.testing.assert_allclose(ghost_position(scene, 2), [0, 0, 1.4], atol=GHOST_TOL)
+    np.testing.assert_allclose(scene.ghost_link_frames[2].position, [0, 0, 1.4], atol=POSE_TOL)
     scene.gui.steps.value = 1  # only joint 3 (global Z through (0, 0, 1.4)) applied
     scene.update(DT)
     spin = Rotation.from_euler("Z", 60, degrees=True).as_quat(scalar_first=True)
-    assert same_rotation(scene.ghost_frames[2].wxyz, spin)
-    assert same_rotation(scene.ghost_frames[1].wxyz, np.array([1.0, 0, 0, 0]))
+    assert same_rotation(scene.ghost_link_frames[2].wxyz, spin)
+    assert same_rotation(ghost_wxyz(scene, 2), spin, atol=GHOST_TOL)
+    assert same_rotation(scene.ghost_link_frames[1].wxyz, np.array([1.0, 0, 0, 0]))
     assert "Ghost shows (b) after 1 of 3 steps" in scene.gui.readout.content
     # The difference readout always compares the full procedures.
     assert difference_in_readout(scene) < 1e-14
     scene.gui.steps.value = 3
     scene.update(DT)
+    assert not scene.ghost_links.visible
     for k in range(3):
-        assert same_rotation(scene.ghost_frames[k].wxyz, scene.solid_frames[k].wxyz)
+        assert same_rotation(ghost_wxyz(scene, k), scene.solid_frames[k].wxyz, atol=GHOST_TOL)
 
 
 def test_hiding_procedure_b_hides_ghosts_and_global_axes(make_scene) -> None:
@@ -207,8 +225,9 @@ def test_gimbal_lock_gives_a_notice_and_no_nan(make_scene) -> None:
     scene.update(DT)
     assert [n[0] for n in notices.items] == ["Gimbal lock"]
     assert "gimbal lock" in scene.gui.readout.content
-    for frame in scene.solid_frames + scene.ghost_frames:
+    for frame in scene.solid_frames:
         assert np.isfinite(frame.wxyz).all() and np.isfinite(frame.position).all()
+    assert np.isfinite(scene.ghost_axes.batched_wxyzs).all()
     # The Euler form itself is still exact at the singularity.
     assert "A = A_ZXZ(30.0°, 0.0°, 60.0°)" in scene.gui.readout.content
     scene.gui.joint_sliders[2].value = 61.0
@@ -224,7 +243,20 @@ def test_general_joint_axes_have_no_euler_form_but_procedures_agree(make_scene) 
     assert "none for these joint axes" in scene.gui.readout.content
     assert scene.difference < 1e-14
     for k in range(3):
-        assert same_rotation(scene.ghost_frames[k].wxyz, scene.solid_frames[k].wxyz, atol=1e-14)
+        assert same_rotation(ghost_wxyz(scene, k), scene.solid_frames[k].wxyz, atol=GHOST_TOL)
+
+
+def test_readout_is_throttled_but_always_catches_up(make_scene) -> None:
+    scene, _ = make_scene(readout_period=0.2)
+    scene.update(DT)
+    assert "30.0°, 45.0°, 60.0°" in scene.gui.readout.content
+    scene.gui.joint_sliders[0].value = 31.0
+    scene.update(DT)  # pose follows at once, the readout waits for its period
+    assert same_rotation(scene.solid_frames[0].wxyz, expected_wxyz((31.0, 45.0, 60.0))[0])
+    assert "**Joint angles**: 30.0°, 45.0°, 60.0°" in scene.gui.readout.content
+    time.sleep(0.25)
+    scene.update(DT)  # nothing new to draw, but the pending readout is written
+    assert "**Joint angles**: 31.0°, 45.0°, 60.0°" in scene.gui.readout.content
 
 
 def test_hidden_scene_and_close(make_scene, server) -> None:
