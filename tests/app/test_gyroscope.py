@@ -1,0 +1,155 @@
+"""Gyroscope scene (app/scenes/gyroscope.py) on a running rigidlab app.
+
+The session loop drives the scene at about 60 Hz; tests act as a user would
+(presets, sliders, play/pause/reset through the server-side handles) and
+check what the scene streams: the three nested gimbal poses against scipy's
+ZXZ rotation, presets against core.gyroscope's predictions, notices for bad
+input, and the chunk cache.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from app.scenes.gyroscope import PRESETS, GyroscopeScene, preset_inputs
+from core.gyroscope import RotorParams, nutation, steady_precession_rates
+
+
+def wait_until(predicate, timeout: float = 15.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return
+        time.sleep(0.02)
+    raise AssertionError("condition not met within the timeout")
+
+
+@pytest.fixture
+def gyro(running_app):
+    app = running_app(scene="gyroscope")
+    scene = app.scene_for()
+    assert isinstance(scene, GyroscopeScene)
+    wait_until(lambda: scene.sim_time > 0.1)
+    return app, scene
+
+
+def test_scene_is_registered_after_the_others():
+    from app.scenes import discover_scenes
+
+    scenes = discover_scenes()
+    assert "gyroscope" in scenes
+    assert GyroscopeScene.order == 40
+    assert list(scenes).index("gyroscope") == len([s for s in scenes.values() if s.order <= 40]) - 1
+
+
+def test_nested_frames_compose_to_the_zxz_orientation(gyro):
+    app, scene = gyro
+    with app.session_for().run_lock:  # freeze the loop between the reads
+        angles = scene.angles.copy()
+        q = [np.array(f.wxyz) for f in (scene.outer_frame, scene.inner_frame, scene.rotor_frame)]
+    composed = Rotation.from_quat(q[0], scalar_first=True) * Rotation.from_quat(q[1], scalar_first=True) \
+        * Rotation.from_quat(q[2], scalar_first=True)
+    expected = Rotation.from_euler("ZXZ", angles)
+    # float64 quaternions of single-axis rotations: round-off only
+    np.testing.assert_allclose(composed.as_matrix(), expected.as_matrix(), atol=1e-12)
+    # each frame turns about its own axis only
+    np.testing.assert_allclose(Rotation.from_quat(q[0], scalar_first=True).as_rotvec()[:2], 0, atol=1e-12)
+    np.testing.assert_allclose(Rotation.from_quat(q[1], scalar_first=True).as_rotvec()[1:], 0, atol=1e-12)
+    np.testing.assert_allclose(Rotation.from_quat(q[2], scalar_first=True).as_rotvec()[:2], 0, atol=1e-12)
+
+
+def test_presets_drive_the_expected_motion(gyro):
+    app, scene = gyro
+    for name in PRESETS:
+        scene.apply_preset(name)
+        want = preset_inputs(name, None)
+        wait_until(lambda: scene.model is not None and scene.model.params.mgl == want.mgl
+                   and math.isclose(scene.model.state0[5], want.psi_dot0) and 0.2 < scene.sim_time)
+        for field, slider in scene.gui.sliders.items():
+            # the page's sliders show the preset (they round to their step)
+            assert slider.value == pytest.approx(getattr(want, field), abs=slider.step)
+        params, state0 = scene.model.params, scene.model.state0
+        thetas = []
+        t_end = time.monotonic() + 1.0
+        while time.monotonic() < t_end:
+            thetas.append(scene.angles[1])
+            time.sleep(0.02)
+        thetas = np.array(thetas)
+        if name.startswith("Steady"):
+            # steady precession: theta stays put (closed form or DOP853 at 1e-9)
+            np.testing.assert_allclose(thetas, state0[1], atol=1e-6)
+        elif name.startswith("Sleeping top above"):
+            assert thetas.max() < 3 * state0[1]
+        else:
+            nu = nutation(params, state0)
+            # the displayed theta stays inside the predicted bounds (linear
+            # interpolation between samples cannot leave them)
+            assert thetas.min() >= float(nu.theta_min) - 1e-9
+            assert thetas.max() <= float(nu.theta_max) + 1e-9
+    # the gravity preset really uses the slow steady rate
+    want = preset_inputs(PRESETS[1], None)
+    slow = steady_precession_rates(RotorParams(I=1.0, I3=0.8, mgl=2.0), math.radians(60), 15.0).slow
+    assert want.phi_dot0 == pytest.approx(float(slow), rel=1e-12)
+    with pytest.raises(ValueError, match=r"name: expected one of \["):
+        scene.apply_preset("no such preset")
+
+
+def test_sleeping_top_below_critical_falls(gyro):
+    app, scene = gyro
+    scene.gui.time_scale.value = 4.0
+    scene.apply_preset("Sleeping top below critical")
+    wait_until(lambda: scene.model.state0[1] == pytest.approx(math.radians(3.0)) and scene.sim_time > 0.0)
+    nu = nutation(scene.model.params, scene.model.state0)
+    assert float(nu.theta_max) > math.radians(30)
+    wait_until(lambda: scene.angles[1] > math.radians(20), timeout=20.0)
+
+
+def test_invalid_parameters_give_a_notice_and_keep_running(gyro):
+    app, scene = gyro
+    params_before = scene.model.params
+    scene.gui.sliders["I3"].value = 3.0  # > 2 I with I = 1
+    session = app.session_for()
+    wait_until(lambda: any("Invalid rotor parameters" in n[0] for n in session.notices))
+    assert any("I3: expected I3 <= 2*I" in n[1] for n in session.notices)
+    assert scene.model.params == params_before
+    t0 = scene.sim_time
+    wait_until(lambda: scene.sim_time > t0 + 0.1)
+
+
+def test_pause_reset_and_chunk_cache(gyro):
+    app, scene = gyro
+    scene.gui.pause.value = True  # a click, as the page sends it
+    wait_until(lambda: not scene.playing)
+    time.sleep(0.1)
+    t_paused = scene.sim_time
+    time.sleep(0.3)
+    assert scene.sim_time == t_paused
+    scene.gui.play.value = True
+    wait_until(lambda: scene.playing)
+    scene.gui.time_scale.value = 4.0
+    wait_until(lambda: scene.sim_time > 5.0, timeout=20.0)
+    computed = scene.chunks_computed
+    scene.gui.reset.value = True
+    wait_until(lambda: scene.sim_time < 1.0)
+    wait_until(lambda: scene.sim_time > 3.0)
+    # parameters unchanged: the replay reads the cached chunks
+    assert scene.chunks_computed <= computed + 1
+    # a slider change drops the cache and restarts
+    scene.gui.sliders["psi_dot0"].value = 20.0
+    wait_until(lambda: scene.model.state0[5] == 20.0)
+    assert scene.sim_time < 2.0
+
+
+def test_torque_sliders_use_the_numerical_path(gyro):
+    app, scene = gyro
+    scene.gui.sliders["m_psi"].value = 1.0
+    wait_until(lambda: scene.model.torques[2] == 1.0 and scene.sim_time > 1.0)
+    traj = scene._chunks[0]
+    assert traj.method == "numerical"
+    # M_psi spins the rotor up: psi_dot grows at M_psi / I3 (Eq. 8.16, d1' = M_psi)
+    assert scene.rates[2] > scene.model.state0[5]
