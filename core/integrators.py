@@ -11,6 +11,9 @@ Every method integrates a *model*: any object with
     watched), vectorized over leading axes: ``(..., m) -> (..., k)`` or
     ``(...,)``. Their drift is reported for each run and a blow-up stops
     the run with :class:`DivergenceError`.
+``conserves_invariants : bool`` (optional, default True)
+    False when the invariants are only watched (e.g. a body under applied
+    loads): their drift is still reported but does not stop the run.
 ``split_flows``, ``to_split_state(state)``, ``from_split_state(z)`` (optional)
     For the splitting methods only: a tuple of exact flows
     ``flow(z, h) -> z`` of the pieces of a split Hamiltonian, acting on an
@@ -422,7 +425,7 @@ def integrate(
     if not max_drift > 0:
         raise ValueError(f"max_drift: expected > 0, got {max_drift!r}")
     inv0 = None
-    if getattr(model, "invariants", None) is not None:
+    if getattr(model, "invariants", None) is not None and getattr(model, "conserves_invariants", True):
         inv0 = {k: np.asarray(v, dtype=float).reshape(-1) for k, v in model.invariants(y0[None, :]).items()}
 
     if method in FIXED_STEP_METHODS:

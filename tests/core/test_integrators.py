@@ -217,3 +217,20 @@ def test_state_and_span_errors():
 def test_splitting_needs_split_model():
     with pytest.raises(ValueError, match=r"method 'splitting4' needs a model with split_flows.*got Forced"):
         itg.integrate(Forced(), np.zeros(1), (0.0, 1.0), method="splitting4", dt=0.1)
+
+
+def test_watched_invariants_do_not_stop_a_run():
+    # y' = y grows e-fold per unit time; its "size" invariant is only watched
+    # (conserves_invariants = False), so it is reported, not treated as a blow-up.
+    class Growth:
+        state_size = 1
+        conserves_invariants = False
+
+        def rhs(self, t, y):
+            return y
+
+        def invariants(self, ys):
+            return {"size": np.abs(np.asarray(ys)[..., 0])}
+
+    run = itg.integrate(Growth(), np.ones(1), (0.0, 3.0), method="rk4", dt=0.01)
+    assert run.drift.max_rel["size"] == pytest.approx(math.e**3 - 1, rel=1e-8)  # RK4 error ~1e-9

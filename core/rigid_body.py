@@ -1,0 +1,894 @@
+"""Newton-Euler equations of a rigid body in Euler or Rodriguez parameters.
+
+State layouts (flat float64 vectors, as :mod:`core.integrators` expects):
+
+===================== ===== ===================================================
+model                 size  state
+===================== ===== ===================================================
+EulerParameterModel   13    ``r`` (3, global), ``p`` (4, Euler parameters
+                            theta0..theta3, scalar first), ``v`` (3, global),
+                            ``omega_body`` (3, body frame)
+RodriguezModel        12    ``r``, ``gamma`` (3, Rodriguez parameters
+                            ``axis tan(angle / 2)``), ``v``, ``omega_body``
+FreeBodyModel         7     ``p`` (4), ``omega_body`` (3): torque-free rotation
+===================== ===== ===================================================
+
+Equations (``A(p)`` maps body to global, ``r_global = r + A @ u_body``):
+
+- translation ``m r_ddot = F(t, state)`` with ``F`` in the global frame;
+- rotation (Euler's equations in the body frame)
+  ``I omega_body_dot = n_body(t, state) - omega_body x (I omega_body)``;
+- orientation ``p_dot = G_bar(p).T @ omega_body / 2`` (Eqs. 8.53-8.54,
+  problem 6) or ``gamma_dot = (omega_body + gamma x omega_body
+  + gamma (gamma . omega_body)) / 2`` (Eqs. 8.61-8.64, problem 8).
+
+``free_body_exact`` gives the exact torque-free motion for any inertia
+(Jacobi elliptic functions and Carlson's elliptic integrals; Landau &
+Lifshitz, Mechanics, sec. 37; van Zon & Schofield, J. Comput. Phys. 225,
+2007; Celledoni, Fasso, Safstrom & Zanna, SIAM J. Sci. Comput. 30, 2008).
+:class:`FreeBodyModel` also provides the exact flows of a splitting of the
+free-body Hamiltonian for :func:`core.integrators.splitting_step`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.special import ellipj, ellipkm1, elliprf, elliprj
+
+from core.rotations import (
+    euler_parameters_from_matrix,
+    matrix_from_euler_parameters,
+    quaternion_conjugate,
+    quaternion_product,
+)
+
+__all__ = [
+    "EulerParameterModel",
+    "FreeBodyModel",
+    "FreeBodyMotion",
+    "FreeBodySolution",
+    "RigidBody",
+    "RodriguezModel",
+    "RodriguezSingularityError",
+    "angular_momentum_body",
+    "angular_momentum_global",
+    "euler_parameter_norm_error",
+    "euler_parameter_state",
+    "free_body_exact",
+    "free_body_solution",
+    "free_body_state",
+    "kinetic_energy",
+    "principal_axes",
+    "rodriguez_state",
+    "rotational_kinetic_energy",
+]
+
+Vector = Callable[[float, np.ndarray], np.ndarray]
+
+
+class RodriguezSingularityError(ValueError):
+    """Rodriguez parameters reached the singular rotation angle pi."""
+
+    def __init__(self, message: str, *, t: float | None = None):
+        super().__init__(message)
+        self.t = t
+
+
+# ------------------------------------------------------------- validation
+def _inertia(inertia: Any, name: str = "inertia") -> np.ndarray:
+    """Return a symmetric positive-definite (3, 3) tensor from (3,) or (3, 3)."""
+    a = np.asarray(inertia, dtype=float)
+    if a.shape == (3,):
+        a = np.diag(a)
+    if a.shape != (3, 3):
+        raise ValueError(f"{name}: expected principal moments (3,) or a tensor (3, 3), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected finite values, got {a.tolist()}")
+    scale = float(np.max(np.abs(a)))
+    if np.max(np.abs(a - a.T)) > 1e-12 * scale:
+        raise ValueError(f"{name}: expected a symmetric tensor, got {a.tolist()}")
+    a = 0.5 * (a + a.T)
+    w = np.linalg.eigvalsh(a)
+    if not w[0] > 0:
+        raise ValueError(f"{name}: expected positive-definite (all principal moments > 0), got moments {w.tolist()}")
+    return a
+
+
+def _vec(x: Any, name: str, size: int = 3) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    if a.shape != (size,):
+        raise ValueError(f"{name}: expected shape ({size},), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected finite values, got {a.tolist()}")
+    return a
+
+
+def _unit_p(p: Any, name: str = "p0", tol: float = 1e-9) -> np.ndarray:
+    a = _vec(p, name, 4)
+    n = float(np.linalg.norm(a))
+    if abs(n - 1.0) > tol:
+        raise ValueError(f"{name}: expected unit Euler parameters (| |{name}| - 1 | <= {tol:g}), got norm {n!r}")
+    return a / n
+
+
+def _p_from_rotation(A: np.ndarray) -> np.ndarray:
+    """Euler parameters (4,) of one rotation matrix (3, 3) (Eq. 8.50)."""
+    return euler_parameters_from_matrix(A[None])[0]
+
+
+def principal_axes(inertia: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Principal moments (ascending) and axes of an inertia tensor.
+
+    Parameters
+    ----------
+    inertia : (3,) principal moments or (3, 3) symmetric positive-definite
+        tensor in the body frame, kg m^2.
+
+    Returns
+    -------
+    moments : (3,) ascending principal moments.
+    Q_body_principal : (3, 3) rotation (det +1) whose columns are the
+        principal axes in body coordinates: ``inertia = Q diag(moments) Q.T``.
+    """
+    a = _inertia(inertia)
+    moments, Q = np.linalg.eigh(a)
+    if np.linalg.det(Q) < 0:
+        Q[:, 2] = -Q[:, 2]
+    return moments, Q
+
+
+# ------------------------------------------------------------- invariants
+def rotational_kinetic_energy(inertia: Any, omega_body: Any) -> np.ndarray:
+    """``T = omega_body . (I omega_body) / 2``; omega_body (..., 3) body frame -> (...)."""
+    J = _inertia(inertia)
+    w = np.asarray(omega_body, dtype=float)
+    return 0.5 * np.einsum("...i,ij,...j->...", w, J, w)
+
+
+def angular_momentum_body(inertia: Any, omega_body: Any) -> np.ndarray:
+    """Angular momentum about the center of mass in the body frame, ``I omega_body``: (..., 3)."""
+    return np.einsum("ij,...j->...i", _inertia(inertia), np.asarray(omega_body, dtype=float))
+
+
+def angular_momentum_global(inertia: Any, omega_body: Any, p: Any) -> np.ndarray:
+    """Angular momentum in the global frame, ``A(p) I omega_body`` (Eq. 8.48 for A): (..., 3).
+
+    ``p`` (..., 4) are Euler parameters, scalar first; they are used as
+    given (not renormalized), so a drift of ``|p|`` shows up here too.
+    """
+    return np.einsum("...ij,...j->...i", _matrix_unnormalized(np.asarray(p, dtype=float)),
+                     angular_momentum_body(inertia, omega_body))
+
+
+def euler_parameter_norm_error(p: Any) -> np.ndarray:
+    """``|p| - 1`` for Euler parameters p (..., 4) -> (...)."""
+    return np.linalg.norm(np.asarray(p, dtype=float), axis=-1) - 1.0
+
+
+def kinetic_energy(mass: float, inertia: Any, v: Any, omega_body: Any) -> np.ndarray:
+    """Total kinetic energy ``m |v|^2 / 2 + omega_body . I omega_body / 2``: (...)."""
+    v = np.asarray(v, dtype=float)
+    return 0.5 * mass * np.einsum("...i,...i->...", v, v) + rotational_kinetic_energy(inertia, omega_body)
+
+
+def _matrix_unnormalized(p: np.ndarray) -> np.ndarray:
+    """A(p) of Eq. 8.48 evaluated as written (no normalization), batched."""
+    w, x, y, z = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    A = np.empty(p.shape[:-1] + (3, 3))
+    A[..., 0, 0] = w * w + x * x - y * y - z * z
+    A[..., 0, 1] = 2.0 * (x * y - z * w)
+    A[..., 0, 2] = 2.0 * (x * z + y * w)
+    A[..., 1, 0] = 2.0 * (x * y + z * w)
+    A[..., 1, 1] = w * w - x * x + y * y - z * z
+    A[..., 1, 2] = 2.0 * (y * z - x * w)
+    A[..., 2, 0] = 2.0 * (x * z - y * w)
+    A[..., 2, 1] = 2.0 * (y * z + x * w)
+    A[..., 2, 2] = w * w - x * x - y * y + z * z
+    return A
+
+
+def _G_bar(p: np.ndarray) -> np.ndarray:
+    """G_bar(p) = [-theta, -skew(theta) + theta0 I] (Eq. 8.53), (..., 3, 4), no validation."""
+    w, x, y, z = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    G = np.empty(p.shape[:-1] + (3, 4))
+    G[..., 0, :] = np.stack([-x, w, z, -y], axis=-1)
+    G[..., 1, :] = np.stack([-y, -z, w, x], axis=-1)
+    G[..., 2, :] = np.stack([-z, y, -x, w], axis=-1)
+    return G
+
+
+# ------------------------------------------------------------- the body
+@dataclass(frozen=True)
+class RigidBody:
+    """Mass properties and applied loads of one rigid body.
+
+    Attributes
+    ----------
+    mass : float, kg (> 0).
+    inertia : (3, 3) inertia tensor about the center of mass in the body
+        frame, kg m^2 (a (3,) input is taken as principal moments).
+    force : callable ``(t, state) -> (3,)`` applied force at the center of
+        mass in the global frame, N; ``None`` for no force.
+    torque_body : callable ``(t, state) -> (3,)`` applied moment about the
+        center of mass in the body frame (n-bar), N m; ``None`` for none.
+
+    ``state`` passed to the loads is the model's flat state vector.
+    """
+
+    mass: float
+    inertia: np.ndarray = field(repr=False)
+    force: Vector | None = None
+    torque_body: Vector | None = None
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.mass, (int, float)) and math.isfinite(self.mass) and self.mass > 0):
+            raise ValueError(f"mass: expected a finite number > 0, got {self.mass!r}")
+        J = _inertia(self.inertia)
+        J.setflags(write=False)
+        object.__setattr__(self, "inertia", J)
+        object.__setattr__(self, "_inertia_inv", np.linalg.inv(J))
+
+
+def euler_parameter_state(r: Any, p: Any, v: Any, omega_body: Any) -> np.ndarray:
+    """Pack the (13,) state of :class:`EulerParameterModel` (p must be unit)."""
+    return np.concatenate([_vec(r, "r"), _unit_p(p, "p", 1e-6), _vec(v, "v"), _vec(omega_body, "omega_body")])
+
+
+def rodriguez_state(r: Any, gamma: Any, v: Any, omega_body: Any) -> np.ndarray:
+    """Pack the (12,) state of :class:`RodriguezModel`."""
+    return np.concatenate([_vec(r, "r"), _vec(gamma, "gamma"), _vec(v, "v"), _vec(omega_body, "omega_body")])
+
+
+def _loads(body: RigidBody, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    F = np.zeros(3) if body.force is None else np.asarray(body.force(t, y), dtype=float)
+    n = np.zeros(3) if body.torque_body is None else np.asarray(body.torque_body(t, y), dtype=float)
+    return F, n
+
+
+def _euler_equations(body: RigidBody, omega_body: np.ndarray, n_body: np.ndarray) -> np.ndarray:
+    """omega_body_dot = I^-1 (n_body - omega_body x I omega_body) (Euler's equations)."""
+    L = body.inertia @ omega_body
+    return body._inertia_inv @ (n_body - np.cross(omega_body, L))  # type: ignore[attr-defined]
+
+
+@dataclass(frozen=True)
+class EulerParameterModel:
+    """Newton-Euler equations with orientation in Euler parameters (problem 6).
+
+    State (13,): ``r`` (0:3, global), ``p`` (3:7, theta0..theta3 scalar
+    first), ``v`` (7:10, global), ``omega_body`` (10:13, body frame).
+
+    .. math::
+
+        \\dot r = v, \\quad \\dot p = \\tfrac12 \\bar G(p)^T \\bar\\omega,
+        \\quad m \\dot v = F, \\quad
+        \\bar I \\dot{\\bar\\omega} = \\bar n - \\bar\\omega \\times \\bar I \\bar\\omega
+
+    with ``G_bar`` of Eq. 8.53 (``omega_body = 2 G_bar p_dot``, Eq. 8.54;
+    ``G_bar G_bar.T = I`` and ``G_bar p = 0``, Eqs. 8.55-8.56).
+    """
+
+    body: RigidBody
+    state_size: int = 13
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """State derivative (13,) at time ``t``."""
+        y = np.asarray(y, dtype=float)
+        p, v, w = y[3:7], y[7:10], y[10:13]
+        F, n = _loads(self.body, t, y)
+        out = np.empty(13)
+        out[0:3] = v
+        out[3:7] = 0.5 * _G_bar(p).T @ w
+        out[7:10] = F / self.body.mass
+        out[10:13] = _euler_equations(self.body, w, n)
+        return out
+
+    @property
+    def conserves_invariants(self) -> bool:
+        """True without applied loads (then every invariant is conserved)."""
+        return self.body.force is None and self.body.torque_body is None
+
+    def invariants(self, states: np.ndarray) -> dict[str, np.ndarray]:
+        """Kinetic energy, linear and angular momentum (global), ``|L|`` (body) and ``|p|``.
+
+        ``states`` (..., 13). Without loads, all are conserved.
+        """
+        s = np.asarray(states, dtype=float)
+        p, v, w = s[..., 3:7], s[..., 7:10], s[..., 10:13]
+        J = self.body.inertia
+        L_body = angular_momentum_body(J, w)
+        return {
+            "kinetic_energy": kinetic_energy(self.body.mass, J, v, w),
+            "linear_momentum": self.body.mass * v,
+            "angular_momentum_global": np.einsum("...ij,...j->...i", _matrix_unnormalized(p), L_body),
+            "angular_momentum_body_norm": np.linalg.norm(L_body, axis=-1),
+            "p_norm": np.linalg.norm(p, axis=-1),
+        }
+
+
+@dataclass(frozen=True)
+class RodriguezModel:
+    """Newton-Euler equations with orientation in Rodriguez parameters (problem 8).
+
+    State (12,): ``r`` (0:3), ``gamma`` (3:6) = axis tan(angle / 2)
+    (Eq. 8.58), ``v`` (6:9), ``omega_body`` (9:12, body frame).
+
+    ``gamma_dot = (omega_body + gamma x omega_body + gamma (gamma . omega_body)) / 2``
+    (Eqs. 8.61-8.64). The parameters are infinite at rotation angle pi; the
+    right-hand side raises :class:`RodriguezSingularityError` once
+    ``|gamma| > gamma_max`` (angle within ``2 / gamma_max`` rad of pi).
+    Re-parameterize (e.g. integrate in Euler parameters) for such motions.
+    """
+
+    body: RigidBody
+    gamma_max: float = 1e3
+    state_size: int = 12
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.gamma_max) and self.gamma_max > 0):
+            raise ValueError(f"gamma_max: expected a finite number > 0, got {self.gamma_max!r}")
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """State derivative (12,) at time ``t``."""
+        y = np.asarray(y, dtype=float)
+        g, v, w = y[3:6], y[6:9], y[9:12]
+        gn = float(np.linalg.norm(g))
+        if not gn <= self.gamma_max:
+            angle = 2.0 * math.atan(gn) if math.isfinite(gn) else math.pi
+            raise RodriguezSingularityError(
+                f"Rodriguez parameters near the singular angle pi at t={t:.6g}: |gamma| = {gn:.3e} > "
+                f"gamma_max={self.gamma_max:g} (rotation angle {angle:.9f} rad); use Euler parameters",
+                t=t,
+            )
+        F, n = _loads(self.body, t, y)
+        out = np.empty(12)
+        out[0:3] = v
+        out[3:6] = 0.5 * (w + np.cross(g, w) + g * float(g @ w))
+        out[6:9] = F / self.body.mass
+        out[9:12] = _euler_equations(self.body, w, n)
+        return out
+
+    @staticmethod
+    def euler_parameters(states: np.ndarray) -> np.ndarray:
+        """Euler parameters (..., 4) of the states' Rodriguez parameters (Eq. 8.59)."""
+        g = np.asarray(states, dtype=float)[..., 3:6]
+        p = np.concatenate([np.ones(g.shape[:-1] + (1,)), g], axis=-1)
+        return p / np.linalg.norm(p, axis=-1, keepdims=True)
+
+    @property
+    def conserves_invariants(self) -> bool:
+        """True without applied loads (then every invariant is conserved)."""
+        return self.body.force is None and self.body.torque_body is None
+
+    def invariants(self, states: np.ndarray) -> dict[str, np.ndarray]:
+        """Kinetic energy and angular momentum (global, and ``|L|`` in the body frame)."""
+        s = np.asarray(states, dtype=float)
+        v, w = s[..., 6:9], s[..., 9:12]
+        J = self.body.inertia
+        L_body = angular_momentum_body(J, w)
+        return {
+            "kinetic_energy": kinetic_energy(self.body.mass, J, v, w),
+            "linear_momentum": self.body.mass * v,
+            "angular_momentum_global": np.einsum(
+                "...ij,...j->...i", _matrix_unnormalized(self.euler_parameters(s)), L_body
+            ),
+            "angular_momentum_body_norm": np.linalg.norm(L_body, axis=-1),
+        }
+
+
+# ------------------------------------------------------------- free body
+def free_body_state(p: Any, omega_body: Any) -> np.ndarray:
+    """Pack the (7,) state ``(p, omega_body)`` of :class:`FreeBodyModel`."""
+    return np.concatenate([_unit_p(p, "p", 1e-6), _vec(omega_body, "omega_body")])
+
+
+def _qmul(a: tuple, b: tuple) -> tuple:
+    a0, a1, a2, a3 = a
+    b0, b1, b2, b3 = b
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
+
+
+class FreeBodyModel:
+    """Torque-free rotation of a rigid body, state (7,) = ``p`` (4), ``omega_body`` (3).
+
+    ``p_dot = G_bar(p).T omega_body / 2`` (Eq. 8.54) and Euler's equations
+    ``I omega_body_dot = (I omega_body) x omega_body``.
+
+    Splitting (for ``core.integrators`` methods ``splitting*``): in the
+    principal frame (moments ``J0 <= J1 <= J2``) the kinetic energy is
+
+    .. math::
+
+        T = \\frac{|L|^2}{2 J_1} + c_0 L_0^2 + c_2 L_2^2, \\qquad
+        c_k = \\frac{1}{2 J_k} - \\frac{1}{2 J_1}.
+
+    ``|L|^2`` is a Casimir: its flow (a rotation of the body about the fixed
+    ``L``) commutes with the other two, so the only splitting error comes
+    from the two planar rotations generated by ``c_0 L_0^2`` and
+    ``c_2 L_2^2``; taking the intermediate moment as reference minimises
+    ``|c_0 c_2|``. Every flow is an exact rotation of ``(p, L_body)``:
+    ``|p|`` stays 1 to round-off and ``|L|`` is conserved exactly.
+    The internal split state is ``(p_principal (4), L_principal (3))`` as a
+    tuple of floats.
+    """
+
+    state_size = 7
+
+    def __init__(self, inertia: Any):
+        self.inertia = _inertia(inertia)
+        self.inertia.setflags(write=False)
+        self._inv = np.linalg.inv(self.inertia)
+        J, Q = principal_axes(self.inertia)
+        self.moments = J
+        self._Q = Q
+        self._q_Q = tuple(_p_from_rotation(Q).tolist())
+        self._q_Q_conj = (self._q_Q[0], -self._q_Q[1], -self._q_Q[2], -self._q_Q[3])
+        self._c0 = 0.5 / J[0] - 0.5 / J[1]
+        self._c2 = 0.5 / J[2] - 0.5 / J[1]
+        self._J = tuple(J.tolist())
+        self.split_flows = (self._flow_axis0, self._flow_axis2_and_casimir)
+
+    def __repr__(self) -> str:
+        return f"FreeBodyModel(moments={self.moments.tolist()})"
+
+    # -- equations
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """State derivative (7,)."""
+        p0, p1, p2, p3, w1, w2, w3 = np.asarray(y, dtype=float).tolist()
+        I = self.inertia
+        L = I @ np.array((w1, w2, w3))
+        l1, l2, l3 = L.tolist()
+        # torque-free Euler equations: I w_dot = L x w
+        wd = self._inv @ np.array((l2 * w3 - l3 * w2, l3 * w1 - l1 * w3, l1 * w2 - l2 * w1))
+        return np.array(
+            (
+                0.5 * (-p1 * w1 - p2 * w2 - p3 * w3),
+                0.5 * (p0 * w1 + p2 * w3 - p3 * w2),
+                0.5 * (p0 * w2 + p3 * w1 - p1 * w3),
+                0.5 * (p0 * w3 + p1 * w2 - p2 * w1),
+                *wd.tolist(),
+            )
+        )
+
+    def invariants(self, states: np.ndarray) -> dict[str, np.ndarray]:
+        """``energy`` (...), ``angular_momentum_global`` (..., 3), ``p_norm`` (...)."""
+        s = np.asarray(states, dtype=float)
+        p, w = s[..., :4], s[..., 4:]
+        return {
+            "energy": rotational_kinetic_energy(self.inertia, w),
+            "angular_momentum_global": angular_momentum_global(self.inertia, w, p),
+            "p_norm": np.linalg.norm(p, axis=-1),
+        }
+
+    def exact(self, state0: np.ndarray, t: Any) -> np.ndarray:
+        """Exact states (..., 7) at times ``t`` (...) from ``state0`` at t = 0."""
+        s = np.asarray(state0, dtype=float)
+        m = free_body_exact(self.inertia, s[4:], s[:4], t)
+        return np.concatenate([m.p, m.omega_body], axis=-1)
+
+    # -- splitting
+    def to_split_state(self, y: np.ndarray) -> tuple:
+        """(p, omega_body) -> (p_principal, L_principal) as a 7-tuple of floats."""
+        y = np.asarray(y, dtype=float)
+        p_pr = _qmul(tuple(y[:4].tolist()), self._q_Q)
+        L_pr = (self._Q.T @ (self.inertia @ y[4:])).tolist()
+        return (*p_pr, *L_pr)
+
+    def from_split_state(self, z: tuple) -> np.ndarray:
+        """Inverse of :meth:`to_split_state`: a (7,) state vector."""
+        p = _qmul(tuple(z[:4]), self._q_Q_conj)
+        J = self._J
+        w_pr = np.array((z[4] / J[0], z[5] / J[1], z[6] / J[2]))
+        return np.array((*p, *(self._Q @ w_pr).tolist()))
+
+    def _flow_axis0(self, z: tuple, h: float) -> tuple:
+        """Exact flow of ``c0 L0^2``: rotation about principal axis 0 by ``2 c0 L0 h``."""
+        q0, q1, q2, q3, L0, L1, L2 = z
+        phi = 2.0 * self._c0 * L0 * h
+        c, s = math.cos(phi), math.sin(phi)
+        ch, sh = math.cos(0.5 * phi), math.sin(0.5 * phi)
+        return (
+            q0 * ch - q1 * sh,
+            q0 * sh + q1 * ch,
+            q2 * ch + q3 * sh,
+            q3 * ch - q2 * sh,
+            L0,
+            c * L1 + s * L2,
+            c * L2 - s * L1,
+        )
+
+    def _flow_axis2_and_casimir(self, z: tuple, h: float) -> tuple:
+        """Exact flow of ``c2 L2^2 + |L|^2 / (2 J1)`` (the two commute)."""
+        q0, q1, q2, q3, L0, L1, L2 = z
+        phi = 2.0 * self._c2 * L2 * h
+        c, s = math.cos(phi), math.sin(phi)
+        ch, sh = math.cos(0.5 * phi), math.sin(0.5 * phi)
+        q0, q1, q2, q3 = (q0 * ch - q3 * sh, q1 * ch + q2 * sh, q2 * ch - q1 * sh, q0 * sh + q3 * ch)
+        L0, L1 = c * L0 + s * L1, c * L1 - s * L0
+        # Casimir flow: rotation about the (constant) body vector L by |L| h / J1.
+        Ln = math.sqrt(L0 * L0 + L1 * L1 + L2 * L2)
+        if Ln > 0.0:
+            half = 0.5 * Ln * h / self._J[1]
+            k = math.sin(half) / Ln
+            r0, r1, r2, r3 = math.cos(half), k * L0, k * L1, k * L2
+            q0, q1, q2, q3 = (
+                q0 * r0 - q1 * r1 - q2 * r2 - q3 * r3,
+                q0 * r1 + q1 * r0 + q2 * r3 - q3 * r2,
+                q0 * r2 - q1 * r3 + q2 * r0 + q3 * r1,
+                q0 * r3 + q1 * r2 - q2 * r1 + q3 * r0,
+            )
+        return (q0, q1, q2, q3, L0, L1, L2)
+
+
+# ------------------------------------------------------------- exact solution
+@dataclass(frozen=True)
+class FreeBodyMotion:
+    """Exact torque-free motion at given times.
+
+    Attributes
+    ----------
+    t : (...) times, s.
+    p : (..., 4) Euler parameters (theta0..theta3, scalar first) of the body,
+        continuous in t and equal to ``p0`` at t = 0.
+    omega_body : (..., 3) angular velocity in the body frame, rad/s.
+    """
+
+    t: np.ndarray  # (...)
+    p: np.ndarray  # (..., 4)
+    omega_body: np.ndarray  # (..., 3)
+
+
+def _qmul_arr(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Quaternion product of broadcastable (..., 4) arrays, no validation."""
+    a0, a1, a2, a3 = np.moveaxis(a, -1, 0)
+    b0, b1, b2, b3 = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+        ],
+        axis=-1,
+    )
+
+
+def _q_rotvec(theta: np.ndarray) -> np.ndarray:
+    """Euler parameters of rotation vectors theta (..., 3)."""
+    ang = np.linalg.norm(theta, axis=-1)
+    half = 0.5 * ang
+    k = np.where(ang > 0, np.sin(half) / np.where(ang > 0, ang, 1.0), 0.5)
+    return np.concatenate([np.cos(half)[..., None], k[..., None] * theta], axis=-1)
+
+
+def _q_axis(axis: int, angle: np.ndarray) -> np.ndarray:
+    q = np.zeros(np.shape(angle) + (4,))
+    q[..., 0] = np.cos(0.5 * angle)
+    q[..., 1 + axis] = np.sin(0.5 * angle)
+    return q
+
+
+def _ellipj_accurate(u: np.ndarray, m: float, mc: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """sn, cn, dn for |u| <= K(m) using the complementary parameter mc = 1 - m.
+
+    scipy's ``ellipj`` switches to a first-order expansion in ``1 - m`` when
+    ``m >= 1 - 1e-9``, which is inaccurate for ``u`` near K; there we run
+    the arithmetic-geometric mean recursion (Abramowitz & Stegun 16.4)
+    with ``b0 = sqrt(mc)`` instead.
+    """
+    if mc >= 1e-9:
+        sn, cn, dn, _ = ellipj(u, m)
+        return sn, cn, dn
+    a, b = 1.0, math.sqrt(mc)
+    cs, as_ = [], []
+    for _ in range(40):
+        c = 0.5 * (a - b)
+        a, b = 0.5 * (a + b), math.sqrt(a * b)
+        cs.append(c)
+        as_.append(a)
+        if abs(c) <= 1e-17 * a:
+            break
+    phi = (2.0 ** len(cs)) * as_[-1] * u
+    for c, a in zip(reversed(cs), reversed(as_), strict=True):
+        phi = 0.5 * (phi + np.arcsin(np.clip(c / a * np.sin(phi), -1.0, 1.0)))
+    sn, cn = np.sin(phi), np.cos(phi)
+    # dn^2 = 1 - m sn^2 = cn^2 + mc sn^2, without cancellation near u = K
+    return sn, cn, np.sqrt(cn * cn + mc * sn * sn)
+
+
+def _carlson_pi(sn: np.ndarray, cn: np.ndarray, dn: np.ndarray, n: float) -> np.ndarray:
+    """Pi(n; phi | m) for |phi| <= pi/2 from sin, cos and sqrt(1 - m sin^2) of phi (Carlson)."""
+    c2, d2 = cn * cn, dn * dn
+    return sn * elliprf(c2, d2, 1.0) + (n / 3.0) * sn**3 * elliprj(c2, d2, 1.0, 1.0 - n * sn * sn)
+
+
+def _pi_reduced(
+    r: np.ndarray, sn: np.ndarray, cn: np.ndarray, dn: np.ndarray, n: float, m: float, mc: float, K: float, Pi: float
+) -> np.ndarray:
+    """``int_0^r du / (1 - n sn^2 u)`` for |r| <= K (= Pi(n; am r | m)).
+
+    Near |r| = K both Carlson terms grow like log(1 / mc) and cancel; there
+    the integral is taken from the other end, ``u = K - v`` with
+    ``sn(K - v) = cd(v)``, which gives
+    ``Pi - (m/n' v + (1 - m/n') Pi(n'; am v)) / (1 - n)``,
+    ``n' = (m - n) / (1 - n)``.
+    """
+    out = _carlson_pi(sn, cn, dn, n)
+    far = np.abs(r) > 0.5 * K
+    if np.any(far):
+        rf = r[far]
+        v = K - np.abs(rf)
+        snv, cnv, dnv = _ellipj_accurate(v, m, mc)
+        n2 = (m - n) / (1.0 - n)
+        tail = ((m / n2) * v + (1.0 - m / n2) * _carlson_pi(snv, np.maximum(cnv, 0.0), dnv, n2)) / (1.0 - n)
+        out[far] = np.sign(rf) * (Pi - tail)
+    return out
+
+
+@dataclass(frozen=True)
+class FreeBodySolution:
+    """Constants of one exact torque-free motion; evaluate with :meth:`at`.
+
+    Build with :func:`free_body_solution`. ``kind`` is one of ``"rest"``,
+    ``"steady"`` (rotation about a principal axis, or a spherical body),
+    ``"symmetric"`` (two equal moments: regular precession),
+    ``"asymmetric"`` (Jacobi elliptic functions) or ``"separatrix"``
+    (``|L|^2 = 2 E J_intermediate`` exactly: hyperbolic functions).
+    ``period`` is the period of ``omega_body`` (``inf`` on the separatrix,
+    0 when constant).
+    """
+
+    kind: str
+    period: float
+    inertia: np.ndarray = field(repr=False)
+    p0: np.ndarray = field(repr=False)
+    omega_body0: np.ndarray = field(repr=False)
+    _c: dict = field(repr=False, compare=False)
+
+    def at(self, t: Any) -> FreeBodyMotion:
+        """Exact motion at times ``t`` (any shape, s): see :class:`FreeBodyMotion`."""
+        t = np.asarray(t, dtype=float)
+        if not np.all(np.isfinite(t)):
+            raise ValueError(f"t: expected finite times, got {t.ravel()[~np.isfinite(t.ravel())][:3].tolist()}")
+        shape = t.shape
+        tt = t.ravel()
+        c = self._c
+        if self.kind == "rest":
+            p = np.broadcast_to(self.p0, tt.shape + (4,)).copy()
+            w = np.zeros(tt.shape + (3,))
+        elif self.kind == "steady":
+            p = _qmul_arr(self.p0, _q_rotvec(tt[:, None] * self.omega_body0))
+            w = np.broadcast_to(self.omega_body0, tt.shape + (3,)).copy()
+        elif self.kind == "symmetric":
+            p, w = self._symmetric(tt)
+        else:
+            p, w = self._elliptic(tt)
+        return FreeBodyMotion(t, p.reshape(shape + (4,)), w.reshape(shape + (3,)))
+
+    # -- two equal moments: regular precession
+    def _symmetric(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        c = self._c
+        s, Je, Js, L_pr = c["axis"], c["J_equal"], c["J_axis"], c["L_pr"]
+        # T = |L|^2 / (2 Je) + (1/(2 Js) - 1/(2 Je)) L_s^2: two commuting exact flows.
+        cas = _q_rotvec(t[:, None] * (L_pr / Je))
+        phi = (1.0 / Js - 1.0 / Je) * L_pr[s] * t
+        p_pr = _qmul_arr(_qmul_arr(c["p_pr0"], cas), _q_axis(s, phi))
+        i, j = (s + 1) % 3, (s + 2) % 3
+        cph, sph = np.cos(phi), np.sin(phi)
+        L = np.empty(t.shape + (3,))
+        L[:, s] = L_pr[s]
+        L[:, i] = cph * L_pr[i] + sph * L_pr[j]
+        L[:, j] = cph * L_pr[j] - sph * L_pr[i]
+        w_pr = L / c["J_pr"]
+        return _qmul_arr(p_pr, c["q_Q_conj"]), w_pr @ c["Q"].T
+
+    # -- asymmetric: Jacobi elliptic functions
+    def _elliptic(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        c = self._c
+        J1, J2, J3 = c["J"]
+        u = c["lam"] * t + c["u0"]
+        n = c["n"]
+        if self.kind == "separatrix":
+            sn, cn = np.tanh(u), 1.0 / np.cosh(u)
+            dn = cn
+            a = -n
+            sa = math.sqrt(a)
+            integral = (u + sa * np.arctan(sa * sn)) / (1.0 + a)
+            am_turns = np.zeros_like(u)
+        else:
+            K, m, mc = c["K"], c["m"], c["mc"]
+            j = np.floor((u + K) / (2.0 * K))
+            r = u - 2.0 * K * j
+            sn, cn, dn = _ellipj_accurate(r, m, mc)
+            cn = np.maximum(cn, 0.0)
+            integral = 2.0 * j * c["Pi"] + _pi_reduced(r, sn, cn, dn, n, m, mc, K, c["Pi"])
+            am_turns = j
+        s1, s2, s3 = c["signs"]
+        # omega with sn, cn, dn of the reduced argument r; cn(u) = (-1)^j cn(r),
+        # sn(u) = (-1)^j sn(r), dn(u) = dn(r).
+        w = np.stack([s1 * c["W"][0] * cn, s2 * c["W"][1] * sn, s3 * c["W"][2] * dn], axis=-1)
+        L1, L2, L3 = J1 * w[:, 0], J2 * w[:, 1], J3 * w[:, 2]
+        flip = 1.0 - 2.0 * np.mod(am_turns, 2.0)
+        w[:, :2] *= flip[:, None]
+        Lm = c["L"]
+        # precession about L (Landau & Lifshitz 37.15 integrated in closed form)
+        phi = (Lm / J3) * t + c["prec"] * (integral - c["I0"])
+        theta = np.arctan2(np.hypot(L1, L2), L3)
+        # psi = atan2(L1, L2) made continuous across half periods of am
+        psi = np.arctan2(L1, L2) - s1 * s2 * math.pi * am_turns
+        r_q = _zxz_quaternion(phi, theta, psi)
+        p = _qmul_arr(_qmul_arr(c["left"], r_q), c["q_can_conj"])
+        return p, w @ c["QP"].T
+
+
+def _zxz_quaternion(phi: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> np.ndarray:
+    """Euler parameters of intrinsic ZXZ angles, Rz(phi) Rx(theta) Rz(psi)."""
+    ch, sh = np.cos(0.5 * theta), np.sin(0.5 * theta)
+    sp, dp = 0.5 * (phi + psi), 0.5 * (phi - psi)
+    return np.stack([ch * np.cos(sp), sh * np.cos(dp), sh * np.sin(dp), ch * np.sin(sp)], axis=-1)
+
+
+def free_body_solution(
+    inertia: Any, omega_body0: Any, p0: Any, *, equal_tol: float = 1e-12
+) -> FreeBodySolution:
+    """Precompute the exact torque-free motion from ``(omega_body0, p0)`` at t = 0.
+
+    Parameters
+    ----------
+    inertia : (3,) principal moments or (3, 3) symmetric positive-definite
+        tensor in the body frame (diagonalized here; results are rotated
+        back to the body frame).
+    omega_body0 : (3,) initial angular velocity in the body frame, rad/s.
+    p0 : (4,) initial unit Euler parameters (scalar first), body to global.
+    equal_tol : principal moments closer than ``equal_tol * max moment`` are
+        treated as equal (closed-form regular precession).
+
+    Returns
+    -------
+    FreeBodySolution
+        ``.at(t)`` evaluates the motion; see :func:`free_body_exact`.
+    """
+    J_body = _inertia(inertia)
+    w0 = _vec(omega_body0, "omega_body0")
+    p0 = _unit_p(p0, "p0")
+    J_body.setflags(write=False)
+    w0.setflags(write=False)
+    p0.setflags(write=False)
+    Jsorted, Q = principal_axes(J_body)
+    scale = float(Jsorted[2])
+    eq01 = Jsorted[1] - Jsorted[0] <= equal_tol * scale
+    eq12 = Jsorted[2] - Jsorted[1] <= equal_tol * scale
+    w_pr = Q.T @ w0
+    wn = float(np.linalg.norm(w0))
+    c: dict[str, Any] = {}
+
+    def done(kind: str, period: float) -> FreeBodySolution:
+        return FreeBodySolution(kind, period, J_body, p0, w0, c)
+
+    if wn == 0.0:
+        return done("rest", 0.0)
+    nonzero = np.count_nonzero(w_pr)
+    if (eq01 and eq12) or nonzero <= 1:
+        return done("steady", 0.0)
+    q_Q = _p_from_rotation(Q)
+    if eq01 or eq12:
+        s = 2 if eq01 else 0
+        Je = float(0.5 * (Jsorted[0] + Jsorted[1])) if eq01 else float(0.5 * (Jsorted[1] + Jsorted[2]))
+        J_pr = np.array([Je, Je, Jsorted[2]]) if eq01 else np.array([Jsorted[0], Je, Je])
+        L_pr = J_pr * w_pr
+        c.update(
+            axis=s, J_equal=Je, J_axis=float(J_pr[s]), J_pr=J_pr, L_pr=L_pr, Q=Q,
+            p_pr0=quaternion_product(p0, q_Q), q_Q_conj=quaternion_conjugate(q_Q),
+        )
+        rate = abs((1.0 / J_pr[s] - 1.0 / Je) * L_pr[s])
+        return done("symmetric", 2.0 * math.pi / rate if rate > 0 else 0.0)
+
+    # Canonical labels (J1, J2, J3) with the polhode circling axis 3:
+    # if |L|^2 < 2 E J2 relabel by the proper rotation (e3, -e2, e1).
+    J = Jsorted
+    D2 = float(np.sum(J * (J - J[1]) * w_pr**2))  # |L|^2 - 2 E J2 without cancellation
+    if D2 >= 0.0:
+        P = np.eye(3)
+    else:
+        P = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
+    QP = Q @ P
+    Jc = P.T @ np.diag(J) @ P
+    J1, J2, J3 = float(Jc[0, 0]), float(Jc[1, 1]), float(Jc[2, 2])
+    w1, w2, w3 = (P.T @ w_pr).tolist()
+    D3 = J1 * (J3 - J1) * w1**2 + J2 * (J3 - J2) * w2**2  # 2 E J3 - |L|^2
+    D1 = J2 * (J2 - J1) * w2**2 + J3 * (J3 - J1) * w3**2  # |L|^2 - 2 E J1
+    W1 = math.sqrt(D3 / (J1 * (J3 - J1)))
+    W2 = math.sqrt(D3 / (J2 * (J3 - J2)))
+    W3 = math.sqrt(D1 / (J3 * (J3 - J1)))
+    lam = math.sqrt((J3 - J2) * D1 / (J1 * J2 * J3))
+    m = (J2 - J1) * D3 / ((J3 - J2) * D1)
+    mc = (J3 - J1) * (J3 * (J3 - J2) * w3**2 - J1 * (J2 - J1) * w1**2) / ((J3 - J2) * D1)
+    m, mc = min(max(m, 0.0), 1.0), min(max(mc, 0.0), 1.0)
+    n = J3 * (J1 - J2) / (J1 * (J3 - J2))  # < 0
+    sigma = 1.0 if J3 > J2 else -1.0
+    s3 = 1.0 if w3 >= 0 else -1.0
+    s2 = 1.0
+    s1 = sigma * s3
+    sn0, cn0 = s2 * w2 / W2, s1 * w1 / W1
+    rho = math.hypot(sn0, cn0)
+    sn0, cn0 = sn0 / rho, cn0 / rho
+    Lm = math.sqrt((J1 * w1) ** 2 + (J2 * w2) ** 2 + (J3 * w3) ** 2)
+    separatrix = mc == 0.0
+    if separatrix:
+        if cn0 == 0.0:  # exactly on the unstable axis: steady rotation
+            return done("steady", 0.0)
+        if cn0 < 0.0:  # the other branch of the separatrix
+            s1, s2, sn0, cn0 = -s1, -s2, -sn0, -cn0
+        u0 = math.asinh(sn0 / cn0)
+        I0 = (u0 + math.sqrt(-n) * math.atan(math.sqrt(-n) * sn0)) / (1.0 - n)
+        K = math.inf
+        Pi = math.inf
+    else:
+        K = float(ellipkm1(mc))
+        # F(phi0 | m) by Carlson's R_F with 1 - m sin^2 = cn^2 + mc sn^2 (accurate near m = 1)
+        f = sn0 * float(elliprf(cn0 * cn0, cn0 * cn0 + mc * sn0 * sn0, 1.0))
+        u0 = f if cn0 >= 0 else math.copysign(2.0 * K, sn0) - f
+        Pi = float(elliprf(0.0, mc, 1.0) + (n / 3.0) * elliprj(0.0, mc, 1.0, 1.0 - n))
+        j0 = math.floor((u0 + K) / (2.0 * K))
+        r0 = u0 - 2.0 * K * j0
+        r0a = np.array([r0])
+        sn_r, cn_r, dn_r = _ellipj_accurate(r0a, m, mc)
+        I0 = 2.0 * j0 * Pi + float(_pi_reduced(r0a, sn_r, np.maximum(cn_r, 0.0), dn_r, n, m, mc, K, Pi)[0])
+    c.update(
+        J=(J1, J2, J3), W=(W1, W2, W3), lam=lam, m=m, mc=mc, n=n, K=K, Pi=Pi, u0=u0, I0=I0,
+        signs=(s1, s2, s3), L=Lm, prec=Lm * (J3 - J1) / (J1 * J3 * lam), QP=QP,
+    )
+    sol = FreeBodySolution("separatrix" if separatrix else "asymmetric",
+                           math.inf if separatrix else 4.0 * K / lam, J_body, p0, w0, c)
+    # Orientation: p(t) = p0 (x) q_can (x) conj(r(0)) (x) r(t) (x) conj(q_can),
+    # with r(t) the canonical body -> invariable-frame rotation (z along L).
+    q_can = _p_from_rotation(QP)
+    c["q_can_conj"] = quaternion_conjugate(q_can)
+    c["left"] = np.array([1.0, 0.0, 0.0, 0.0])
+    r0q = _qmul_arr(sol.at(0.0).p.reshape(4), q_can)  # = r(0) with left = identity
+    c["left"] = _qmul_arr(quaternion_product(p0, q_can), quaternion_conjugate(r0q))
+    return sol
+
+
+def free_body_exact(inertia: Any, omega_body0: Any, p0: Any, t: Any) -> FreeBodyMotion:
+    """Exact torque-free motion of a rigid body with any inertia.
+
+    Parameters
+    ----------
+    inertia : (3,) principal moments or (3, 3) symmetric positive-definite
+        inertia tensor in the body frame, kg m^2.
+    omega_body0 : (3,) angular velocity at t = 0 in the body frame, rad/s.
+    p0 : (4,) unit Euler parameters at t = 0 (theta0..theta3, scalar first;
+        ``A(p0)`` maps body to global).
+    t : (...) times, s (any shape, any sign, any magnitude).
+
+    Returns
+    -------
+    FreeBodyMotion
+        ``p`` (..., 4) and ``omega_body`` (..., 3) at ``t``.
+
+    Notes
+    -----
+    In the principal frame with the polhode circling axis 3 (Landau &
+    Lifshitz 37.10), ``omega = (s1 W1 cn u, s2 W2 sn u, s3 W3 dn u)`` with
+    ``u = lambda t + u0`` (``ellipj``, reduced to ``|u| <= K`` by the
+    half period ``2K``). The body's orientation is ``Rz(phi) Rx(theta)
+    Rz(psi)`` in the frame whose z axis is L, with ``theta, psi`` read from
+    ``L_body`` and the precession ``phi = |L| t / J3 + |L| (J3 - J1) /
+    (J1 J3 lambda) Pi(n; am u | m)``, the incomplete elliptic integral of
+    the third kind evaluated with Carlson's ``elliprf``/``elliprj``
+    (van Zon & Schofield 2007). Two equal moments give regular precession in
+    closed form; the separatrix uses tanh/sech; rotation about a principal
+    axis is uniform. Cost is O(len(t)), vectorized.
+    """
+    return free_body_solution(inertia, omega_body0, p0).at(t)

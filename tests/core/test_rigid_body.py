@@ -1,0 +1,356 @@
+"""Tests of core.rigid_body: Newton-Euler models and the exact free-body motion.
+
+Oracles: a tight DOP853 integration of the equations (independent of the
+elliptic-function solution), conservation laws (energy, angular momentum in
+the global frame, |p|), central finite differences of the exact p(t)
+against the kinematic equation p_dot = G_bar(p).T omega_body / 2 (Eq. 8.54),
+the closed-form motion under a constant force, core.rotations' own G_bar
+and Rodriguez-rate functions, and convergence orders against the exact
+solution.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core import integrators as itg
+from core import rigid_body as rb
+from core.rotations import (
+    euler_parameter_G_bar,
+    euler_parameters_from_rodriguez_parameters,
+    matrix_from_euler_parameters,
+    rodriguez_parameter_rates,
+)
+
+RNG_SEED = 20071
+
+
+def _unit(v):
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def _qdist(p, q):
+    """Distance between Euler parameters up to sign (p and -p are one rotation)."""
+    return np.minimum(np.linalg.norm(p - q, axis=-1), np.linalg.norm(p + q, axis=-1))
+
+
+def _random_rotation(rng):
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return Q * np.sign(np.linalg.det(Q))
+
+
+P0 = _unit([0.9, 0.1, -0.3, 0.2])
+
+
+def _reference(inertia, w0, p0, t):
+    """DOP853 at rtol=1e-13, atol=1e-14 on the 7-state free-body equations."""
+    model = rb.FreeBodyModel(inertia)
+    run = itg.integrate(
+        model, np.concatenate([p0, w0]), (0.0, float(t[-1])), method="DOP853", rtol=1e-13, atol=1e-14, t_eval=t
+    )
+    return run.states
+
+
+# (inertia, omega_body0, tolerance). Tolerance: DOP853 at rtol=1e-13 over
+# t <= 20 accumulates a global error of ~1e-12..1e-11 on these O(1) states;
+# 1e-9 leaves room for that and still catches any wrong sign, phase or
+# period (those give O(1e-3..1) errors). Near the separatrix both solutions
+# are ill-conditioned (errors grow like exp(lambda t) while the body passes
+# the unstable axis), so the tolerance is looser there.
+CASES = {
+    "asymmetric": ([1.0, 2.0, 3.0], [0.8, -0.5, 0.6], 1e-9),
+    "asymmetric_minor_circling": ([1.0, 2.0, 3.0], [1.5, 0.4, 0.2], 1e-9),
+    "separatrix_exact": ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], 1e-9),
+    "separatrix_other_branch": ([3.0, 4.0, 6.0], [-2.0, 0.5, 1.0], 1e-9),
+    "near_separatrix_1e-4": ([1.0, 2.0, 3.0], [1e-4, 1.0, 1e-4], 1e-9),
+    "near_separatrix_1e-8": ([1.0, 2.0, 3.0], [1e-8, 1.0, 1e-8], 1e-7),
+    "symmetric_oblate": ([1.0, 1.0, 1.8], [0.3, 0.5, 2.0], 1e-9),
+    "symmetric_prolate": ([0.5, 2.0, 2.0], [0.3, 0.5, 2.0], 1e-9),
+    "nearly_equal_1e-9": ([1.0, 3.0 - 3e-9, 3.0], [0.3, 0.5, 2.0], 1e-9),
+    "nearly_equal_1e-6": ([1.0, 1.0 + 1e-6, 1.9], [0.3, 0.5, 2.0], 1e-9),
+    "rod_like": ([1.0, 1.001, 1e-3], [0.3, 0.5, 2.0], 1e-9),
+    "spherical": ([2.0, 2.0, 2.0], [0.3, 0.5, 2.0], 1e-9),
+    "steady_intermediate": ([1.0, 2.0, 3.0], [0.0, 1.3, 0.0], 1e-9),
+}
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_exact_matches_dop853(case):
+    J, w0, tol = CASES[case]
+    t = np.linspace(0.0, 20.0, 401)
+    m = rb.free_body_exact(J, w0, P0, t)
+    ref = _reference(J, np.asarray(w0, float), P0, t)
+    assert np.all(np.isfinite(m.p)) and np.all(np.isfinite(m.omega_body))
+    assert _qdist(m.p, ref[:, :4]).max() < tol
+    assert np.abs(m.omega_body - ref[:, 4:]).max() < tol * max(1.0, np.abs(w0).max())
+
+
+def test_exact_with_full_tensor_matches_dop853():
+    # A general (non-diagonal) tensor is diagonalized inside; the result is in
+    # the original body frame. Tolerance as in CASES.
+    rng = np.random.default_rng(RNG_SEED)
+    for _ in range(3):
+        R = _random_rotation(rng)
+        J = R @ np.diag(rng.uniform(1.0, 2.0, 3)) @ R.T
+        w0, p0 = rng.normal(size=3), _unit(rng.normal(size=4))
+        t = np.linspace(0.0, 15.0, 151)
+        m = rb.free_body_exact(J, w0, p0, t)
+        ref = _reference(J, w0, p0, t)
+        assert _qdist(m.p, ref[:, :4]).max() < 1e-9
+        assert np.abs(m.omega_body - ref[:, 4:]).max() < 1e-9
+
+
+def test_exact_conserves_invariants_to_round_off():
+    # Energy, L in the global frame and |p| are evaluated independently of the
+    # solution's construction and must stay at round-off: for t <= 50, 1e-13
+    # relative (a few hundred ulps of sums of O(1) terms); at t ~ 1e4 the
+    # angles (phi +- psi) / 2 ~ 1e4 rad carry ~1e4 eps = 2e-12 absolute error,
+    # which tilts the orientation, so L gets 1e-11 there. Energy and |p| do
+    # not depend on those angles.
+    rng = np.random.default_rng(RNG_SEED + 1)
+    R = _random_rotation(rng)
+    J = R @ np.diag([1.0, 1.7, 2.2]) @ R.T
+    w0 = np.array([0.4, -1.1, 0.7])
+    t = np.concatenate([np.linspace(0, 50, 500), np.linspace(1e4 - 5, 1e4, 50)])
+    m = rb.free_body_exact(J, w0, P0, t)
+    E = rb.rotational_kinetic_energy(J, m.omega_body)
+    L = rb.angular_momentum_global(J, m.omega_body, m.p)
+    assert np.abs(E / E[0] - 1).max() < 1e-13
+    dL = np.linalg.norm(L - L[0], axis=1) / np.linalg.norm(L[0])
+    assert dL[:500].max() < 1e-13 and dL.max() < 1e-11
+    assert np.abs(rb.euler_parameter_norm_error(m.p)).max() < 1e-14
+
+
+def test_exact_satisfies_kinematic_equation():
+    # Central differences of p(t) (h = 1e-4: truncation ~h^2 |p'''| / 6 ~ 1e-9,
+    # round-off ~1e-16 / h = 1e-12) against p_dot = G_bar(p).T omega_body / 2
+    # (Eq. 8.54) with G_bar from core.rotations.
+    J, w0 = [1.0, 2.0, 3.0], [0.8, -0.5, 0.6]
+    sol = rb.free_body_solution(J, w0, P0)
+    t, h = np.linspace(0.0, 30.0, 301), 1e-4
+    m = sol.at(t)
+    p_dot = (sol.at(t + h).p - sol.at(t - h).p) / (2 * h)
+    expected = 0.5 * np.einsum("nij,ni->nj", euler_parameter_G_bar(m.p), m.omega_body)
+    assert np.abs(p_dot - expected).max() < 1e-8
+
+
+def test_initial_values_shapes_and_continuity():
+    sol = rb.free_body_solution([1.0, 2.0, 3.0], [0.8, -0.5, 0.6], P0)
+    m0 = sol.at(0.0)
+    assert m0.p.shape == (4,) and m0.omega_body.shape == (3,)
+    np.testing.assert_allclose(m0.p, P0, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(m0.omega_body, [0.8, -0.5, 0.6], rtol=0, atol=1e-15)
+    m = sol.at(np.zeros((3, 1, 2)))
+    assert m.p.shape == (3, 1, 2, 4) and m.omega_body.shape == (3, 1, 2, 3)
+    # p is continuous in t (no sign flips across half periods): on a grid of
+    # dt = 1e-3 consecutive values differ by ~|p_dot| dt <= 1e-3.
+    t = np.linspace(-40.0, 40.0, 80001)
+    p = sol.at(t).p
+    assert np.linalg.norm(np.diff(p, axis=0), axis=1).max() < 2e-3
+    # omega_body is periodic with the reported period
+    T = sol.period
+    np.testing.assert_allclose(sol.at(t[:100] + 7 * T).omega_body, sol.at(t[:100]).omega_body, rtol=0, atol=1e-12)
+
+
+def test_large_times_reduce_by_the_period():
+    # omega(t + k T) = omega(t) for t ~ 1e6: the argument reduction keeps the
+    # error at ~|lambda t| eps ~ 1e-10 instead of losing the phase.
+    sol = rb.free_body_solution([1.0, 2.0, 3.0], [0.3, 1.0, 0.4], P0)
+    T = sol.period
+    k = np.floor(1e6 / T)
+    t = np.linspace(0.0, T, 17)
+    np.testing.assert_allclose(sol.at(t + k * T).omega_body, sol.at(t).omega_body, rtol=0, atol=1e-9)
+    assert np.all(np.isfinite(sol.at(np.array([1e9, -1e9])).p))
+
+
+@pytest.mark.parametrize(
+    ("J", "w0", "kind"),
+    [
+        ([1.0, 2.0, 3.0], [0.0, 0.0, 0.0], "rest"),
+        ([1.0, 2.0, 3.0], [0.0, 2.0, 0.0], "steady"),  # exactly on the unstable axis
+        ([1.0, 2.0, 3.0], [5.0, 0.0, 0.0], "steady"),
+        ([2.0, 2.0, 2.0], [1.0, 2.0, 3.0], "steady"),
+        ([1.0, 1.0, 2.0], [1.0, 2.0, 3.0], "symmetric"),
+        ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], "separatrix"),
+        ([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], "asymmetric"),
+        ([1e-6, 1.0, 1.0 + 1e-3], [1e3, 1.0, 0.5], "asymmetric"),  # tiny I, huge spin
+    ],
+)
+def test_special_cases_are_finite_and_conservative(J, w0, kind):
+    sol = rb.free_body_solution(J, w0, P0)
+    assert sol.kind == kind
+    m = sol.at(np.linspace(0.0, 100.0, 1001))
+    assert np.all(np.isfinite(m.p)) and np.all(np.isfinite(m.omega_body))
+    E = rb.rotational_kinetic_energy(J, m.omega_body)
+    L = rb.angular_momentum_global(J, m.omega_body, m.p)
+    # Round-off only: the angles reach |omega| t (up to 1e5 rad for the huge
+    # spin) and carry |omega| t eps absolute error, which tilts L; allow
+    # 4 eps (1 + |omega| t) relative.
+    tol = 4 * np.finfo(float).eps * (1.0 + np.linalg.norm(w0) * 100.0)
+    assert np.abs(E - E[0]).max() <= tol * max(E[0], 1e-300)
+    assert np.abs(L - L[0]).max() <= tol * max(np.linalg.norm(L[0]), 1e-300)
+
+
+@pytest.mark.parametrize(("method", "dt"), [("rk4", 0.2), ("midpoint", 0.1), ("splitting", 0.1),
+                                             ("splitting4", 0.2), ("splitting6", 0.5)])
+def test_free_body_convergence_order(method, dt):
+    # Global error at T = 10 against the exact solution; halving the step
+    # divides it by ~2^k (|log2 ratio - k| < 0.25, errors >= 1e-10 >> round-off).
+    model = rb.FreeBodyModel([1.0, 2.0, 3.0])
+    y0 = np.concatenate([P0, [0.8, -0.5, 0.6]])
+    ex = model.exact(y0, 10.0)
+    errs = []
+    for i in range(3):
+        y = itg.integrate(model, y0, (0.0, 10.0), method=method, dt=dt / 2**i, save_every=10**9).states[-1]
+        errs.append(max(float(_qdist(y[:4], ex[:4])), float(np.abs(y[4:] - ex[4:]).max())))
+    k = itg.METHOD_ORDERS[method]
+    rates = [math.log2(errs[i] / errs[i + 1]) for i in range(2)]
+    assert errs[-1] > 1e-10 and all(abs(r - k) < 0.25 for r in rates), (errs, rates)
+
+
+def test_structure_preserving_methods_keep_invariants():
+    # 5000 steps: the splitting's flows are exact rotations, so |p| - 1 and
+    # |L| - |L0| change only by the rounding of the rotations (<= ~1e-17 per
+    # flow, 15000 flows: < 2e-13) with no renormalization, while RK4 at the
+    # same step loses |p| by truncation error (> 1e-10). The splitting's
+    # energy error is bounded (O(dt^2), no drift).
+    # Implicit midpoint conserves the quadratic invariants |p|^2 and E to its
+    # fixed-point tolerance (4e-16 per step -> 1e-13 over 5000 steps).
+    J = np.array([1.0, 2.0, 3.0])
+    model = rb.FreeBodyModel(J)
+    y0 = np.concatenate([P0, [0.8, -0.5, 0.6]])
+    run = itg.integrate(model, y0, (0.0, 500.0), method="splitting", dt=0.1, save_every=10)
+    p, w = run.states[:, :4], run.states[:, 4:]
+    assert np.abs(rb.euler_parameter_norm_error(p)).max() < 2e-13
+    Ln = np.linalg.norm(w * J, axis=1)
+    assert np.abs(Ln / Ln[0] - 1).max() < 2e-13
+    E = rb.rotational_kinetic_energy(J, w)
+    half = len(E) // 2
+    assert np.ptp(E[half:]) < 1.5 * np.ptp(E[:half]) and np.abs(E / E[0] - 1).max() < 1e-2
+    assert run.drift.max_abs["p_norm"] < 2e-13
+    mid = itg.integrate(model, y0, (0.0, 100.0), method="midpoint", dt=0.1, save_every=10)
+    assert mid.drift.max_rel["energy"] < 1e-13 and mid.drift.max_abs["p_norm"] < 1e-13
+    # RK4 at the same step drifts in |p| (no structure): a visible contrast
+    rk = itg.integrate(model, y0, (0.0, 500.0), method="rk4", dt=0.1, save_every=10)
+    assert rk.drift.max_abs["p_norm"] > 1e-10
+
+
+def _loads():
+    def force(t, y):
+        return np.array([0.0, 0.0, -9.81 * 2.0]) + 0.3 * np.array([math.sin(t), 0.0, 0.0])
+
+    def torque_body(t, y):
+        w = y[-3:]
+        return np.array([0.2 * math.cos(2 * t), 0.1, 0.0]) - 0.05 * w
+
+    return force, torque_body
+
+
+def test_euler_and_rodriguez_formulations_agree():
+    # Same body, same time- and state-dependent loads, two orientation
+    # coordinates; DOP853 at rtol=1e-12 leaves ~1e-10 differences.
+    R = _random_rotation(np.random.default_rng(RNG_SEED + 2))
+    force, torque = _loads()
+    body = rb.RigidBody(2.0, R @ np.diag([0.3, 0.5, 0.7]) @ R.T, force=force, torque_body=torque)
+    gamma0 = np.array([0.2, -0.1, 0.3])
+    p0 = euler_parameters_from_rodriguez_parameters(gamma0)
+    r0, v0, w0 = np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.0, 4.0]), np.array([1.0, -0.4, 0.8])
+    t = np.linspace(0.0, 1.5, 16)
+    kw = dict(method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t)
+    ep = itg.integrate(rb.EulerParameterModel(body), rb.euler_parameter_state(r0, p0, v0, w0), (0, 1.5), **kw)
+    rp = itg.integrate(rb.RodriguezModel(body), rb.rodriguez_state(r0, gamma0, v0, w0), (0, 1.5), **kw)
+    np.testing.assert_allclose(rp.states[:, 9:12], ep.states[:, 10:13], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(rp.states[:, 0:3], ep.states[:, 0:3], rtol=0, atol=1e-9)
+    assert _qdist(rb.RodriguezModel.euler_parameters(rp.states), ep.states[:, 3:7]).max() < 1e-9
+    # translation has a closed form: r = r0 + v0 t + (g t^2 / 2) + 0.3/m (t - sin t) e_x
+    r_exact = r0 + np.outer(t, v0) + np.outer(t**2 / 2, [0, 0, -9.81])
+    r_exact[:, 0] += 0.3 / 2.0 * (t - np.sin(t))
+    np.testing.assert_allclose(ep.states[:, 0:3], r_exact, rtol=0, atol=1e-9)
+
+
+def test_torque_free_models_agree_with_exact_solution():
+    J = np.array([0.4, 0.9, 1.2])
+    body = rb.RigidBody(1.0, J)
+    w0 = np.array([0.3, 1.2, -0.5])
+    t = np.linspace(0.0, 10.0, 11)
+    run = itg.integrate(
+        rb.EulerParameterModel(body), rb.euler_parameter_state(np.zeros(3), P0, np.zeros(3), w0), (0.0, 10.0),
+        method="DOP853", rtol=1e-13, atol=1e-14, t_eval=t,
+    )
+    ex = rb.free_body_exact(J, w0, P0, t)
+    assert _qdist(run.states[:, 3:7], ex.p).max() < 1e-10  # DOP853 global error ~1e-12
+    np.testing.assert_allclose(run.states[:, 10:13], ex.omega_body, rtol=0, atol=1e-10)
+    assert run.drift.max_rel["kinetic_energy"] < 1e-11
+
+
+def test_rhs_uses_chapter_matrices():
+    # The models' kinematics equal core.rotations' G_bar (Eq. 8.54) and
+    # Rodriguez rates (Eqs. 8.61-8.64) to round-off.
+    rng = np.random.default_rng(RNG_SEED + 3)
+    body = rb.RigidBody(1.5, [1.0, 2.0, 3.0])
+    for _ in range(20):
+        p, w, g = _unit(rng.normal(size=4)), rng.normal(size=3), rng.normal(size=3)
+        y = rb.euler_parameter_state(np.zeros(3), p, np.zeros(3), w)
+        np.testing.assert_allclose(rb.EulerParameterModel(body).rhs(0.0, y)[3:7],
+                                   0.5 * euler_parameter_G_bar(p).T @ w, rtol=0, atol=1e-15)
+        y = rb.rodriguez_state(np.zeros(3), g, np.zeros(3), w)
+        np.testing.assert_allclose(rb.RodriguezModel(body).rhs(0.0, y)[3:6],
+                                   rodriguez_parameter_rates(g, w), rtol=0, atol=1e-14)
+        y = rb.free_body_state(p, w)
+        np.testing.assert_allclose(rb.FreeBodyModel([1.0, 2.0, 3.0]).rhs(0.0, y)[:4],
+                                   0.5 * euler_parameter_G_bar(p).T @ w, rtol=0, atol=1e-15)
+
+
+def test_invariants_against_definitions():
+    rng = np.random.default_rng(RNG_SEED + 4)
+    R = _random_rotation(rng)
+    J = R @ np.diag([1.0, 2.0, 3.0]) @ R.T
+    p, w = _unit(rng.normal(size=4)), rng.normal(size=3)
+    A = matrix_from_euler_parameters(p)
+    assert rb.rotational_kinetic_energy(J, w) == pytest.approx(0.5 * w @ J @ w, rel=1e-15)
+    np.testing.assert_allclose(rb.angular_momentum_global(J, w, p), A @ J @ w, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(rb.angular_momentum_body(J, w), J @ w, rtol=0, atol=1e-15)
+    batch = rb.angular_momentum_global(J, np.tile(w, (3, 1, 2, 1, 1)), np.tile(p, (3, 1, 2, 1, 1)))
+    assert batch.shape == (3, 1, 2, 1, 3)
+    moments, Q = rb.principal_axes(J)
+    np.testing.assert_allclose(moments, [1.0, 2.0, 3.0], rtol=1e-14)
+    np.testing.assert_allclose(Q @ np.diag(moments) @ Q.T, J, atol=1e-14)
+    assert np.linalg.det(Q) == pytest.approx(1.0)
+
+
+def test_rodriguez_singularity_is_a_clear_error():
+    # Spin about x at 1 rad/s from the identity: the rotation angle reaches pi
+    # at t = pi, where gamma = x tan(angle / 2) is infinite.
+    body = rb.RigidBody(1.0, [1.0, 1.0, 1.0])
+    y0 = rb.rodriguez_state(np.zeros(3), np.zeros(3), np.zeros(3), [1.0, 0.0, 0.0])
+    with pytest.raises(rb.RodriguezSingularityError, match=r"near the singular angle pi at t=3\.1.*use Euler parameters"):
+        itg.integrate(rb.RodriguezModel(body), y0, (0.0, 4.0), method="rk4", dt=1e-3)
+    # the same motion in Euler parameters passes through pi without trouble
+    y0 = rb.euler_parameter_state(np.zeros(3), [1, 0, 0, 0], np.zeros(3), [1.0, 0.0, 0.0])
+    run = itg.integrate(rb.EulerParameterModel(body), y0, (0.0, 4.0), method="rk4", dt=1e-2)
+    np.testing.assert_allclose(run.states[-1, 3:7], [math.cos(2.0), math.sin(2.0), 0, 0], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("call", "match"),
+    [
+        (lambda: rb.free_body_exact([1.0, 2.0], [1, 0, 0], P0, 0.0), r"inertia: expected principal moments \(3,\) or a tensor \(3, 3\), got shape \(2,\)"),
+        (lambda: rb.free_body_exact([[1, 1, 0], [0, 1, 0], [0, 0, 1]], [1, 0, 0], P0, 0.0), r"inertia: expected a symmetric tensor"),
+        (lambda: rb.free_body_exact([1.0, -2.0, 3.0], [1, 0, 0], P0, 0.0), r"inertia: expected positive-definite .* got moments"),
+        (lambda: rb.free_body_exact([1.0, np.nan, 3.0], [1, 0, 0], P0, 0.0), r"inertia: expected finite values"),
+        (lambda: rb.free_body_exact([1.0, 2.0, 3.0], [1, 0], P0, 0.0), r"omega_body0: expected shape \(3,\), got \(2,\)"),
+        (lambda: rb.free_body_exact([1.0, 2.0, 3.0], [1, 0, 0], [1, 1, 0, 0], 0.0), r"p0: expected unit Euler parameters .* got norm 1.414"),
+        (lambda: rb.free_body_exact([1.0, 2.0, 3.0], [1, 0, 0], P0, [0.0, np.inf]), r"t: expected finite times, got \[inf\]"),
+        (lambda: rb.RigidBody(0.0, [1.0, 1.0, 1.0]), r"mass: expected a finite number > 0, got 0.0"),
+        (lambda: rb.RodriguezModel(rb.RigidBody(1.0, [1, 1, 1]), gamma_max=-1.0), r"gamma_max: expected a finite number > 0, got -1.0"),
+        (lambda: rb.euler_parameter_state([0, 0], P0, [0, 0, 0], [0, 0, 0]), r"r: expected shape \(3,\), got \(2,\)"),
+        (lambda: rb.free_body_state([2, 0, 0, 0], [0, 0, 0]), r"p: expected unit Euler parameters"),
+    ],
+)
+def test_validation_messages(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
