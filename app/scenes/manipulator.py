@@ -305,8 +305,21 @@ class ManipulatorScene(Scene):
 
     # -- GUI callbacks: record only ----------------------------------------------
     def _on_joint(self, k: int, value: Any) -> None:
+        try:
+            deg = float(value)
+        except (TypeError, ValueError):
+            deg = math.nan
+        if not math.isfinite(deg):
+            # Only a crafted client can send this (the slider cannot): keep the
+            # previous angle, say so, and never let NaN reach the core or viser.
+            self.notify(
+                "Invalid joint angle",
+                f"θ{k + 1} must be a finite number of degrees, got {value!r}; kept the previous value.",
+                "warning",
+            )
+            return
         with self.lock:
-            self._joint_deg[k] = float(value)
+            self._joint_deg[k] = deg
             self._dirty = True
 
     def _on_animate(self, event: Any) -> None:

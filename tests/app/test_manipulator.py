@@ -235,6 +235,24 @@ def test_gimbal_lock_gives_a_notice_and_no_nan(make_scene) -> None:
     assert len(notices.items) == 1  # once per entry into the singular state
 
 
+def test_non_finite_joint_angle_gives_a_notice_and_keeps_the_pose(make_scene) -> None:
+    scene, notices = make_scene()
+    scene.update(DT)
+    before = [frame.wxyz.copy() for frame in scene.solid_frames]
+    scene.gui.joint_sliders[1].value = float("nan")
+    scene.update(DT)
+    assert notices.items and notices.items[-1][0] == "Invalid joint angle"
+    assert "θ2 must be a finite number of degrees, got nan" in notices.items[-1][1]
+    assert notices.items[-1][2] == "warning"
+    for frame, wxyz in zip(scene.solid_frames, before):
+        np.testing.assert_array_equal(frame.wxyz, wxyz)
+    np.testing.assert_allclose(np.degrees(scene.joint_angles), [30.0, 45.0, 60.0])
+    # The next valid value is taken as usual.
+    scene.gui.joint_sliders[1].value = 50.0
+    scene.update(DT)
+    assert same_rotation(scene.solid_frames[1].wxyz, expected_wxyz((30.0, 50.0, 60.0))[1])
+
+
 def test_general_joint_axes_have_no_euler_form_but_procedures_agree(make_scene) -> None:
     s = np.sqrt(0.5)
     geometry = ManipulatorGeometry(joint_axes=[[0, 0, 1], [s, s, 0], [0, s, s]])
@@ -290,6 +308,20 @@ def test_app_serves_the_manipulator_and_a_websocket_client_moves_a_joint(running
     wait_until(lambda: same_rotation(scene.solid_frames[0].wxyz, expected[0]))
     wait_until(lambda: same_rotation(scene.solid_frames[2].wxyz, expected[2]))
     assert scene.difference < 1e-14
+
+
+def test_per_client_mode_gives_each_browser_its_own_arm(running_app, ws_client) -> None:
+    app = running_app(scene="manipulator", mode="per-client")
+    first, first_id = ws_client(app)
+    second, second_id = ws_client(app)
+    scene_1, scene_2 = app.scene_for(first_id), app.scene_for(second_id)
+    assert isinstance(scene_1, ManipulatorScene) and scene_1 is not scene_2
+    first.set_gui_value(scene_1.gui.joint_sliders[2], -90.0)
+    wait_until(lambda: np.isclose(np.degrees(scene_1.joint_angles[2]), -90.0))
+    expected = expected_wxyz((30.0, 45.0, -90.0))
+    wait_until(lambda: same_rotation(scene_1.solid_frames[2].wxyz, expected[2]))
+    time.sleep(0.1)
+    np.testing.assert_allclose(np.degrees(scene_2.joint_angles), [30.0, 45.0, 60.0])
 
 
 def test_switching_away_stops_updates_and_back_resumes(running_app) -> None:

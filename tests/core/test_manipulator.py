@@ -13,6 +13,9 @@ import itertools
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
 from core.manipulator import (
@@ -85,6 +88,43 @@ def test_procedures_agree_for_arbitrary_joint_axes_and_match_scipy() -> None:
         np.testing.assert_allclose(successive, global_axes, rtol=0, atol=ROUNDING)
         oracle = scipy_chain(geometry, angles)[2].as_matrix()
         np.testing.assert_allclose(successive, oracle, rtol=0, atol=ROUNDING)
+
+
+@pytest.mark.parametrize(
+    "angles",
+    [
+        (0.0, 0.0, 0.0),  # identity
+        (np.pi, np.pi, np.pi),  # half turns
+        (-np.pi, np.pi / 2, np.pi),
+        (0.7, 0.0, -0.7),  # Z-X-Z gimbal lock: joints 1 and 3 aligned, cancelling
+        (1e-12, -1e-12, 1e-12),  # near zero
+        (40.0, -25.0, 1000.0),  # many turns
+    ],
+)
+def test_special_angles_agree_with_scipy(angles) -> None:
+    angles = np.array(angles)
+    oracle = Rotation.from_euler("ZXZ", angles).as_matrix()
+    for matrix in (matrix_from_successive_rotations(angles), matrix_from_global_axis_rotations(angles)):
+        # Angles up to 1000 rad lose ~1e3 * eps in sin/cos of the argument.
+        np.testing.assert_allclose(matrix, oracle, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(matrix @ matrix.T, np.eye(3), rtol=0, atol=ROUNDING)
+        assert np.linalg.det(matrix) == pytest.approx(1.0, abs=ROUNDING)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    arrays(np.float64, 3, elements=st.floats(-20.0, 20.0)),
+    arrays(np.float64, (3, 3), elements=st.floats(-1.0, 1.0)).filter(
+        lambda a: np.all(np.linalg.norm(a, axis=-1) > 1e-3)
+    ),
+)
+def test_procedures_agree_property(angles: np.ndarray, axes: np.ndarray) -> None:
+    geometry = ManipulatorGeometry(joint_axes=axes / np.linalg.norm(axes, axis=-1, keepdims=True))
+    a = link_frames_successive(angles, geometry=geometry)
+    b = link_frames_global_axis_rotations(angles, geometry=geometry)
+    # Angles up to 20 rad: sin/cos rounding grows with the argument (~20 eps).
+    np.testing.assert_allclose(a.orientations, b.orientations, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(a.end_point, b.end_point, rtol=0, atol=1e-13)
 
 
 def test_relative_rotations_are_rotations_about_the_joint_axes() -> None:
