@@ -127,7 +127,7 @@ class _Gui:
 
     joint_sliders: tuple[Any, Any, Any]
     animate: Any
-    show_global_axes: Any
+    show_procedure_b: Any
     steps: Any
     readout: Any
 

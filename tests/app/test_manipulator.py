@@ -187,10 +187,10 @@ def test_hiding_procedure_b_hides_ghosts_and_global_axes(make_scene) -> None:
     scene, _ = make_scene()
     scene.update(DT)
     assert scene.ghost_root.visible and scene.global_axes.visible
-    scene.gui.show_global_axes.value = False
+    scene.gui.show_procedure_b.value = False
     scene.update(DT)
     assert not scene.ghost_root.visible and not scene.global_axes.visible
-    scene.gui.show_global_axes.value = True
+    scene.gui.show_procedure_b.value = True
     scene.update(DT)
     assert scene.ghost_root.visible
 
