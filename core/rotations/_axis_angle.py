@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from ._euler_parameters import _axis_angle_from_unit_p, _p_from_matrix
+from ._batch import blocks
 from ._validation import (
+    NORMALIZED_TOL,
+    UNIT_NORM2_TOL,
+    as_float_array,
     broadcast_batch,
     check_matrix,
     check_scalar_array,
@@ -14,19 +18,21 @@ from ._validation import (
 )
 
 
-def _matrix_from_unit_axis_angle(axis, angle, batch):
+def _rodriguez_block(x, y, z, angle, o):
+    """Write Rodriguez matrices of unit axes (x, y, z) into ``o`` (m, 3, 3)."""
     # A = I + sin(angle) v~ + 2 sin^2(angle / 2) v~ v~  (Eq. 8.29), written
-    # as cos(angle) I + sin(angle) v~ + (1 - cos(angle)) v v^T with
-    # 1 - cos(angle) = 2 sin^2(angle / 2), which keeps full relative
-    # precision for small angles.
-    x = axis[..., 0]
-    y = axis[..., 1]
-    z = axis[..., 2]
-    s = np.sin(angle)
-    h = np.sin(0.5 * angle)
-    k = 2.0 * h * h
+    # as cos(angle) I + sin(angle) v~ + (1 - cos(angle)) v v^T. With
+    # t = tan(angle / 2): sin(angle) = 2 t / (1 + t^2) and
+    # 1 - cos(angle) = 2 t^2 / (1 + t^2), exact identities that need one
+    # (vectorized) tangent instead of two sines and keep full precision for
+    # small angles; at angle = pi, t is large but finite in floating point
+    # and both expressions stay accurate.
+    t = np.tan(0.5 * angle)
+    t2 = t * t
+    u = 2.0 / (1.0 + t2)
+    s = t * u
+    k = t2 * u
     c = 1.0 - k
-    out = np.empty(batch + (3, 3))
     kx = k * x
     ky = k * y
     kz = k * z
@@ -36,16 +42,26 @@ def _matrix_from_unit_axis_angle(axis, angle, batch):
     kxy = kx * y
     kxz = kx * z
     kyz = ky * z
-    out[..., 0, 0] = c + kx * x
-    out[..., 0, 1] = kxy - sz
-    out[..., 0, 2] = kxz + sy
-    out[..., 1, 0] = kxy + sz
-    out[..., 1, 1] = c + ky * y
-    out[..., 1, 2] = kyz - sx
-    out[..., 2, 0] = kxz - sy
-    out[..., 2, 1] = kyz + sx
-    out[..., 2, 2] = c + kz * z
-    return out
+    np.add(c, kx * x, out=o[:, 0, 0])
+    np.subtract(kxy, sz, out=o[:, 0, 1])
+    np.add(kxz, sy, out=o[:, 0, 2])
+    np.add(kxy, sz, out=o[:, 1, 0])
+    np.add(c, ky * y, out=o[:, 1, 1])
+    np.subtract(kyz, sx, out=o[:, 1, 2])
+    np.subtract(kxz, sy, out=o[:, 2, 0])
+    np.add(kyz, sx, out=o[:, 2, 1])
+    np.add(c, kz * z, out=o[:, 2, 2])
+
+
+def _matrix_from_unit_axis_angle(axis, angle, batch):
+    """Rodriguez matrices of unit axes (no validation), batch shapes equal."""
+    ax = axis.reshape(-1, 3)
+    an = angle.reshape(-1)
+    out = np.empty((an.shape[0], 3, 3))
+    for s, e in blocks(an.shape[0]):
+        b = ax[s:e]
+        _rodriguez_block(b[:, 0], b[:, 1], b[:, 2], an[s:e], out[s:e])
+    return out.reshape(batch + (3, 3))
 
 
 def matrix_from_axis_angle(axis, angle):
@@ -59,7 +75,8 @@ def matrix_from_axis_angle(axis, angle):
     ----------
     axis : array_like, shape (..., 3)
         Unit rotation axis ``v`` (same components in body and global frame),
-        unit norm within :data:`UNIT_NORM_TOL` (normalized before use).
+        unit norm within :data:`UNIT_NORM_TOL`, normalized before use
+        (unless already unit to rounding, ``| |v|^2 - 1 | <= 4 eps``).
     angle : array_like, shape (...)
         Rotation angle ``theta`` in radians, right-hand rule about ``axis``.
 
@@ -69,13 +86,43 @@ def matrix_from_axis_angle(axis, angle):
         Active rotation matrix, body to global; batch shape is the broadcast
         of the batch shapes of ``axis`` and ``angle``.
     """
-    axis = check_unit_vector(axis, "axis")
-    angle = check_scalar_array(angle, "angle")
-    if axis.shape[:-1] != angle.shape:
-        (axis, angle), batch = broadcast_batch(("axis", axis, 1), ("angle", angle, 0))
+    axis_in = as_float_array(axis, "axis")
+    angle_in = as_float_array(angle, "angle")
+    if axis_in.ndim < 1 or axis_in.shape[-1] != 3:
+        check_unit_vector(axis_in, "axis")
+    if axis_in.shape[:-1] != angle_in.shape:
+        (ax, an), batch = broadcast_batch(("axis", axis_in, 1), ("angle", angle_in, 0))
     else:
-        batch = angle.shape
-    return _matrix_from_unit_axis_angle(axis, angle, batch)
+        ax, an, batch = axis_in, angle_in, angle_in.shape
+    ax = ax.reshape(-1, 3)
+    an = an.reshape(-1)
+    n = an.shape[0]
+    out = np.empty((n, 3, 3))
+    ok = np.empty(n, dtype=bool)
+    for s, e in blocks(n):
+        b = ax[s:e]
+        x = b[:, 0]
+        y = b[:, 1]
+        z = b[:, 2]
+        a = an[s:e]
+        n2 = x * x + y * y + z * z
+        # The validation of check_unit_vector and check_scalar_array, fused
+        # into the block; NaN and infinity fail it too. Nothing is returned
+        # unless every block passed.
+        dev = n2 - 1.0
+        np.abs(dev, out=dev)
+        np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
+        ok[s:e] &= np.isfinite(a)
+        if not dev.max(initial=0.0) <= NORMALIZED_TOL:
+            norm = np.sqrt(n2)
+            x = x / norm
+            y = y / norm
+            z = z / norm
+        _rodriguez_block(x, y, z, a, out[s:e])
+    if not ok.all():
+        check_unit_vector(axis_in, "axis")  # raises, naming the batch index
+        check_scalar_array(angle_in, "angle")
+    return out.reshape(batch + (3, 3))
 
 
 def axis_angle_from_matrix(A):
@@ -129,7 +176,7 @@ def _omega_axis_angle(axis, angle, axis_dot, angle_dot, sign):
 
 
 def omega_from_axis_angle_rates(axis, angle, axis_dot, angle_dot):
-    """Global angular velocity from axis, angle and their rates (Eqs. 8.31-8.35).
+    """Global angular velocity from axis, angle and their rates (Eqs. 8.31-8.38).
 
     .. math::
 
@@ -156,7 +203,7 @@ def omega_from_axis_angle_rates(axis, angle, axis_dot, angle_dot):
 
 
 def omega_body_from_axis_angle_rates(axis, angle, axis_dot, angle_dot):
-    """Body angular velocity from axis, angle and their rates (Eqs. 8.36-8.38).
+    """Body angular velocity from axis, angle and their rates (Eqs. 8.31-8.38).
 
     .. math::
 

@@ -1,10 +1,9 @@
-"""Euler angles for all 12 sequences, intrinsic and extrinsic (Eqs. 8.1-8.11).
+"""Euler angles for all 12 sequences, intrinsic and extrinsic (Eqs. 8.7-8.11).
 
 A sequence is three axis letters. Upper case (``"ZXZ"``) is intrinsic: each
 rotation is about an axis of the moving (body) frame, so
 ``A = R_Z(a) @ R_X(b) @ R_Z(c)`` for angles ``(a, b, c)``; ``"ZXZ"`` with
-``(phi, theta, psi)`` is the chapter's precession, nutation, spin
-(Eq. 8.4). Lower case (``"zxz"``) is extrinsic: each rotation is about an
+``(phi, theta, psi)`` is the chapter's precession, nutation, spin. Lower case (``"zxz"``) is extrinsic: each rotation is about an
 axis of the fixed (global) frame, applied in the order given, so
 ``A = R_z(c) @ R_x(b) @ R_z(a)``. These are scipy's letters.
 """
@@ -114,7 +113,7 @@ def _matrix_from_angles(angles, seq):
 
 
 def matrix_from_euler_angles(angles, seq="ZXZ"):
-    """Rotation matrix of Euler angles (Eq. 8.4 for ``"ZXZ"``).
+    """Rotation matrix of Euler angles (precession-nutation-spin product for ``"ZXZ"``).
 
     Parameters
     ----------
@@ -185,7 +184,7 @@ def _angles_from_p(p, seq, warn=True):
 
 
 def euler_angles_from_matrix(A, seq="ZXZ"):
-    """Euler angles of a rotation matrix (inverse of Eq. 8.4), any sequence.
+    """Euler angles of a rotation matrix (any sequence).
 
     Computed from the Euler parameters of ``A`` (Shepperd's method) with the
     quaternion method of Bernardes and Viollet (2022), accurate for every
@@ -537,7 +536,7 @@ def _alpha(angles, rates, rates_dot, seq):
 
 
 def alpha_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
-    """Global angular acceleration ``alpha = G @ rates_dot + G_dot @ rates`` (Eq. 8.10).
+    """Global angular acceleration ``alpha = G @ rates_dot + G_dot @ rates`` (Eqs. 8.10-8.11).
 
     Parameters
     ----------
@@ -559,7 +558,7 @@ def alpha_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
 
 
 def alpha_body_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
-    """Body angular acceleration ``alpha_body = G_bar @ rates_dot + G_bar_dot @ rates`` (Eq. 8.11).
+    """Body angular acceleration ``alpha_body = G_bar @ rates_dot + G_bar_dot @ rates`` (Eqs. 8.10-8.11).
 
     Equal to ``A.T @ alpha``.
 

@@ -12,7 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._batch import blocks
 from ._validation import (
+    ORTHOGONALITY_TOL,
+    NORMALIZED_TOL,
+    UNIT_NORM2_TOL,
+    as_float_array,
     broadcast_batch,
     check_euler_parameters,
     check_matrix,
@@ -20,41 +25,53 @@ from ._validation import (
     check_scalar_array,
     check_unit_vector,
     check_vector,
+    orthogonality_deviation,
     _index_str,
 )
 
 
-def _matrix_from_unit_p(p):
-    """Rotation matrices of unit Euler parameters (no validation)."""
-    w = p[..., 0]
-    x = p[..., 1]
-    y = p[..., 2]
-    z = p[..., 3]
-    out = np.empty(p.shape[:-1] + (3, 3))
+def _matrix_block(w, x, y, z, o):
+    """Write the matrices of unit parameters (w, x, y, z) into ``o`` (m, 3, 3)."""
+    # Doubling is exact in binary floating point, so X * y == 2 * (x * y)
+    # bit for bit; it saves the six multiplications by 2.
+    X = x + x
+    Y = y + y
+    Z = z + z
     ww = w * w
     xx = x * x
     yy = y * y
     zz = z * z
-    xy = x * y
-    zw = z * w
-    xz = x * z
-    yw = y * w
-    yz = y * z
-    xw = x * w
-    out[..., 0, 0] = ww + xx - yy - zz
-    out[..., 0, 1] = 2.0 * (xy - zw)
-    out[..., 0, 2] = 2.0 * (xz + yw)
-    out[..., 1, 0] = 2.0 * (xy + zw)
-    out[..., 1, 1] = ww - xx + yy - zz
-    out[..., 1, 2] = 2.0 * (yz - xw)
-    out[..., 2, 0] = 2.0 * (xz - yw)
-    out[..., 2, 1] = 2.0 * (yz + xw)
-    out[..., 2, 2] = ww - xx - yy + zz
-    return out
+    xy = X * y
+    zw = Z * w
+    xz = X * z
+    yw = Y * w
+    yz = Y * z
+    xw = X * w
+    a = ww - zz
+    b = xx - yy
+    np.add(a, b, out=o[:, 0, 0])
+    np.subtract(a, b, out=o[:, 1, 1])
+    np.subtract(ww + zz, xx + yy, out=o[:, 2, 2])
+    np.subtract(xy, zw, out=o[:, 0, 1])
+    np.add(xz, yw, out=o[:, 0, 2])
+    np.add(xy, zw, out=o[:, 1, 0])
+    np.subtract(yz, xw, out=o[:, 1, 2])
+    np.subtract(xz, yw, out=o[:, 2, 0])
+    np.add(yz, xw, out=o[:, 2, 1])
+
+
+def _matrix_from_unit_p(p):
+    """Rotation matrices of unit Euler parameters (no validation)."""
+    flat = p.reshape(-1, 4)
+    out = np.empty((flat.shape[0], 3, 3))
+    for s, e in blocks(flat.shape[0]):
+        b = flat[s:e]
+        _matrix_block(b[:, 0], b[:, 1], b[:, 2], b[:, 3], out[s:e])
+    return out.reshape(p.shape[:-1] + (3, 3))
 
 
 def matrix_from_euler_parameters(p):
-    """Rotation matrix of Euler parameters (Eq. 8.48).
+    """Rotation matrix of Euler parameters (Eqs. 8.48-8.50).
 
     .. math::
 
@@ -67,34 +84,65 @@ def matrix_from_euler_parameters(p):
     ----------
     p : array_like, shape (..., 4)
         Euler parameters (theta0, theta1, theta2, theta3), scalar first;
-        unit norm within :data:`UNIT_NORM_TOL` (normalized before use).
+        unit norm within :data:`UNIT_NORM_TOL`, normalized before use
+        (unless already unit to rounding, ``| ||p||^2 - 1 | <= 4 eps``).
 
     Returns
     -------
     A : ndarray, shape (..., 3, 3)
         Active rotation matrix, body to global: ``u_global = A @ u_body``.
     """
-    return _matrix_from_unit_p(check_euler_parameters(p, "p"))
+    arr = as_float_array(p, "p")
+    if arr.ndim < 1 or arr.shape[-1] != 4:
+        check_euler_parameters(arr, "p")
+    flat = arr.reshape(-1, 4)
+    n = flat.shape[0]
+    out = np.empty((n, 3, 3))
+    ok = np.empty(n, dtype=bool)
+    for s, e in blocks(n):
+        b = flat[s:e]
+        w = b[:, 0]
+        x = b[:, 1]
+        y = b[:, 2]
+        z = b[:, 3]
+        n2 = w * w + x * x + y * y + z * z
+        # The validation of check_euler_parameters, fused into the block;
+        # NaN and infinity fail it too. Nothing is returned unless every
+        # block passed.
+        dev = n2 - 1.0
+        np.abs(dev, out=dev)
+        np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
+        if not dev.max(initial=0.0) <= NORMALIZED_TOL:
+            norm = np.sqrt(n2)
+            w = w / norm
+            x = x / norm
+            y = y / norm
+            z = z / norm
+        _matrix_block(w, x, y, z, out[s:e])
+    if not ok.all():
+        check_euler_parameters(arr, "p")  # raises, naming the batch index
+    return out.reshape(arr.shape[:-1] + (3, 3))
 
 
-def _p_from_matrix(A):
-    """Euler parameters of rotation matrices (no validation), theta0 >= 0."""
-    a00 = A[..., 0, 0]
-    a11 = A[..., 1, 1]
-    a22 = A[..., 2, 2]
-    a01 = A[..., 0, 1]
-    a10 = A[..., 1, 0]
-    a02 = A[..., 0, 2]
-    a20 = A[..., 2, 0]
-    a12 = A[..., 1, 2]
-    a21 = A[..., 2, 1]
+def _shepperd_block(A, out):
+    """Euler parameters with theta0 >= 0 of rotation matrices A (m, 3, 3)."""
+    a00 = A[:, 0, 0]
+    a11 = A[:, 1, 1]
+    a22 = A[:, 2, 2]
+    a01 = A[:, 0, 1]
+    a10 = A[:, 1, 0]
+    a02 = A[:, 0, 2]
+    a20 = A[:, 2, 0]
+    a12 = A[:, 1, 2]
+    a21 = A[:, 2, 1]
     trace = a00 + a11 + a22
-    # 4 theta_a theta_b for every pair (a, b) (Eqs. 8.49-8.50); the row of
+    # 4 theta_a theta_b for every pair (a, b) (Eqs. 8.48-8.50); the row of
     # the largest diagonal entry is the best conditioned (Shepperd's method).
     d0 = 1.0 + trace
-    d1 = 1.0 - trace + 2.0 * a00
-    d2 = 1.0 - trace + 2.0 * a11
-    d3 = 1.0 - trace + 2.0 * a22
+    e = 1.0 - trace
+    d1 = e + 2.0 * a00
+    d2 = e + 2.0 * a11
+    d3 = e + 2.0 * a22
     s01 = a21 - a12
     s02 = a02 - a20
     s03 = a10 - a01
@@ -106,19 +154,26 @@ def _p_from_matrix(A):
     q1 = np.choose(choice, (s01, d1, s12, s13))
     q2 = np.choose(choice, (s02, s12, d2, s23))
     q3 = np.choose(choice, (s03, s13, s23, d3))
-    scale = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    # 1 / norm with the sign of theta0, so that theta0 >= 0.
-    np.copysign(1.0 / scale, q0, out=scale)
-    out = np.empty(A.shape[:-2] + (4,))
-    np.multiply(q0, scale, out=out[..., 0])
-    np.multiply(q1, scale, out=out[..., 1])
-    np.multiply(q2, scale, out=out[..., 2])
-    np.multiply(q3, scale, out=out[..., 3])
-    return out
+    norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    # The norm with the sign of theta0, so that theta0 >= 0.
+    np.copysign(norm, q0, out=norm)
+    np.divide(q0, norm, out=out[:, 0])
+    np.divide(q1, norm, out=out[:, 1])
+    np.divide(q2, norm, out=out[:, 2])
+    np.divide(q3, norm, out=out[:, 3])
+
+
+def _p_from_matrix(A):
+    """Euler parameters of rotation matrices (no validation), theta0 >= 0."""
+    flat = A.reshape(-1, 3, 3)
+    out = np.empty((flat.shape[0], 4))
+    for s, e in blocks(flat.shape[0]):
+        _shepperd_block(flat[s:e], out[s:e])
+    return out.reshape(A.shape[:-2] + (4,))
 
 
 def euler_parameters_from_matrix(A):
-    """Euler parameters of a rotation matrix (Eqs. 8.49-8.50).
+    """Euler parameters of a rotation matrix (Eqs. 8.48-8.50).
 
     Uses Shepperd's method: of the four expressions ``4 theta_k**2``
     (``1 + tr A`` and ``1 - tr A + 2 A_kk``) the largest is used as pivot,
@@ -136,7 +191,25 @@ def euler_parameters_from_matrix(A):
         Unit Euler parameters (theta0, theta1, theta2, theta3), scalar
         first, with ``theta0 >= 0``.
     """
-    return _p_from_matrix(check_matrix(A, "A"))
+    arr = as_float_array(A, "A")
+    if arr.ndim < 2 or arr.shape[-2:] != (3, 3):
+        check_matrix(arr, "A")
+    flat = arr.reshape(-1, 3, 3)
+    n = flat.shape[0]
+    out = np.empty((n, 4))
+    ok = np.empty(n, dtype=bool)
+    for s, e in blocks(n):
+        b = flat[s:e]
+        # The validation of check_matrix, fused into the block; NaN and
+        # infinity fail it too. Nothing is returned unless every block
+        # passed.
+        dev, det = orthogonality_deviation(b)
+        np.less_equal(dev, ORTHOGONALITY_TOL, out=ok[s:e])
+        ok[s:e] &= det > 0.0
+        _shepperd_block(b, out[s:e])
+    if not ok.all():
+        check_matrix(arr, "A")  # raises, naming the batch index
+    return out.reshape(arr.shape[:-2] + (4,))
 
 
 def euler_parameters_from_axis_angle(axis, angle):
@@ -278,7 +351,7 @@ def _G_from_p(p, sign):
 
 
 def euler_parameter_G(p):
-    """Matrix G of Euler parameters (Eq. 8.51): ``omega = 2 G p_dot``.
+    """Matrix G of Euler parameters (Eqs. 8.51-8.54): ``omega = 2 G p_dot``.
 
     .. math:: G = [-\\theta, \\; \\tilde\\theta + \\theta_0 I]
 
@@ -298,7 +371,7 @@ def euler_parameter_G(p):
 
 
 def euler_parameter_G_bar(p):
-    """Matrix G_bar of Euler parameters (Eq. 8.53): ``omega_body = 2 G_bar p_dot``.
+    """Matrix G_bar of Euler parameters (Eqs. 8.51-8.54): ``omega_body = 2 G_bar p_dot``.
 
     .. math:: \\bar G = [-\\theta, \\; -\\tilde\\theta + \\theta_0 I]
 
@@ -325,7 +398,7 @@ def _p_and_vec(p, v, vname, size):
 
 
 def euler_parameter_rates(p, omega_body):
-    """Euler parameter rates from the body angular velocity (Eq. 8.54).
+    """Euler parameter rates from the body angular velocity (Eqs. 8.51-8.54).
 
     ``p_dot = G_bar.T @ omega_body / 2``.
 
@@ -346,7 +419,7 @@ def euler_parameter_rates(p, omega_body):
 
 
 def euler_parameter_rates_from_omega(p, omega):
-    """Euler parameter rates from the global angular velocity (Eq. 8.52).
+    """Euler parameter rates from the global angular velocity (Eqs. 8.51-8.54).
 
     ``p_dot = G.T @ omega / 2``.
 
@@ -366,7 +439,7 @@ def euler_parameter_rates_from_omega(p, omega):
 
 
 def omega_from_euler_parameter_rates(p, p_dot):
-    """Global angular velocity from Euler parameter rates (Eq. 8.51).
+    """Global angular velocity from Euler parameter rates (Eqs. 8.51-8.54).
 
     ``omega = 2 G @ p_dot``.
 
@@ -387,7 +460,7 @@ def omega_from_euler_parameter_rates(p, p_dot):
 
 
 def omega_body_from_euler_parameter_rates(p, p_dot):
-    """Body angular velocity from Euler parameter rates (Eq. 8.53).
+    """Body angular velocity from Euler parameter rates (Eqs. 8.51-8.54).
 
     ``omega_body = 2 G_bar @ p_dot``.
 

@@ -76,7 +76,7 @@ def elementary_matrix(axis, angle):
     -------
     A : ndarray, shape (..., 3, 3)
         Active rotation matrix; for axis 2 and angle phi this is the
-        chapter's precession matrix of Eq. 8.1.
+        chapter's precession matrix.
     """
     if axis not in (0, 1, 2):
         raise ValueError(f"Expected `axis` to be 0, 1 or 2, got {axis!r}")

@@ -38,14 +38,14 @@ def _product(a, b, out):
 
 
 def quaternion_product(q1, q2):
-    """Quaternion product ``q1 q2`` (Eqs. 8.69-8.70).
+    """Quaternion product ``q1 q2`` (Eqs. 8.69-8.72).
 
     .. math::
 
         q_1 q_2 = (a_0 b_0 - a \\cdot b, \\; a_0 b + b_0 a + a \\times b)
 
     For unit quaternions (Euler parameters) the product composes rotations:
-    ``A(q1 q2) = A(q1) @ A(q2)`` (Eq. 8.79). Not commutative.
+    ``A(q1 q2) = A(q1) @ A(q2)`` (Eqs. 8.77-8.79). Not commutative.
 
     Parameters
     ----------
@@ -64,7 +64,7 @@ def quaternion_product(q1, q2):
 
 
 def quaternion_conjugate(q):
-    """Conjugate quaternion ``(q0, -q1, -q2, -q3)`` (Eq. 8.71).
+    """Conjugate quaternion ``(q0, -q1, -q2, -q3)`` (Eqs. 8.69-8.72).
 
     For Euler parameters it is the inverse rotation: ``A(q*) = A(q).T``.
 
@@ -84,7 +84,7 @@ def quaternion_conjugate(q):
 
 
 def quaternion_norm(q):
-    """Norm ``sqrt(q q*)`` of a quaternion (Eq. 8.72).
+    """Norm ``sqrt(q q*)`` of a quaternion (Eqs. 8.69-8.72).
 
     Parameters
     ----------
@@ -100,7 +100,7 @@ def quaternion_norm(q):
 
 
 def quaternion_inverse(q):
-    """Inverse quaternion ``q* / |q|**2`` (Eq. 8.73).
+    """Inverse quaternion ``q* / |q|**2`` (Eqs. 8.65-8.73).
 
     Parameters
     ----------
@@ -127,7 +127,7 @@ def quaternion_inverse(q):
 
 
 def quaternion_sum(q1, q2):
-    """Sum of quaternions, component-wise (Eq. 8.66).
+    """Sum of quaternions, component-wise (Eqs. 8.65-8.73).
 
     Parameters
     ----------
@@ -145,7 +145,7 @@ def quaternion_sum(q1, q2):
 
 
 def rotate_vector(p, u_body):
-    """Rotate vectors by Euler parameters: ``A(p) @ u_body`` (Eq. 8.77).
+    """Rotate vectors by Euler parameters: ``A(p) @ u_body`` (Eqs. 8.77-8.79).
 
     Equal to the vector part of ``p (0, u_body) p*``.
 
@@ -247,7 +247,7 @@ def constant_relative_rotation_residual(p_i, p_j, axis, rate, t, *, p_ij0=None):
 
 
 def matrix_from_quaternion_product(q1, q2):
-    """``A(q1 q2)`` for unit quaternions; equals ``A(q1) @ A(q2)`` (Eq. 8.79).
+    """``A(q1 q2)`` for unit quaternions; equals ``A(q1) @ A(q2)`` (Eqs. 8.77-8.79).
 
     Parameters
     ----------

@@ -27,7 +27,7 @@ def rodriguez_parameters_near_singularity(p, *, tol=RODRIGUEZ_SINGULARITY_TOL):
     """Whether Rodriguez parameters of ``p`` are (nearly) undefined.
 
     True where ``|theta0| <= tol``, i.e. the rotation angle is within about
-    ``2 tol`` of pi, where ``gamma = theta / theta0`` (Eq. 8.58) is infinite.
+    ``2 tol`` of pi, where ``gamma = theta / theta0`` (Eqs. 8.58-8.60) is infinite.
 
     Parameters
     ----------
@@ -58,7 +58,7 @@ def _gamma_from_unit_p(p, tol, name):
 
 
 def rodriguez_parameters_from_euler_parameters(p, *, tol=RODRIGUEZ_SINGULARITY_TOL):
-    """Rodriguez parameters of Euler parameters: ``gamma = theta / theta0`` (Eq. 8.58).
+    """Rodriguez parameters of Euler parameters: ``gamma = theta / theta0`` (Eqs. 8.58-8.60).
 
     Parameters
     ----------
@@ -82,7 +82,7 @@ def rodriguez_parameters_from_euler_parameters(p, *, tol=RODRIGUEZ_SINGULARITY_T
 
 
 def euler_parameters_from_rodriguez_parameters(gamma):
-    """Euler parameters of Rodriguez parameters (Eq. 8.59).
+    """Euler parameters of Rodriguez parameters (Eqs. 8.58-8.60).
 
     ``theta0 = 1 / sqrt(1 + gamma . gamma)``, ``theta = gamma theta0``.
 
@@ -105,7 +105,7 @@ def euler_parameters_from_rodriguez_parameters(gamma):
 
 
 def matrix_from_rodriguez_parameters(gamma):
-    """Rotation matrix of Rodriguez parameters (Eq. 8.60).
+    """Rotation matrix of Rodriguez parameters (Eqs. 8.58-8.60).
 
     .. math::
 
@@ -144,7 +144,7 @@ def matrix_from_rodriguez_parameters(gamma):
 
 
 def rodriguez_parameters_from_matrix(A, *, tol=RODRIGUEZ_SINGULARITY_TOL):
-    """Rodriguez parameters of a rotation matrix (inverse of Eq. 8.60).
+    """Rodriguez parameters of a rotation matrix (inverse of Eqs. 8.58-8.60).
 
     Parameters
     ----------
@@ -175,7 +175,7 @@ def _gamma_vec(gamma, v, name):
 
 
 def omega_from_rodriguez_parameter_rates(gamma, gamma_dot):
-    """Global angular velocity from Rodriguez parameter rates (Eq. 8.61).
+    """Global angular velocity from Rodriguez parameter rates (Eqs. 8.61-8.64).
 
     ``omega = 2 (gamma_dot + gamma x gamma_dot) / (1 + gamma . gamma)``.
 
@@ -197,7 +197,7 @@ def omega_from_rodriguez_parameter_rates(gamma, gamma_dot):
 
 
 def omega_body_from_rodriguez_parameter_rates(gamma, gamma_dot):
-    """Body angular velocity from Rodriguez parameter rates (Eq. 8.62).
+    """Body angular velocity from Rodriguez parameter rates (Eqs. 8.61-8.64).
 
     ``omega_body = 2 (gamma_dot - gamma x gamma_dot) / (1 + gamma . gamma)``.
 
@@ -219,7 +219,7 @@ def omega_body_from_rodriguez_parameter_rates(gamma, gamma_dot):
 
 
 def rodriguez_parameter_rates_from_omega(gamma, omega):
-    """Rodriguez parameter rates from the global angular velocity (Eq. 8.63).
+    """Rodriguez parameter rates from the global angular velocity (Eqs. 8.61-8.64).
 
     ``gamma_dot = (omega - gamma x omega + gamma (gamma . omega)) / 2``.
 
@@ -240,7 +240,7 @@ def rodriguez_parameter_rates_from_omega(gamma, omega):
 
 
 def rodriguez_parameter_rates(gamma, omega_body):
-    """Rodriguez parameter rates from the body angular velocity (Eq. 8.64).
+    """Rodriguez parameter rates from the body angular velocity (Eqs. 8.61-8.64).
 
     ``gamma_dot = (omega_body + gamma x omega_body + gamma (gamma . omega_body)) / 2``.
 

@@ -14,6 +14,14 @@ import numpy as np
 #: where the result must be a rotation); inputs beyond it are rejected.
 UNIT_NORM_TOL = 1e-6
 
+# The same test on the squared norm: | ||p||^2 - 1 | <= 2 tol + tol^2 is
+# equivalent to | ||p|| - 1 | <= tol.
+UNIT_NORM2_TOL = 2.0 * UNIT_NORM_TOL + UNIT_NORM_TOL**2
+
+# Squared norms within 4 eps of 1 are unit to rounding: dividing by the norm
+# would change the components by at most 2 eps, so the hot kernels skip it.
+NORMALIZED_TOL = 4.0 * np.finfo(np.float64).eps
+
 #: Largest accepted entry of ``|A @ A.T - I|`` for a rotation matrix ``A``.
 ORTHOGONALITY_TOL = 1e-6
 
@@ -93,8 +101,9 @@ def check_unit_vector(x, name, tol=UNIT_NORM_TOL):
     Returns the vectors divided by their norm (a change of at most ``tol``).
     """
     arr = check_vector(x, name, 3)
-    norm = np.sqrt(np.einsum("...i,...i->...", arr, arr))
-    ok = np.abs(norm - 1.0) <= tol
+    n2 = np.einsum("...i,...i->...", arr, arr)
+    norm = np.sqrt(n2)
+    ok = np.abs(n2 - 1.0) <= 2.0 * tol + tol * tol
     if not ok.all():
         index = np.argwhere(~ok)[0] if ok.ndim else ()
         raise ValueError(
@@ -136,10 +145,11 @@ def check_euler_parameters(p, name="p", tol=UNIT_NORM_TOL):
     p1 = arr[..., 1]
     p2 = arr[..., 2]
     p3 = arr[..., 3]
-    norm = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)
-    # NaN and infinity fail this comparison too, so finiteness costs nothing
-    # on the valid path.
-    ok = np.abs(norm - 1.0) <= tol
+    n2 = p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3
+    norm = np.sqrt(n2)
+    # | ||p|| - 1 | <= tol, tested on the squared norm; NaN and infinity fail
+    # this comparison too, so finiteness costs nothing on the valid path.
+    ok = np.abs(n2 - 1.0) <= 2.0 * tol + tol * tol
     if not ok.all():
         check_finite(arr, name, 1)
         index = np.argwhere(~ok)[0] if ok.ndim else ()
@@ -190,23 +200,7 @@ def check_matrix(A, name="A", tol=ORTHOGONALITY_TOL):
         raise ValueError(
             f"Expected `{name}` to have shape (..., 3, 3), got shape {arr.shape}"
         )
-    a00 = arr[..., 0, 0]
-    a01 = arr[..., 0, 1]
-    a02 = arr[..., 0, 2]
-    a10 = arr[..., 1, 0]
-    a11 = arr[..., 1, 1]
-    a12 = arr[..., 1, 2]
-    a20 = arr[..., 2, 0]
-    a21 = arr[..., 2, 1]
-    a22 = arr[..., 2, 2]
-    # Rows of an orthogonal matrix are orthonormal: check the six distinct
-    # entries of A A^T - I. NaN and infinity fail the comparison as well.
-    dev = np.abs(a00 * a00 + a01 * a01 + a02 * a02 - 1.0)
-    np.maximum(dev, np.abs(a10 * a10 + a11 * a11 + a12 * a12 - 1.0), out=dev)
-    np.maximum(dev, np.abs(a20 * a20 + a21 * a21 + a22 * a22 - 1.0), out=dev)
-    np.maximum(dev, np.abs(a00 * a10 + a01 * a11 + a02 * a12), out=dev)
-    np.maximum(dev, np.abs(a00 * a20 + a01 * a21 + a02 * a22), out=dev)
-    np.maximum(dev, np.abs(a10 * a20 + a11 * a21 + a12 * a22), out=dev)
+    dev, det = orthogonality_deviation(arr)
     ok = dev <= tol
     if not ok.all():
         check_finite(arr, name, 2)
@@ -216,12 +210,6 @@ def check_matrix(A, name="A", tol=ORTHOGONALITY_TOL):
             f"{tol:g}), got deviation {float(dev[tuple(index)]):.3g}"
             f"{_index_str(index)}"
         )
-    # For an orthogonal matrix det = (row0 x row1) . row2 = +-1.
-    det = (
-        (a01 * a12 - a02 * a11) * a20
-        + (a02 * a10 - a00 * a12) * a21
-        + (a00 * a11 - a01 * a10) * a22
-    )
     bad = det < 0.0
     if bad.any():
         index = np.argwhere(bad)[0] if bad.ndim else ()
@@ -230,6 +218,45 @@ def check_matrix(A, name="A", tol=ORTHOGONALITY_TOL):
             f"determinant {float(det[tuple(index)]):.6g}{_index_str(index)}"
         )
     return arr
+
+
+def orthogonality_deviation(arr):
+    """Largest entry of ``|A A^T - I|`` and the determinant, per matrix.
+
+    Parameters
+    ----------
+    arr : ndarray, shape (..., 3, 3)
+
+    Returns
+    -------
+    dev : ndarray, shape (...)
+        NaN where an entry is not finite.
+    det : ndarray, shape (...)
+    """
+    a00 = arr[..., 0, 0]
+    a01 = arr[..., 0, 1]
+    a02 = arr[..., 0, 2]
+    a10 = arr[..., 1, 0]
+    a11 = arr[..., 1, 1]
+    a12 = arr[..., 1, 2]
+    a20 = arr[..., 2, 0]
+    a21 = arr[..., 2, 1]
+    a22 = arr[..., 2, 2]
+    # Rows of an orthogonal matrix are orthonormal: the six distinct entries
+    # of A A^T - I. NaN (also from infinity) propagates through np.maximum.
+    dev = np.abs(a00 * a00 + a01 * a01 + a02 * a02 - 1.0)
+    dev = np.maximum(dev, np.abs(a10 * a10 + a11 * a11 + a12 * a12 - 1.0))
+    dev = np.maximum(dev, np.abs(a20 * a20 + a21 * a21 + a22 * a22 - 1.0))
+    dev = np.maximum(dev, np.abs(a00 * a10 + a01 * a11 + a02 * a12))
+    dev = np.maximum(dev, np.abs(a00 * a20 + a01 * a21 + a02 * a22))
+    dev = np.maximum(dev, np.abs(a10 * a20 + a11 * a21 + a12 * a22))
+    # For an orthogonal matrix det = (row0 x row1) . row2 = +-1.
+    det = (
+        (a01 * a12 - a02 * a11) * a20
+        + (a02 * a10 - a00 * a12) * a21
+        + (a00 * a11 - a01 * a10) * a22
+    )
+    return dev, det
 
 
 def parse_seq(seq):
