@@ -63,8 +63,11 @@ __all__ = [
     "free_body_solution",
     "free_body_state",
     "kinetic_energy",
+    "MomentumGeometry",
+    "momentum_geometry",
     "principal_axes",
     "rodriguez_state",
+    "rotation_angle_between",
     "rotational_kinetic_energy",
 ]
 
@@ -200,6 +203,50 @@ def _G_bar(p: np.ndarray) -> np.ndarray:
     G[..., 1, :] = np.stack([-y, -z, w, x], axis=-1)
     G[..., 2, :] = np.stack([-z, y, -x, w], axis=-1)
     return G
+
+
+def rotation_angle_between(p: Any, q: Any) -> np.ndarray:
+    """Angle (rad, in [0, pi]) of the rotation taking ``A(p)`` to ``A(q)``.
+
+    ``p``, ``q`` (..., 4) Euler parameters (scalar first; sign-insensitive,
+    not renormalized). Uses ``2 atan2(|v|, |w|)`` of ``conj(p) q`` (Eq. 8.82),
+    accurate for small angles too. Returns (...).
+    """
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    pc = p * np.array([1.0, -1.0, -1.0, -1.0])
+    r = _qmul_arr(pc, q)
+    return 2.0 * np.arctan2(np.linalg.norm(r[..., 1:], axis=-1), np.abs(r[..., 0]))
+
+
+@dataclass(frozen=True)
+class MomentumGeometry:
+    """The momentum sphere and the energy ellipsoid of a free body (body frame).
+
+    ``L_body`` moves on the sphere ``|L| = L_norm`` and on the ellipsoid
+    ``L . I^-1 L = 2 energy``; their intersection is the polhode
+    (Landau & Lifshitz sec. 37). The ellipsoid's semi-axes are
+    ``sqrt(2 energy J_k)`` along the principal axes (columns of ``axes``).
+    """
+
+    L_norm: float
+    energy: float
+    semi_axes: np.ndarray  # (3,) ascending with the principal moments
+    axes: np.ndarray  # (3, 3) principal axes (columns) in body coordinates
+    moments: np.ndarray  # (3,) principal moments, ascending
+
+
+def momentum_geometry(inertia: Any, omega_body: Any) -> MomentumGeometry:
+    """Sphere radius and energy-ellipsoid axes for ``omega_body`` (3,) (body frame)."""
+    J = _inertia(inertia)
+    w = _vec(omega_body, "omega_body")
+    moments, Q = principal_axes(J)
+    L = J @ w
+    E = 0.5 * float(w @ L)
+    semi = np.sqrt(2.0 * E * moments)
+    for a in (semi, Q, moments):
+        a.setflags(write=False)
+    return MomentumGeometry(float(np.linalg.norm(L)), E, semi, Q, moments)
 
 
 # ------------------------------------------------------------- the body

@@ -354,3 +354,23 @@ def test_rodriguez_singularity_is_a_clear_error():
 def test_validation_messages(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_rotation_angle_and_momentum_geometry():
+    # rotation_angle_between: a known rotation about z by 0.3 rad, and 1e-9 rad
+    # (the atan2 form keeps full relative accuracy for tiny angles).
+    p = P0
+    for angle in (0.3, 1e-9, math.pi):
+        q = np.array(rb.free_body_exact([1, 1, 1], [0, 0, angle], p, 1.0).p)
+        assert rb.rotation_angle_between(p, q) == pytest.approx(angle, rel=1e-12)
+        assert rb.rotation_angle_between(p, -q) == pytest.approx(angle, rel=1e-12)
+    g = rb.momentum_geometry([1.0, 2.0, 3.0], [0.8, -0.5, 0.6])
+    L = np.array([0.8, -1.0, 1.8])
+    assert g.L_norm == pytest.approx(np.linalg.norm(L), rel=1e-15)
+    assert g.energy == pytest.approx(0.5 * (0.64 + 2 * 0.25 + 3 * 0.36), rel=1e-15)
+    # the polhode lies on both surfaces: sum L_k^2 / a_k^2 = 1 on the ellipsoid
+    m = rb.free_body_exact([1.0, 2.0, 3.0], [0.8, -0.5, 0.6], P0, np.linspace(0, 20, 50))
+    Lb = m.omega_body * [1.0, 2.0, 3.0]
+    Lp = Lb @ g.axes
+    np.testing.assert_allclose(np.sum(Lp**2 / g.semi_axes**2, axis=1), 1.0, rtol=1e-13)
+    np.testing.assert_allclose(np.linalg.norm(Lb, axis=1), g.L_norm, rtol=1e-13)
