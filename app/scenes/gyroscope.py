@@ -58,15 +58,17 @@ _BASE_Z = -1.6
 _TRAIL_CAPACITY = 400  # line segments kept in the trail buffer
 _TRAIL_MIN_STEP = 0.004  # do not add a trail point closer than this (m)
 _HISTORY = 360  # samples kept for the plots
-_PLOT_PERIOD = 0.2  # s of wall time between plot / readout refreshes
+_PLOT_PERIOD = 0.25  # s of wall time between plot / readout refreshes
+_TRAIL_PERIOD = 0.05  # s of wall time between trail buffer updates
 _CHUNK_SIM_TIME = 2.0  # s of simulated time per computed chunk
 _CHUNK_SAMPLES = 481
 _CACHE_CHUNKS = 64
 _NUMERICAL_RTOL = 1e-9  # display accuracy of the torque-driven runs
 _NUMERICAL_ATOL = 1e-10
 
-# Arrow lengths saturate: length = 1.3 |v| / (|v| + half) (m).
-_ARROW_HALF = {"omega": 10.0, "momentum": 8.0, "torque": 2.0}
+# Arrow lengths saturate: length = 2.4 |v| / (|v| + half) (m).
+_ARROW_MAX = 2.4
+_ARROW_HALF = {"omega": 5.0, "momentum": 4.0, "torque": 1.0}
 _ARROW_COLORS = np.array([[230, 70, 60], [60, 110, 230], [40, 170, 80]], dtype=np.uint8)
 
 
@@ -236,6 +238,8 @@ class GyroscopeScene(Scene):
         self._trail = np.zeros((0, 3))
         self._history = np.zeros((0, 6))  # t, theta, phi_dot, dd1, dd2, dE
         self._since_plot = _PLOT_PERIOD
+        self._since_trail = _TRAIL_PERIOD
+        self._trail_changed = True
         self._inv0 = None
         self._predicted = None
         self._readout_static = ""
@@ -264,7 +268,7 @@ class GyroscopeScene(Scene):
                               meshes["marker"].faces, color=(220, 60, 60))
         self.trail = scene.add_line_segments(
             f"{root}/trail", np.zeros((_TRAIL_CAPACITY, 2, 3), dtype=np.float32),
-            np.full((_TRAIL_CAPACITY, 2, 3), (250, 200, 40), dtype=np.uint8), thickness=3.0,
+            np.full((_TRAIL_CAPACITY, 2, 3), (250, 200, 40), dtype=np.uint8), thickness=3.0, thickness_units="screen",
         )
         self.arrows = scene.add_arrows(
             f"{root}/arrows", np.zeros((3, 2, 3), dtype=np.float32), _ARROW_COLORS,
@@ -417,6 +421,7 @@ class GyroscopeScene(Scene):
         self._trail = np.zeros((0, 3))
         self._history = np.zeros((0, 6))
         self._since_plot = _PLOT_PERIOD
+        self._trail_changed = True
 
     def _set_model(self, inputs: Inputs) -> bool:
         try:
@@ -488,7 +493,10 @@ class GyroscopeScene(Scene):
         tip = _TIP_RADIUS * vectors.rotor_axis
         if self._trail.shape[0] == 0 or np.linalg.norm(tip - self._trail[-1]) > _TRAIL_MIN_STEP:
             self._trail = np.vstack([self._trail, tip])[-(_TRAIL_CAPACITY + 1):]
-        trail_points = self._trail_segments()
+            self._trail_changed = True
+        self._since_trail += dt
+        send_trail = show_trail and self._trail_changed and self._since_trail >= _TRAIL_PERIOD
+        trail_points = self._trail_segments() if send_trail else None
         arrow_points = self._arrow_points(vectors)
         inv = invariants(model.params, state)
         row = np.array([[self.sim_time, math.degrees(angles[1]), rates[0],
@@ -505,8 +513,10 @@ class GyroscopeScene(Scene):
             self.inner_frame.wxyz = wxyz[1]
             self.rotor_frame.wxyz = wxyz[2]
             self.trail.visible = show_trail
-            if show_trail:
+            if trail_points is not None:
                 self.trail.points = trail_points
+                self._since_trail = 0.0
+                self._trail_changed = False
             self.arrows.visible = show_arrows
             if show_arrows:
                 self.arrows.points = arrow_points
@@ -533,7 +543,7 @@ class GyroscopeScene(Scene):
                                       ("torque", vectors.torque))):
             norm = float(np.linalg.norm(v))
             if norm > 1e-12:
-                out[i, 1] = v / norm * 1.3 * norm / (norm + _ARROW_HALF[key])
+                out[i, 1] = v / norm * _ARROW_MAX * norm / (norm + _ARROW_HALF[key])
         return out
 
     def _static_readout(self) -> str:
