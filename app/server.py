@@ -209,7 +209,31 @@ class Session:
             self._guard(f"showing scene '{name}'", lambda: self.scenes[name].set_active(True))
             self.active_name = name
             self._set_chooser(name)
+            self._guard(f"framing scene '{name}'", lambda: self._frame_camera(name))
             return True
+
+    def _frame_camera(self, name: str) -> None:
+        """Point the camera(s) at the scene, if it declares a framing.
+
+        A scene may set the optional class attributes ``camera_position`` and
+        ``camera_look_at`` (global frame, metres); scenes without them leave
+        the cameras where they are.
+        """
+        cls = self.scene_classes[name]
+        position = getattr(cls, "camera_position", None)
+        look_at = getattr(cls, "camera_look_at", None)
+        if position is None or look_at is None:
+            return
+        if isinstance(self.target, viser.ViserServer):
+            self.target.initial_camera.position = position
+            self.target.initial_camera.look_at = look_at
+            clients = list(self.target.get_clients().values())
+        else:
+            clients = [self.target]
+        for client in clients:
+            with client.atomic():
+                client.camera.position = position
+                client.camera.look_at = look_at
 
     def _set_chooser(self, name: str | None) -> None:
         if self._chooser is None or name is None:

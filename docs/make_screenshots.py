@@ -1,0 +1,100 @@
+"""Screenshots of every registered scene for the README and docs/app.md.
+
+Starts the app on a free loopback port, opens it in headless Chromium (the
+same launch options as the browser tests: Debian's /usr/bin/chromium with
+software WebGL), shows each scene in turn and saves ``docs/img/<scene>.png``
+(1200 x 750, palette PNG, well under 300 kB).
+
+Usage::
+
+    .venv/bin/python docs/make_screenshots.py            # every scene
+    .venv/bin/python docs/make_screenshots.py sandbox    # only some
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import sys
+import time
+from pathlib import Path
+
+CHROMIUM_PATH = "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
+VIEWPORT = {"width": 1200, "height": 750}
+OUT_DIR = Path(__file__).resolve().parent / "img"
+MAX_BYTES = 300_000
+
+
+def _compress(png: bytes) -> bytes:
+    """Re-encode as an optimized palette PNG (keeps it small, crisp text)."""
+    from PIL import Image
+
+    image = Image.open(io.BytesIO(png)).convert("RGB")
+    for colors in (256, 128, 64):
+        out = io.BytesIO()
+        image.quantize(colors=colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+            out, format="PNG", optimize=True
+        )
+        if out.tell() <= MAX_BYTES:
+            break
+    return out.getvalue()
+
+
+def _close_webgl_notice(page) -> None:  # type: ignore[no-untyped-def]
+    """Close the "Software WebGL rendering detected" notice if it is shown."""
+    notice = page.locator(".mantine-Notification-root", has_text="Software WebGL")
+    try:
+        notice.first.wait_for(state="visible", timeout=3000)
+        notice.first.locator("button").first.click()
+        notice.first.wait_for(state="hidden", timeout=3000)
+    except Exception:  # not shown (hardware WebGL) or already closed
+        pass
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Save one screenshot per scene; returns the exit status."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+    from playwright.sync_api import sync_playwright
+
+    from app.server import create_app
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="*", help="scene names (default: all)")
+    parser.add_argument("--settle", type=float, default=2.0, help="seconds to let a scene render")
+    args = parser.parse_args(argv)
+
+    app = create_app(port=0)
+    names = args.scenes or list(app.scene_names)
+    unknown = sorted(set(names) - set(app.scene_names))
+    if unknown:
+        app.stop()
+        print(f"scenes: expected names from {list(app.scene_names)}, got {unknown}", file=sys.stderr)
+        return 2
+    OUT_DIR.mkdir(parents=True, exist_ok=True)
+    try:
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(
+                executable_path=CHROMIUM_PATH, args=CHROMIUM_ARGS, headless=True
+            )
+            page = browser.new_page(viewport=VIEWPORT)
+            page.goto(app.url)
+            page.wait_for_selector("canvas")
+            app.wait_for_client(set(), timeout=30.0)
+            _close_webgl_notice(page)
+            for name in names:
+                app.switch_scene(name)
+                page.mouse.move(5, VIEWPORT["height"] - 5)  # no hover highlight
+                time.sleep(args.settle)
+                png = _compress(page.screenshot())
+                path = OUT_DIR / f"{name}.png"
+                path.write_bytes(png)
+                print(f"{path.relative_to(OUT_DIR.parent.parent)}: {len(png) / 1000:.0f} kB")
+            browser.close()
+    finally:
+        app.stop()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
