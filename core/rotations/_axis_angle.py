@@ -99,26 +99,29 @@ def matrix_from_axis_angle(axis, angle):
     n = an.shape[0]
     out = np.empty((n, 3, 3))
     ok = np.empty(n, dtype=bool)
-    for s, e in blocks(n):
-        b = ax[s:e]
-        x = b[:, 0]
-        y = b[:, 1]
-        z = b[:, 2]
-        a = an[s:e]
-        n2 = x * x + y * y + z * z
-        # The validation of check_unit_vector and check_scalar_array, fused
-        # into the block; NaN and infinity fail it too. Nothing is returned
-        # unless every block passed.
-        dev = n2 - 1.0
-        np.abs(dev, out=dev)
-        np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
-        ok[s:e] &= np.isfinite(a)
-        if not dev.max(initial=0.0) <= NORMALIZED_TOL:
-            norm = np.sqrt(n2)
-            x = x / norm
-            y = y / norm
-            z = z / norm
-        _rodriguez_block(x, y, z, a, out[s:e])
+    # Invalid entries are only reported after the loop; until then they
+    # may produce NaN silently.
+    with np.errstate(all="ignore"):
+        for s, e in blocks(n):
+            b = ax[s:e]
+            x = b[:, 0]
+            y = b[:, 1]
+            z = b[:, 2]
+            a = an[s:e]
+            n2 = x * x + y * y + z * z
+            # The validation of check_unit_vector and check_scalar_array, fused
+            # into the block; NaN and infinity fail it too. Nothing is returned
+            # unless every block passed.
+            dev = n2 - 1.0
+            np.abs(dev, out=dev)
+            np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
+            ok[s:e] &= np.isfinite(a)
+            if not dev.max(initial=0.0) <= NORMALIZED_TOL:
+                norm = np.sqrt(n2)
+                x = x / norm
+                y = y / norm
+                z = z / norm
+            _rodriguez_block(x, y, z, a, out[s:e])
     if not ok.all():
         check_unit_vector(axis_in, "axis")  # raises, naming the batch index
         check_scalar_array(angle_in, "angle")

@@ -99,26 +99,29 @@ def matrix_from_euler_parameters(p):
     n = flat.shape[0]
     out = np.empty((n, 3, 3))
     ok = np.empty(n, dtype=bool)
-    for s, e in blocks(n):
-        b = flat[s:e]
-        w = b[:, 0]
-        x = b[:, 1]
-        y = b[:, 2]
-        z = b[:, 3]
-        n2 = w * w + x * x + y * y + z * z
-        # The validation of check_euler_parameters, fused into the block;
-        # NaN and infinity fail it too. Nothing is returned unless every
-        # block passed.
-        dev = n2 - 1.0
-        np.abs(dev, out=dev)
-        np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
-        if not dev.max(initial=0.0) <= NORMALIZED_TOL:
-            norm = np.sqrt(n2)
-            w = w / norm
-            x = x / norm
-            y = y / norm
-            z = z / norm
-        _matrix_block(w, x, y, z, out[s:e])
+    # Invalid entries are only reported after the loop; until then they
+    # may produce NaN silently.
+    with np.errstate(all="ignore"):
+        for s, e in blocks(n):
+            b = flat[s:e]
+            w = b[:, 0]
+            x = b[:, 1]
+            y = b[:, 2]
+            z = b[:, 3]
+            n2 = w * w + x * x + y * y + z * z
+            # The validation of check_euler_parameters, fused into the block;
+            # NaN and infinity fail it too. Nothing is returned unless every
+            # block passed.
+            dev = n2 - 1.0
+            np.abs(dev, out=dev)
+            np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
+            if not dev.max(initial=0.0) <= NORMALIZED_TOL:
+                norm = np.sqrt(n2)
+                w = w / norm
+                x = x / norm
+                y = y / norm
+                z = z / norm
+            _matrix_block(w, x, y, z, out[s:e])
     if not ok.all():
         check_euler_parameters(arr, "p")  # raises, naming the batch index
     return out.reshape(arr.shape[:-1] + (3, 3))
@@ -198,15 +201,18 @@ def euler_parameters_from_matrix(A):
     n = flat.shape[0]
     out = np.empty((n, 4))
     ok = np.empty(n, dtype=bool)
-    for s, e in blocks(n):
-        b = flat[s:e]
-        # The validation of check_matrix, fused into the block; NaN and
-        # infinity fail it too. Nothing is returned unless every block
-        # passed.
-        dev, det = orthogonality_deviation(b)
-        np.less_equal(dev, ORTHOGONALITY_TOL, out=ok[s:e])
-        ok[s:e] &= det > 0.0
-        _shepperd_block(b, out[s:e])
+    # Invalid entries are only reported after the loop; until then they
+    # may produce NaN silently.
+    with np.errstate(all="ignore"):
+        for s, e in blocks(n):
+            b = flat[s:e]
+            # The validation of check_matrix, fused into the block; NaN and
+            # infinity fail it too. Nothing is returned unless every block
+            # passed.
+            dev, det = orthogonality_deviation(b)
+            np.less_equal(dev, ORTHOGONALITY_TOL, out=ok[s:e])
+            ok[s:e] &= det > 0.0
+            _shepperd_block(b, out[s:e])
     if not ok.all():
         check_matrix(arr, "A")  # raises, naming the batch index
     return out.reshape(arr.shape[:-2] + (4,))

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import check_matrix, check_scalar_array, check_vector
+from ._validation import (
+    as_float_array,
+    check_finite,
+    check_matrix,
+    check_scalar_array,
+    check_vector,
+)
 
 
 def skew(v):
@@ -48,11 +54,10 @@ def vector_from_skew(S, *, tol=1e-9):
     -------
     v : ndarray, shape (..., 3)
     """
-    S = np.asarray(S, dtype=np.float64)
+    S = as_float_array(S, "S")
     if S.ndim < 2 or S.shape[-2:] != (3, 3):
         raise ValueError(f"Expected `S` to have shape (..., 3, 3), got shape {S.shape}")
-    if not np.isfinite(S).all():
-        raise ValueError(f"Expected `S` to be finite, got {S!r}")
+    check_finite(S, "S", 2)
     asym = np.abs(S + np.swapaxes(S, -1, -2)).max(initial=0.0)
     if asym > tol:
         raise ValueError(

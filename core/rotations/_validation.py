@@ -47,15 +47,14 @@ def as_float_array(x, name):
 
 
 def _raise_non_finite(arr, name, n_trailing):
-    bad = ~np.isfinite(arr)
+    full = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+    batch_index = full[: arr.ndim - n_trailing]
+    value = float(arr[full])
+    where = ""
     if n_trailing:
-        bad_batch = bad.reshape(*arr.shape[: arr.ndim - n_trailing], -1).any(axis=-1)
-    else:
-        bad_batch = bad
-    index = np.argwhere(bad_batch)[0] if bad_batch.ndim else ()
-    value = arr[tuple(index)]
+        where = f" in {arr[batch_index].tolist()}"
     raise ValueError(
-        f"Expected `{name}` to be finite, got {value!r}{_index_str(index)}"
+        f"Expected `{name}` to be finite, got {value}{where}{_index_str(batch_index)}"
     )
 
 
@@ -200,7 +199,8 @@ def check_matrix(A, name="A", tol=ORTHOGONALITY_TOL):
         raise ValueError(
             f"Expected `{name}` to have shape (..., 3, 3), got shape {arr.shape}"
         )
-    dev, det = orthogonality_deviation(arr)
+    with np.errstate(all="ignore"):
+        dev, det = orthogonality_deviation(arr)
     ok = dev <= tol
     if not ok.all():
         check_finite(arr, name, 2)
