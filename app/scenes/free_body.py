@@ -48,8 +48,8 @@ from core.rigid_body import (
 __all__ = ["BODIES", "FreeBodyScene", "INTEGRATORS", "Inputs", "PRESETS", "body_mesh", "preset_omega"]
 
 _EXACT_POS = np.array([0.0, 0.0, 0.0])
-_GHOST_POS = np.array([0.0, 2.4, 0.0])
-_SPHERE_POS = np.array([0.0, -2.6, 0.0])
+_GHOST_POS = np.array([0.0, 1.9, 0.0])
+_SPHERE_POS = np.array([0.0, -2.3, 0.0])
 _SPHERE_RADIUS = 0.9
 _ARROW_LENGTH = 1.3
 _POLHODE_CAPACITY = 600  # line segments of the traced polhode
@@ -205,8 +205,9 @@ class FreeBodyScene(Scene):
     name: ClassVar[str] = "free_body"
     title: ClassVar[str] = "Free rigid body (Dzhanibekov)"
     order: ClassVar[int] = 30
-    camera_position: ClassVar[tuple[float, float, float]] = (6.5, 0.0, 2.6)
-    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.0)
+    # look a little right of the body so the GUI panel does not cover the ghost
+    camera_position: ClassVar[tuple[float, float, float]] = (5.6, 0.6, 2.2)
+    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 0.6, 0.0)
 
     def __init__(self, target: Any, notify: Any) -> None:
         super().__init__(target, notify)
@@ -263,11 +264,11 @@ class FreeBodyScene(Scene):
                               sphere.faces.astype(np.uint32), color=(200, 200, 230), opacity=0.15)
         self.ellipsoid = scene.add_line_segments(
             f"{root}/momentum/ellipsoid", np.zeros((7 * _ELLIPSE_SEGMENTS, 2, 3), dtype=np.float32),
-            (120, 200, 120), thickness=1.5,
+            (90, 180, 90), thickness=0.008,
         )
         self.polhode = scene.add_line_segments(
             f"{root}/momentum/polhode", np.zeros((_POLHODE_CAPACITY, 2, 3), dtype=np.float32),
-            (240, 180, 30), thickness=3.0,
+            (240, 170, 20), thickness=0.025,
         )
         self.L_point = scene.add_icosphere(f"{root}/momentum/L", radius=0.05, color=(60, 110, 230))
         gui = self.target.gui
