@@ -57,3 +57,25 @@ def test_smoke_against_scipy():
     np.testing.assert_allclose(p_back, p * np.sign(p[:, :1]), atol=1e-15)
     angles = Rotation.from_quat(p, scalar_first=True).as_euler("ZXZ")
     np.testing.assert_allclose(cr.matrix_from_euler_angles(angles, "ZXZ"), A_scipy, atol=2e-15)
+
+
+def test_every_public_name_is_in_the_user_guide():
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "rotations.md").read_text()
+    missing = [name for name in cr.__all__ if name not in text]
+    assert not missing, missing
+
+
+def test_equation_table_names_existing_functions():
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "rotations.md").read_text()
+    rows = re.findall(r"^\| (8\.[0-9.\-]+) \| core\.rotations\.(\w+) \|$", text, flags=re.M)
+    assert len(rows) > 40
+    for eq, name in rows:
+        assert name in cr.__all__, name
+        doc = getattr(cr, name).__doc__
+        first = eq.split("-")[0]
+        assert first in doc, (eq, name)
