@@ -93,8 +93,8 @@ _X_COLOR, _Y_COLOR, _Z_COLOR = (214, 56, 56), (44, 160, 72), (48, 96, 214)
 _GIMBAL_POSITION = np.array([0.0, 2.7, 0.0])
 _GHOST_POSITIONS = (np.array([0.0, 0.0, 0.0]), np.array([0.0, 2.7, 0.0]))
 _AXIS_ARROW_LENGTH = 1.45
-_OMEGA_ARROW_SCALE = 0.5  # metres per rad/s
-_OMEGA_ARROW_MAX = 1.8
+_OMEGA_ARROW_SCALE = 0.9  # metres per rad/s
+_OMEGA_ARROW_MAX = 2.0
 
 #: Gauge thresholds on cond(G) = sigma_max / sigma_min.
 _COND_WARN = 8.0
