@@ -461,6 +461,7 @@ class SandboxScene(Scene):
         self._last_readout = 0.0
         self._readout_stale = True
         self._ep_notice_time = 0.0
+        self._mounted_seq: str | None = None
 
     # ---------------------------------------------------------------- build
     def build(self) -> None:
@@ -961,8 +962,11 @@ class SandboxScene(Scene):
         # gimbal rings
         for k in range(3):
             self.ring_frames[k].wxyz = gimbal.wxyz[k]
-            self.ring_mounts[k].wxyz = gimbal.mount_wxyz[k]
-        self.stator.wxyz = gimbal.stator_wxyz
+        if self._mounted_seq != self.seq:  # ring planes change only with the sequence
+            self._mounted_seq = self.seq
+            for k in range(3):
+                self.ring_mounts[k].wxyz = gimbal.mount_wxyz[k]
+            self.stator.wxyz = gimbal.stator_wxyz
         self.gimbal_label.text = f"{self.seq} gimbal: cond G = {_cond_text(gimbal.condition)}"
 
     def _show_sequence_widgets(self) -> None:

@@ -241,3 +241,36 @@ def test_cli_parses_serve_and_lists_benchmarks(capsys: Any) -> None:
     assert "NAME: expected one of" in capsys.readouterr().err
     assert cli.main(["serve", "--scene", "nope", "--port", "0"]) == 2
     assert "scene: expected one of" in capsys.readouterr().err
+
+
+def test_rigidlab_serve_prints_url_and_stops_on_ctrl_c() -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    process = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())",
+         "serve", "--port", "0", "--scene", "sandbox"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        url = None
+        deadline = time.monotonic() + 60
+        lines = []
+        while time.monotonic() < deadline and url is None:
+            line = process.stdout.readline()  # type: ignore[union-attr]
+            if not line:
+                break
+            lines.append(line)
+            if line.startswith("rigidlab: open http://127.0.0.1:"):
+                url = line.split()[-1]
+        assert url is not None, "".join(lines)
+        with urllib.request.urlopen(url, timeout=10) as response:
+            assert response.status == 200
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=30) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
