@@ -113,7 +113,7 @@ PRESETS = (
 )
 
 
-def preset_inputs(name: str, current: Inputs) -> Inputs:
+def preset_inputs(name: str) -> Inputs:
     """Slider values of preset ``name`` (solved with core.gyroscope).
 
     Raises
@@ -447,7 +447,7 @@ class GyroscopeScene(Scene):
             preset = self._pending_preset
             self._pending_preset = None
         if preset is not None:
-            values = preset_inputs(preset, self._inputs)
+            values = preset_inputs(preset)
             # setting slider values runs their callbacks (which take the lock)
             for field, slider in self.gui.sliders.items():
                 slider.value = getattr(values, field)
@@ -583,7 +583,7 @@ class GyroscopeScene(Scene):
             lo = np.full_like(t, math.degrees(float(self._predicted.theta_min)))
             hi = np.full_like(t, math.degrees(float(self._predicted.theta_max)))
         else:
-            lo = hi = np.full_like(t, np.nan)
+            # torques act: no prediction, the lines show the observed range
             lo = np.full_like(t, h[:, 1].min())
             hi = np.full_like(t, h[:, 1].max())
         self.gui.plot_theta.data = (t, h[:, 1], lo, hi)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.scenes.gyroscope import PRESETS, GyroscopeScene, preset_inputs
+from app.scenes.gyroscope import PRESETS, GyroscopeScene, Inputs, preset_inputs
 from core.gyroscope import RotorParams, nutation, steady_precession_rates
 
 
@@ -67,7 +67,7 @@ def test_presets_drive_the_expected_motion(gyro):
     app, scene = gyro
     for name in PRESETS:
         scene.apply_preset(name)
-        want = preset_inputs(name, None)
+        want = preset_inputs(name)
         wait_until(lambda: scene.model is not None and scene.model.params.mgl == want.mgl
                    and math.isclose(scene.model.state0[5], want.psi_dot0) and 0.2 < scene.sim_time)
         for field, slider in scene.gui.sliders.items():
@@ -92,7 +92,7 @@ def test_presets_drive_the_expected_motion(gyro):
             assert thetas.min() >= float(nu.theta_min) - 1e-9
             assert thetas.max() <= float(nu.theta_max) + 1e-9
     # the gravity preset really uses the slow steady rate
-    want = preset_inputs(PRESETS[1], None)
+    want = preset_inputs(PRESETS[1])
     slow = steady_precession_rates(RotorParams(I=1.0, I3=0.8, mgl=2.0), math.radians(60), 15.0).slow
     assert want.phi_dot0 == pytest.approx(float(slow), rel=1e-12)
     with pytest.raises(ValueError, match=r"name: expected one of \["):
@@ -153,3 +153,21 @@ def test_torque_sliders_use_the_numerical_path(gyro):
     assert traj.method == "numerical"
     # M_psi spins the rotor up: psi_dot grows at M_psi / I3 (Eq. 8.16, d1' = M_psi)
     assert scene.rates[2] > scene.model.state0[5]
+
+
+def test_preset_inputs_rejects_unknown_names():
+    with pytest.raises(ValueError, match=r"name: expected one of \['Steady precession"):
+        preset_inputs("Spinning plate")
+
+
+def test_per_client_sessions_are_isolated(running_app, ws_client):
+    app = running_app(scene="gyroscope", mode="per-client")
+    _, first = ws_client(app)
+    _, second = ws_client(app)
+    a, b = app.scene_for(first), app.scene_for(second)
+    assert a is not b
+    wait_until(lambda: a.model is not None and b.model is not None)
+    a.apply_preset("Cuspidal motion")
+    wait_until(lambda: a.model.state0[5] == preset_inputs("Cuspidal motion").psi_dot0)
+    time.sleep(0.2)
+    assert b.model.state0[5] == Inputs().psi_dot0  # the default, untouched

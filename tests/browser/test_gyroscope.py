@@ -52,7 +52,7 @@ def test_gyroscope_presets_from_the_page(running_app, open_page) -> None:
     wait_until(lambda: scene.sim_time > 0.2)
 
     for name in PRESETS:
-        want = preset_inputs(name, None)
+        want = preset_inputs(name)
         page.get_by_role("button", name=name, exact=True).click()
         wait_until(lambda: scene.model is not None
                    and math.isclose(scene.model.state0[5], want.psi_dot0, rel_tol=1e-12)
