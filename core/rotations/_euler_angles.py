@@ -15,7 +15,9 @@ import warnings
 import numpy as np
 
 from ._euler_parameters import _p_from_matrix
+from ._batch import blocks
 from ._matrix import elementary_matrix
+from ._quaternion import _product
 from ._validation import (
     _index_str,
     broadcast_batch,
@@ -98,18 +100,22 @@ def _matmul_sym(X, Y):
 
 def _matrix_from_angles(angles, seq):
     (i, j, k), cols, _ = _intrinsic_form(seq, angles)
-    c = np.cos(angles)
-    s = np.sin(angles)
-    Rs = []
-    for axis, col in zip((i, j, k), cols):
-        sc = s[..., col]
-        Rs.append(_elementary(axis, c[..., col], sc, -sc))
-    M = _matmul_sym(_matmul_sym(Rs[0], Rs[1]), Rs[2])
-    out = np.empty(angles.shape[:-1] + (3, 3))
-    for r in range(3):
-        for col in range(3):
-            out[..., r, col] = M[r][col]
-    return out
+    flat = angles.reshape(-1, 3)
+    out = np.empty((flat.shape[0], 3, 3))
+    for start, stop in blocks(flat.shape[0]):
+        b = flat[start:stop]
+        c = np.cos(b)
+        s = np.sin(b)
+        Rs = []
+        for axis, col in zip((i, j, k), cols):
+            sc = s[:, col]
+            Rs.append(_elementary(axis, c[:, col], sc, -sc))
+        M = _matmul_sym(_matmul_sym(Rs[0], Rs[1]), Rs[2])
+        o = out[start:stop]
+        for r in range(3):
+            for col in range(3):
+                o[:, r, col] = M[r][col]
+    return out.reshape(angles.shape[:-1] + (3, 3))
 
 
 def matrix_from_euler_angles(angles, seq="ZXZ"):
@@ -259,8 +265,6 @@ def euler_parameters_from_euler_angles(angles, seq="ZXZ"):
     p : ndarray, shape (..., 4)
         Unit Euler parameters, scalar first, with ``theta0 >= 0``.
     """
-    from ._quaternion import _product
-
     parse_seq(seq)
     angles = check_vector(angles, "angles", 3)
     (i, j, k), cols, _ = _intrinsic_form(seq, angles)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._batch import blocks
+from ._batch import BLOCK, blocks
 from ._validation import (
     ORTHOGONALITY_TOL,
     NORMALIZED_TOL,
@@ -30,43 +30,88 @@ from ._validation import (
 )
 
 
-def _matrix_block(w, x, y, z, o):
-    """Write the matrices of unit parameters (w, x, y, z) into ``o`` (m, 3, 3)."""
-    # Doubling is exact in binary floating point, so X * y == 2 * (x * y)
-    # bit for bit; it saves the six multiplications by 2.
-    X = x + x
-    Y = y + y
-    Z = z + z
-    ww = w * w
-    xx = x * x
-    yy = y * y
-    zz = z * z
-    xy = X * y
-    zw = Z * w
-    xz = X * z
-    yw = Y * w
-    yz = Y * z
-    xw = X * w
-    a = ww - zz
-    b = xx - yy
-    np.add(a, b, out=o[:, 0, 0])
-    np.subtract(a, b, out=o[:, 1, 1])
-    np.subtract(ww + zz, xx + yy, out=o[:, 2, 2])
-    np.subtract(xy, zw, out=o[:, 0, 1])
-    np.add(xz, yw, out=o[:, 0, 2])
-    np.add(xy, zw, out=o[:, 1, 0])
-    np.subtract(yz, xw, out=o[:, 1, 2])
-    np.subtract(xz, yw, out=o[:, 2, 0])
-    np.add(yz, xw, out=o[:, 2, 1])
+def _matrix_kernel(flat, ok):
+    """Rotation matrices of Euler parameters ``flat`` (n, 4), block by block.
+
+    Writes ``| ||p||^2 - 1 | <= UNIT_NORM2_TOL`` into ``ok`` (n,) (NaN and
+    infinity fail it) and normalizes each block unless it is unit to
+    rounding already. Every intermediate lives in one preallocated
+    workspace, and each block is first copied to contiguous rows.
+    """
+    mul = np.multiply
+    add = np.add
+    sub = np.subtract
+    n = flat.shape[0]
+    out = np.empty((n, 3, 3))
+    ws = np.empty((17, min(n, BLOCK)))
+    for s, e in blocks(n):
+        m = e - s
+        comp = ws[13:17, :m]
+        np.copyto(comp, flat[s:e].T)
+        w, x, y, z = comp
+        n2 = ws[0, :m]
+        t = ws[1, :m]
+        mul(w, w, out=n2)
+        mul(x, x, out=t)
+        n2 += t
+        mul(y, y, out=t)
+        n2 += t
+        mul(z, z, out=t)
+        n2 += t
+        sub(n2, 1.0, out=t)
+        np.abs(t, out=t)
+        np.less_equal(t, UNIT_NORM2_TOL, out=ok[s:e])
+        if not t.max(initial=0.0) <= NORMALIZED_TOL:
+            np.sqrt(n2, out=n2)
+            comp /= n2
+        # Doubling is exact in binary floating point, so X * y == 2 * (x * y)
+        # bit for bit; it saves the six multiplications by 2.
+        X = ws[2, :m]
+        Y = ws[3, :m]
+        Z = ws[4, :m]
+        add(x, x, out=X)
+        add(y, y, out=Y)
+        add(z, z, out=Z)
+        ww = ws[5, :m]
+        xx = ws[6, :m]
+        yy = ws[7, :m]
+        zz = ws[8, :m]
+        mul(w, w, out=ww)
+        mul(x, x, out=xx)
+        mul(y, y, out=yy)
+        mul(z, z, out=zz)
+        o = out[s:e]
+        p1 = ws[9, :m]
+        p2 = ws[10, :m]
+        mul(X, y, out=p1)
+        mul(Z, w, out=p2)
+        sub(p1, p2, out=o[:, 0, 1])
+        add(p1, p2, out=o[:, 1, 0])
+        mul(X, z, out=p1)
+        mul(Y, w, out=p2)
+        add(p1, p2, out=o[:, 0, 2])
+        sub(p1, p2, out=o[:, 2, 0])
+        mul(Y, z, out=p1)
+        mul(X, w, out=p2)
+        sub(p1, p2, out=o[:, 1, 2])
+        add(p1, p2, out=o[:, 2, 1])
+        a = ws[11, :m]
+        b = ws[12, :m]
+        # Diagonal: theta0^2 + theta_i^2 - theta_j^2 - theta_k^2.
+        sub(ww, zz, out=a)
+        sub(xx, yy, out=b)
+        add(a, b, out=o[:, 0, 0])
+        sub(a, b, out=o[:, 1, 1])
+        add(ww, zz, out=a)
+        add(xx, yy, out=b)
+        sub(a, b, out=o[:, 2, 2])
+    return out
 
 
 def _matrix_from_unit_p(p):
     """Rotation matrices of unit Euler parameters (no validation)."""
     flat = p.reshape(-1, 4)
-    out = np.empty((flat.shape[0], 3, 3))
-    for s, e in blocks(flat.shape[0]):
-        b = flat[s:e]
-        _matrix_block(b[:, 0], b[:, 1], b[:, 2], b[:, 3], out[s:e])
+    out = _matrix_kernel(flat, np.empty(flat.shape[0], dtype=bool))
     return out.reshape(p.shape[:-1] + (3, 3))
 
 
@@ -96,32 +141,12 @@ def matrix_from_euler_parameters(p):
     if arr.ndim < 1 or arr.shape[-1] != 4:
         check_euler_parameters(arr, "p")
     flat = arr.reshape(-1, 4)
-    n = flat.shape[0]
-    out = np.empty((n, 3, 3))
-    ok = np.empty(n, dtype=bool)
-    # Invalid entries are only reported after the loop; until then they
-    # may produce NaN silently.
+    ok = np.empty(flat.shape[0], dtype=bool)
+    # The validation of check_euler_parameters is fused into the blocks;
+    # invalid entries only produce NaN silently until they are reported
+    # below, and nothing is returned unless every block passed.
     with np.errstate(all="ignore"):
-        for s, e in blocks(n):
-            b = flat[s:e]
-            w = b[:, 0]
-            x = b[:, 1]
-            y = b[:, 2]
-            z = b[:, 3]
-            n2 = w * w + x * x + y * y + z * z
-            # The validation of check_euler_parameters, fused into the block;
-            # NaN and infinity fail it too. Nothing is returned unless every
-            # block passed.
-            dev = n2 - 1.0
-            np.abs(dev, out=dev)
-            np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
-            if not dev.max(initial=0.0) <= NORMALIZED_TOL:
-                norm = np.sqrt(n2)
-                w = w / norm
-                x = x / norm
-                y = y / norm
-                z = z / norm
-            _matrix_block(w, x, y, z, out[s:e])
+        out = _matrix_kernel(flat, ok)
     if not ok.all():
         check_euler_parameters(arr, "p")  # raises, naming the batch index
     return out.reshape(arr.shape[:-1] + (3, 3))
