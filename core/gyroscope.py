@@ -1005,7 +1005,8 @@ def _omega_body_from_rates(theta, psi, phid, thetad, psid):
 def _rates_from_omega_body(theta, psi, w):
     """Inverse of :func:`_omega_body_from_rates` (needs sin theta != 0)."""
     st, ct, sp, cp = np.sin(theta), np.cos(theta), np.sin(psi), np.cos(psi)
-    phid = (w[..., 0] * sp + w[..., 1] * cp) / st
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phid = (w[..., 0] * sp + w[..., 1] * cp) / st
     thetad = w[..., 0] * cp - w[..., 1] * sp
     psid = w[..., 2] - phid * ct
     return phid, thetad, psid
@@ -1166,7 +1167,12 @@ def simulate(
         angles, rates = _numerical(params, s0, tt, torque, rtol, atol)
         method = "numerical"
     if not (np.all(np.isfinite(angles)) and np.all(np.isfinite(rates))):
-        raise ValueError("state0: the motion reached a non-finite state (singular torques at theta = 0 or pi?)")
+        if torque is not None:
+            raise ValueError(
+                "torques: the motion reached sin(theta) = 0, where constant generalized torques "
+                "M_phi != +-M_psi need an unbounded torque on the rotor (massless gimbals in gimbal lock)"
+            )
+        raise ValueError("state0: the motion reached a non-finite state")
     for a in (tt, angles, rates):
         a.setflags(write=False)
     return GyroscopeTrajectory(t=tt, angles=angles, rates=rates, method=method)

@@ -297,3 +297,10 @@ def test_rotor_vectors_against_scipy_and_generalized_forces():
     gen = np.einsum("nij,ni->nj", G, v.torque)
     want = Q + np.stack([0 * s[:, 1], params.mgl * np.sin(s[:, 1]), 0 * s[:, 1]], -1)
     np.testing.assert_allclose(gen, want, atol=1e-12)
+
+
+def test_torques_singular_at_gimbal_lock_raise_a_clear_error():
+    # M_phi alone at theta = 0: the torque vector (M_phi - M_psi cos)/sin^2 Z1 + ... is unbounded
+    params = RotorParams(I=1.0, I3=0.8, mgl=2.0)
+    with pytest.raises(ValueError, match=r"torques: the motion reached sin\(theta\) = 0"):
+        simulate(params, [0, 0.0, 0, 0, 0, 10], np.linspace(0, 2, 50), torques=(5.0, 0.0, 0.0))
