@@ -465,8 +465,9 @@ class FreeBodyModel:
     ``c_2 L_2^2``; taking the intermediate moment as reference minimises
     ``|c_0 c_2|``. Every flow is an exact rotation of ``(p, L_body)``:
     ``|p|`` stays 1 to round-off and ``|L|`` is conserved exactly.
-    The internal split state is ``(p_principal (4), L_principal (3))`` as a
-    tuple of floats.
+    The internal split state is ``(p_principal (4), L_principal (3), tau)``
+    as a tuple of floats; the Casimir flow, which commutes with everything,
+    is run once for the accumulated time ``tau`` when converting back.
     """
 
     state_size = 7
@@ -525,25 +526,40 @@ class FreeBodyModel:
 
     # -- splitting
     def to_split_state(self, y: np.ndarray) -> tuple:
-        """(p, omega_body) -> (p_principal, L_principal) as a 7-tuple of floats."""
+        """(p, omega_body) -> (p_principal (4), L_principal (3), tau) as an 8-tuple of floats.
+
+        ``tau`` is the time the Casimir flow still has to run (0 here).
+        """
         y = np.asarray(y, dtype=float)
         p_pr = _qmul(tuple(y[:4].tolist()), self._q_Q)
         L_pr = (self._Q.T @ (self.inertia @ y[4:])).tolist()
-        return (*p_pr, *L_pr)
+        return (*p_pr, *L_pr, 0.0)
 
     def from_split_state(self, z: tuple) -> np.ndarray:
-        """Inverse of :meth:`to_split_state`: a (7,) state vector."""
-        p = _qmul(tuple(z[:4]), self._q_Q_conj)
+        """Inverse of :meth:`to_split_state`: a (7,) state vector.
+
+        Runs the pending Casimir flow first: the rotation of the body about
+        the (constant) body vector ``L`` by ``|L| tau / J1``. It commutes with
+        the other flows, so running it once for the accumulated time is exact
+        and spares its round-off at every step.
+        """
+        q0, q1, q2, q3, L0, L1, L2, tau = z
+        Ln = math.sqrt(L0 * L0 + L1 * L1 + L2 * L2)
+        if Ln > 0.0 and tau != 0.0:
+            half = 0.5 * Ln * tau / self._J[1]
+            k = math.sin(half) / Ln
+            q0, q1, q2, q3 = _qmul((q0, q1, q2, q3), (math.cos(half), k * L0, k * L1, k * L2))
+        p = _qmul((q0, q1, q2, q3), self._q_Q_conj)
         J = self._J
-        w_pr = np.array((z[4] / J[0], z[5] / J[1], z[6] / J[2]))
+        w_pr = np.array((L0 / J[0], L1 / J[1], L2 / J[2]))
         return np.array((*p, *(self._Q @ w_pr).tolist()))
 
     def _flow_axis0(self, z: tuple, h: float) -> tuple:
         """Exact flow of ``c0 L0^2``: rotation about principal axis 0 by ``2 c0 L0 h``."""
-        q0, q1, q2, q3, L0, L1, L2 = z
-        phi = 2.0 * self._c0 * L0 * h
-        c, s = math.cos(phi), math.sin(phi)
-        ch, sh = math.cos(0.5 * phi), math.sin(0.5 * phi)
+        q0, q1, q2, q3, L0, L1, L2, tau = z
+        half = self._c0 * L0 * h
+        ch, sh = math.cos(half), math.sin(half)
+        c, s = ch * ch - sh * sh, 2.0 * ch * sh
         return (
             q0 * ch - q1 * sh,
             q0 * sh + q1 * ch,
@@ -552,29 +568,30 @@ class FreeBodyModel:
             L0,
             c * L1 + s * L2,
             c * L2 - s * L1,
+            tau,
         )
 
     def _flow_axis2_and_casimir(self, z: tuple, h: float) -> tuple:
-        """Exact flow of ``c2 L2^2 + |L|^2 / (2 J1)`` (the two commute)."""
-        q0, q1, q2, q3, L0, L1, L2 = z
-        phi = 2.0 * self._c2 * L2 * h
-        c, s = math.cos(phi), math.sin(phi)
-        ch, sh = math.cos(0.5 * phi), math.sin(0.5 * phi)
-        q0, q1, q2, q3 = (q0 * ch - q3 * sh, q1 * ch + q2 * sh, q2 * ch - q1 * sh, q0 * sh + q3 * ch)
-        L0, L1 = c * L0 + s * L1, c * L1 - s * L0
-        # Casimir flow: rotation about the (constant) body vector L by |L| h / J1.
-        Ln = math.sqrt(L0 * L0 + L1 * L1 + L2 * L2)
-        if Ln > 0.0:
-            half = 0.5 * Ln * h / self._J[1]
-            k = math.sin(half) / Ln
-            r0, r1, r2, r3 = math.cos(half), k * L0, k * L1, k * L2
-            q0, q1, q2, q3 = (
-                q0 * r0 - q1 * r1 - q2 * r2 - q3 * r3,
-                q0 * r1 + q1 * r0 + q2 * r3 - q3 * r2,
-                q0 * r2 - q1 * r3 + q2 * r0 + q3 * r1,
-                q0 * r3 + q1 * r2 - q2 * r1 + q3 * r0,
-            )
-        return (q0, q1, q2, q3, L0, L1, L2)
+        """Exact flow of ``c2 L2^2 + |L|^2 / (2 J1)`` (the two commute).
+
+        The planar rotation about principal axis 2 by ``2 c2 L2 h`` is
+        applied; the Casimir part only adds ``h`` to ``tau`` (see
+        :meth:`from_split_state`).
+        """
+        q0, q1, q2, q3, L0, L1, L2, tau = z
+        half = self._c2 * L2 * h
+        ch, sh = math.cos(half), math.sin(half)
+        c, s = ch * ch - sh * sh, 2.0 * ch * sh
+        return (
+            q0 * ch - q3 * sh,
+            q1 * ch + q2 * sh,
+            q2 * ch - q1 * sh,
+            q0 * sh + q3 * ch,
+            c * L0 + s * L1,
+            c * L1 - s * L0,
+            L2,
+            tau + h,
+        )
 
 
 # ------------------------------------------------------------- exact solution
