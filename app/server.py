@@ -261,23 +261,27 @@ class Session:
             self._guard(f"scene '{name}'", lambda: scene.update(dt))
 
     def close(self, *, client_gone: bool = False) -> None:
-        """Close every built scene and the chooser.
+        """Close every built scene (so it can release what it holds) and the chooser.
 
-        With ``client_gone`` (the browser already left) nothing is sent: the
-        client's nodes died with its connection.
+        With ``client_gone`` (the browser already left, its nodes died with
+        the connection) failures are only logged: nobody is left to notify.
         """
         with self.run_lock:
             if self.closed:
                 return
             self.closed = True
-            if client_gone:
-                self.scenes.clear()
-                return
-            for name, scene in list(self.scenes.items()):
-                self._guard(f"closing scene '{name}'", scene.close)
-            self.scenes.clear()
+            closers = [(f"closing scene '{n}'", sc.close) for n, sc in self.scenes.items()]
             if self._chooser is not None:
-                self._guard("removing the scene chooser", self._chooser.remove)
+                closers.append(("removing the scene chooser", self._chooser.remove))
+            for what, close in closers:
+                if client_gone:
+                    try:
+                        close()
+                    except Exception:
+                        _log.debug("%s after the client left failed", what, exc_info=True)
+                else:
+                    self._guard(what, close)
+            self.scenes.clear()
 
 
 @dataclasses.dataclass(eq=False)

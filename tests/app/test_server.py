@@ -58,6 +58,10 @@ class CountingScene(Scene):
         with self.target.atomic():
             self.body.wxyz = (np.cos(angle / 2), 0.0, 0.0, np.sin(angle / 2))
 
+    def close(self) -> None:
+        self.closed = True
+        super().close()
+
 
 class OtherScene(CountingScene):
     name: ClassVar[str] = "beta"
@@ -187,6 +191,8 @@ def test_per_client_sessions_are_isolated(fake_apps: Any, ws_client: Any) -> Non
     # Disconnect tears the session down.
     client_a.close()
     assert wait_until(lambda: id_a not in app.client_ids())
+    assert wait_until(lambda: getattr(scene_a, "closed", False))  # released on disconnect
+    assert not getattr(scene_b, "closed", False)
     with pytest.raises(KeyError, match=f"no session for client_id {id_a}"):
         app.scene_for(id_a)
     assert app.scene_for(id_b).name == "beta"
