@@ -186,7 +186,10 @@ def _angles_from_p(p, seq, warn=True):
         a3 = a3 * sign
         out[..., 1] -= 0.5 * np.pi
     out[..., third] = a3
-    return (out + np.pi) % (2.0 * np.pi) - np.pi
+    # First and third angle into [-pi, pi); the middle one is already in
+    # [0, pi] (proper) or [-pi/2, pi/2] (Tait-Bryan).
+    out[..., 0::2] = (out[..., 0::2] + np.pi) % (2.0 * np.pi) - np.pi
+    return out
 
 
 def euler_angles_from_matrix(A, seq="ZXZ"):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._axis_angle import _matrix_from_unit_axis_angle
-from ._euler_parameters import _matrix_from_unit_p, _p_from_matrix
+from ._euler_parameters import _p_from_matrix
 from ._validation import check_euler_parameters, check_matrix, check_vector
 
 

@@ -102,8 +102,10 @@ def test_gimbal_lock_warns_and_keeps_the_matrix(seq):
         A = cr.matrix_from_euler_angles(angles, seq)
         with pytest.warns(cr.GimbalLockWarning, match="third angle is set to zero"):
             back = cr.euler_angles_from_matrix(A, seq)
-        # The documented choice: third angle zero, matrix unchanged.
+        # The documented choice: third angle zero, matrix unchanged, middle
+        # angle in its documented range.
         assert back[2] == 0.0
+        assert abs(back[1] - middle) < 1e-7
         np.testing.assert_allclose(cr.matrix_from_euler_angles(back, seq), A, atol=1e-14)
 
 
