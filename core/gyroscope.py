@@ -939,14 +939,14 @@ def _zxz_from_quaternion(p: np.ndarray, phi_ref: float, psi_ref: float):
     phi_prev, psi_prev = phi_ref, psi_ref
     out_phi = np.empty_like(phi)
     out_psi = np.empty_like(psi)
+    two_pi = 2.0 * np.pi
     for i in range(phi.shape[0]):
-        # (phi, psi) is defined modulo (2 pi, 2 pi) and (pi, pi) shifts of both
-        # (the sign of p); pick the branch nearest the previous sample.
-        k_phi = np.round((phi_prev - phi[i]) / np.pi)
-        cand_phi = phi[i] + np.pi * k_phi
-        cand_psi = psi[i] + np.pi * k_phi
-        k2 = np.round((psi_prev - cand_psi) / (2.0 * np.pi))
-        cand_psi = cand_psi + 2.0 * np.pi * k2
+        # phi and psi are each defined modulo 2 pi (with theta in [0, pi] the
+        # sign of p does not matter); pick the branches nearest the previous
+        # sample. Near a pole the true phi and psi jump by about pi: either
+        # branch of such a jump is the same orientation.
+        cand_phi = phi[i] + two_pi * np.round((phi_prev - phi[i]) / two_pi)
+        cand_psi = psi[i] + two_pi * np.round((psi_prev - psi[i]) / two_pi)
         phi_prev, psi_prev = cand_phi, cand_psi
         out_phi[i], out_psi[i] = cand_phi, cand_psi
     return out_phi, theta, out_psi
