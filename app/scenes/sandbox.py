@@ -593,6 +593,10 @@ class SandboxScene(Scene):
     def _build_gui(self, gui: Any) -> None:
         folder = self.make_folder()
         with folder:
+            self.legend = gui.add_markdown(
+                "Body: red nose = x<sub>b</sub>, blue fin = z<sub>b</sub>; thin pale axes = global X, Y, Z. "
+                "Gimbal rings: orange, purple, teal = Euler angles 1, 2, 3. Yellow arrow: rotation axis."
+            )
             self.panel_dropdown = gui.add_dropdown(
                 "Panel", options=PANELS, initial_value=self.panel,
                 hint="What to explore: orientation inputs, composition, angular velocity, export.",
