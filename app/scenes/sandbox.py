@@ -814,7 +814,34 @@ class SandboxScene(Scene):
 
     # -- input -> orientation ---------------------------------------------
     def _apply_input(self, key: str) -> bool:
-        """Read the active input panel; return True if the orientation changed."""
+        """Read the active input panel; return True if the orientation changed.
+
+        A new orientation is accepted only if the core returns finite unit
+        Euler parameters; otherwise (values too large to represent, or a
+        ValueError from the core) a notice explains and nothing moves.
+        """
+        previous = self.p
+        try:
+            with np.errstate(all="ignore"):
+                changed = self._read_input(key)
+        except ValueError as exc:
+            self.p = previous
+            self.notify(key, f"{exc}. The orientation is unchanged.", "warning")
+            return False
+        if changed:
+            norm = float(rot.quaternion_norm(self.p)) if _all_finite(self.p) else math.nan
+            if not abs(norm - 1.0) <= _UNIT_TOL:
+                self.p = previous
+                self.notify(
+                    key,
+                    "These values are too large to represent a rotation in floating point; "
+                    "the orientation is unchanged.",
+                    "warning",
+                )
+                return False
+        return changed
+
+    def _read_input(self, key: str) -> bool:
         if key == "Euler angles":
             angles = np.radians([float(s.value) for s in self.euler_sliders])
             if not _all_finite(angles):
@@ -840,10 +867,10 @@ class SandboxScene(Scene):
         if key == "Euler parameters":
             raw = np.array([float(n.value) for n in self.ep_inputs])
             norm = float(rot.quaternion_norm(raw)) if _all_finite(raw) else math.nan
-            if not (norm > 1e-12):
+            if not (1e-12 < norm < math.inf):
                 self.notify(
                     "Euler parameters",
-                    f"(\u03b80..\u03b83) = ({_fmt(raw, 3)}) has no direction (zero or not finite); "
+                    f"(\u03b80..\u03b83) = ({_fmt(raw, 3)}) has no direction (zero, too large or not finite); "
                     "the orientation is unchanged.",
                     "error",
                 )
