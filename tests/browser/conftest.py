@@ -1,7 +1,8 @@
 """Fixtures for browser tests: Debian's Chromium driven by Playwright.
 
 ``chromium`` is a session-scoped Playwright ``Browser`` (headless, software
-WebGL through SwiftShader). Without Playwright or ``/usr/bin/chromium`` the
+WebGL through SwiftShader) running Debian's ``/usr/bin/chromium`` (another
+binary can be named in ``RIGIDLAB_CHROMIUM``). Without Playwright or ``/usr/bin/chromium`` the
 browser tests are skipped with the reason, unless ``RIGIDLAB_REQUIRE_BROWSER=1``
 (set by CI), which turns the skip into a failure.
 
@@ -23,7 +24,7 @@ import pytest
 
 from tests.app.conftest import running_app  # noqa: F401  (re-exported fixture)
 
-CHROMIUM_PATH = "/usr/bin/chromium"
+CHROMIUM_PATH = os.environ.get("RIGIDLAB_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
 VIEWPORT = {"width": 1200, "height": 750}
 
