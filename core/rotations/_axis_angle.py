@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._euler_parameters import _axis_angle_from_unit_p, _p_from_matrix
-from ._batch import blocks
+from ._euler_parameters import (
+    _axis_angle_from_unit_p,
+    _matrix_from_rows,
+    _matrix_from_unit_p,
+    _p_from_matrix,
+)
+from ._batch import BLOCK, blocks
 from ._validation import (
-    NORMALIZED_TOL,
     UNIT_NORM2_TOL,
     as_float_array,
     broadcast_batch,
@@ -18,50 +22,13 @@ from ._validation import (
 )
 
 
-def _rodriguez_block(x, y, z, angle, o):
-    """Write Rodriguez matrices of unit axes (x, y, z) into ``o`` (m, 3, 3)."""
-    # A = I + sin(angle) v~ + 2 sin^2(angle / 2) v~ v~  (Eq. 8.29), written
-    # as cos(angle) I + sin(angle) v~ + (1 - cos(angle)) v v^T. With
-    # t = tan(angle / 2): sin(angle) = 2 t / (1 + t^2) and
-    # 1 - cos(angle) = 2 t^2 / (1 + t^2), exact identities that need one
-    # (vectorized) tangent instead of two sines and keep full precision for
-    # small angles; at angle = pi, t is large but finite in floating point
-    # and both expressions stay accurate.
-    t = np.tan(0.5 * angle)
-    t2 = t * t
-    u = 2.0 / (1.0 + t2)
-    s = t * u
-    k = t2 * u
-    c = 1.0 - k
-    kx = k * x
-    ky = k * y
-    kz = k * z
-    sx = s * x
-    sy = s * y
-    sz = s * z
-    kxy = kx * y
-    kxz = kx * z
-    kyz = ky * z
-    np.add(c, kx * x, out=o[:, 0, 0])
-    np.subtract(kxy, sz, out=o[:, 0, 1])
-    np.add(kxz, sy, out=o[:, 0, 2])
-    np.add(kxy, sz, out=o[:, 1, 0])
-    np.add(c, ky * y, out=o[:, 1, 1])
-    np.subtract(kyz, sx, out=o[:, 1, 2])
-    np.subtract(kxz, sy, out=o[:, 2, 0])
-    np.add(kyz, sx, out=o[:, 2, 1])
-    np.add(c, kz * z, out=o[:, 2, 2])
-
-
 def _matrix_from_unit_axis_angle(axis, angle, batch):
-    """Rodriguez matrices of unit axes (no validation), batch shapes equal."""
-    ax = axis.reshape(-1, 3)
-    an = angle.reshape(-1)
-    out = np.empty((an.shape[0], 3, 3))
-    for s, e in blocks(an.shape[0]):
-        b = ax[s:e]
-        _rodriguez_block(b[:, 0], b[:, 1], b[:, 2], an[s:e], out[s:e])
-    return out.reshape(batch + (3, 3))
+    """Rotation matrices of unit axes and angles (no validation), equal batches."""
+    half = 0.5 * angle
+    p = np.empty(batch + (4,))
+    p[..., 0] = np.cos(half)
+    p[..., 1:] = axis * np.sin(half)[..., None]
+    return _matrix_from_unit_p(p)
 
 
 def matrix_from_axis_angle(axis, angle):
@@ -71,12 +38,17 @@ def matrix_from_axis_angle(axis, angle):
 
         A = I + \\tilde v \\sin\\theta + 2 \\tilde v^2 \\sin^2(\\theta/2)
 
+    It is evaluated through the Euler parameters of the rotation
+    (``theta0 = cos(theta / 2)``, ``axis sin(theta / 2)``, Eq. 8.46) and
+    Eq. 8.48, an exact rewriting whose diagonal
+    ``theta0^2 + theta_i^2 - theta_j^2 - theta_k^2`` avoids the cancellation
+    of ``cos(theta) + (1 - cos(theta)) v_i^2`` near theta = pi.
+
     Parameters
     ----------
     axis : array_like, shape (..., 3)
         Unit rotation axis ``v`` (same components in body and global frame),
-        unit norm within :data:`UNIT_NORM_TOL`, normalized before use
-        (unless already unit to rounding, ``| |v|^2 - 1 | <= 4 eps``).
+        unit norm within :data:`UNIT_NORM_TOL` (normalized before use).
     angle : array_like, shape (...)
         Rotation angle ``theta`` in radians, right-hand rule about ``axis``.
 
@@ -99,29 +71,51 @@ def matrix_from_axis_angle(axis, angle):
     n = an.shape[0]
     out = np.empty((n, 3, 3))
     ok = np.empty(n, dtype=bool)
+    ws = np.empty((17, min(n, BLOCK)))
+    mul = np.multiply
     # Invalid entries are only reported after the loop; until then they
     # may produce NaN silently.
     with np.errstate(all="ignore"):
         for s, e in blocks(n):
-            b = ax[s:e]
-            x = b[:, 0]
-            y = b[:, 1]
-            z = b[:, 2]
+            m = e - s
+            comp = ws[13:17, :m]
+            np.copyto(comp[1:], ax[s:e].T)
+            x, y, z = comp[1:]
             a = an[s:e]
-            n2 = x * x + y * y + z * z
-            # The validation of check_unit_vector and check_scalar_array, fused
-            # into the block; NaN and infinity fail it too. Nothing is returned
-            # unless every block passed.
-            dev = n2 - 1.0
-            np.abs(dev, out=dev)
-            np.less_equal(dev, UNIT_NORM2_TOL, out=ok[s:e])
+            n2 = ws[11, :m]
+            t = ws[12, :m]
+            mul(x, x, out=n2)
+            mul(y, y, out=t)
+            n2 += t
+            mul(z, z, out=t)
+            n2 += t
+            # The validation of check_unit_vector and check_scalar_array,
+            # fused into the block; NaN and infinity fail it too. Nothing is
+            # returned unless every block passed.
+            np.subtract(n2, 1.0, out=t)
+            np.abs(t, out=t)
+            np.less_equal(t, UNIT_NORM2_TOL, out=ok[s:e])
             ok[s:e] &= np.isfinite(a)
-            if not dev.max(initial=0.0) <= NORMALIZED_TOL:
-                norm = np.sqrt(n2)
-                x = x / norm
-                y = y / norm
-                z = z / norm
-            _rodriguez_block(x, y, z, a, out[s:e])
+            # Euler parameters of the rotation (Eq. 8.46) with the half-angle
+            # tangent h = tan(angle / 4): cos(angle / 2) = (1 - h^2) / (1 + h^2)
+            # and sin(angle / 2) = 2 h / (1 + h^2), one vectorized tangent
+            # instead of a sine and a cosine; the axis norm is divided out
+            # on the way.
+            h = ws[0, :m]
+            h2 = ws[1, :m]
+            den = ws[2, :m]
+            mul(a, 0.25, out=h)
+            np.tan(h, out=h)
+            mul(h, h, out=h2)
+            np.add(h2, 1.0, out=den)
+            np.subtract(1.0, h2, out=comp[0])
+            comp[0] /= den
+            np.sqrt(n2, out=n2)
+            den *= n2
+            h += h
+            h /= den
+            comp[1:] *= h
+            _matrix_from_rows(comp, out[s:e], ws)
     if not ok.all():
         check_unit_vector(axis_in, "axis")  # raises, naming the batch index
         check_scalar_array(angle_in, "angle")

@@ -30,6 +30,59 @@ from ._validation import (
 )
 
 
+def _matrix_from_rows(comp, o, ws):
+    """Write the matrices of unit parameters into ``o`` (m, 3, 3).
+
+    ``comp`` (4, m) holds theta0..theta3 in contiguous rows; ``ws`` is a
+    workspace of at least 11 rows of length m.
+    """
+    mul = np.multiply
+    add = np.add
+    sub = np.subtract
+    m = comp.shape[1]
+    w, x, y, z = comp
+    # Doubling is exact in binary floating point, so X * y == 2 * (x * y)
+    # bit for bit; it saves the six multiplications by 2.
+    X = ws[0, :m]
+    Y = ws[1, :m]
+    Z = ws[2, :m]
+    add(x, x, out=X)
+    add(y, y, out=Y)
+    add(z, z, out=Z)
+    ww = ws[3, :m]
+    xx = ws[4, :m]
+    yy = ws[5, :m]
+    zz = ws[6, :m]
+    mul(w, w, out=ww)
+    mul(x, x, out=xx)
+    mul(y, y, out=yy)
+    mul(z, z, out=zz)
+    p1 = ws[7, :m]
+    p2 = ws[8, :m]
+    mul(X, y, out=p1)
+    mul(Z, w, out=p2)
+    sub(p1, p2, out=o[:, 0, 1])
+    add(p1, p2, out=o[:, 1, 0])
+    mul(X, z, out=p1)
+    mul(Y, w, out=p2)
+    add(p1, p2, out=o[:, 0, 2])
+    sub(p1, p2, out=o[:, 2, 0])
+    mul(Y, z, out=p1)
+    mul(X, w, out=p2)
+    sub(p1, p2, out=o[:, 1, 2])
+    add(p1, p2, out=o[:, 2, 1])
+    a = ws[9, :m]
+    b = ws[10, :m]
+    # Diagonal: theta0^2 + theta_i^2 - theta_j^2 - theta_k^2.
+    sub(ww, zz, out=a)
+    sub(xx, yy, out=b)
+    add(a, b, out=o[:, 0, 0])
+    sub(a, b, out=o[:, 1, 1])
+    add(ww, zz, out=a)
+    add(xx, yy, out=b)
+    sub(a, b, out=o[:, 2, 2])
+
+
 def _matrix_kernel(flat, ok):
     """Rotation matrices of Euler parameters ``flat`` (n, 4), block by block.
 
@@ -38,9 +91,6 @@ def _matrix_kernel(flat, ok):
     rounding already. Every intermediate lives in one preallocated
     workspace, and each block is first copied to contiguous rows.
     """
-    mul = np.multiply
-    add = np.add
-    sub = np.subtract
     n = flat.shape[0]
     out = np.empty((n, 3, 3))
     ws = np.empty((17, min(n, BLOCK)))
@@ -49,62 +99,22 @@ def _matrix_kernel(flat, ok):
         comp = ws[13:17, :m]
         np.copyto(comp, flat[s:e].T)
         w, x, y, z = comp
-        n2 = ws[0, :m]
-        t = ws[1, :m]
-        mul(w, w, out=n2)
-        mul(x, x, out=t)
+        n2 = ws[11, :m]
+        t = ws[12, :m]
+        np.multiply(w, w, out=n2)
+        np.multiply(x, x, out=t)
         n2 += t
-        mul(y, y, out=t)
+        np.multiply(y, y, out=t)
         n2 += t
-        mul(z, z, out=t)
+        np.multiply(z, z, out=t)
         n2 += t
-        sub(n2, 1.0, out=t)
+        np.subtract(n2, 1.0, out=t)
         np.abs(t, out=t)
         np.less_equal(t, UNIT_NORM2_TOL, out=ok[s:e])
         if not t.max(initial=0.0) <= NORMALIZED_TOL:
             np.sqrt(n2, out=n2)
             comp /= n2
-        # Doubling is exact in binary floating point, so X * y == 2 * (x * y)
-        # bit for bit; it saves the six multiplications by 2.
-        X = ws[2, :m]
-        Y = ws[3, :m]
-        Z = ws[4, :m]
-        add(x, x, out=X)
-        add(y, y, out=Y)
-        add(z, z, out=Z)
-        ww = ws[5, :m]
-        xx = ws[6, :m]
-        yy = ws[7, :m]
-        zz = ws[8, :m]
-        mul(w, w, out=ww)
-        mul(x, x, out=xx)
-        mul(y, y, out=yy)
-        mul(z, z, out=zz)
-        o = out[s:e]
-        p1 = ws[9, :m]
-        p2 = ws[10, :m]
-        mul(X, y, out=p1)
-        mul(Z, w, out=p2)
-        sub(p1, p2, out=o[:, 0, 1])
-        add(p1, p2, out=o[:, 1, 0])
-        mul(X, z, out=p1)
-        mul(Y, w, out=p2)
-        add(p1, p2, out=o[:, 0, 2])
-        sub(p1, p2, out=o[:, 2, 0])
-        mul(Y, z, out=p1)
-        mul(X, w, out=p2)
-        sub(p1, p2, out=o[:, 1, 2])
-        add(p1, p2, out=o[:, 2, 1])
-        a = ws[11, :m]
-        b = ws[12, :m]
-        # Diagonal: theta0^2 + theta_i^2 - theta_j^2 - theta_k^2.
-        sub(ww, zz, out=a)
-        sub(xx, yy, out=b)
-        add(a, b, out=o[:, 0, 0])
-        sub(a, b, out=o[:, 1, 1])
-        add(ww, zz, out=a)
-        add(xx, yy, out=b)
-        sub(a, b, out=o[:, 2, 2])
+        _matrix_from_rows(comp, out[s:e], ws)
     return out
 
 
