@@ -79,3 +79,30 @@ def test_equation_table_names_existing_functions():
         doc = getattr(cr, name).__doc__
         first = eq.split("-")[0]
         assert first in doc, (eq, name)
+
+
+def test_empty_batches_keep_their_shape():
+    assert cr.matrix_from_euler_parameters(np.zeros((0, 4))).shape == (0, 3, 3)
+    assert cr.euler_parameters_from_matrix(np.zeros((0, 3, 3))).shape == (0, 4)
+    assert cr.matrix_from_axis_angle(np.zeros((0, 3)), np.zeros(0)).shape == (0, 3, 3)
+    assert cr.matrix_from_euler_angles(np.zeros((0, 3)), "zyx").shape == (0, 3, 3)
+    assert cr.euler_angles_from_matrix(np.zeros((0, 3, 3))).shape == (0, 3)
+    assert cr.quaternion_product(np.zeros((0, 4)), np.zeros((0, 4))).shape == (0, 4)
+
+
+def test_inputs_are_converted_to_float64_and_never_modified():
+    p = np.array([[1, 0, 0, 0], [0, 0, 0, 1]], dtype=np.float32)
+    before = p.copy()
+    A = cr.matrix_from_euler_parameters(p)
+    assert A.dtype == np.float64
+    np.testing.assert_array_equal(p, before)
+    A_in = np.array(A)
+    cr.euler_parameters_from_matrix(A_in[:, ::-1, ::-1].copy())
+    np.testing.assert_array_equal(A_in, A)
+    # Strided views give the same result as contiguous copies.
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(9, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    np.testing.assert_array_equal(
+        cr.matrix_from_euler_parameters(q[::2]), cr.matrix_from_euler_parameters(q[::2].copy())
+    )
