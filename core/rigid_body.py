@@ -731,12 +731,20 @@ def _pi_reduced(
     ``Pi - (m/n' v + (1 - m/n') Pi(n'; am v)) / (1 - n)``,
     ``n' = (m - n) / (1 - n)``.
     """
-    out = _carlson_pi(sn, cn, dn, n)
     far = np.abs(r) > 0.5 * K
+    near = ~far
+    out = np.empty_like(r)
+    out[near] = _carlson_pi(sn[near], cn[near], dn[near], n)
     if np.any(far):
         rf = r[far]
         v = K - np.abs(rf)
-        snv, cnv, dnv = _ellipj_accurate(v, m, mc)
+        if mc >= 1e-2:
+            # sn(v) = cd(K - v), cn(v) = sqrt(mc) sd(K - v), dn(v) = sqrt(mc) / dn(K - v);
+            # with dn >= sqrt(mc) >= 0.1 these lose at most a digit
+            dnf = dn[far]
+            snv, cnv, dnv = cn[far] / dnf, math.sqrt(mc) * np.abs(sn[far]) / dnf, math.sqrt(mc) / dnf
+        else:
+            snv, cnv, dnv = _ellipj_accurate(v, m, mc)
         n2 = (m - n) / (1.0 - n)
         tail = ((m / n2) * v + (1.0 - m / n2) * _carlson_pi(snv, np.maximum(cnv, 0.0), dnv, n2)) / (1.0 - n)
         out[far] = np.sign(rf) * (Pi - tail)
