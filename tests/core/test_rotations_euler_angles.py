@@ -275,3 +275,22 @@ def test_angle_errors_name_the_argument():
         cr.omega_from_euler_angle_rates([0.1, 0.2, 0.3], [np.inf, 0, 0])
     with pytest.raises(ValueError, match=r"Expected broadcastable batch shapes, got `angles` batch \(2,\), `omega` batch \(3,\)"):
         cr.euler_angle_rates_from_omega(np.ones((2, 3)), np.ones((3, 3)))
+
+
+@pytest.mark.parametrize("seq", ["ZXZ", "zxz", "ZYX", "xyz"])
+def test_near_gimbal_lock_within_tolerance(seq):
+    # Within GIMBAL_LOCK_TOL of the singular middle angle the warning fires
+    # and the matrix is reproduced to about the distance to the singularity.
+    singular = 0.0 if _is_proper(seq) else np.pi / 2
+    for offset in (1e-9, 5e-8):
+        angles = np.array([0.4, singular + offset if singular == 0.0 else singular - offset, -1.2])
+        A = cr.matrix_from_euler_angles(angles, seq)
+        with pytest.warns(cr.GimbalLockWarning):
+            back = cr.euler_angles_from_matrix(A, seq)
+        np.testing.assert_allclose(cr.matrix_from_euler_angles(back, seq), A, atol=4 * offset)
+    # Just outside it: no warning, angles recovered (conditioning 1 / offset).
+    angles = np.array([0.4, singular + 1e-5 if singular == 0.0 else singular - 1e-5, -1.2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = cr.euler_angles_from_matrix(cr.matrix_from_euler_angles(angles, seq), seq)
+    np.testing.assert_allclose(back, angles, atol=1e-9)
