@@ -50,6 +50,9 @@ _LEVEL_SECONDS = {"info": 6.0, "warning": 10.0, "error": 15.0}
 _NOTICE_REPEAT_SECONDS = 5.0
 #: Loop period (about 60 Hz) and the largest dt handed to a scene (s).
 _PERIOD = 1.0 / 60.0
+#: View for scenes that do not declare ``camera_position`` / ``camera_look_at``.
+DEFAULT_CAMERA_POSITION = (3.2, -4.2, 2.6)
+DEFAULT_CAMERA_LOOK_AT = (0.0, 0.0, 0.3)
 _MAX_DT = 0.1
 
 
@@ -216,14 +219,12 @@ class Session:
         """Point the camera(s) at the scene, if it declares a framing.
 
         A scene may set the optional class attributes ``camera_position`` and
-        ``camera_look_at`` (global frame, metres); scenes without them leave
-        the cameras where they are.
+        ``camera_look_at`` (global frame, metres); scenes without them get the
+        app's default view.
         """
         cls = self.scene_classes[name]
-        position = getattr(cls, "camera_position", None)
-        look_at = getattr(cls, "camera_look_at", None)
-        if position is None or look_at is None:
-            return
+        position = getattr(cls, "camera_position", None) or DEFAULT_CAMERA_POSITION
+        look_at = getattr(cls, "camera_look_at", None) or DEFAULT_CAMERA_LOOK_AT
         if isinstance(self.target, viser.ViserServer):
             self.target.initial_camera.position = position
             self.target.initial_camera.look_at = look_at
@@ -510,8 +511,6 @@ def create_app(
     server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)
     try:
         server.gui.configure_theme(control_width="large", show_share_button=False)
-        server.initial_camera.position = (3.2, -4.2, 2.6)
-        server.initial_camera.look_at = (0.0, 0.0, 0.3)
         bound = server.get_port()
         shown_host = "127.0.0.1" if host in ("0.0.0.0", "", "::") else host
         app = RigidlabApp(
