@@ -307,7 +307,8 @@ def axis_angle_from_euler_parameters(p):
 def _axis_angle_from_unit_p(p):
     p = np.where(p[..., :1] < 0.0, -p, p)
     vec = p[..., 1:]
-    s = np.sqrt(np.einsum("...i,...i->...", vec, vec))
+    # hypot does not underflow for tiny vector parts (angles below 1e-150).
+    s = np.hypot(np.hypot(vec[..., 0], vec[..., 1]), vec[..., 2])
     angle = 2.0 * np.arctan2(s, p[..., 0])
     zero = s == 0.0
     safe = np.where(zero, 1.0, s)

@@ -24,7 +24,7 @@ def euler_parameters_from_rotation_vector(r):
         ``|r| > pi``).
     """
     r = check_vector(r, "r", 3)
-    angle = np.sqrt(np.einsum("...i,...i->...", r, r))
+    angle = np.hypot(np.hypot(r[..., 0], r[..., 1]), r[..., 2])
     # sin(angle / 2) / angle = sinc(angle / (2 pi)) / 2, exact at angle 0.
     scale = 0.5 * np.sinc(angle / (2.0 * np.pi))
     out = np.empty(r.shape[:-1] + (4,))
@@ -53,7 +53,8 @@ def rotation_vector_from_euler_parameters(p):
 def _rotvec_from_unit_p(p):
     p = np.where(p[..., :1] < 0.0, -p, p)
     v = p[..., 1:]
-    s = np.sqrt(np.einsum("...i,...i->...", v, v))
+    # hypot does not underflow for tiny vector parts (angles below 1e-150).
+    s = np.hypot(np.hypot(v[..., 0], v[..., 1]), v[..., 2])
     angle = 2.0 * np.arctan2(s, p[..., 0])
     zero = s == 0.0
     # angle / s -> 2 / theta0 = 2 as s -> 0 (theta0 -> 1).
@@ -75,7 +76,7 @@ def matrix_from_rotation_vector(r):
         Active rotation matrix, body to global.
     """
     r = check_vector(r, "r", 3)
-    angle = np.sqrt(np.einsum("...i,...i->...", r, r))
+    angle = np.hypot(np.hypot(r[..., 0], r[..., 1]), r[..., 2])
     zero = angle == 0.0
     axis = r / np.where(zero, 1.0, angle)[..., None]
     axis[zero] = (0.0, 0.0, 1.0)

@@ -16,7 +16,7 @@ quaternion = st.tuples(component, component, component, component).filter(
     lambda q: np.linalg.norm(q) > 1e-3
 ).map(lambda q: np.asarray(q) / np.linalg.norm(q))
 sequence = st.sampled_from(BASE + [s.lower() for s in BASE])
-SETTINGS = settings(max_examples=150, deadline=None)
+SETTINGS = settings(max_examples=int(__import__("os").environ.get("RIGIDLAB_HYPOTHESIS_EXAMPLES", 150)), deadline=None)
 
 
 @SETTINGS
