@@ -2,12 +2,13 @@
 
 scipy stores quaternions scalar last unless ``scalar_first=True`` is given;
 rigidlab is scalar first everywhere, so every conversion goes through here.
+scipy.spatial is imported on first use only: it takes longer to import than
+the rest of the core.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ._euler_parameters import canonical_euler_parameters
 from ._validation import check_euler_parameters
@@ -25,6 +26,8 @@ def to_scipy(p):
     -------
     rotation : scipy.spatial.transform.Rotation
     """
+    from scipy.spatial.transform import Rotation
+
     p = check_euler_parameters(p, "p")
     return Rotation.from_quat(p, scalar_first=True)
 
@@ -41,6 +44,8 @@ def from_scipy(rotation):
     p : ndarray, shape (4,) or (n, 4)
         Unit Euler parameters, scalar first, sign-canonical (theta0 >= 0).
     """
+    from scipy.spatial.transform import Rotation
+
     if not isinstance(rotation, Rotation):
         raise ValueError(
             "Expected `rotation` to be a scipy.spatial.transform.Rotation, got "

@@ -106,3 +106,14 @@ def test_inputs_are_converted_to_float64_and_never_modified():
     np.testing.assert_array_equal(
         cr.matrix_from_euler_parameters(q[::2]), cr.matrix_from_euler_parameters(q[::2].copy())
     )
+
+
+def test_import_does_not_load_scipy_spatial():
+    # scipy.spatial is only needed at the scipy boundary; importing the core
+    # stays light for the app's start-up.
+    import subprocess
+    import sys
+
+    code = "import sys, core.rotations; print('scipy.spatial' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
