@@ -92,7 +92,7 @@ _X_COLOR, _Y_COLOR, _Z_COLOR = (214, 56, 56), (44, 160, 72), (48, 96, 214)
 # Scene layout (metres, global frame; +Z up).
 _GIMBAL_POSITION = np.array([0.0, 2.7, 0.0])
 _GHOST_POSITIONS = (np.array([0.0, 0.0, 0.0]), np.array([0.0, 2.7, 0.0]))
-_AXIS_ARROW_LENGTH = 1.45
+_AXIS_ARROW_LENGTH = 1.3
 _OMEGA_ARROW_SCALE = 0.9  # metres per rad/s
 _OMEGA_ARROW_MAX = 2.0
 
@@ -507,8 +507,8 @@ class SandboxScene(Scene):
             colors=(230, 180, 20), thickness=3.0, thickness_units="screen",
         )
         self.axis_label = scene.add_label(
-            f"{root}/rotation_axis/label", "angle", position=(0.0, 0.0, _AXIS_ARROW_LENGTH + 0.12),
-            anchor="bottom-center",
+            f"{root}/rotation_axis/label", "angle", position=(0.06, 0.0, _AXIS_ARROW_LENGTH),
+            anchor="center-left",
         )
 
         # Angular velocity arrow (global frame), shown in the omega panel.
