@@ -216,7 +216,7 @@ def main(argv=None):
     }
     adaptive = {
         "RK45": [1e-5, 1e-7, 1e-9] if quick else [1e-4, 1e-6, 1e-8, 1e-10],
-        "DOP853": [1e-6, 1e-9, 1e-12] if quick else [1e-6, 1e-8, 1e-10, 1e-12, 1e-13],
+        "DOP853": [1e-5, 1e-7, 1e-9, 1e-11] if quick else [1e-5, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13],
         "LSODA": [1e-6, 1e-9] if quick else [1e-6, 1e-8, 1e-10, 1e-12],
     }
     print(f"free asymmetric body, moments {J.tolist()}, omega_body0 {w0.tolist()}, T = {T:g} s")
@@ -229,10 +229,10 @@ def main(argv=None):
         "rk4": [2e-4, 1e-4, 5e-5] + ([] if quick else [2.5e-5]),
         "midpoint": [1e-4, 5e-5],
         "splitting": [2e-4, 1e-4, 5e-5] + ([] if quick else [2.5e-5]),
-        "splitting4": [4e-4, 2e-4, 1e-4] + ([] if quick else [5e-5]),
-        "splitting6": [1e-3, 5e-4, 2.5e-4] + ([] if quick else [1.25e-4]),
+        "splitting4": [4e-4, 2e-4, 1e-4] + ([] if quick else [5e-5, 2.5e-5]),
+        "splitting6": [1e-3, 5e-4, 2.5e-4] + ([] if quick else [1.25e-4, 6.25e-5]),
     }
-    adaptive_stiff = {"RK45": [1e-6, 1e-8], "DOP853": [1e-7, 1e-10, 1e-12], "LSODA": [1e-7, 1e-10]}
+    adaptive_stiff = {"RK45": [1e-6, 1e-8], "DOP853": [1e-5, 1e-7, 1e-9, 1e-11, 1e-13], "LSODA": [1e-7, 1e-10]}
     print(f"stiff case: omega_body0 {w_stiff.tolist()}, T = {T_stiff:g} s")
     rows_stiff = work_precision("stiff", J, w_stiff, T_stiff, fixed_stiff, adaptive_stiff)
 

@@ -824,12 +824,16 @@ class FreeBodySolution:
             integral = (u + sa * np.arctan(sa * sn)) / (1.0 + a)
             am_turns = np.zeros_like(u)
         else:
-            K, m, mc = c["K"], c["m"], c["mc"]
+            K = c["K"]
             j = np.floor((u + K) / (2.0 * K))
-            r = u - 2.0 * K * j
-            sn, cn, dn = _ellipj_accurate(r, m, mc)
-            cn = np.maximum(cn, 0.0)
-            integral = 2.0 * j * c["Pi"] + _pi_reduced(r, sn, cn, dn, n, m, mc, K, c["Pi"])
+            if c.get("table") is not None:
+                sn, cn, dn, periodic = _table_functions(c["table"], u, K)
+                integral = (c["Pi"] / K) * u + periodic
+                # reduced values: sn(r) = (-1)^j sn(u), cn(r) = (-1)^j cn(u) >= 0
+                flip_r = 1.0 - 2.0 * np.mod(j, 2.0)
+                sn, cn = flip_r * sn, np.maximum(flip_r * cn, 0.0)
+            else:
+                sn, cn, dn, integral = _direct_functions(u, j, c)
             am_turns = j
         s1, s2, s3 = c["signs"]
         # omega with sn, cn, dn of the reduced argument r; cn(u) = (-1)^j cn(r),
@@ -845,8 +849,83 @@ class FreeBodySolution:
         # psi = atan2(L1, L2) made continuous across half periods of am
         psi = np.arctan2(L1, L2) - s1 * s2 * math.pi * am_turns
         r_q = _zxz_quaternion(phi, theta, psi)
-        p = _qmul_arr(_qmul_arr(c["left"], r_q), c["q_can_conj"])
-        return p, w @ c["QP"].T
+        # p = left (x) r (x) conj(q_can): one constant 4x4 matrix acting on r
+        return r_q @ c["sandwich"].T, w @ c["QP"].T
+
+
+def _direct_functions(u: np.ndarray, j: np.ndarray, c: dict) -> tuple[np.ndarray, ...]:
+    """sn, cn, dn of the reduced argument ``r = u - 2 K j`` (|r| <= K) and
+    ``I(u) = int_0^u du' / (1 - n sn^2 u')``, by ``ellipj`` and Carlson's integrals."""
+    K, m, mc, n = c["K"], c["m"], c["mc"], c["n"]
+    r = u - 2.0 * K * j
+    sn, cn, dn = _ellipj_accurate(r, m, mc)
+    cn = np.maximum(cn, 0.0)
+    integral = 2.0 * j * c["Pi"] + _pi_reduced(r, sn, cn, dn, n, m, mc, K, c["Pi"])
+    return sn, cn, dn, integral
+
+
+_TABLE_INTERVALS = 256  # pieces per period 4K
+_TABLE_DEGREE = 9  # Chebyshev degree per piece
+
+
+def _chebyshev_tables(c: dict) -> np.ndarray | None:
+    """Piecewise Chebyshev tables of sn(u), cn(u), dn(u) and of the periodic
+    part ``P(u) = I(u) - (Pi_c / K) u`` of the precession integral over one
+    period 4K: (pieces, 4, degree + 1) coefficients.
+
+    Built once per motion from the direct formulas at the Chebyshev points of
+    each piece. The functions are analytic, so on pieces of width 4K/256 a
+    degree-9 interpolant is exact to round-off; the degree-8 coefficients of
+    every piece are checked against 1e-14 of the function's size, and None
+    is returned (direct evaluation is used) when they are larger, which
+    happens only close to the separatrix where K grows and the pulses
+    sharpen.
+    """
+    K = c["K"]
+    d = _TABLE_DEGREE
+    h = 4.0 * K / _TABLE_INTERVALS
+    k = np.arange(d + 1)
+    nodes = np.cos(np.pi * (k + 0.5) / (d + 1))
+    u = (-2.0 * K + h * (np.arange(_TABLE_INTERVALS) + 0.5))[:, None] + 0.5 * h * nodes[None, :]
+    flat = u.ravel()
+    j = np.floor((flat + K) / (2.0 * K))
+    sn, cn, dn, integral = _direct_functions(flat, j, c)
+    flip = 1.0 - 2.0 * np.mod(j, 2.0)
+    f = np.stack([flip * sn, flip * cn, dn, integral - (c["Pi"] / K) * flat]).reshape(4, _TABLE_INTERVALS, d + 1)
+    T = np.cos(np.outer(k, (k + 0.5) * np.pi / (d + 1)))  # T_k at the nodes
+    coef = (2.0 / (d + 1)) * np.einsum("fpj,kj->pfk", f, T)
+    coef[..., 0] *= 0.5
+    # converged when the degree d-1 coefficients are at round-off level
+    # (the samples carry ~1e-16 relative noise, which sets the floor of the
+    # last coefficients; the interpolation error is below the first omitted
+    # coefficient, which decays geometrically past d - 1)
+    scale = np.maximum(np.max(np.abs(f), axis=(1, 2)), 1e-300)
+    tail = np.max(np.abs(coef[..., d - 1]), axis=0)
+    if np.any(tail > 1e-14 * scale):
+        return None
+    return coef
+
+
+def _table_functions(table: np.ndarray, u: np.ndarray, K: float) -> tuple[np.ndarray, ...]:
+    """sn(u), cn(u), dn(u), P(u) from the piecewise Chebyshev tables (Clenshaw)."""
+    n_pieces = table.shape[0]
+    x = np.mod(u + 2.0 * K, 4.0 * K) * (n_pieces / (4.0 * K))
+    idx = np.minimum(x.astype(np.intp), n_pieces - 1)
+    s = (2.0 * (x - idx) - 1.0)[:, None]
+    C = table[idx]  # (n, 4, degree + 1)
+    b1 = np.zeros(C.shape[:2])
+    b2 = np.zeros(C.shape[:2])
+    two_s = 2.0 * s
+    for k in range(C.shape[2] - 1, 0, -1):
+        b1, b2 = C[:, :, k] + two_s * b1 - b2, b1
+    f = C[:, :, 0] + s * b1 - b2
+    return f[:, 0], f[:, 1], f[:, 2], f[:, 3]
+
+
+def _sandwich_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The (4, 4) matrix M with ``M @ r = a (x) r (x) b`` for quaternions a, b (4,)."""
+    eye = np.eye(4)
+    return np.stack([_qmul_arr(_qmul_arr(a, e), b) for e in eye], axis=1)
 
 
 def _zxz_quaternion(phi: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> np.ndarray:
@@ -857,7 +936,7 @@ def _zxz_quaternion(phi: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> np.n
 
 
 def free_body_solution(
-    inertia: Any, omega_body0: Any, p0: Any, *, equal_tol: float = 1e-12
+    inertia: Any, omega_body0: Any, p0: Any, *, equal_tol: float = 1e-12, tables: bool = True
 ) -> FreeBodySolution:
     """Precompute the exact torque-free motion from ``(omega_body0, p0)`` at t = 0.
 
@@ -870,6 +949,12 @@ def free_body_solution(
     p0 : (4,) initial unit Euler parameters (scalar first), body to global.
     equal_tol : principal moments closer than ``equal_tol * max moment`` are
         treated as equal (closed-form regular precession).
+    tables : tabulate sn, cn, dn and the periodic part of the precession
+        integral once per motion (piecewise Chebyshev interpolants of the
+        direct formulas, exact to round-off; ~1 ms) so that each time point
+        costs a table look-up instead of ``ellipj`` and Carlson's integrals.
+        ``False``, and motions close to the separatrix, evaluate the direct
+        formulas at every time point.
 
     Returns
     -------
@@ -966,6 +1051,8 @@ def free_body_solution(
         J=(J1, J2, J3), W=(W1, W2, W3), lam=lam, m=m, mc=mc, n=n, K=K, Pi=Pi, u0=u0, I0=I0,
         signs=(s1, s2, s3), L=Lm, prec=Lm * (J3 - J1) / (J1 * J3 * lam), QP=QP,
     )
+    if not separatrix and tables:
+        c["table"] = _chebyshev_tables(c)
     sol = FreeBodySolution("separatrix" if separatrix else "asymmetric",
                            math.inf if separatrix else 4.0 * K / lam, J_body, p0, w0, c)
     # Orientation: p(t) = p0 (x) q_can (x) conj(r(0)) (x) r(t) (x) conj(q_can),
@@ -973,8 +1060,10 @@ def free_body_solution(
     q_can = _p_from_rotation(QP)
     c["q_can_conj"] = quaternion_conjugate(q_can)
     c["left"] = np.array([1.0, 0.0, 0.0, 0.0])
+    c["sandwich"] = _sandwich_matrix(c["left"], c["q_can_conj"])
     r0q = _qmul_arr(sol.at(0.0).p.reshape(4), q_can)  # = r(0) with left = identity
     c["left"] = _qmul_arr(quaternion_product(p0, q_can), quaternion_conjugate(r0q))
+    c["sandwich"] = _sandwich_matrix(c["left"], c["q_can_conj"])
     return sol
 
 
