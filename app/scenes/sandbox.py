@@ -669,6 +669,10 @@ class SandboxScene(Scene):
                     self.q_angles.append(
                         gui.add_slider(f"q{k + 1} angle (deg)", min=-180.0, max=180.0, step=1.0, initial_value=angle)
                     )
+                self.q1_from_body_button = gui.add_button(
+                    "q1 \u2190 current body orientation",
+                    hint="Copy the orientation set in the Orientation panel into q1 (axis and angle).",
+                )
                 self.compose_text = gui.add_markdown("")
             # -- angular velocity
             self.omega_folder = gui.add_folder("Angular velocity", visible=False)
@@ -719,6 +723,7 @@ class SandboxScene(Scene):
         self.reset_button.on_click(mark("reset"))
         for handle in (*self.q_axes, *self.q_angles):
             handle.on_update(mark("compose"))
+        self.q1_from_body_button.on_click(mark("q1_from_body"))
         self.omega_input.on_update(mark("omega"))
         self.omega_frame_dropdown.on_update(mark("omega"))
         self.animate_checkbox.on_update(mark("animate"))
@@ -781,6 +786,12 @@ class SandboxScene(Scene):
             self._readout_stale = True
         if moved or "omega" in dirty or "panel" in dirty:
             self.rates = self._rates()
+        if "q1_from_body" in dirty:
+            views = self.views or orientation_views(self.p, self.seq)
+            with self._writing():
+                self.q_axes[0].value = tuple(np.round(views.axis, 6))
+                self.q_angles[0].value = round(math.degrees(views.angle), 3)
+            dirty.add("compose")
         if "compose" in dirty:
             self.compose = self._compose()
 

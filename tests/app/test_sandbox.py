@@ -428,3 +428,17 @@ def test_app_per_client_sandboxes_are_isolated(running_app: Any, ws_client: Any)
     time.sleep(0.1)
     assert np.allclose(scene_b.body_frame.wxyz, before_b)
     assert scene_b.euler_sliders[0].value == 30.0
+
+
+def test_compose_q1_from_current_body(sandbox: Any) -> None:
+    choose(sandbox, input="Euler angles", seq="ZXZ")
+    set_euler(sandbox, [30.0, 40.0, 20.0])
+    body = R(sandbox.body_frame.wxyz)
+    choose(sandbox, panel="Compose q1, q2")
+    sandbox.q1_from_body_button.value = True  # what a click does on the server
+    settle(sandbox)
+    # q1 is shown as axis (6 decimals) and angle (3 decimals of a degree):
+    # it reproduces the body to ~1e-5.
+    assert quat_equal(sandbox.compose.q1, body.as_quat(scalar_first=True), atol=1e-4)
+    q2 = Rotation.from_rotvec([0, 0, math.pi / 2])
+    assert quat_equal(sandbox.ghosts[0][1].wxyz, (R(sandbox.compose.q1) * q2).as_quat(scalar_first=True))
