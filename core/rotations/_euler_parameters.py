@@ -30,50 +30,45 @@ from ._validation import (
 )
 
 
-def _matrix_from_rows(comp, o, ws):
+def _matrix_from_rows(comp, o, ws, squares_ready=False):
     """Write the matrices of unit parameters into ``o`` (m, 3, 3).
 
     ``comp`` (4, m) holds theta0..theta3 in contiguous rows; ``ws`` is a
-    workspace of at least 11 rows of length m.
+    workspace of at least 13 rows of length m whose rows 3-6 already hold
+    the squares of ``comp`` when ``squares_ready``. Row-stacked operations
+    keep the number of numpy calls per block small.
     """
-    mul = np.multiply
     add = np.add
     sub = np.subtract
     m = comp.shape[1]
-    w, x, y, z = comp
+    w = comp[0]
     # Doubling is exact in binary floating point, so X * y == 2 * (x * y)
-    # bit for bit; it saves the six multiplications by 2.
-    X = ws[0, :m]
-    Y = ws[1, :m]
-    Z = ws[2, :m]
-    add(x, x, out=X)
-    add(y, y, out=Y)
-    add(z, z, out=Z)
-    ww = ws[3, :m]
-    xx = ws[4, :m]
-    yy = ws[5, :m]
-    zz = ws[6, :m]
-    mul(w, w, out=ww)
-    mul(x, x, out=xx)
-    mul(y, y, out=yy)
-    mul(z, z, out=zz)
-    p1 = ws[7, :m]
-    p2 = ws[8, :m]
-    mul(X, y, out=p1)
-    mul(Z, w, out=p2)
-    sub(p1, p2, out=o[:, 0, 1])
-    add(p1, p2, out=o[:, 1, 0])
-    mul(X, z, out=p1)
-    mul(Y, w, out=p2)
-    add(p1, p2, out=o[:, 0, 2])
-    sub(p1, p2, out=o[:, 2, 0])
-    mul(Y, z, out=p1)
-    mul(X, w, out=p2)
-    sub(p1, p2, out=o[:, 1, 2])
-    add(p1, p2, out=o[:, 2, 1])
-    a = ws[9, :m]
-    b = ws[10, :m]
-    # Diagonal: theta0^2 + theta_i^2 - theta_j^2 - theta_k^2.
+    # bit for bit; it saves the multiplications by 2.
+    XYZ = ws[0:3, :m]
+    add(comp[1:], comp[1:], out=XYZ)
+    X, Y, Z = XYZ
+    squares = ws[3:7, :m]
+    if not squares_ready:
+        np.multiply(comp, comp, out=squares)
+    ww, xx, yy, zz = squares
+    # Symmetric parts (2xy, 2xz, 2yz) and skew parts (2zw, 2yw, 2xw).
+    sym = ws[7:10, :m]
+    np.multiply(X, comp[2:4], out=sym[0:2])
+    np.multiply(Y, comp[3], out=sym[2])
+    skw = ws[10:13, :m]
+    np.multiply(ws[2::-1, :m], w, out=skw)
+    xy, xz, yz = sym
+    zw, yw, xw = skw
+    sub(xy, zw, out=o[:, 0, 1])
+    add(xy, zw, out=o[:, 1, 0])
+    add(xz, yw, out=o[:, 0, 2])
+    sub(xz, yw, out=o[:, 2, 0])
+    sub(yz, xw, out=o[:, 1, 2])
+    add(yz, xw, out=o[:, 2, 1])
+    # Diagonal: theta0^2 + theta_i^2 - theta_j^2 - theta_k^2 (rows 7-8 of
+    # ws are free again).
+    a = ws[7, :m]
+    b = ws[8, :m]
     sub(ww, zz, out=a)
     sub(xx, yy, out=b)
     add(a, b, out=o[:, 0, 0])
@@ -93,28 +88,28 @@ def _matrix_kernel(flat, ok):
     """
     n = flat.shape[0]
     out = np.empty((n, 3, 3))
-    ws = np.empty((17, min(n, BLOCK)))
+    ws = np.empty((19, min(n, BLOCK)))
     for s, e in blocks(n):
         m = e - s
         comp = ws[13:17, :m]
         np.copyto(comp, flat[s:e].T)
-        w, x, y, z = comp
-        n2 = ws[11, :m]
-        t = ws[12, :m]
-        np.multiply(w, w, out=n2)
-        np.multiply(x, x, out=t)
-        n2 += t
-        np.multiply(y, y, out=t)
-        n2 += t
-        np.multiply(z, z, out=t)
-        n2 += t
+        # The squares serve both the norm and the matrix (rows 3-6 of ws).
+        squares = ws[3:7, :m]
+        np.multiply(comp, comp, out=squares)
+        ww, xx, yy, zz = squares
+        n2 = ws[17, :m]
+        t = ws[18, :m]
+        np.add(ww, xx, out=n2)
+        n2 += yy
+        n2 += zz
         np.subtract(n2, 1.0, out=t)
         np.abs(t, out=t)
         np.less_equal(t, UNIT_NORM2_TOL, out=ok[s:e])
-        if not t.max(initial=0.0) <= NORMALIZED_TOL:
+        unit = t.max(initial=0.0) <= NORMALIZED_TOL
+        if not unit:
             np.sqrt(n2, out=n2)
             comp /= n2
-        _matrix_from_rows(comp, out[s:e], ws)
+        _matrix_from_rows(comp, out[s:e], ws, squares_ready=unit)
     return out
 
 
