@@ -280,3 +280,23 @@ def test_rigidlab_serve_prints_url_and_stops_on_ctrl_c() -> None:
         if process.poll() is None:
             process.kill()
             process.wait()
+
+
+def test_registry_skips_a_module_that_fails_to_import(monkeypatch: Any) -> None:
+    import importlib
+
+    import app.scenes as registry
+
+    real_import = importlib.import_module
+
+    def failing_import(name: str, *args: Any) -> Any:
+        if name == "app.scenes.sandbox":
+            raise ImportError("simulated broken scene")
+        return real_import(name, *args)
+
+    monkeypatch.setattr(registry.importlib, "import_module", failing_import)
+    scenes = discover_scenes()
+    assert "sandbox" not in scenes
+    assert "simulated broken scene" in registry.discovery_errors()["app.scenes.sandbox"]
+    monkeypatch.undo()
+    assert "sandbox" in discover_scenes() and "app.scenes.sandbox" not in registry.discovery_errors()
