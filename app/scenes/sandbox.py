@@ -420,10 +420,6 @@ def _fmt(v: Any, digits: int = 4) -> str:
     return ", ".join(f"{x: .{digits}f}" for x in arr)
 
 
-def _deg(v: Any) -> str:
-    return ", ".join(f"{x: .2f}" for x in np.degrees(np.atleast_1d(v)))
-
-
 def _all_finite(*arrays: Any) -> bool:
     return all(np.all(np.isfinite(np.asarray(a, dtype=float))) for a in arrays)
 
