@@ -1148,7 +1148,7 @@ class SandboxScene(Scene):
             f"**Euler angles {v.seq}** (deg): "
             + ", ".join(f"{n} = {math.degrees(a):.2f}" for n, a in zip(names, v.euler))
             + f"{lock}\n\n"
-            f"**Euler parameters** \u03b80..\u03b83: ({_fmt(v.p, 4)})\n\n"
+            f"**Euler parameters** \u03b80..\u03b83: ({_fmt(v.p, 4)}) (shown with \u03b80 \u2265 0; \u2212p is the same rotation)\n\n"
             f"**Rodriguez parameters** \u03b3: {gamma}\n\n"
             f"**Axis, angle:** ({_fmt(v.axis, 4)}), {math.degrees(v.angle):.2f}\u00b0\n\n"
             f"**Rotation vector** (rad): ({_fmt(v.rotation_vector, 4)})"
