@@ -871,7 +871,7 @@ _TABLE_DEGREE = 9  # Chebyshev degree per piece
 def _chebyshev_tables(c: dict) -> np.ndarray | None:
     """Piecewise Chebyshev tables of sn(u), cn(u), dn(u) and of the periodic
     part ``P(u) = I(u) - (Pi_c / K) u`` of the precession integral over one
-    period 4K: (pieces, 4, degree + 1) coefficients.
+    period 4K: (degree + 1, pieces, 4) coefficients.
 
     Built once per motion from the direct formulas at the Chebyshev points of
     each piece. The functions are analytic, so on pieces of width 4K/256 a
@@ -893,32 +893,32 @@ def _chebyshev_tables(c: dict) -> np.ndarray | None:
     flip = 1.0 - 2.0 * np.mod(j, 2.0)
     f = np.stack([flip * sn, flip * cn, dn, integral - (c["Pi"] / K) * flat]).reshape(4, _TABLE_INTERVALS, d + 1)
     T = np.cos(np.outer(k, (k + 0.5) * np.pi / (d + 1)))  # T_k at the nodes
-    coef = (2.0 / (d + 1)) * np.einsum("fpj,kj->pfk", f, T)
-    coef[..., 0] *= 0.5
+    coef = (2.0 / (d + 1)) * np.einsum("fpj,kj->kpf", f, T)  # (degree + 1, pieces, 4)
+    coef[0] *= 0.5
     # converged when the degree d-1 coefficients are at round-off level
     # (the samples carry ~1e-16 relative noise, which sets the floor of the
     # last coefficients; the interpolation error is below the first omitted
     # coefficient, which decays geometrically past d - 1)
     scale = np.maximum(np.max(np.abs(f), axis=(1, 2)), 1e-300)
-    tail = np.max(np.abs(coef[..., d - 1]), axis=0)
+    tail = np.max(np.abs(coef[d - 1]), axis=0)
     if np.any(tail > 1e-14 * scale):
         return None
-    return coef
+    return np.ascontiguousarray(coef)
 
 
 def _table_functions(table: np.ndarray, u: np.ndarray, K: float) -> tuple[np.ndarray, ...]:
     """sn(u), cn(u), dn(u), P(u) from the piecewise Chebyshev tables (Clenshaw)."""
-    n_pieces = table.shape[0]
+    n_pieces = table.shape[1]
     x = np.mod(u + 2.0 * K, 4.0 * K) * (n_pieces / (4.0 * K))
     idx = np.minimum(x.astype(np.intp), n_pieces - 1)
     s = (2.0 * (x - idx) - 1.0)[:, None]
-    C = table[idx]  # (n, 4, degree + 1)
-    b1 = np.zeros(C.shape[:2])
-    b2 = np.zeros(C.shape[:2])
+    C = table[:, idx]  # (degree + 1, n, 4)
     two_s = 2.0 * s
-    for k in range(C.shape[2] - 1, 0, -1):
-        b1, b2 = C[:, :, k] + two_s * b1 - b2, b1
-    f = C[:, :, 0] + s * b1 - b2
+    b1 = C[-1].copy()
+    b2 = np.zeros_like(b1)
+    for k in range(C.shape[0] - 2, 0, -1):
+        b1, b2 = C[k] + two_s * b1 - b2, b1
+    f = C[0] + s * b1 - b2
     return f[:, 0], f[:, 1], f[:, 2], f[:, 3]
 
 
