@@ -503,8 +503,8 @@ class SandboxScene(Scene):
             colors=(230, 180, 20), thickness=3.0, thickness_units="screen",
         )
         self.axis_label = scene.add_label(
-            f"{root}/rotation_axis/label", "angle", position=(0.06, 0.0, _AXIS_ARROW_LENGTH),
-            anchor="center-left",
+            f"{root}/rotation_axis/label", "angle", position=(0.0, 0.0, _AXIS_ARROW_LENGTH + 0.3),
+            anchor="bottom-center",
         )
 
         # Angular velocity arrow (global frame), shown in the omega panel.
