@@ -407,7 +407,10 @@ async def _run_case(spec: DriveSpec, n_clients: int, duration: float, server: Se
         cpu_end, bench_end, cpu_t1 = cpu_seconds(server.process.pid), own_cpu_seconds(), time.perf_counter()
         await asyncio.sleep(0.5)  # let the last poses arrive
     stop.set()
-    await asyncio.wait_for(asyncio.gather(*tasks, return_exceptions=True), timeout=30.0)
+    try:
+        await asyncio.wait_for(asyncio.gather(*tasks, return_exceptions=True), timeout=30.0)
+    except asyncio.TimeoutError:
+        errors.append("clients did not close within 30 s")
     errors += [s.error for s in everyone if s.error and s.error not in errors]
     if errors:
         return RunResult(spec.label, n_clients, 0, 0, None, None, None, math.nan, math.nan, 0, errors)
