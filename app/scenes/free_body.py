@@ -541,7 +541,7 @@ class FreeBodyScene(Scene):
             self.arrows.points = arrows
             self.polhode.points = self._polhode_segments()
             self.L_point.position = tuple(point)
-            if dirty or ghost_dirty or refresh:
+            if dirty:  # the ellipsoid changes only with the body or omega0
                 self.ellipsoid.points = self._ellipsoid_points
             if refresh:
                 self._since_plot = 0.0
