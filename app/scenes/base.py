@@ -33,13 +33,20 @@ Notify = Callable[[str, str, str], None]
 class Scene:
     """Base class of every scene (see the module docstring for the life cycle).
 
-    Subclasses set ``name`` (registry key, used by ``--scene``) and ``title``
-    (shown in the scene chooser) and override ``build``, ``update`` and, if
+    Subclasses set ``name`` (registry key, used by ``--scene``), ``title``
+    (shown in the scene chooser), ``order`` (position in the chooser) and,
+    optionally, ``camera_position`` / ``camera_look_at``, and override ``build``, ``update`` and, if
     they hold extra resources, ``close``.
     """
 
     name: ClassVar[str] = ""
     title: ClassVar[str] = ""
+    #: Position in the scene chooser (lower first).
+    order: ClassVar[int] = 1000
+    #: Optional default view when the scene is shown (global frame, metres);
+    #: ``None`` means the app's default view.
+    camera_position: ClassVar[tuple[float, float, float] | None] = None
+    camera_look_at: ClassVar[tuple[float, float, float] | None] = None
 
     def __init__(self, target: Any, notify: Notify) -> None:
         self.target = target
