@@ -289,7 +289,8 @@ def start_server(scene: str, *, profile: bool, workdir: Path) -> Server:
     port = free_port()
     serve_args = ["serve", "--host", "127.0.0.1", "--port", str(port), "--scene", scene, "--mode", "shared"]
     log_path = workdir / f"serve-{scene}-{port}.log"
-    profile_path = workdir / f"serve-{scene}-{port}.prof" if profile else None
+    # Kept for a closer look with pstats (bench/out/ is not committed).
+    profile_path = OUT_DIR / f"app_stream-{scene}-{port}.prof" if profile else None
     if profile:
         command = [sys.executable, str(Path(__file__).resolve()), "--profiled-serve", str(profile_path), "--", *serve_args]
     else:
@@ -490,15 +491,75 @@ def profiled_serve(out_path: str, serve_args: list[str]) -> int:
     return status
 
 
-def print_profile(path: Path, title: str, limit: int = 25) -> None:
+_IDLE_FUNCTIONS = (
+    "<method 'get' of '_queue.SimpleQueue' objects>",
+    "<method 'acquire' of '_thread.lock' objects>",
+    "<method 'poll' of 'select.epoll' objects>",
+    "<built-in method time.sleep>",
+)
+"""Blocking calls where threads wait (idle wall time, not CPU)."""
+
+
+def _grouped_profile(stats: Any) -> dict[str, float]:
+    """Own time (s) per area: viser serialization, websocket send, zstd, scenes, core, ..."""
+    areas = {
+        # dataclasses.is_dataclass and typing.get_args/get_origin are called by
+        # viser's _prepare_for_serialization for every field of every message.
+        "viser: serialize messages (per client)": (
+            "viser/infra/_messages.py",
+            "dataclasses.py",
+            "typing.py",
+            "builtins.isinstance",
+            "builtins.hasattr",
+            "builtins.getattr",
+        ),
+        "viser: message buffer / windows": ("viser/infra/_async_message_buffer.py",),
+        "viser: producer loop (per client)": ("viser/infra/_infra.py",),
+        "viser: scene/GUI handles": ("viser/_scene", "viser/_gui", "viser/_assignable"),
+        "websockets + asyncio + sockets": ("websockets/", "asyncio/", "_socket", "selectors"),
+        "zstd compress": ("zstandard",),
+        "msgpack encode": ("msgspec",),
+        "rigidlab scenes (app/)": ("/app/",),
+        "rigidlab core (core/)": ("/core/",),
+        "numpy": ("numpy/",),
+    }
+    totals = {name: 0.0 for name in areas}
+    totals["other"] = 0.0
+    for (filename, _, function), (_, _, own, _, _) in stats.stats.items():
+        if filename == "~" and function in _IDLE_FUNCTIONS:
+            continue
+        text = f"{filename} {function}"
+        for name, needles in areas.items():
+            if any(n in text for n in needles):
+                totals[name] += own
+                break
+        else:
+            totals["other"] += own
+    return totals
+
+
+def print_profile(path: Path, title: str, limit: int = 20) -> None:
+    """Where the server's CPU went: own time by area, then the busiest functions."""
     import pstats
 
     if not path.exists():
         print(f"(no profile written for {title})")
         return
-    print(f"\n== server profile: {title} (all threads, sorted by own time)")
     stats = pstats.Stats(str(path))
-    stats.sort_stats("tottime").print_stats(limit)
+    totals = _grouped_profile(stats)
+    busy = sum(totals.values())
+    print(f"\n== server profile: {title} (all threads, whole server run, idle waits excluded)")
+    print(f"{'area':<42} {'own s':>7} {'share':>6}")
+    for name, seconds in sorted(totals.items(), key=lambda item: -item[1]):
+        print(f"{name:<42} {seconds:>7.2f} {100 * seconds / busy:>5.1f}%")
+    rows = [
+        (own, calls, f"{Path(filename).name}:{line}({function})")
+        for (filename, line, function), (_, calls, own, _, _) in stats.stats.items()
+        if not (filename == "~" and function in _IDLE_FUNCTIONS)
+    ]
+    print(f"\n{'own s':>7} {'calls':>8}  function")
+    for own, calls, name in sorted(rows, reverse=True)[:limit]:
+        print(f"{own:>7.3f} {calls:>8}  {name}")
 
 
 # -- table ------------------------------------------------------------------------
