@@ -223,6 +223,7 @@ def main(argv=None):
         "splitting": [0.1, 0.05, 0.02] + ([] if quick else [0.01]),
         "splitting4": [0.2, 0.1, 0.05] + ([] if quick else [0.02, 0.01]),
         "splitting6": [0.5, 0.25, 0.1] + ([] if quick else [0.05, 0.025]),
+        "splitting8": [1.0, 0.5, 0.25] + ([] if quick else [0.125]),
     }
     adaptive = {
         "RK45": [1e-5, 1e-7, 1e-9] if quick else [1e-4, 1e-6, 1e-8, 1e-10],
@@ -241,6 +242,7 @@ def main(argv=None):
         "splitting": [2e-4, 1e-4, 5e-5] + ([] if quick else [2.5e-5]),
         "splitting4": [4e-4, 2e-4, 1e-4] + ([] if quick else [5e-5, 2.5e-5]),
         "splitting6": [1e-3, 5e-4, 2.5e-4] + ([] if quick else [1.25e-4, 6.25e-5]),
+        "splitting8": [2e-3, 1e-3, 5e-4] + ([] if quick else [2.5e-4]),
     }
     adaptive_stiff = {"RK45": [1e-6, 1e-8], "DOP853": [1e-5, 1e-7, 1e-9, 1e-11, 1e-13], "LSODA": [1e-7, 1e-10]}
     print(f"stiff case: omega_body0 {w_stiff.tolist()}, T = {T_stiff:g} s")
@@ -324,7 +326,7 @@ def _plot(rows, rows_stiff, exact_cpu, T, T_stiff):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.2))
-    markers = {"rk4": "o-", "midpoint": "s-", "splitting": "^-", "splitting4": "v-", "splitting6": "D-",
+    markers = {"rk4": "o-", "midpoint": "s-", "splitting": "^-", "splitting4": "v-", "splitting6": "D-", "splitting8": "P-",
                "RK45": "x--", "DOP853": "+--", "LSODA": "*--"}
     for ax, case_rows, title in ((axes[0], rows, f"free asymmetric body, T = {T:g} s"),
                                  (axes[1], rows_stiff, f"stiff: spin 1e3 x transverse rate, T = {T_stiff:g} s")):

@@ -25,7 +25,8 @@ Every method integrates a *model*: any object with
 
 Single steps are pure functions ``step(model, state, dt, *, t=0.0) -> state``
 (:func:`rk4_step`, :func:`implicit_midpoint_step`, :func:`splitting_step`,
-:func:`splitting4_step`, :func:`splitting6_step`); inputs are never mutated.
+:func:`splitting4_step`, :func:`splitting6_step`, :func:`splitting8_step`);
+inputs are never mutated.
 :func:`integrate` runs any method (fixed step or scipy's adaptive
 ``solve_ivp``) and returns a frozen :class:`Trajectory` with a
 :class:`DriftReport`.
@@ -43,7 +44,8 @@ name           order  notes
                       rotations for the free body); symplectic, keeps
                       ``|p| = 1`` to round-off with no renormalization
 ``splitting4`` 4      Suzuki's 5-stage composition of ``splitting``
-``splitting6`` 6      Yoshida's 7-stage composition of ``splitting``
+``splitting6`` 6      Kahan & Li's 9-stage composition of ``splitting``
+``splitting8`` 8      Kahan & Li's 15-stage composition of ``splitting``
 ``RK45``       5(4)   scipy ``solve_ivp``, adaptive (``rtol``, ``atol``)
 ``DOP853``     8(5,3) scipy ``solve_ivp``, adaptive
 ``LSODA``      1-12   scipy ``solve_ivp``, adaptive stiff/non-stiff switch
@@ -74,6 +76,7 @@ __all__ = [
     "rk4_step",
     "splitting4_step",
     "splitting6_step",
+    "splitting8_step",
     "splitting_step",
 ]
 
@@ -264,11 +267,21 @@ def _strang(flows: tuple[Callable[[Any, float], Any], ...], z: Any, h: float) ->
 # Suzuki's fourth-order 5-stage composition (p, p, 1 - 4p, p, p).
 _P4 = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))
 _SUZUKI4 = (_P4, _P4, 1.0 - 4.0 * _P4, _P4, _P4)
-# Yoshida's sixth-order 7-stage composition (solution A), symmetric.
-_W1, _W2, _W3 = -1.17767998417887, 0.235573213359357, 0.784513610477560
-_W0 = 1.0 - 2.0 * (_W1 + _W2 + _W3)
-_YOSHIDA6 = (_W3, _W2, _W1, _W0, _W1, _W2, _W3)
-_COMPOSITIONS = {"splitting": (1.0,), "splitting4": _SUZUKI4, "splitting6": _YOSHIDA6}
+
+
+def _symmetric(half: tuple[float, ...]) -> tuple[float, ...]:
+    """Stage weights (w1..wk, w_mid, wk..w1) with w_mid = 1 - 2 sum(w)."""
+    return (*half, 1.0 - 2.0 * sum(half), *reversed(half))
+
+
+# Kahan & Li (Math. Comp. 66, 1997): sixth order with 9 stages (s9odr6a) and
+# eighth order with 15 stages (s15odr8), symmetric compositions of Strang steps.
+_KAHAN_LI6 = _symmetric((0.39216144400731413928, 0.33259913678935943860, -0.70624617255763935981,
+                         0.082213596293550800230))
+_KAHAN_LI8 = _symmetric((0.74167036435061295345, -0.40910082580003159400, 0.19075471029623837995,
+                         -0.57386247111608226666, 0.29906418130365592384, 0.33462491824529818378,
+                         0.31529309239676659663))
+_COMPOSITIONS = {"splitting": (1.0,), "splitting4": _SUZUKI4, "splitting6": _KAHAN_LI6, "splitting8": _KAHAN_LI8}
 
 
 def _split_advance(model: Any, z: Any, h: float, gammas: tuple[float, ...]) -> Any:
@@ -299,10 +312,17 @@ def splitting4_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0)
 
 
 def splitting6_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
-    """Sixth-order step: Yoshida's composition of seven Strang steps."""
+    """Sixth-order step: Kahan & Li's composition of nine Strang steps (s9odr6a)."""
     _require_split(model, "splitting6")
     z = model.to_split_state(np.asarray(state, dtype=float))
-    return model.from_split_state(_split_advance(model, z, dt, _YOSHIDA6))
+    return model.from_split_state(_split_advance(model, z, dt, _KAHAN_LI6))
+
+
+def splitting8_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
+    """Eighth-order step: Kahan & Li's composition of fifteen Strang steps (s15odr8)."""
+    _require_split(model, "splitting8")
+    z = model.to_split_state(np.asarray(state, dtype=float))
+    return model.from_split_state(_split_advance(model, z, dt, _KAHAN_LI8))
 
 
 FIXED_STEP_METHODS: Mapping[str, Callable[..., np.ndarray]] = {
@@ -311,6 +331,7 @@ FIXED_STEP_METHODS: Mapping[str, Callable[..., np.ndarray]] = {
     "splitting": splitting_step,
     "splitting4": splitting4_step,
     "splitting6": splitting6_step,
+    "splitting8": splitting8_step,
 }
 ADAPTIVE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "LSODA")
 METHOD_ORDERS: Mapping[str, int] = {
@@ -319,6 +340,7 @@ METHOD_ORDERS: Mapping[str, int] = {
     "splitting": 2,
     "splitting4": 4,
     "splitting6": 6,
+    "splitting8": 8,
     "RK45": 5,
     "DOP853": 8,
 }
@@ -407,7 +429,7 @@ def integrate(
     state0 : (m,) initial state (not modified).
     t_span : (t0, t1) with t1 > t0.
     method : one of ``FIXED_STEP_METHODS`` (``rk4``, ``midpoint``,
-        ``splitting``, ``splitting4``, ``splitting6``) or
+        ``splitting``, ``splitting4``, ``splitting6``, ``splitting8``) or
         ``ADAPTIVE_METHODS`` (``RK45``, ``DOP853``, ``LSODA``).
     dt : fixed-step methods: nominal step; the run takes
         ``n = ceil((t1 - t0) / dt)`` equal steps of ``(t1 - t0) / n``.
