@@ -148,6 +148,9 @@ class ManipulatorScene(Scene):
     name: ClassVar[str] = "manipulator"
     title: ClassVar[str] = "Manipulator (Fig. 8.3)"
     order: ClassVar[int] = 20
+    # The arm stands about 2 m tall on the origin: look at its middle.
+    camera_position: ClassVar[tuple[float, float, float]] = (2.2, -2.6, 1.8)
+    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.8)
 
     def __init__(
         self,
