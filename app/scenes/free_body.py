@@ -88,7 +88,7 @@ class Inputs:
     omega_y: float = 0.12
     omega_z: float = 0.12
     method: str = "splitting"
-    dt: float = 0.02
+    dt: float = 0.01
     rtol_exp: float = -8.0
 
 
@@ -222,6 +222,7 @@ class FreeBodyScene(Scene):
         # owned by update() (the session loop thread)
         self.setup: _Setup | None = None
         self.sim_time = 0.0
+        self.display_time = 0.0  # time of the drawn poses (the ghost's sample time when one runs)
         self.p_exact = _P0.copy()
         self.omega_exact = np.zeros(3)
         self.p_ghost: np.ndarray | None = None
@@ -298,19 +299,22 @@ class FreeBodyScene(Scene):
                 rtol_exp = gui.add_slider("log10 rtol", min=-13.0, max=-3.0, step=1.0,
                                           initial_value=self._inputs.rtol_exp, hint="Adaptive methods (scipy)")
             readout = gui.add_markdown("")
-            empty = (np.zeros(2), np.full(2, _LOG_FLOOR), np.full(2, _LOG_FLOOR))
-            log_y = {"x": {"time": False}, "y": {"distr": 3}}
+            # plotted as log10 values on linear axes (uPlot's log axes label
+            # tiny values as 0)
+            floor = math.log10(_LOG_FLOOR)
+            empty = (np.zeros(2), np.full(2, floor), np.full(2, floor))
+            x_scale = {"x": {"time": False}}
             plot_error = gui.add_uplot(
                 empty,
-                ({"label": "t (s)"}, {"label": "angle error (rad)", "stroke": "#cc3333", "width": 2},
-                 {"label": "|ω error| (rad/s)", "stroke": "#3366cc", "width": 2}),
-                title="ghost error vs exact", scales=log_y, aspect=1.6,
+                ({"label": "t (s)"}, {"label": "log10 angle error (rad)", "stroke": "#cc3333", "width": 2},
+                 {"label": "log10 |ω error| (rad/s)", "stroke": "#3366cc", "width": 2}),
+                title="ghost error vs exact (log10)", scales=x_scale, aspect=1.6,
             )
             plot_drift = gui.add_uplot(
-                empty + (np.full(2, _LOG_FLOOR),),
-                ({"label": "t (s)"}, {"label": "|ΔE|/E", "stroke": "#33aa55"},
-                 {"label": "|Δ|L||/|L|", "stroke": "#3366cc"}, {"label": "||p|-1|", "stroke": "#cc3333"}),
-                title="ghost drift of invariants", scales=log_y, aspect=1.6,
+                empty + (np.full(2, floor),),
+                ({"label": "t (s)"}, {"label": "log10 |ΔE|/E", "stroke": "#33aa55"},
+                 {"label": "log10 |Δ|L||/|L|", "stroke": "#3366cc"}, {"label": "log10 ||p|-1|", "stroke": "#cc3333"}),
+                title="ghost drift of invariants (log10)", scales=x_scale, aspect=1.6,
             )
         self.gui = _Gui(body, sliders, method, dt, rtol_exp, play, pause, reset, time_scale, preset_buttons,
                         readout, plot_error, plot_drift)
@@ -494,27 +498,22 @@ class FreeBodyScene(Scene):
         if playing:
             self.sim_time += dt * scale
         setup = self.setup
-        motion = setup.solution.at(self.sim_time)
-        p, w = np.asarray(motion.p), np.asarray(motion.omega_body)
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(w))):
-            self.notify("Motion stopped", "the exact solution left the finite range", "warning")
-            with self.lock:
-                self._playing = False
-            return
-        self.p_exact, self.omega_exact = p, w
-        # ghost: sample at the displayed time (samples every 1/60 s of simulated time)
+        # ghost: the last sample at or before the clock (samples every 1/60 s
+        # of simulated time, or every step when the step is coarser)
         k = int(self.sim_time // _CHUNK_SIM_TIME)
         chunk = self._ghost_chunk(k)
-        ghost_p = None
+        ghost_p = ghost_w = None
+        self.display_time = self.sim_time
         if chunk is not None:
             run, rows = chunk
-            # the last sample at or before the displayed time
             i = max(0, int(np.searchsorted(run.t, self.sim_time + 1e-9, side="right")) - 1)
-            ghost_p = np.array(run.states[i, :4])
-            ghost_w = np.array(run.states[i, 4:])
-            if not (np.all(np.isfinite(ghost_p)) and np.linalg.norm(ghost_p) > 0):
-                ghost_p = None
-            else:
+            if np.all(np.isfinite(run.states[i])) and np.linalg.norm(run.states[i, :4]) > 0:
+                ghost_p = np.array(run.states[i, :4])
+                ghost_w = np.array(run.states[i, 4:])
+                # show the exact body at the ghost's instant (at most one
+                # sample, 1/60 s or one coarse step, behind the clock) so the
+                # two poses compare directly
+                self.display_time = float(run.t[i])
                 self.ghost_error = dict(zip(("t", "angle", "omega", "energy", "L", "p_norm"),
                                             rows[i].tolist(), strict=True))
                 done = rows[: i + 1]
@@ -523,6 +522,14 @@ class FreeBodyScene(Scene):
                     self._history = np.vstack([self._history, new])[-_HISTORY:]
             if self.sim_time - k * _CHUNK_SIM_TIME > 0.5 * _CHUNK_SIM_TIME:
                 self._ghost_chunk(k + 1)  # compute ahead of the display clock
+        motion = setup.solution.at(self.display_time)
+        p, w = np.asarray(motion.p), np.asarray(motion.omega_body)
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(w))):
+            self.notify("Motion stopped", "the exact solution left the finite range", "warning")
+            with self.lock:
+                self._playing = False
+            return
+        self.p_exact, self.omega_exact = p, w
         self.p_ghost = ghost_p
         # body-frame angular momentum on the momentum sphere (polhode)
         L_body = setup.inertia @ w
@@ -530,7 +537,7 @@ class FreeBodyScene(Scene):
         point = L_body * (_SPHERE_RADIUS / g.L_norm) if g.L_norm > 0 else np.zeros(3)
         if self._polhode.shape[0] == 0 or np.linalg.norm(point - self._polhode[-1]) > _POLHODE_MIN_STEP:
             self._polhode = np.vstack([self._polhode, point])[-(_POLHODE_CAPACITY + 1):]
-        arrows = self._arrow_points(p, w, ghost_p, ghost_w if ghost_p is not None else None)
+        arrows = self._arrow_points(p, w, ghost_p, ghost_w)
         self._since_plot += dt
         refresh = self._since_plot >= _PLOT_PERIOD
         with self.target.atomic():
@@ -612,6 +619,6 @@ class FreeBodyScene(Scene):
         h = self._history
         if h.shape[0] < 2:
             return
-        f = np.maximum(h[:, 1:], _LOG_FLOOR)
+        f = np.log10(np.maximum(h[:, 1:], _LOG_FLOOR))
         self.gui.plot_error.data = (h[:, 0], f[:, 0], f[:, 1])
         self.gui.plot_drift.data = (h[:, 0], f[:, 2], f[:, 3], f[:, 4])
