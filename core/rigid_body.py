@@ -42,7 +42,6 @@ from scipy.special import ellipj, ellipkm1, elliprf, elliprj
 
 from core.rotations import (
     euler_parameters_from_matrix,
-    matrix_from_euler_parameters,
     quaternion_conjugate,
     quaternion_product,
 )
@@ -774,14 +773,16 @@ def _q_axis(axis: int, angle: np.ndarray) -> np.ndarray:
 def _ellipj_accurate(u: np.ndarray, m: float, mc: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """sn, cn, dn for |u| <= K(m) using the complementary parameter mc = 1 - m.
 
-    scipy's ``ellipj`` switches to a first-order expansion in ``1 - m`` when
+    ``dn`` always comes from ``sqrt(cn^2 + mc sn^2)`` (no cancellation near
+    ``u = K``, where dn is as small as ``sqrt(mc)``). scipy's ``ellipj`` switches to a first-order expansion in ``1 - m`` when
     ``m >= 1 - 1e-9``, which is inaccurate for ``u`` near K; there we run
     the arithmetic-geometric mean recursion (Abramowitz & Stegun 16.4)
     with ``b0 = sqrt(mc)`` instead.
     """
     if mc >= 1e-9:
-        sn, cn, dn, _ = ellipj(u, m)
-        return sn, cn, dn
+        sn, cn, _, _ = ellipj(u, m)
+        # dn^2 = 1 - m sn^2 = cn^2 + mc sn^2, without cancellation near u = K
+        return sn, cn, np.sqrt(cn * cn + mc * sn * sn)
     a, b = 1.0, math.sqrt(mc)
     cs, as_ = [], []
     for _ in range(40):
