@@ -892,7 +892,7 @@ class FreeBodySolution:
         L[:, i] = cph * L_pr[i] + sph * L_pr[j]
         L[:, j] = cph * L_pr[j] - sph * L_pr[i]
         w_pr = L / c["J_pr"]
-        return _qmul_arr(p_pr, c["q_Q_conj"]), w_pr @ c["Q"].T
+        return _qmul_arr(p_pr, c["q_Q_conj"]), np.einsum("nk,jk->nj", w_pr, c["Q"])
 
     # -- asymmetric: Jacobi elliptic functions
     def _elliptic(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -936,7 +936,8 @@ class FreeBodySolution:
         psi = np.arctan2(L1, L2) - s1 * s2 * math.pi * am_turns
         r_q = _zxz_quaternion(phi, theta, psi)
         # p = left (x) r (x) conj(q_can): one constant 4x4 matrix acting on r
-        return r_q @ c["sandwich"].T, w @ c["QP"].T
+        # (einsum, not matmul: a BLAS call would spin extra threads for a 4x4 product)
+        return np.einsum("nk,jk->nj", r_q, c["sandwich"]), np.einsum("nk,jk->nj", w, c["QP"])
 
 
 def _direct_functions(u: np.ndarray, j: np.ndarray, c: dict) -> tuple[np.ndarray, ...]:
