@@ -454,8 +454,7 @@ class ManipulatorScene(Scene):
         ]
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            # A leading batch axis of one keeps this call on the batched path.
-            recovered = euler_angles_from_matrix(matrix[None], form.seq)[0]
+            recovered = euler_angles_from_matrix(matrix, form.seq)
         singular = bool(caught)
         lines.append(f"- Euler angles recovered from A: {_format_deg(recovered)}")
         if singular:
