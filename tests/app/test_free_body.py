@@ -170,3 +170,18 @@ def test_body_choice_and_polhode(free):
         scene.apply_preset("no such preset")
     with pytest.raises(ValueError, match=r"name: expected one of \["):
         body_mesh("no such body")
+
+
+def test_per_client_sessions_are_isolated(running_app, ws_client):
+    # Two browsers (plain websocket clients) get their own free-body scene:
+    # a preset in one does not touch the other.
+    app = running_app(scene="free_body", mode="per-client")
+    _, id1 = ws_client(app)
+    _, id2 = ws_client(app)
+    s1, s2 = app.scene_for(id1), app.scene_for(id2)
+    assert isinstance(s1, FreeBodyScene) and isinstance(s2, FreeBodyScene) and s1 is not s2
+    wait_until(lambda: s1.setup is not None and s2.setup is not None and s2.sim_time > 0.1)
+    s1.apply_preset(PRESETS[0])
+    _, _, inertia = body_mesh(BODIES[0])
+    wait_until(lambda: np.allclose(s1.setup.omega_body0, preset_omega(PRESETS[0], inertia)))
+    assert np.allclose(s2.setup.omega_body0, [6.0, 0.12, 0.12])  # still the default flip
