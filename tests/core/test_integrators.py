@@ -235,3 +235,11 @@ def test_watched_invariants_do_not_stop_a_run():
 
     run = itg.integrate(Growth(), np.ones(1), (0.0, 3.0), method="rk4", dt=0.01)
     assert run.drift.max_rel["size"] == pytest.approx(math.e**3 - 1, rel=1e-8)  # RK4 error ~1e-9
+
+
+def test_unstable_splitting_run_is_divergence():
+    # The leapfrog (Strang) splitting of the oscillator is stable only for
+    # w dt < 2; at w dt = 3.9 the energy grows geometrically and the run
+    # reports the first recorded step where it blew up (or became non-finite).
+    with pytest.raises(itg.DivergenceError, match=r"run diverged: .* at step \d+ \(t="):
+        itg.integrate(Oscillator(w=1.3), Y0, (0.0, 300.0), method="splitting", dt=3.0)
