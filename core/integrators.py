@@ -371,12 +371,14 @@ def _check_finite_and_drift(
         )
     if inv0 is None:
         return
-    now = model.invariants(y[None, :])
+    with np.errstate(over="ignore", invalid="ignore"):  # a blown-up run may overflow here
+        now = model.invariants(y[None, :])
     for name, v0 in inv0.items():
         v = np.asarray(now[name], dtype=float).reshape(-1)
         ref = float(np.linalg.norm(v0))
-        d = float(np.linalg.norm(v - v0))
-        if d > max_drift * max(ref, 1e-300):
+        with np.errstate(over="ignore", invalid="ignore"):
+            d = float(np.linalg.norm(v - v0))
+        if not math.isfinite(d) or d > max_drift * max(ref, 1e-300):
             raise DivergenceError(
                 f"run diverged: invariant '{name}' drifted by {d:.3e} (relative "
                 f"{d / max(ref, 1e-300):.3e} > max_drift={max_drift:g}) at step {step} "
@@ -390,10 +392,14 @@ def _check_saved_drift(
     model: Any, out: np.ndarray, inv0: dict[str, np.ndarray], max_drift: float, save_idx: list[int], t0: float,
     h: float,
 ) -> None:
-    vals = model.invariants(out)
+    with np.errstate(over="ignore", invalid="ignore"):  # a blown-up run may overflow here
+        vals = model.invariants(out)
+        dists = {
+            name: np.linalg.norm(np.asarray(vals[name], dtype=float).reshape(len(out), -1) - v0, axis=-1)
+            for name, v0 in inv0.items()
+        }
     for name, v0 in inv0.items():
-        v = np.asarray(vals[name], dtype=float).reshape(len(out), -1)
-        d = np.linalg.norm(v - v0, axis=-1)
+        d = np.where(np.isfinite(dists[name]), dists[name], np.inf)
         lim = max_drift * max(float(np.linalg.norm(v0)), 1e-300)
         if np.any(d > lim):
             i = int(np.argmax(d > lim))
