@@ -61,6 +61,8 @@ import msgpack
 import numpy as np
 import zstandard
 
+from app.wire import SUBPROTOCOL, camera_message, gui_value_message
+
 ROOT = Path(__file__).resolve().parent.parent
 OUT_DIR = ROOT / "bench" / "out"
 RATE_HZ = 60.0
@@ -145,34 +147,7 @@ SPECS = {
 }
 
 
-# -- viser's wire protocol ------------------------------------------------------
-
-
-def camera_message() -> bytes:
-    """The first message of a client; the server registers it on receipt."""
-    return msgpack.packb(
-        {
-            "type": "ViewerCameraMessage",
-            "wxyz": (1.0, 0.0, 0.0, 0.0),
-            "position": (3.0, -4.0, 2.5),
-            "fov": 0.9,
-            "near": 0.01,
-            "far": 1000.0,
-            "image_height": 720,
-            "image_width": 1280,
-            "look_at": (0.0, 0.0, 0.3),
-            "up_direction": (0.0, 0.0, 1.0),
-        },
-        use_bin_type=True,
-    )
-
-
-def gui_value_message(uuid: str, value: Any) -> bytes:
-    """A GUI input change, as the browser sends it."""
-    return msgpack.packb(
-        {"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}},
-        use_bin_type=True,
-    )
+# -- viser's wire protocol (client messages: app/wire.py) ----------------------
 
 
 def decode_frame(frame: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
@@ -214,13 +189,11 @@ async def run_client(
     """One websocket client: register, then count and decode every frame until ``stop``."""
     import websockets
 
-    from viser import __version__ as viser_version
-
     decompressor = zstandard.ZstdDecompressor()
     try:
         async with websockets.connect(
             url,
-            subprotocols=[f"viser-v{viser_version}"],
+            subprotocols=[SUBPROTOCOL],
             max_size=None,
             compression=None,
             ping_interval=None,

@@ -1,12 +1,23 @@
-"""Fixtures for app tests: a real rigidlab server on a free loopback port."""
+"""Fixtures for app tests: a real rigidlab server on a free loopback port.
+
+``running_app`` starts rigidlab apps, ``running_scene`` an app showing one
+timed scene that has started moving, ``ws_client`` connects plain websocket
+clients to an app, and ``server`` is a bare ``viser.ViserServer`` for tests
+that build and update a scene themselves.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from typing import Any
 
 import pytest
+import viser
 
+from app.scenes.base import Scene
 from app.server import RigidlabApp, create_app
+from app.wire import SUBPROTOCOL, camera_message, gui_value_message
+from tests.helpers import wait_until
 
 
 @pytest.fixture
@@ -26,6 +37,30 @@ def running_app() -> Iterator[Callable[..., RigidlabApp]]:
     yield start
     for app in reversed(apps):
         app.stop()
+
+
+@pytest.fixture
+def running_scene(running_app: Callable[..., RigidlabApp]) -> Callable[[type[Scene]], tuple[RigidlabApp, Any]]:
+    """Factory ``running_scene(SceneClass) -> (app, scene)`` for a scene with a
+    simulated clock (``sim_time``): a shared-mode app showing it, returned once
+    the session loop has run it for 0.1 s of simulated time."""
+
+    def start(scene_class: type[Scene]) -> tuple[RigidlabApp, Any]:
+        app = running_app(scene=scene_class.name)
+        scene = app.scene_for()
+        assert isinstance(scene, scene_class)
+        wait_until(lambda: scene.sim_time > 0.1)
+        return app, scene
+
+    return start
+
+
+@pytest.fixture(scope="module")
+def server() -> Iterator[viser.ViserServer]:
+    """A bare ``viser.ViserServer`` on a free loopback port (no rigidlab session)."""
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    yield server
+    server.stop()
 
 
 class WsClient:
@@ -58,28 +93,12 @@ class WsClient:
         self._loop.run_until_complete(self._main())
 
     async def _main(self) -> None:
-        import viser
         import websockets
 
         try:
-            async with websockets.connect(
-                self.url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None
-            ) as ws:
+            async with websockets.connect(self.url, subprotocols=[SUBPROTOCOL], max_size=None) as ws:
                 self._ws = ws
-                await self._send_now(
-                    {
-                        "type": "ViewerCameraMessage",
-                        "wxyz": (1.0, 0.0, 0.0, 0.0),
-                        "position": (3.0, -4.0, 2.5),
-                        "fov": 0.9,
-                        "near": 0.01,
-                        "far": 1000.0,
-                        "image_height": 750,
-                        "image_width": 1200,
-                        "look_at": (0.0, 0.0, 0.0),
-                        "up_direction": (0.0, 0.0, 1.0),
-                    }
-                )
+                await ws.send(camera_message())
                 self._ready.set()
                 async for _ in ws:
                     self.frames += 1
@@ -88,22 +107,16 @@ class WsClient:
         finally:
             self._ready.set()
 
-    async def _send_now(self, message: dict) -> None:
-        import msgpack
-
-        await self._ws.send(msgpack.packb(message, use_bin_type=True))  # type: ignore[attr-defined]
-
-    def send(self, message: dict) -> None:
-        """Send one msgpack message (a dict with a ``type`` key)."""
+    def send(self, payload: bytes) -> None:
+        """Send one packed client message (see :mod:`app.wire`)."""
         import asyncio
 
-        future = asyncio.run_coroutine_threadsafe(self._send_now(message), self._loop)
+        future = asyncio.run_coroutine_threadsafe(self._ws.send(payload), self._loop)  # type: ignore[attr-defined]
         future.result(timeout=10.0)
 
     def set_gui_value(self, handle: object, value: object) -> None:
         """Change a GUI input as the browser would (``handle`` is the server's handle)."""
-        uuid = handle._impl.uuid  # type: ignore[attr-defined]
-        self.send({"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}})
+        self.send(gui_value_message(handle._impl.uuid, value))  # type: ignore[attr-defined]
 
     def close(self) -> None:
         import asyncio

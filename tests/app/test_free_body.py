@@ -17,6 +17,7 @@ import pytest
 from app.scenes.free_body import BODIES, PRESETS, FreeBodyScene, body_mesh, preset_omega
 from core.rigid_body import free_body_exact, principal_axes, rotation_angle_between
 from core.rotations import matrix_from_euler_parameters
+from tests.helpers import wait_until
 
 
 def locked(app, predicate):
@@ -29,22 +30,9 @@ def locked(app, predicate):
     return check
 
 
-def wait_until(predicate, timeout: float = 20.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.02)
-    raise AssertionError("condition not met within the timeout")
-
-
 @pytest.fixture
-def free(running_app):
-    app = running_app(scene="free_body")
-    scene = app.scene_for()
-    assert isinstance(scene, FreeBodyScene)
-    wait_until(lambda: scene.sim_time > 0.1)
-    return app, scene
+def free(running_scene):
+    return running_scene(FreeBodyScene)
 
 
 def test_scene_is_registered_between_manipulator_and_gyroscope():

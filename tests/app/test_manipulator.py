@@ -21,6 +21,7 @@ from scipy.spatial.transform import Rotation
 
 from app.scenes.manipulator import ManipulatorScene, joint_sweep, wrap_deg
 from core.manipulator import ManipulatorGeometry
+from tests.helpers import wait_until
 
 DT = 1.0 / 60.0
 # Poses travel as float64 wxyz / positions built from rotation matrices;
@@ -62,13 +63,6 @@ class Notices:
 
     def __call__(self, title: str, body: str, level: str) -> None:
         self.items.append((title, body, level))
-
-
-@pytest.fixture(scope="module")
-def server() -> Iterator[viser.ViserServer]:
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    yield server
-    server.stop()
 
 
 @pytest.fixture
@@ -287,15 +281,6 @@ def test_hidden_scene_and_close(make_scene, server) -> None:
 
 
 # -- integration with the running app -------------------------------------
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float = 10.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.02)
-    raise AssertionError("condition not met within the timeout")
 
 
 def test_app_serves_the_manipulator_and_a_websocket_client_moves_a_joint(running_app, ws_client) -> None:

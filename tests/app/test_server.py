@@ -17,16 +17,7 @@ from app import cli
 from app.scenes import discover_scenes, get_scene_class
 from app.scenes.base import Scene
 from app.server import create_app
-
-
-def wait_until(predicate: Any, timeout: float = 10.0) -> bool:
-    """Poll ``predicate`` until it is true (the loop runs at ~60 Hz)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return bool(predicate())
+from tests.helpers import wait_until
 
 
 class CountingScene(Scene):

@@ -7,36 +7,19 @@ slider from the keyboard, and check that the link pose changed on the server
 
 from __future__ import annotations
 
-import io
-import time
-
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from app.scenes.manipulator import ManipulatorScene
-
-
-def wait_until(predicate, timeout: float = 20.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.05)
-    raise AssertionError("condition not met within the timeout")
-
-
-def screenshot_pixels(page) -> np.ndarray:
-    import matplotlib.image
-
-    return matplotlib.image.imread(io.BytesIO(page.screenshot()), format="png")
+from tests.browser._page import choose_scene, png_pixels
+from tests.helpers import wait_until
 
 
 def test_switch_to_manipulator_and_move_joint_slider(running_app, open_page) -> None:
     app = running_app(scene="sandbox")
     page = open_page(app)
 
-    page.get_by_role("combobox").first.click()
-    page.get_by_role("option", name=ManipulatorScene.title).click()
+    choose_scene(page, ManipulatorScene.title)
     wait_until(lambda: app.scene_for().name == "manipulator")
     scene = app.scene_for()
     assert isinstance(scene, ManipulatorScene)
@@ -47,7 +30,7 @@ def test_switch_to_manipulator_and_move_joint_slider(running_app, open_page) -> 
     thumb = page.get_by_role("slider").first
     wait_until(lambda: thumb.get_attribute("aria-valuenow") == "30")
     page.wait_for_timeout(1000)  # let the software renderer draw the arm
-    before = screenshot_pixels(page)
+    before = png_pixels(page.screenshot())
     pose_before = scene.solid_frames[0].wxyz.copy()
 
     thumb.focus()
@@ -65,7 +48,7 @@ def test_switch_to_manipulator_and_move_joint_slider(running_app, open_page) -> 
     assert not np.allclose(scene.solid_frames[0].wxyz, pose_before)
 
     page.wait_for_timeout(1000)
-    after = screenshot_pixels(page)
+    after = png_pixels(page.screenshot())
     assert before.shape == after.shape
     # Turning the arm half a turn moves many pixels of the 3-D view (and the
     # readout); a blank or frozen canvas would give no change at all.

@@ -3,20 +3,12 @@ page turns the body on the server and in the rendered image."""
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-
-def wait_until(predicate: Any, timeout: float = 20.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return bool(predicate())
+from tests.helpers import wait_until
 
 
 def test_euler_slider_from_page_turns_body(running_app: Any, open_page: Any) -> None:

@@ -3,29 +3,13 @@ the scene chooser switches scenes."""
 
 from __future__ import annotations
 
-import time
 from typing import Any
-
-import numpy as np
 
 from app.scenes import get_scene_class
 from app.server import create_app
 from tests.app.test_server import OtherScene
-
-
-def drawn_fraction(image: np.ndarray) -> float:
-    """Fraction of pixels that differ clearly (> 40 of 255 in some channel)
-    from the most common colour, i.e. the background."""
-    flat = image.reshape(-1, 3)
-    values, counts = np.unique(flat, axis=0, return_counts=True)
-    background = values[np.argmax(counts)]
-    return float(np.mean(np.abs(flat - background).max(axis=1) > 40))
-
-
-def choose_scene(page: Any, title: str) -> None:
-    """Pick ``title`` in the scene chooser (a Mantine Select) as a user would."""
-    page.locator("input.mantine-Select-input:visible").first.click()
-    page.get_by_role("option", name=title, exact=True).click()
+from tests.browser._page import choose_scene, drawn_fraction
+from tests.helpers import wait_until
 
 
 def test_page_renders_and_chooser_switches_scenes(open_page: Any) -> None:
@@ -45,10 +29,7 @@ def test_page_renders_and_chooser_switches_scenes(open_page: Any) -> None:
         session = app.session_for()
         sandbox = app.scene_for()
         choose_scene(page, OtherScene.title)
-        deadline = time.monotonic() + 15
-        while session.active_name != "beta" and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert session.active_name == "beta"
+        wait_until(lambda: session.active_name == "beta", timeout=15.0)
         assert sandbox.root_frame.visible is False
         # In the page, the sandbox's GUI folder is gone and Beta's is shown
         # (the chooser shows its value in an <input>, not as text).
@@ -57,9 +38,7 @@ def test_page_renders_and_chooser_switches_scenes(open_page: Any) -> None:
             loc.is_visible() for loc in page.get_by_text(sandbox.title, exact=True).all()
         )
         choose_scene(page, sandbox.title)
-        deadline = time.monotonic() + 15
-        while session.active_name != "sandbox" and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_until(lambda: session.active_name == "sandbox", timeout=15.0)
         assert app.scene_for() is sandbox and sandbox.root_frame.visible is True
     finally:
         app.stop()
