@@ -34,6 +34,7 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
+from app.scenes._controls import Playback
 from app.scenes.base import Scene
 from core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, IntegrationError, Trajectory, integrate
 from core.rigid_body import (
@@ -215,10 +216,7 @@ class FreeBodyScene(Scene):
         self._inputs = Inputs()
         self._dirty = True
         self._ghost_dirty = True
-        self._playing = True
-        self._reset_requested = False
-        self._time_scale = 1.0
-        self._pending_preset: str | None = None
+        self.playback = Playback(PRESETS)  # play / pause / reset / time scale / presets
         # owned by update() (the session loop thread)
         self.setup: _Setup | None = None
         self.sim_time = 0.0
@@ -280,13 +278,9 @@ class FreeBodyScene(Scene):
                 "(green) and the **polhode** (yellow, left). Arrows: **L** blue (fixed in space), "
                 "**ω** red."
             )
-            play = gui.add_button("Play")
-            pause = gui.add_button("Pause")
-            reset = gui.add_button("Reset")
-            time_scale = gui.add_slider("Time scale", min=0.05, max=4.0, step=0.05, initial_value=1.0)
+            playback = self.playback.add_gui(gui)
             body = gui.add_dropdown("Body", options=BODIES, initial_value=self._inputs.body)
-            with gui.add_folder("Presets"):
-                preset_buttons = {name: gui.add_button(name) for name in PRESETS}
+            preset_buttons = self.playback.add_preset_buttons(gui)
             sliders = {}
             with gui.add_folder("Initial ω (body frame, rad/s)"):
                 for field, label in (("omega_x", "ω_x"), ("omega_y", "ω_y"), ("omega_z", "ω_z")):
@@ -316,20 +310,14 @@ class FreeBodyScene(Scene):
                  {"label": "log10 |Δ|L||/|L|", "stroke": "#3366cc"}, {"label": "log10 ||p|-1|", "stroke": "#cc3333"}),
                 title="ghost drift of invariants (log10)", scales=x_scale, aspect=1.6,
             )
-        self.gui = _Gui(body, sliders, method, dt, rtol_exp, play, pause, reset, time_scale, preset_buttons,
-                        readout, plot_error, plot_drift)
+        self.gui = _Gui(body, sliders, method, dt, rtol_exp, playback.play, playback.pause, playback.reset,
+                        playback.time_scale, preset_buttons, readout, plot_error, plot_drift)
         for field, slider in sliders.items():
             slider.on_update(lambda e, field=field: self._record(field, float(e.target.value)))
         body.on_update(lambda e: self._record("body", str(e.target.value)))
         method.on_update(lambda e: self._record("method", str(e.target.value)))
         dt.on_update(lambda e: self._record("dt", float(e.target.value)))
         rtol_exp.on_update(lambda e: self._record("rtol_exp", float(e.target.value)))
-        play.on_click(lambda _e: self._set_playing(True))
-        pause.on_click(lambda _e: self._set_playing(False))
-        reset.on_click(lambda _e: self.request_reset())
-        time_scale.on_update(self._on_time_scale)
-        for name, button in preset_buttons.items():
-            button.on_click(lambda _e, name=name: self.apply_preset(name))
 
     # -- GUI callbacks: record only ---------------------------------------------
     def _record(self, field: str, value: Any) -> None:
@@ -342,25 +330,13 @@ class FreeBodyScene(Scene):
             else:
                 self._dirty = True
 
-    def _set_playing(self, playing: bool) -> None:
-        with self.lock:
-            self._playing = playing
-
-    def _on_time_scale(self, event: Any) -> None:
-        with self.lock:
-            self._time_scale = float(event.target.value)
-
     def request_reset(self) -> None:
         """Restart from t = 0 (cached ghost chunks are reused)."""
-        with self.lock:
-            self._reset_requested = True
+        self.playback.request_reset()
 
     def apply_preset(self, name: str) -> None:
         """Record preset ``name`` (one of :data:`PRESETS`); applied by ``update``."""
-        if name not in PRESETS:
-            raise ValueError(f"name: expected one of {list(PRESETS)}, got {name!r}")
-        with self.lock:
-            self._pending_preset = name
+        self.playback.request_preset(name)
 
     @property
     def inputs(self) -> Inputs:
@@ -469,8 +445,7 @@ class FreeBodyScene(Scene):
     # -- update --------------------------------------------------------------------
     def update(self, dt: float) -> None:
         assert self.gui is not None
-        with self.lock:
-            preset, self._pending_preset = self._pending_preset, None
+        preset = self.playback.take_preset()
         if preset is not None:
             _, _, inertia = body_mesh(self.inputs.body)
             w = preset_omega(preset, inertia)
@@ -480,23 +455,21 @@ class FreeBodyScene(Scene):
                 self._inputs = dataclasses.replace(self._inputs, omega_x=float(w[0]), omega_y=float(w[1]),
                                                    omega_z=float(w[2]))
                 self._dirty = True
-                self._playing = True
+            self.playback.set_playing(True)
         with self.lock:
             dirty, ghost_dirty = self._dirty, self._ghost_dirty
             self._dirty = self._ghost_dirty = False
             inputs = self._inputs
-            reset, self._reset_requested = self._reset_requested, False
-            playing, scale = self._playing, self._time_scale
+        tick = self.playback.tick(dt)
         if dirty or self.setup is None:
             self._apply_inputs(inputs, ghost_only=False)
         elif ghost_dirty:
             self._apply_inputs(inputs, ghost_only=True)
         if self.setup is None:
             return
-        if reset:
+        if tick.reset:
             self._restart()
-        if playing:
-            self.sim_time += dt * scale
+        self.sim_time += tick.step
         setup = self.setup
         # ghost: the last sample at or before the clock (samples every 1/60 s
         # of simulated time, or every step when the step is coarser)
@@ -526,8 +499,7 @@ class FreeBodyScene(Scene):
         p, w = np.asarray(motion.p), np.asarray(motion.omega_body)
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(w))):
             self.notify("Motion stopped", "the exact solution left the finite range", "warning")
-            with self.lock:
-                self._playing = False
+            self.playback.set_playing(False)
             return
         self.p_exact, self.omega_exact = p, w
         self.p_ghost = ghost_p
