@@ -35,6 +35,7 @@ import numpy as np
 import trimesh
 
 from app.scenes._controls import Playback
+from app.scenes._trail import extend_trail, trail_segments
 from app.scenes.base import Scene
 from core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, IntegrationError, Trajectory, integrate
 from core.rigid_body import (
@@ -507,8 +508,7 @@ class FreeBodyScene(Scene):
         L_body = setup.inertia @ w
         g = self._geometry
         point = L_body * (_SPHERE_RADIUS / g.L_norm) if g.L_norm > 0 else np.zeros(3)
-        if self._polhode.shape[0] == 0 or np.linalg.norm(point - self._polhode[-1]) > _POLHODE_MIN_STEP:
-            self._polhode = np.vstack([self._polhode, point])[-(_POLHODE_CAPACITY + 1):]
+        self._polhode, _ = extend_trail(self._polhode, point, min_step=_POLHODE_MIN_STEP, capacity=_POLHODE_CAPACITY)
         arrows = self._arrow_points(p, w, ghost_p, ghost_w)
         self._since_plot += dt
         refresh = self._since_plot >= _PLOT_PERIOD
@@ -518,7 +518,7 @@ class FreeBodyScene(Scene):
             if ghost_p is not None:
                 self.ghost_frame.wxyz = tuple(ghost_p / np.linalg.norm(ghost_p))
             self.arrows.points = arrows
-            self.polhode.points = self._polhode_segments()
+            self.polhode.points = trail_segments(self._polhode, _POLHODE_CAPACITY)
             self.L_point.position = tuple(point)
             if dirty:  # the ellipsoid changes only with the body or omega0
                 self.ellipsoid.points = self._ellipsoid_points
@@ -554,18 +554,6 @@ class FreeBodyScene(Scene):
         w0, x, y, z = p
         u = np.array([x, y, z])
         return v + 2.0 * np.cross(u, np.cross(u, v) + w0 * v)
-
-    def _polhode_segments(self) -> np.ndarray:
-        pts = self._polhode
-        seg = np.zeros((_POLHODE_CAPACITY, 2, 3), dtype=np.float32)
-        n = pts.shape[0] - 1
-        if n > 0:
-            seg[-n:, 0] = pts[:-1]
-            seg[-n:, 1] = pts[1:]
-            seg[: _POLHODE_CAPACITY - n] = pts[0]
-        elif pts.shape[0] == 1:
-            seg[:] = pts[0]
-        return seg
 
     def _refresh_plots(self) -> None:
         assert self.gui is not None and self.setup is not None
