@@ -210,12 +210,13 @@ def _check_joint_vector(value: object, name: str) -> np.ndarray:
     return array
 
 
-def _check_geometry(geometry: object) -> ManipulatorGeometry:
+def _check_arguments(joint_angles: object, geometry: object) -> tuple[ManipulatorGeometry, np.ndarray]:
+    """Validated ``geometry`` and ``joint_angles`` (..., 3) of a public entry point."""
     if not isinstance(geometry, ManipulatorGeometry):
         raise ValueError(
             f"geometry must be a ManipulatorGeometry, got {type(geometry).__name__}"
         )
-    return geometry
+    return geometry, _check_joint_vector(joint_angles, "joint_angles")
 
 
 def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -250,8 +251,7 @@ def relative_rotation_matrices(
         If ``joint_angles`` is not (..., 3) or not finite, or ``geometry`` is
         not a :class:`ManipulatorGeometry`.
     """
-    geometry = _check_geometry(geometry)
-    theta = _check_joint_vector(joint_angles, "joint_angles")
+    geometry, theta = _check_arguments(joint_angles, geometry)
     return np.stack(
         [_axis_rotation(geometry.joint_axes[k], theta[..., k]) for k in range(3)],
         axis=-3,
@@ -372,8 +372,7 @@ def link_frames_global_axis_rotations(
         If ``steps`` is not an integer in 0..3, or as
         :func:`relative_rotation_matrices`.
     """
-    geometry = _check_geometry(geometry)
-    theta = _check_joint_vector(joint_angles, "joint_angles")
+    geometry, theta = _check_arguments(joint_angles, geometry)
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not 0 <= steps <= 3:
         raise ValueError(f"steps must be an integer from 0 to 3, got {steps!r}")
     batch = theta.shape[:-1]
@@ -424,8 +423,7 @@ def matrix_from_global_axis_rotations(
     ValueError
         As :func:`relative_rotation_matrices`.
     """
-    geometry = _check_geometry(geometry)
-    theta = _check_joint_vector(joint_angles, "joint_angles")
+    geometry, theta = _check_arguments(joint_angles, geometry)
     matrix = np.broadcast_to(np.eye(3), theta.shape[:-1] + (3, 3))
     for joint in (2, 1, 0):
         matrix = _axis_rotation(geometry.joint_axes[joint], theta[..., joint]) @ matrix
@@ -464,8 +462,7 @@ def euler_form(
         axes are about the same coordinate axis, or as
         :func:`relative_rotation_matrices`.
     """
-    geometry = _check_geometry(geometry)
-    theta = _check_joint_vector(joint_angles, "joint_angles")
+    geometry, theta = _check_arguments(joint_angles, geometry)
     letters = []
     signs = np.empty(3)
     for k, axis in enumerate(geometry.joint_axes):
