@@ -2,8 +2,9 @@
 
 ``running_app`` starts rigidlab apps, ``running_scene`` an app showing one
 timed scene that has started moving, ``ws_client`` connects plain websocket
-clients to an app, and ``server`` is a bare ``viser.ViserServer`` for tests
-that build and update a scene themselves.
+clients to an app, ``per_client_scenes`` a per-client app with several
+clients, and ``server`` is a bare ``viser.ViserServer`` for tests that build
+and update a scene themselves.
 """
 
 from __future__ import annotations
@@ -141,3 +142,25 @@ def ws_client() -> Iterator[Callable[[RigidlabApp], tuple[WsClient, int]]]:
     yield connect
     for client in clients:
         client.close()
+
+
+@pytest.fixture
+def per_client_scenes(
+    running_app: Callable[..., RigidlabApp], ws_client: Callable[[RigidlabApp], tuple[WsClient, int]]
+) -> Callable[..., tuple[RigidlabApp, list[tuple[WsClient, Any]]]]:
+    """Factory ``per_client_scenes(SceneClass, n=2) -> (app, [(client, scene), ...])``:
+    an app in per-client mode showing ``SceneClass`` and ``n`` registered
+    websocket clients, each with its own instance of the scene."""
+
+    def start(scene_class: type[Scene], n: int = 2) -> tuple[RigidlabApp, list[tuple[WsClient, Any]]]:
+        app = running_app(scene=scene_class.name, mode="per-client")
+        pairs = []
+        for _ in range(n):
+            client, client_id = ws_client(app)
+            pairs.append((client, app.scene_for(client_id)))
+        scenes = [scene for _, scene in pairs]
+        assert all(isinstance(scene, scene_class) for scene in scenes)
+        assert len({id(scene) for scene in scenes}) == n  # one scene per browser
+        return app, pairs
+
+    return start

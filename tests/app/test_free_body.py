@@ -160,14 +160,10 @@ def test_body_choice_and_polhode(free):
         body_mesh("no such body")
 
 
-def test_per_client_sessions_are_isolated(running_app, ws_client):
+def test_per_client_sessions_are_isolated(per_client_scenes):
     # Two browsers (plain websocket clients) get their own free-body scene:
     # a preset in one does not touch the other.
-    app = running_app(scene="free_body", mode="per-client")
-    _, id1 = ws_client(app)
-    _, id2 = ws_client(app)
-    s1, s2 = app.scene_for(id1), app.scene_for(id2)
-    assert isinstance(s1, FreeBodyScene) and isinstance(s2, FreeBodyScene) and s1 is not s2
+    _, [(_, s1), (_, s2)] = per_client_scenes(FreeBodyScene)
     wait_until(lambda: s1.setup is not None and s2.setup is not None and s2.sim_time > 0.1)
     s1.apply_preset(PRESETS[0])
     _, _, inertia = body_mesh(BODIES[0])

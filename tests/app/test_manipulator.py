@@ -295,12 +295,8 @@ def test_app_serves_the_manipulator_and_a_websocket_client_moves_a_joint(running
     assert scene.difference < 1e-14
 
 
-def test_per_client_mode_gives_each_browser_its_own_arm(running_app, ws_client) -> None:
-    app = running_app(scene="manipulator", mode="per-client")
-    first, first_id = ws_client(app)
-    second, second_id = ws_client(app)
-    scene_1, scene_2 = app.scene_for(first_id), app.scene_for(second_id)
-    assert isinstance(scene_1, ManipulatorScene) and scene_1 is not scene_2
+def test_per_client_mode_gives_each_browser_its_own_arm(per_client_scenes) -> None:
+    _, [(first, scene_1), (_, scene_2)] = per_client_scenes(ManipulatorScene)
     first.set_gui_value(scene_1.gui.joint_sliders[2], -90.0)
     wait_until(lambda: np.isclose(np.degrees(scene_1.joint_angles[2]), -90.0))
     expected = expected_wxyz((30.0, 45.0, -90.0))
