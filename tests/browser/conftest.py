@@ -10,7 +10,11 @@ browser tests are skipped with the reason, unless ``RIGIDLAB_REQUIRE_BROWSER=1``
 canvas and for the server to register the browser (a browser registers only
 after its first camera message), and returns the Playwright ``Page``; the
 browser's client id is ``page.rigidlab_client_id``. Pages are closed at
-teardown. The app fixture ``running_app`` is shared with tests/app.
+teardown. ``scene_page(SceneClass)`` starts an app on the sandbox, opens it
+and switches to ``SceneClass`` with the page's scene chooser, as a user
+does. The app fixture ``running_app`` is shared with tests/app; plain
+helpers (``wait_until``, ``drawn_fraction``, ``choose_scene``) live in
+tests/helpers.py and tests/browser/_page.py.
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ from typing import Any
 import pytest
 
 from tests.app.conftest import running_app  # noqa: F401  (re-exported fixture)
+from tests.browser._page import choose_scene
+from tests.helpers import wait_until
 
 CHROMIUM_PATH = os.environ.get("RIGIDLAB_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
@@ -84,3 +90,21 @@ def open_page(chromium: Any) -> Iterator[Callable[..., Any]]:
     yield open_
     for context in contexts:
         context.close()
+
+
+@pytest.fixture
+def scene_page(running_app: Callable[..., Any], open_page: Callable[..., Any]) -> Callable[[type], tuple[Any, Any, Any]]:
+    """Factory ``scene_page(SceneClass) -> (app, page, scene)``: an app started
+    on the sandbox, its page open, switched to ``SceneClass`` in the page's
+    scene chooser; ``scene`` is the now active ``SceneClass`` instance."""
+
+    def open_scene(scene_class: type) -> tuple[Any, Any, Any]:
+        app = running_app(scene="sandbox")
+        page = open_page(app)
+        choose_scene(page, scene_class.title)
+        wait_until(lambda: app.scene_for().name == scene_class.name)
+        scene = app.scene_for()
+        assert isinstance(scene, scene_class)
+        return app, page, scene
+
+    return open_scene

@@ -11,17 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from app.scenes.free_body import PRESETS, FreeBodyScene, body_mesh, preset_omega
-from tests.browser._page import choose_scene, drawn_fraction
+from tests.browser._page import drawn_fraction
 from tests.helpers import wait_until
 
 
-def test_free_body_preset_from_the_page(running_app, open_page) -> None:
-    app = running_app(scene="sandbox")
-    page = open_page(app)
-    choose_scene(page, FreeBodyScene.title)
-    wait_until(lambda: app.scene_for().name == "free_body")
-    scene = app.scene_for()
-    assert isinstance(scene, FreeBodyScene)
+def test_free_body_preset_from_the_page(scene_page) -> None:
+    _, page, scene = scene_page(FreeBodyScene)
     wait_until(lambda: scene.sim_time > 0.2)
 
     # start from the stable major-axis spin, then click the flip preset

@@ -11,18 +11,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from app.scenes.manipulator import ManipulatorScene
-from tests.browser._page import choose_scene, png_pixels
+from tests.browser._page import png_pixels
 from tests.helpers import wait_until
 
 
-def test_switch_to_manipulator_and_move_joint_slider(running_app, open_page) -> None:
-    app = running_app(scene="sandbox")
-    page = open_page(app)
-
-    choose_scene(page, ManipulatorScene.title)
-    wait_until(lambda: app.scene_for().name == "manipulator")
-    scene = app.scene_for()
-    assert isinstance(scene, ManipulatorScene)
+def test_switch_to_manipulator_and_move_joint_slider(scene_page) -> None:
+    _, page, scene = scene_page(ManipulatorScene)
     wait_until(lambda: np.allclose(np.degrees(scene.joint_angles), [30.0, 45.0, 60.0]))
 
     # The first three sliders of the page are the joint sliders (the scene
