@@ -30,6 +30,8 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
+from app.scenes._controls import Playback
+from app.scenes._trail import extend_trail, trail_segments
 from app.scenes.base import Scene
 from core.gyroscope import (
     GyroscopeTrajectory,
@@ -217,16 +219,16 @@ class GyroscopeScene(Scene):
     name: ClassVar[str] = "gyroscope"
     title: ClassVar[str] = "Gyroscope (cardan rotor)"
     order: ClassVar[int] = 40
+    # A 3/4 view from above, the suspension left of centre beside the GUI panel.
+    camera_position: ClassVar[tuple[float, float, float]] = (3.6, -3.0, 1.9)
+    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 0.75, -0.35)
 
     def __init__(self, target: Any, notify: Any) -> None:
         super().__init__(target, notify)
         # Recorded by GUI callbacks (guarded by self.lock).
         self._inputs = Inputs()
         self._inputs_dirty = True
-        self._playing = True
-        self._reset_requested = False
-        self._time_scale = 1.0
-        self._pending_preset: str | None = None
+        self.playback = Playback(PRESETS)  # play / pause / reset / time scale / presets
         self._show_trail = True
         self._show_arrows = True
         # Owned by update() (the session loop thread).
@@ -252,6 +254,11 @@ class GyroscopeScene(Scene):
         root = self.root
         self.make_root()
         meshes = _meshes()
+        scene.add_grid(
+            f"{root}/grid", width=6.0, height=6.0, position=(0.0, 0.0, _BASE_Z - 0.05),
+            cell_size=0.25, section_size=1.0, cell_color=(226, 228, 234),
+            section_color=(196, 200, 210), shadow_opacity=0.08,
+        )
         scene.add_mesh_simple(f"{root}/base", meshes["base"].vertices, meshes["base"].faces, color=(110, 110, 120))
         scene.add_mesh_simple(f"{root}/sphere", meshes["sphere"].vertices, meshes["sphere"].faces,
                               color=(200, 200, 220), opacity=0.08)
@@ -281,12 +288,8 @@ class GyroscopeScene(Scene):
                 "inner gimbal **θ** about X2, rotor **ψ** about Z3. Gravity along −Z1 when "
                 "mgl > 0. Arrows: **ω** red, **L** blue, **torque** green."
             )
-            play = gui.add_button("Play")
-            pause = gui.add_button("Pause")
-            reset = gui.add_button("Reset")
-            time_scale = gui.add_slider("Time scale", min=0.05, max=4.0, step=0.05, initial_value=1.0)
-            with gui.add_folder("Presets"):
-                preset_buttons = {name: gui.add_button(name) for name in PRESETS}
+            playback = self.playback.add_gui(gui)
+            preset_buttons = self.playback.add_preset_buttons(gui)
             sliders = {}
             groups = (("Initial state", _SLIDERS[:4]), ("Rotor", _SLIDERS[4:7]), ("Applied torques", _SLIDERS[7:]))
             for title, rows in groups:
@@ -316,16 +319,10 @@ class GyroscopeScene(Scene):
                  {"label": "Δd2", "stroke": "#3366cc"}, {"label": "ΔE", "stroke": "#33aa55"}),
                 title="drift of d1, d2, E (conserved without applied torques)", aspect=1.6,
             )
-        self.gui = _Gui(sliders, play, pause, reset, time_scale, preset_buttons, show_trail, show_arrows,
-                        readout, plot_theta, plot_phi_dot, plot_drift)
+        self.gui = _Gui(sliders, playback.play, playback.pause, playback.reset, playback.time_scale, preset_buttons,
+                        show_trail, show_arrows, readout, plot_theta, plot_phi_dot, plot_drift)
         for field, slider in sliders.items():
             slider.on_update(lambda event, field=field: self._on_slider(field, event.target.value))
-        play.on_click(lambda _e: self._set_playing(True))
-        pause.on_click(lambda _e: self._set_playing(False))
-        reset.on_click(lambda _e: self.request_reset())
-        time_scale.on_update(self._on_time_scale)
-        for name, button in preset_buttons.items():
-            button.on_click(lambda _e, name=name: self.apply_preset(name))
         show_trail.on_update(lambda e: self._set_show("trail", bool(e.target.value)))
         show_arrows.on_update(lambda e: self._set_show("arrows", bool(e.target.value)))
 
@@ -334,14 +331,6 @@ class GyroscopeScene(Scene):
         with self.lock:
             self._inputs = dataclasses.replace(self._inputs, **{field: float(value)})
             self._inputs_dirty = True
-
-    def _set_playing(self, playing: bool) -> None:
-        with self.lock:
-            self._playing = playing
-
-    def _on_time_scale(self, event: Any) -> None:
-        with self.lock:
-            self._time_scale = float(event.target.value)
 
     def _set_show(self, what: str, value: bool) -> None:
         with self.lock:
@@ -352,20 +341,15 @@ class GyroscopeScene(Scene):
 
     def request_reset(self) -> None:
         """Restart the motion from the initial state (cached chunks are reused)."""
-        with self.lock:
-            self._reset_requested = True
+        self.playback.request_reset()
 
     def apply_preset(self, name: str) -> None:
         """Record preset ``name`` (one of :data:`PRESETS`); applied by ``update``."""
-        if name not in PRESETS:
-            raise ValueError(f"name: expected one of {list(PRESETS)}, got {name!r}")
-        with self.lock:
-            self._pending_preset = name
+        self.playback.request_preset(name)
 
     @property
     def playing(self) -> bool:
-        with self.lock:
-            return self._playing
+        return self.playback.playing
 
     # -- computation ---------------------------------------------------------------
     def _make_model(self, inputs: Inputs) -> _Model:
@@ -443,9 +427,7 @@ class GyroscopeScene(Scene):
     # -- update ----------------------------------------------------------------------
     def update(self, dt: float) -> None:
         assert self.gui is not None
-        with self.lock:
-            preset = self._pending_preset
-            self._pending_preset = None
+        preset = self.playback.take_preset()
         if preset is not None:
             values = preset_inputs(preset)
             # setting slider values runs their callbacks (which take the lock)
@@ -454,34 +436,28 @@ class GyroscopeScene(Scene):
             with self.lock:
                 self._inputs = values
                 self._inputs_dirty = True
-                self._playing = True
+            self.playback.set_playing(True)
         with self.lock:
             dirty = self._inputs_dirty
             self._inputs_dirty = False
             inputs = self._inputs
-            reset = self._reset_requested
-            self._reset_requested = False
-            playing = self._playing
-            scale = self._time_scale
             show_trail, show_arrows = self._show_trail, self._show_arrows
+        tick = self.playback.tick(dt)
         if dirty or self.model is None:
             if not self._set_model(inputs) and self.model is None:
                 self._set_model(Inputs())
-        if reset:
+        if tick.reset:
             self._restart()
-        if playing:
-            self.sim_time += dt * scale
+        self.sim_time += tick.step
         try:
             angles, rates = self._sample(self.sim_time)
         except ValueError as exc:
             self.notify("Simulation stopped", f"{exc}", "warning")
-            with self.lock:
-                self._playing = False
+            self.playback.set_playing(False)
             return
         if not (np.all(np.isfinite(angles)) and np.all(np.isfinite(rates))):
             self.notify("Simulation stopped", "the motion left the finite range", "warning")
-            with self.lock:
-                self._playing = False
+            self.playback.set_playing(False)
             return
         self.angles, self.rates = angles, rates
         model = self.model
@@ -491,12 +467,12 @@ class GyroscopeScene(Scene):
         wxyz = euler_parameters_from_axis_angle(axes, angles)
         vectors = rotor_vectors(model.params, state, model.torques)
         tip = _TIP_RADIUS * vectors.rotor_axis
-        if self._trail.shape[0] == 0 or np.linalg.norm(tip - self._trail[-1]) > _TRAIL_MIN_STEP:
-            self._trail = np.vstack([self._trail, tip])[-(_TRAIL_CAPACITY + 1):]
+        self._trail, added = extend_trail(self._trail, tip, min_step=_TRAIL_MIN_STEP, capacity=_TRAIL_CAPACITY)
+        if added:
             self._trail_changed = True
         self._since_trail += dt
         send_trail = show_trail and self._trail_changed and self._since_trail >= _TRAIL_PERIOD
-        trail_points = self._trail_segments() if send_trail else None
+        trail_points = trail_segments(self._trail, _TRAIL_CAPACITY) if send_trail else None
         arrow_points = self._arrow_points(vectors)
         inv = invariants(model.params, state)
         row = np.array([[self.sim_time, math.degrees(angles[1]), rates[0],
@@ -523,18 +499,6 @@ class GyroscopeScene(Scene):
             if refresh:
                 self._since_plot = 0.0
                 self._refresh_plots(inv)
-
-    def _trail_segments(self) -> np.ndarray:
-        pts = self._trail
-        seg = np.zeros((_TRAIL_CAPACITY, 2, 3), dtype=np.float32)
-        n = pts.shape[0] - 1
-        if n > 0:
-            seg[-n:, 0] = pts[:-1]
-            seg[-n:, 1] = pts[1:]
-            seg[: _TRAIL_CAPACITY - n] = pts[0]  # unused segments collapse to a point
-        elif pts.shape[0] == 1:
-            seg[:] = pts[0]
-        return seg
 
     @staticmethod
     def _arrow_points(vectors: Any) -> np.ndarray:

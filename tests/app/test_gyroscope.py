@@ -18,24 +18,12 @@ from scipy.spatial.transform import Rotation
 
 from app.scenes.gyroscope import PRESETS, GyroscopeScene, Inputs, preset_inputs
 from core.gyroscope import RotorParams, nutation, steady_precession_rates
-
-
-def wait_until(predicate, timeout: float = 15.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.02)
-    raise AssertionError("condition not met within the timeout")
+from tests.helpers import wait_until
 
 
 @pytest.fixture
-def gyro(running_app):
-    app = running_app(scene="gyroscope")
-    scene = app.scene_for()
-    assert isinstance(scene, GyroscopeScene)
-    wait_until(lambda: scene.sim_time > 0.1)
-    return app, scene
+def gyro(running_scene):
+    return running_scene(GyroscopeScene)
 
 
 def test_scene_is_registered_after_the_others():
@@ -160,12 +148,8 @@ def test_preset_inputs_rejects_unknown_names():
         preset_inputs("Spinning plate")
 
 
-def test_per_client_sessions_are_isolated(running_app, ws_client):
-    app = running_app(scene="gyroscope", mode="per-client")
-    _, first = ws_client(app)
-    _, second = ws_client(app)
-    a, b = app.scene_for(first), app.scene_for(second)
-    assert a is not b
+def test_per_client_sessions_are_isolated(per_client_scenes):
+    _, [(_, a), (_, b)] = per_client_scenes(GyroscopeScene)
     wait_until(lambda: a.model is not None and b.model is not None)
     a.apply_preset("Cuspidal motion")
     wait_until(lambda: a.model.state0[5] == preset_inputs("Cuspidal motion").psi_dot0)

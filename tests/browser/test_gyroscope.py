@@ -8,47 +8,17 @@ rendered canvas is not blank.
 
 from __future__ import annotations
 
-import io
 import math
-import time
-from typing import Any
 
 import numpy as np
 
 from app.scenes.gyroscope import PRESETS, GyroscopeScene, preset_inputs
+from tests.browser._page import drawn_fraction
+from tests.helpers import wait_until
 
 
-def wait_until(predicate, timeout: float = 20.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.05)
-    raise AssertionError("condition not met within the timeout")
-
-
-def drawn_fraction(png: bytes) -> float:
-    """Fraction of pixels clearly different (> 40/255) from the most common colour."""
-    import matplotlib.image
-
-    image = (matplotlib.image.imread(io.BytesIO(png), format="png")[..., :3] * 255).reshape(-1, 3)
-    values, counts = np.unique(image, axis=0, return_counts=True)
-    background = values[np.argmax(counts)]
-    return float(np.mean(np.abs(image - background).max(axis=1) > 40))
-
-
-def choose_scene(page: Any, title: str) -> None:
-    page.locator("input.mantine-Select-input:visible").first.click()
-    page.get_by_role("option", name=title, exact=True).click()
-
-
-def test_gyroscope_presets_from_the_page(running_app, open_page) -> None:
-    app = running_app(scene="sandbox")
-    page = open_page(app)
-    choose_scene(page, GyroscopeScene.title)
-    wait_until(lambda: app.scene_for().name == "gyroscope")
-    scene = app.scene_for()
-    assert isinstance(scene, GyroscopeScene)
+def test_gyroscope_presets_from_the_page(scene_page) -> None:
+    _, page, scene = scene_page(GyroscopeScene)
     wait_until(lambda: scene.sim_time > 0.2)
 
     for name in PRESETS:
