@@ -97,11 +97,25 @@ def euler_parameters_from_rodriguez_parameters(gamma):
         Unit Euler parameters, scalar first, with ``theta0 > 0``.
     """
     g = check_vector(gamma, "gamma", 3)
-    theta0 = 1.0 / np.sqrt(1.0 + np.einsum("...i,...i->...", g, g))
+    gs, inv_m = _scaled(g)
+    # theta0 = 1 / sqrt(1 + g.g), written with g = m gs so that huge gamma
+    # (near a half turn) tends to (0, axis) instead of overflowing.
+    root = np.sqrt(inv_m * inv_m + np.einsum("...i,...i->...", gs, gs))
     out = np.empty(g.shape[:-1] + (4,))
-    out[..., 0] = theta0
-    out[..., 1:] = g * theta0[..., None]
+    out[..., 0] = inv_m / root
+    out[..., 1:] = gs / root[..., None]
     return out
+
+
+def _scaled(g):
+    """Split ``g = m gs`` with ``m = max(1, max|g_i|)``; returns ``gs, 1/m``.
+
+    For ``|g_i| <= 1`` this is exact (``m = 1``); for huge ``g`` it keeps
+    ``g . g`` from overflowing (Rodriguez parameters grow without bound as
+    the angle approaches pi).
+    """
+    m = np.maximum(np.max(np.abs(g), axis=-1), 1.0)
+    return g / m[..., None], 1.0 / m
 
 
 def matrix_from_rodriguez_parameters(gamma):
@@ -122,24 +136,29 @@ def matrix_from_rodriguez_parameters(gamma):
         Active rotation matrix, body to global.
     """
     g = check_vector(gamma, "gamma", 3)
-    x = g[..., 0]
-    y = g[..., 1]
-    z = g[..., 2]
+    # With g = m gs (see _scaled): k g_i g_j = kk gs_i gs_j and
+    # k g_i = kk gs_i / m, where kk = 2 / (1/m^2 + gs.gs); exact for m = 1
+    # and free of overflow for huge gamma (a rotation near pi).
+    gs, inv_m = _scaled(g)
+    x = gs[..., 0]
+    y = gs[..., 1]
+    z = gs[..., 2]
     xx = x * x
     yy = y * y
     zz = z * z
-    k = 2.0 / (1.0 + xx + yy + zz)
+    k = 2.0 / (inv_m * inv_m + xx + yy + zz)
+    km = k * inv_m
     out = np.empty(g.shape[:-1] + (3, 3))
     # gamma~^2 = gamma gamma^T - (gamma . gamma) I
     out[..., 0, 0] = 1.0 - k * (yy + zz)
     out[..., 1, 1] = 1.0 - k * (xx + zz)
     out[..., 2, 2] = 1.0 - k * (xx + yy)
-    out[..., 0, 1] = k * (x * y - z)
-    out[..., 1, 0] = k * (x * y + z)
-    out[..., 0, 2] = k * (x * z + y)
-    out[..., 2, 0] = k * (x * z - y)
-    out[..., 1, 2] = k * (y * z - x)
-    out[..., 2, 1] = k * (y * z + x)
+    out[..., 0, 1] = k * (x * y) - km * z
+    out[..., 1, 0] = k * (x * y) + km * z
+    out[..., 0, 2] = k * (x * z) + km * y
+    out[..., 2, 0] = k * (x * z) - km * y
+    out[..., 1, 2] = k * (y * z) - km * x
+    out[..., 2, 1] = k * (y * z) + km * x
     return out
 
 

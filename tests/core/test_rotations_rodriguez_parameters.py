@@ -128,3 +128,23 @@ def test_rodriguez_errors():
         cr.matrix_from_rodriguez_parameters([np.inf, 0, 0])
     with pytest.raises(ValueError, match=r"Expected `gamma_dot` to have shape \(\.\.\., 3\)"):
         cr.omega_from_rodriguez_parameter_rates([0.0, 0, 0], [1.0])
+
+
+@pytest.mark.parametrize("scale", [1e3, 1e50, 1e154, 1e200, 1e300])
+def test_huge_gamma_tends_to_the_half_turn(scale):
+    # gamma = axis tan(angle/2) grows without bound as the angle -> pi; for
+    # |gamma| ~ scale the rotation differs from the half turn about gamma's
+    # direction by an angle ~ 2/scale, so the scipy half turn is the oracle to
+    # within 2/scale plus round-off (1e-15 per entry).
+    rng = np.random.default_rng(44)
+    axis = rng.normal(size=(20, 3))
+    axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+    gamma = axis * scale
+    p = cr.euler_parameters_from_rodriguez_parameters(gamma)
+    A = cr.matrix_from_rodriguez_parameters(gamma)
+    assert np.all(np.isfinite(p)) and np.all(np.isfinite(A))
+    np.testing.assert_allclose(np.linalg.norm(p, axis=-1), 1.0, atol=1e-15)
+    reference = Rotation.from_rotvec(np.pi * axis).as_matrix()
+    tol = 2.0 / scale + 1e-15
+    np.testing.assert_allclose(A, reference, atol=tol)
+    np.testing.assert_allclose(cr.matrix_from_euler_parameters(p), reference, atol=tol)
