@@ -995,8 +995,6 @@ class SandboxScene(Scene):
         self.axis_frame.visible = has_axis and self.panel != PANELS[1]
         if has_axis:
             self.axis_frame.wxyz = self._z_to(views.axis)
-            self.axis_arc.points = self._arc_points(views.angle)
-            self.axis_label.text = f"rotation axis, {math.degrees(views.angle):.1f}\u00b0"
         # gimbal rings
         for k in range(3):
             self.ring_frames[k].wxyz = gimbal.wxyz[k]
@@ -1005,6 +1003,16 @@ class SandboxScene(Scene):
             for k in range(3):
                 self.ring_mounts[k].wxyz = gimbal.mount_wxyz[k]
             self.stator.wxyz = gimbal.stator_wxyz
+
+    def _show_labels(self) -> None:
+        """Angle arc and 3-D labels: sent with the readouts (about 12 Hz), not
+        every frame, since every message is sent to every client."""
+        views, gimbal = self.views, self.gimbal
+        if views is None or gimbal is None:
+            return
+        if views.angle > math.radians(0.05):
+            self.axis_arc.points = self._arc_points(views.angle)
+            self.axis_label.text = f"rotation axis, {math.degrees(views.angle):.1f}\u00b0"
         self.gimbal_label.text = f"{self.seq} gimbal: cond G = {_cond_text(gimbal.condition)}"
 
     def _show_sequence_widgets(self) -> None:
@@ -1108,6 +1116,7 @@ class SandboxScene(Scene):
         views, gimbal = self.views, self.gimbal
         if views is None or gimbal is None:
             return
+        self._show_labels()
         self.readout_text.content = self._readout_markdown(views)
         s = gimbal.singular_values
         fraction = float(s[-1] / s[0]) if s[0] > 0 else 0.0
