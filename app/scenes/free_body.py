@@ -208,8 +208,8 @@ class FreeBodyScene(Scene):
     title: ClassVar[str] = "Free rigid body (Dzhanibekov)"
     order: ClassVar[int] = 30
     # look a little right of the body so the GUI panel does not cover the ghost
-    camera_position: ClassVar[tuple[float, float, float]] = (5.6, 0.6, 2.2)
-    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 0.6, 0.0)
+    camera_position: ClassVar[tuple[float, float, float]] = (4.5, 1.0, 1.9)
+    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 1.0, 0.0)
 
     def __init__(self, target: Any, notify: Any) -> None:
         super().__init__(target, notify)

@@ -149,8 +149,10 @@ class ManipulatorScene(Scene):
     title: ClassVar[str] = "Manipulator (Fig. 8.3)"
     order: ClassVar[int] = 20
     # The arm stands about 2 m tall on the origin: look at its middle.
-    camera_position: ClassVar[tuple[float, float, float]] = (2.2, -2.6, 1.8)
-    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 0.0, 0.8)
+    # 3/4 view from above; the look-at point sits right of the arm so the
+    # arm appears left of centre, beside the GUI panel.
+    camera_position: ClassVar[tuple[float, float, float]] = (1.85, -1.75, 1.55)
+    camera_look_at: ClassVar[tuple[float, float, float]] = (0.3, 0.25, 0.6)
 
     def __init__(
         self,
@@ -188,6 +190,11 @@ class ManipulatorScene(Scene):
         self.make_root()
         root = self.root
         scene.add_frame(f"{root}/global", axes_length=0.45, axes_radius=0.008)
+        scene.add_grid(
+            f"{root}/grid", width=3.0, height=3.0, position=(0.0, 0.0, -0.061),
+            cell_size=0.1, section_size=0.5, cell_color=(226, 228, 234),
+            section_color=(196, 200, 210), shadow_opacity=0.08,
+        )
         base = trimesh.creation.cylinder(radius=0.22, height=0.06, sections=40)
         base.apply_translation([0.0, 0.0, -0.03])
         scene.add_mesh_simple(
