@@ -220,8 +220,8 @@ class GyroscopeScene(Scene):
     title: ClassVar[str] = "Gyroscope (cardan rotor)"
     order: ClassVar[int] = 40
     # A 3/4 view from above, the suspension left of centre beside the GUI panel.
-    camera_position: ClassVar[tuple[float, float, float]] = (3.6, -3.0, 1.9)
-    camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 0.75, -0.35)
+    camera_position: ClassVar[tuple[float, float, float]] = (3.08, -2.58, 1.64)
+    camera_look_at: ClassVar[tuple[float, float, float]] = (1.05, 1.25, -0.15)
 
     def __init__(self, target: Any, notify: Any) -> None:
         super().__init__(target, notify)

@@ -155,3 +155,37 @@ def test_per_client_sessions_are_isolated(per_client_scenes):
     wait_until(lambda: a.model.state0[5] == preset_inputs("Cuspidal motion").psi_dot0)
     time.sleep(0.2)
     assert b.model.state0[5] == Inputs().psi_dot0  # the default, untouched
+
+
+def test_framing_shows_the_suspension_large_and_left_of_the_gui_panel():
+    """Project the suspension with viser's camera model (75 deg vertical fov).
+
+    The GUI panel covers about the right third of a 1200 x 750 page, so the
+    suspension's centre must project into the left two thirds, and it must
+    fill a good part of the height, seen from above (elevated 3/4 view).
+    """
+    from app.scenes import gyroscope as g
+
+    eye = np.array(GyroscopeScene.camera_position, dtype=float)
+    target = np.array(GyroscopeScene.camera_look_at, dtype=float)
+    forward = (target - eye) / np.linalg.norm(target - eye)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    tan_half = math.tan(math.radians(75.0) / 2)  # viser's default vertical fov
+    aspect = 1200 / 750
+
+    def ndc(point):
+        rel = np.asarray(point, dtype=float) - eye
+        depth = rel @ forward
+        return rel @ right / (depth * tan_half * aspect), rel @ up / (depth * tan_half)
+
+    centre = np.array([0.0, 0.0, 0.5 * (g._BASE_Z + g._TIP_RADIUS)])
+    x, y = ndc(centre)
+    assert -0.9 < x < 1 / 3 - 0.25  # centred in the free part, clear of the panel
+    assert abs(y) < 0.5
+    top = ndc([0.0, 0.0, g._TIP_RADIUS])[1]
+    bottom = ndc([0.0, 0.0, g._BASE_Z])[1]
+    assert 0.8 < top - bottom < 1.9  # 40-95 % of the page height
+    assert eye[2] > centre[2] + 1.0  # seen from above
+    assert abs(eye[0]) > 0.5 and abs(eye[1]) > 0.5  # 3/4 view, not head-on
