@@ -26,14 +26,22 @@ def euler_parameters_from_mrp(sigma):
     Returns
     -------
     p : ndarray, shape (..., 4)
-        Unit Euler parameters, scalar first.
+        Unit Euler parameters, scalar first; huge ``sigma`` (an angle near
+        2 pi) tends to ``(-1, 0, 0, 0)``, the identity, without overflow.
     """
     s = check_vector(sigma, "sigma", 3)
-    s2 = np.einsum("...i,...i->...", s, s)
-    d = 1.0 / (1.0 + s2)
+    # sigma = m ss with m = max(1, max|sigma_i|): exact for |sigma_i| <= 1
+    # (m = 1) and free of overflow for huge sigma (an angle near 2 pi, whose
+    # limit is theta0 = -1, theta = 0: the identity).
+    m = np.maximum(np.max(np.abs(s), axis=-1), 1.0)
+    ss = s / m[..., None]
+    inv_m = 1.0 / m
+    inv_m2 = inv_m * inv_m
+    s2 = np.einsum("...i,...i->...", ss, ss)
+    d = 1.0 / (inv_m2 + s2)
     out = np.empty(s.shape[:-1] + (4,))
-    out[..., 0] = (1.0 - s2) * d
-    out[..., 1:] = 2.0 * s * d[..., None]
+    out[..., 0] = (inv_m2 - s2) * d
+    out[..., 1:] = 2.0 * ss * (inv_m * d)[..., None]
     return out
 
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from ._axis_angle import _matrix_from_unit_axis_angle
 from ._euler_parameters import _p_from_matrix
-from ._validation import check_euler_parameters, check_matrix, check_vector
+from ._validation import _index_str, check_euler_parameters, check_matrix, check_vector
 
 
 def euler_parameters_from_rotation_vector(r):
@@ -21,16 +21,49 @@ def euler_parameters_from_rotation_vector(r):
     -------
     p : ndarray, shape (..., 4)
         Unit Euler parameters, scalar first (``theta0 < 0`` when
-        ``|r| > pi``).
+        ``|r| > pi``); unit also for huge ``|r|``.
+
+    Raises
+    ------
+    ValueError
+        If ``|r|`` (the angle) exceeds the float64 range.
     """
     r = check_vector(r, "r", 3)
-    angle = np.hypot(np.hypot(r[..., 0], r[..., 1]), r[..., 2])
-    # sin(angle / 2) / angle = sinc(angle / (2 pi)) / 2, exact at angle 0.
-    scale = 0.5 * np.sinc(angle / (2.0 * np.pi))
+    angle = _angle(r)
+    half = 0.5 * angle
+    small = angle < 1.0
+    # sin(angle / 2) / angle = sinc(angle / (2 pi)) / 2, exact at angle 0;
+    # beyond one radian sin(angle / 2) / angle directly, so that theta0 and
+    # the vector part share one argument reduction (|p| = 1 also for huge
+    # angles, where sinc's pi * x would round differently from angle / 2).
+    scale = np.where(
+        small,
+        0.5 * np.sinc(np.where(small, angle, 0.0) / (2.0 * np.pi)),
+        np.sin(half) / np.where(small, 1.0, angle),
+    )
     out = np.empty(r.shape[:-1] + (4,))
-    out[..., 0] = np.cos(0.5 * angle)
+    out[..., 0] = np.cos(half)
+    # r / angle first: sin(half) / angle alone would lose digits (subnormal)
+    # for angles near the largest float.
+    big = ~small
     out[..., 1:] = r * scale[..., None]
+    if np.any(big):
+        axis = r[big] / angle[big][..., None]
+        out[..., 1:][big] = axis * np.sin(half[big])[..., None]
     return out
+
+
+def _angle(r):
+    """``|r|`` (hypot: exact for tiny and huge vectors); raises past float64."""
+    with np.errstate(over="ignore"):
+        angle = np.hypot(np.hypot(r[..., 0], r[..., 1]), r[..., 2])
+    if not np.all(np.isfinite(angle)):
+        index = np.argwhere(~np.isfinite(angle))[0] if angle.ndim else ()
+        raise ValueError(
+            f"Expected `r` to have a norm (the angle) below the float64 maximum, "
+            f"got {r[tuple(index)].tolist()!r}{_index_str(index)}"
+        )
+    return angle
 
 
 def rotation_vector_from_euler_parameters(p):
@@ -74,9 +107,14 @@ def matrix_from_rotation_vector(r):
     -------
     A : ndarray, shape (..., 3, 3)
         Active rotation matrix, body to global.
+
+    Raises
+    ------
+    ValueError
+        If ``|r|`` (the angle) exceeds the float64 range.
     """
     r = check_vector(r, "r", 3)
-    angle = np.hypot(np.hypot(r[..., 0], r[..., 1]), r[..., 2])
+    angle = _angle(r)
     zero = angle == 0.0
     axis = r / np.where(zero, 1.0, angle)[..., None]
     axis[zero] = (0.0, 0.0, 1.0)

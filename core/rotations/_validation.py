@@ -104,14 +104,18 @@ def check_unit_vector(x, name, tol=UNIT_NORM_TOL):
     y = arr[..., 1]
     z = arr[..., 2]
     # Same arithmetic as the fused checks of the blocked kernels.
-    n2 = x * x + y * y + z * z
+    with np.errstate(over="ignore", under="ignore"):  # huge / tiny: rejected below
+        n2 = x * x + y * y + z * z
     norm = np.sqrt(n2)
     ok = np.abs(n2 - 1.0) <= 2.0 * tol + tol * tol
     if not ok.all():
         index = np.argwhere(~ok)[0] if ok.ndim else ()
+        bad = arr[tuple(index)]
+        # hypot: the true norm even where the squares overflow or underflow
+        bad_norm = float(np.hypot(np.hypot(bad[0], bad[1]), bad[2]))
         raise ValueError(
             f"Expected `{name}` to be a unit vector (| |{name}| - 1 | <= {tol:g}), "
-            f"got norm {float(norm[tuple(index)])!r}{_index_str(index)}"
+            f"got norm {bad_norm!r}{_index_str(index)}"
         )
     return arr / norm[..., None]
 
