@@ -27,6 +27,7 @@ from ._validation import (
     check_vector,
     orthogonality_deviation,
     _index_str,
+    _scaled_norm,
 )
 
 
@@ -330,14 +331,16 @@ def normalize_euler_parameters(p):
         ``p / ||p||``.
     """
     p = check_quaternion(p, "p")
-    norm = np.sqrt(np.einsum("...i,...i->...", p, p))
-    zero = norm == 0.0
+    # Scaled by the largest entry: exact for huge and tiny (non-zero) p,
+    # whose squares would overflow or underflow.
+    m, s, norm = _scaled_norm(p)
+    zero = m == 0.0
     if zero.any():
         index = np.argwhere(zero)[0] if zero.ndim else ()
         raise ValueError(
             f"Expected `p` to have non-zero norm, got norm 0.0{_index_str(index)}"
         )
-    return p / norm[..., None]
+    return s / norm[..., None]
 
 
 def canonical_euler_parameters(p):

@@ -12,6 +12,7 @@ import numpy as np
 from ._euler_parameters import _matrix_from_unit_p
 from ._validation import (
     _index_str,
+    _scaled_norm,
     broadcast_batch,
     check_euler_parameters,
     check_quaternion,
@@ -96,7 +97,9 @@ def quaternion_norm(q):
     norm : ndarray, shape (...)
     """
     q = check_quaternion(q, "q")
-    return np.sqrt(np.einsum("...i,...i->...", q, q))
+    m, _, n = _scaled_norm(q)  # no overflow / underflow of the squares
+    with np.errstate(over="ignore"):  # inf only past the float64 range
+        return m * n
 
 
 def quaternion_inverse(q):
@@ -113,17 +116,19 @@ def quaternion_inverse(q):
         ``q q_inv = q_inv q = (1, 0, 0, 0)``.
     """
     q = check_quaternion(q, "q")
-    n2 = np.einsum("...i,...i->...", q, q)
-    zero = n2 == 0.0
+    # q = m s: q^-1 = s* / (|s|^2 m), free of the overflow / underflow of
+    # |q|^2 for huge or tiny q.
+    m, s, n = _scaled_norm(q)
+    zero = m == 0.0
     if zero.any():
         index = np.argwhere(zero)[0] if zero.ndim else ()
         raise ValueError(
             f"Expected `q` to be non-zero to invert it, got {q[tuple(index)]!r}"
             f"{_index_str(index)}"
         )
-    out = -q
-    out[..., 0] = q[..., 0]
-    return out / n2[..., None]
+    out = -s
+    out[..., 0] = s[..., 0]
+    return out / (n * n)[..., None] / m[..., None]
 
 
 def quaternion_sum(q1, q2):

@@ -35,6 +35,19 @@ def _index_str(index):
     return f" at batch index {tuple(int(i) for i in index)}"
 
 
+def _scaled_norm(arr):
+    """Split vectors ``arr = m s`` along the last axis, ``m = max|arr_i|``.
+
+    Returns ``m`` (...), ``s`` (..., k) and ``|s|`` (...) (``s = 0``,
+    ``|s| = 0`` where ``m = 0``). ``|arr| = m |s|`` and ``arr / |arr| =
+    s / |s|`` without the overflow or underflow of the squares of huge or
+    tiny entries.
+    """
+    m = np.max(np.abs(arr), axis=-1)
+    s = arr / np.where(m == 0.0, 1.0, m)[..., None]
+    return m, s, np.sqrt(np.einsum("...i,...i->...", s, s))
+
+
 def as_float_array(x, name):
     """Convert ``x`` to a float64 array or raise a ValueError naming it."""
     try:
@@ -152,7 +165,8 @@ def check_euler_parameters(p, name="p", tol=UNIT_NORM_TOL):
     p1 = arr[..., 1]
     p2 = arr[..., 2]
     p3 = arr[..., 3]
-    n2 = p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3
+    with np.errstate(over="ignore", under="ignore"):  # huge / tiny: rejected below
+        n2 = p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3
     norm = np.sqrt(n2)
     # | ||p|| - 1 | <= tol, tested on the squared norm; NaN and infinity fail
     # this comparison too, so finiteness costs nothing on the valid path.
@@ -160,10 +174,13 @@ def check_euler_parameters(p, name="p", tol=UNIT_NORM_TOL):
     if not ok.all():
         check_finite(arr, name, 1)
         index = np.argwhere(~ok)[0] if ok.ndim else ()
+        m, _, n = _scaled_norm(arr[tuple(index)])
+        with np.errstate(over="ignore"):
+            bad_norm = float(m * n)  # the true norm, inf only past float64
         raise ValueError(
             f"Expected `{name}` to be unit Euler parameters "
             f"(| |{name}| - 1 | <= {tol:g}), got norm "
-            f"{float(norm[tuple(index)])!r}{_index_str(index)}; "
+            f"{bad_norm!r}{_index_str(index)}; "
             "use normalize_euler_parameters to renormalize"
         )
     return arr / norm[..., None]

@@ -160,3 +160,33 @@ def test_quaternion_errors():
         cr.constant_relative_rotation_residual([1.0, 0, 0, 0], [1.0, 0, 0, 0], [0, 0, 1.0], 1.0, 0.0, p_ij0=[0.5, 0, 0, 0])
     with pytest.raises(ValueError, match=r"Expected `t` to be finite, got nan"):
         cr.constant_relative_rotation_residual([1.0, 0, 0, 0], [1.0, 0, 0, 0], [0, 0, 1.0], 1.0, np.nan)
+
+
+def test_norm_inverse_and_normalization_of_huge_and_tiny_quaternions():
+    # Oracle: q = scale * u with u of known norm; norm, inverse and the unit
+    # direction follow by scaling (exact for powers of two, 1-2 ulp here).
+    # These used to overflow (norm inf, inverse 0, normalized p all zeros)
+    # or underflow (norm 0, "zero norm" error) in the squares.
+    rng = np.random.default_rng(60)
+    u = rng.normal(size=(50, 4))
+    u_norm = np.linalg.norm(u, axis=-1)
+    for scale in (1e-200, 1e-160, 1e160, 1e200, 1e307):
+        q = u * scale
+        np.testing.assert_allclose(cr.quaternion_norm(q), u_norm * scale, rtol=4e-16)
+        np.testing.assert_allclose(cr.normalize_euler_parameters(q), u / u_norm[:, None], rtol=0, atol=4e-16)
+        inv = cr.quaternion_inverse(q)
+        # entries of u^-1 are O(1): absolute round-off of a few ulp
+        np.testing.assert_allclose(inv * scale, cr.quaternion_inverse(u), rtol=0, atol=2e-15)
+        # q q^-1 = 1 (products of O(scale) and O(1/scale) entries are O(1)).
+        np.testing.assert_allclose(cr.quaternion_product(q, inv), np.tile([1.0, 0, 0, 0], (50, 1)), atol=2e-15)
+    # Entries near the float64 maximum: the direction is still exact, the norm is past the range.
+    np.testing.assert_allclose(cr.normalize_euler_parameters([1.7e308] * 4), [0.5] * 4, rtol=1e-15)
+    assert cr.quaternion_norm([1.7e308] * 4) == np.inf
+
+
+def test_unit_check_reports_the_true_norm_of_huge_parameters():
+    msg = r"Expected `p` to be unit Euler parameters \(\| \|p\| - 1 \| <= 1e-06\), got norm 1e\+200; use normalize_euler_parameters"
+    with pytest.raises(ValueError, match=msg):
+        cr.matrix_from_euler_parameters([1e200, 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=msg):
+        cr.check_euler_parameters([0.0, 0.0, 1e200, 0.0])
