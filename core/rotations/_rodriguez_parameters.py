@@ -118,7 +118,7 @@ def _scaled(g):
     return g / m[..., None], 1.0 / m
 
 
-def matrix_from_rodriguez_parameters(gamma):
+def matrix_from_rodriguez_parameters(g):
     """Rotation matrix of Rodriguez parameters (Eqs. 8.58-8.60).
 
     .. math::
@@ -127,15 +127,15 @@ def matrix_from_rodriguez_parameters(gamma):
 
     Parameters
     ----------
-    gamma : array_like, shape (..., 3)
-        Rodriguez parameters ``axis tan(angle / 2)``.
+    g : array_like, shape (..., 3)
+        Rodriguez (Gibbs) parameters ``gamma = axis tan(angle / 2)``.
 
     Returns
     -------
     A : ndarray, shape (..., 3, 3)
         Active rotation matrix, body to global.
     """
-    g = check_vector(gamma, "gamma", 3)
+    g = check_vector(g, "g", 3)
     # With g = m gs (see _scaled): k g_i g_j = kk gs_i gs_j and
     # k g_i = kk gs_i / m, where kk = 2 / (1/m^2 + gs.gs); exact for m = 1
     # and free of overflow for huge gamma (a rotation near pi).

@@ -122,10 +122,12 @@ def test_batch_shapes(batch):
 
 
 def test_rodriguez_errors():
-    with pytest.raises(ValueError, match=r"Expected `gamma` to have shape \(\.\.\., 3\), got shape \(4,\)"):
+    with pytest.raises(ValueError, match=r"Expected `g` to have shape \(\.\.\., 3\), got shape \(4,\)"):
         cr.matrix_from_rodriguez_parameters([0.0, 0, 0, 0])
+    with pytest.raises(ValueError, match=r"Expected `g` to be finite, got inf"):
+        cr.matrix_from_rodriguez_parameters(g=[np.inf, 0, 0])
     with pytest.raises(ValueError, match=r"Expected `gamma` to be finite, got inf"):
-        cr.matrix_from_rodriguez_parameters([np.inf, 0, 0])
+        cr.euler_parameters_from_rodriguez_parameters([np.inf, 0, 0])
     with pytest.raises(ValueError, match=r"Expected `gamma_dot` to have shape \(\.\.\., 3\)"):
         cr.omega_from_rodriguez_parameter_rates([0.0, 0, 0], [1.0])
 
