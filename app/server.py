@@ -301,6 +301,10 @@ class RigidlabApp:
         ``"shared"`` or ``"per-client"``.
     scene_names : tuple of str
         Registered scenes in display order.
+    run_unwatched : bool
+        Keep updating the shared scene while no browser is connected (tests
+        and notebooks that inspect the scene without a browser). By default
+        a shared scene nobody looks at does no work at all.
     """
 
     server: viser.ViserServer
@@ -309,6 +313,7 @@ class RigidlabApp:
     mode: str
     scene_names: tuple[str, ...]
     initial_scene: str
+    run_unwatched: bool
     _scene_classes: dict[str, type[Scene]]
     _shared: Session | None = None
     _sessions: dict[int, Session] = dataclasses.field(default_factory=dict)
@@ -403,7 +408,9 @@ class RigidlabApp:
             dt = min(now - last, _MAX_DT)
             last = now
             if self._shared is not None:
-                sessions = [self._shared]
+                # Nothing at all for a scene no client is looking at.
+                watched = self.run_unwatched or bool(self.server.get_clients())
+                sessions = [self._shared] if watched else []
             else:
                 with self._lock:
                     sessions = list(self._sessions.values())
@@ -468,6 +475,7 @@ def create_app(
     scene: str | None = None,
     mode: Mode = "shared",
     scene_classes: dict[str, type[Scene]] | None = None,
+    run_unwatched: bool = False,
 ) -> RigidlabApp:
     """Start a viser server with every registered scene and the session loop.
 
@@ -484,6 +492,9 @@ def create_app(
     scene_classes : dict or None
         ``{name: SceneClass}`` to serve instead of the registry (tests, or an
         app serving a subset of scenes).
+    run_unwatched : bool
+        Shared mode only: keep updating the scene while no browser is
+        connected. Default False: with nobody watching, the loop does nothing.
 
     Returns
     -------
@@ -520,6 +531,7 @@ def create_app(
             mode=mode,
             scene_names=tuple(scene_classes),
             initial_scene=scene,
+            run_unwatched=run_unwatched,
             _scene_classes=scene_classes,
         )
         if mode == "shared":

@@ -23,15 +23,21 @@ from tests.helpers import wait_until
 
 @pytest.fixture
 def running_app() -> Iterator[Callable[..., RigidlabApp]]:
-    """Factory ``running_app(scene="sandbox", mode="shared") -> RigidlabApp``.
+    """Factory ``running_app(scene="sandbox", mode="shared", run_unwatched=True) -> RigidlabApp``.
 
     Each call starts a server on 127.0.0.1 with a free port (port 0); every
-    app started through the factory is stopped at teardown.
+    app started through the factory is stopped at teardown. Tests inspect
+    scenes without a browser, so the shared scene runs unwatched unless a
+    test asks for the default (``run_unwatched=False``).
     """
     apps: list[RigidlabApp] = []
 
-    def start(scene: str | None = "sandbox", mode: str = "shared") -> RigidlabApp:
-        app = create_app(host="127.0.0.1", port=0, scene=scene, mode=mode)
+    def start(
+        scene: str | None = "sandbox", mode: str = "shared", run_unwatched: bool = True
+    ) -> RigidlabApp:
+        app = create_app(
+            host="127.0.0.1", port=0, scene=scene, mode=mode, run_unwatched=run_unwatched
+        )
         apps.append(app)
         return app
 

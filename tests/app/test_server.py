@@ -86,16 +86,18 @@ class BrokenBuildScene(CountingScene):
 FAKES = {cls.name: cls for cls in (CountingScene, OtherScene, FailingScene, BrokenBuildScene)}
 
 
-def fake_app(mode: str = "shared", scene: str = "alpha") -> Any:
-    return create_app(port=0, mode=mode, scene=scene, scene_classes=FAKES)
+def fake_app(mode: str = "shared", scene: str = "alpha", run_unwatched: bool = True) -> Any:
+    return create_app(
+        port=0, mode=mode, scene=scene, scene_classes=FAKES, run_unwatched=run_unwatched
+    )
 
 
 @pytest.fixture
 def fake_apps() -> Any:
     apps: list[Any] = []
 
-    def start(mode: str = "shared", scene: str = "alpha") -> Any:
-        app = fake_app(mode, scene)
+    def start(mode: str = "shared", scene: str = "alpha", run_unwatched: bool = True) -> Any:
+        app = fake_app(mode, scene, run_unwatched)
         apps.append(app)
         return app
 
@@ -148,6 +150,21 @@ def test_hidden_scene_gets_no_updates(fake_apps: Any) -> None:
     assert wait_until(lambda: alpha.updates > frozen)
     with pytest.raises(ValueError, match=r"name: expected one of .*got 'gamma'"):
         app.switch_scene("gamma")
+
+
+def test_shared_scene_does_no_work_while_nobody_watches(fake_apps: Any, ws_client: Any) -> None:
+    app = fake_apps(run_unwatched=False)  # the default of create_app / rigidlab serve
+    alpha = app.scene_for()
+    time.sleep(0.5)  # ~30 loop ticks at 60 Hz
+    assert alpha.updates == 0
+    client, _ = ws_client(app)
+    assert wait_until(lambda: alpha.updates > 5)
+    client.close()
+    assert wait_until(lambda: not app.server.get_clients())
+    time.sleep(0.1)  # a tick in flight may still finish
+    frozen = alpha.updates
+    time.sleep(0.5)
+    assert alpha.updates == frozen
 
 
 def test_chooser_dropdown_switches_through_the_loop(fake_apps: Any, ws_client: Any) -> None:
