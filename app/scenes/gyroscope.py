@@ -125,9 +125,10 @@ def preset_inputs(name: str) -> Inputs:
     """
     if name == PRESETS[0]:
         # balanced rotor held at theta = 90 deg by M_theta of Eq. 8.23
+        # (I3 psi_dot phi_dot = 4 N m, inside the M_theta slider's range)
         params = RotorParams(I=1.0, I3=0.8, mgl=0.0)
-        m_theta = float(steady_precession_torque(params, math.pi / 2, 0.5, 40.0))
-        return Inputs(90.0, 0.0, 0.5, 40.0, 1.0, 0.8, 0.0, 0.0, m_theta, 0.0)
+        m_theta = float(steady_precession_torque(params, math.pi / 2, 0.5, 10.0))
+        return Inputs(90.0, 0.0, 0.5, 10.0, 1.0, 0.8, 0.0, 0.0, m_theta, 0.0)
     if name == PRESETS[1]:
         params = RotorParams(I=1.0, I3=0.8, mgl=2.0)
         theta, spin = math.radians(60.0), 15.0

@@ -189,3 +189,15 @@ def test_framing_shows_the_suspension_large_and_left_of_the_gui_panel():
     assert 0.8 < top - bottom < 1.9  # 40-95 % of the page height
     assert eye[2] > centre[2] + 1.0  # seen from above
     assert abs(eye[0]) > 0.5 and abs(eye[1]) > 0.5  # 3/4 view, not head-on
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_preset_values_fit_their_sliders(name: str) -> None:
+    # A preset the page cannot show (outside a slider's range) would jump as
+    # soon as someone touches that slider; every value must lie in its range.
+    from app.scenes.gyroscope import _SLIDERS
+
+    values = preset_inputs(name)
+    for field, label, lo, hi, _step, _hint in _SLIDERS:
+        value = getattr(values, field)
+        assert lo <= value <= hi, f"{name}: {label} = {value} outside [{lo}, {hi}]"
