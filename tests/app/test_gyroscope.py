@@ -201,3 +201,26 @@ def test_preset_values_fit_their_sliders(name: str) -> None:
     for field, label, lo, hi, _step, _hint in _SLIDERS:
         value = getattr(values, field)
         assert lo <= value <= hi, f"{name}: {label} = {value} outside [{lo}, {hi}]"
+
+
+def test_plots_use_seconds_and_a_readable_log_drift(gyro):
+    """The plots' x axis is simulated time in seconds (uPlot would show
+    calendar dates by default) and the drift plot is log10 |drift|: round-off
+    drifts ~1e-15 printed as '0' on a linear axis."""
+    from app.scenes.gyroscope import DRIFT_FLOOR_LOG10, drift_log10
+
+    app, scene = gyro
+    for plot in (scene.gui.plot_theta, scene.gui.plot_phi_dot, scene.gui.plot_drift):
+        assert plot.scales["x"]["time"] is False
+    wait_until(lambda: scene.sim_time > 1.0)
+    wait_until(lambda: scene.gui.plot_drift.data[0].size > 5)
+    t, *drift = scene.gui.plot_drift.data
+    drift = np.array(drift)
+    assert np.all(np.isfinite(drift))
+    assert np.all(drift >= DRIFT_FLOOR_LOG10)
+    # Closed-form motion without torques: drifts are round-off of O(1) invariants.
+    assert np.all(drift < -10.0)
+    # The transform itself: exact zeros floor, others are log10 |x|.
+    np.testing.assert_array_equal(
+        drift_log10(np.array([0.0, -1e-15, 2.0, 1e-30])), [DRIFT_FLOOR_LOG10, -15.0, math.log10(2.0), DRIFT_FLOOR_LOG10]
+    )
