@@ -249,6 +249,7 @@ class GyroscopeScene(Scene):
         self.angles = np.zeros(3)  # (phi, theta, psi) as last drawn
         self.rates = np.zeros(3)
         self._nearest_state = np.zeros(6)  # computed sample nearest sim_time
+        self._model_inputs = Inputs()  # slider values of the model in use
         self._chunks: dict[int, GyroscopeTrajectory] = {}
         self._trail = np.zeros((0, 3))
         self._history = np.zeros((0, 6))  # t, theta, phi_dot, dd1, dd2, dE
@@ -432,9 +433,11 @@ class GyroscopeScene(Scene):
         try:
             model = self._make_model(inputs)
         except ValueError as exc:
-            self.notify("Invalid rotor parameters", f"{exc}. Keeping the previous values.", "warning")
+            self.notify("Invalid rotor parameters",
+                        f"{exc}. Keeping the previous values (the sliders are set back).", "warning")
             return False
         self.model = model
+        self._model_inputs = inputs
         self._chunks = {}
         self._inv0 = invariants(model.params, model.state0)
         try:
@@ -444,6 +447,17 @@ class GyroscopeScene(Scene):
         self._readout_static = self._static_readout()
         self._restart()
         return True
+
+    def _revert_sliders(self) -> None:
+        """Show the values in use again after rejected input (sliders and model agree)."""
+        assert self.gui is not None
+        kept = self._model_inputs
+        for field, slider in self.gui.sliders.items():
+            if slider.value != getattr(kept, field):
+                slider.value = getattr(kept, field)  # runs the callback (takes the lock)
+        with self.lock:
+            self._inputs = kept
+            self._inputs_dirty = False
 
     # -- update ----------------------------------------------------------------------
     def update(self, dt: float) -> None:
@@ -465,8 +479,11 @@ class GyroscopeScene(Scene):
             show_trail, show_arrows = self._show_trail, self._show_arrows
         tick = self.playback.tick(dt)
         if dirty or self.model is None:
-            if not self._set_model(inputs) and self.model is None:
-                self._set_model(Inputs())
+            if not self._set_model(inputs):
+                if self.model is None:
+                    self._set_model(Inputs())
+                else:
+                    self._revert_sliders()
         if tick.reset:
             self._restart()
         self.sim_time += tick.step

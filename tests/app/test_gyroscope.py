@@ -107,6 +107,14 @@ def test_invalid_parameters_give_a_notice_and_keep_running(gyro):
     assert scene.model.params == params_before
     t0 = scene.sim_time
     wait_until(lambda: scene.sim_time > t0 + 0.1)
+    # The slider shows the value in use again, and the motion was not restarted.
+    wait_until(lambda: scene.gui.sliders["I3"].value == params_before.I3)
+    assert scene.sim_time > t0
+    assert any("the sliders are set back" in n[1] for n in session.notices)
+    # A valid change afterwards is taken as usual.
+    scene.gui.sliders["I3"].value = 1.5
+    wait_until(lambda: scene.model.params.I3 == 1.5)
+    assert scene.gui.sliders["I3"].value == 1.5
 
 
 def test_pause_reset_and_chunk_cache(gyro):
