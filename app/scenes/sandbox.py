@@ -77,6 +77,10 @@ INPUTS = (
     "Rotation vector",
 )
 PANELS = ("Orientation", "Compose q1, q2", "Angular velocity", "Export")
+#: Largest |omega component| (rad/s) taken by the angular-velocity panel: far
+#: beyond anything a frame-by-frame animation can show, and keeps every
+#: rate readout a readable, finite number.
+_OMEGA_MAX = 1e6
 _OMEGA_FRAMES = ("global frame (omega)", "body frame (omega-bar)")
 
 _AXIS_INDEX = {"X": 0, "Y": 1, "Z": 2}
@@ -418,6 +422,22 @@ def export_document(views: OrientationViews) -> dict[str, Any]:
 def _fmt(v: Any, digits: int = 4) -> str:
     arr = np.atleast_1d(np.asarray(v, dtype=float))
     return ", ".join(f"{x: .{digits}f}" for x in arr)
+
+
+def _unit_direction(v: Any) -> np.ndarray | None:
+    """``v / |v|`` for any non-zero finite 3-vector, else ``None``.
+
+    Scaled by the largest entry first, so huge (1e200) and tiny (1e-200)
+    vectors, whose squares overflow or underflow, keep their direction.
+    """
+    arr = np.asarray(v, dtype=float)
+    if not _all_finite(arr):
+        return None
+    largest = float(np.max(np.abs(arr)))
+    if largest == 0.0:
+        return None
+    scaled = arr / largest
+    return scaled / float(np.linalg.norm(scaled))
 
 
 def _all_finite(*arrays: Any) -> bool:
@@ -860,16 +880,16 @@ class SandboxScene(Scene):
         if key == "Axis and angle":
             axis = np.asarray(self.axis_input.value, dtype=float)
             angle = math.radians(float(self.angle_slider.value))
-            norm = float(np.linalg.norm(axis)) if _all_finite(axis) else math.nan
-            if not (norm > 1e-9) or not math.isfinite(angle):
+            unit = _unit_direction(axis)
+            if unit is None or not math.isfinite(angle):
                 self.notify(
                     "Axis and angle",
-                    f"The axis must be a non-zero finite vector, got {_fmt(axis, 3)}; "
+                    f"The axis must be a non-zero finite vector, got ({', '.join(f'{x:.3g}' for x in axis)}); "
                     "the orientation is unchanged.",
                     "warning",
                 )
                 return False
-            self.p = rot.euler_parameters_from_axis_angle(axis / norm, angle)
+            self.p = rot.euler_parameters_from_axis_angle(unit, angle)
             return True
         if key == "Euler parameters":
             raw = np.array([float(n.value) for n in self.ep_inputs])
@@ -919,8 +939,8 @@ class SandboxScene(Scene):
 
     def _advance(self, dt: float) -> bool:
         """Turn the body for ``dt`` seconds under the constant omega (exact)."""
-        omega = np.asarray(self.omega_input.value, dtype=float)
-        if not _all_finite(omega) or not np.any(omega):
+        omega = self._omega_value()
+        if omega is None or not np.any(omega):
             return False
         step = rot.euler_parameters_from_rotation_vector(omega * dt)
         if self._omega_in_body():
@@ -933,10 +953,23 @@ class SandboxScene(Scene):
     def _omega_in_body(self) -> bool:
         return str(self.omega_frame_dropdown.value) == _OMEGA_FRAMES[1]
 
-    def _rates(self) -> RateViews | None:
+    def _omega_value(self) -> np.ndarray | None:
+        """The entered omega, or ``None`` unless finite within +-_OMEGA_MAX."""
         omega = np.asarray(self.omega_input.value, dtype=float)
-        if not _all_finite(omega):
-            self.notify("Angular velocity", "omega must have finite components.", "warning")
+        if not _all_finite(omega) or float(np.max(np.abs(omega))) > _OMEGA_MAX:
+            return None
+        return omega
+
+    def _rates(self) -> RateViews | None:
+        omega = self._omega_value()
+        if omega is None:
+            entered = np.asarray(self.omega_input.value, dtype=float)
+            self.notify(
+                "Angular velocity",
+                f"omega must have finite components within ±{_OMEGA_MAX:.0e} rad/s, "
+                f"got ({', '.join(f'{x:.3g}' for x in entered)}); rates and animation are off.",
+                "warning",
+            )
             return None
         return rate_views(self.p, self.gimbal_angles, self.seq, omega, body_frame=self._omega_in_body())
 
@@ -944,13 +977,15 @@ class SandboxScene(Scene):
         qs = []
         for k in range(2):
             axis = np.asarray(self.q_axes[k].value, dtype=float)
-            norm = float(np.linalg.norm(axis)) if _all_finite(axis) else math.nan
-            if not (norm > 1e-9):
+            unit = _unit_direction(axis)
+            if unit is None:
                 self.notify(
-                    "Compose", f"q{k + 1} axis must be a non-zero finite vector, got {_fmt(axis, 3)}.", "warning"
+                    "Compose",
+                    f"q{k + 1} axis must be a non-zero finite vector, got ({', '.join(f'{x:.3g}' for x in axis)}).",
+                    "warning",
                 )
                 return self.compose
-            qs.append(rot.euler_parameters_from_axis_angle(axis / norm, math.radians(float(self.q_angles[k].value))))
+            qs.append(rot.euler_parameters_from_axis_angle(unit, math.radians(float(self.q_angles[k].value))))
         return compose_views(qs[0], qs[1])
 
     # -- orientation -> nodes ----------------------------------------------

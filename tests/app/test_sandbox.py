@@ -444,3 +444,47 @@ def test_compose_q1_from_current_body(sandbox: Any) -> None:
     assert quat_equal(sandbox.compose.q1, body.as_quat(scalar_first=True), atol=1e-4)
     q2 = Rotation.from_rotvec([0, 0, math.pi / 2])
     assert quat_equal(sandbox.ghosts[0][1].wxyz, (R(sandbox.compose.q1) * q2).as_quat(scalar_first=True))
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-12, 1e-200])
+def test_huge_and_tiny_axes_keep_their_direction(sandbox: Any, scale: float) -> None:
+    """Any non-zero finite axis is normalized: the squares of these overflow
+    or underflow, which used to give a confusing 'unit vector, got norm 0.0'
+    notice (axis and angle), a rejection of a non-zero axis, or an uncaught
+    error in the session loop (compose)."""
+    direction = np.array([0.0, 3.0, 4.0]) / 5.0
+    choose(sandbox, input="Axis and angle")
+    sandbox.axis_input.value = tuple(direction * scale)
+    sandbox.angle_slider.value = 90.0
+    settle(sandbox)
+    expected = Rotation.from_rotvec(direction * math.pi / 2).as_quat(scalar_first=True)
+    assert quat_equal(sandbox.body_frame.wxyz, expected)
+    assert "Axis and angle" not in sandbox.notices.titles()
+    choose(sandbox, panel="Compose q1, q2")
+    sandbox.q_axes[0].value = tuple(direction * scale)
+    settle(sandbox)
+    q1 = Rotation.from_rotvec(direction * math.pi / 2)  # q1 angle slider default: 90 deg
+    assert quat_equal(sandbox.compose.q1, q1.as_quat(scalar_first=True))
+    assert "Compose" not in sandbox.notices.titles()
+    choose(sandbox, panel="Orientation")
+
+
+def test_huge_omega_gives_a_notice_and_no_unreadable_rates(sandbox: Any) -> None:
+    """omega = 1e200 rad/s used to print 200-digit rates and animate with
+    overflow warnings; it is now refused with a notice."""
+    choose(sandbox, panel="Angular velocity")
+    before = np.array(sandbox.body_frame.wxyz)
+    sandbox.omega_input.value = (1e200, 0.0, 0.0)
+    sandbox.animate_checkbox.value = True
+    settle(sandbox)
+    sandbox.update(0.1)
+    settle(sandbox)
+    title, body, level = [n for n in sandbox.notices if n[0] == "Angular velocity"][-1]
+    assert "within \u00b11e+06 rad/s, got (1e+200, 0, 0)" in body and level == "warning"
+    assert np.allclose(sandbox.body_frame.wxyz, before)  # not animated
+    assert max(len(word) for word in sandbox.rates_text.content.split()) < 40
+    for handle in (sandbox.body_frame, *sandbox.ring_frames, sandbox.axis_frame):
+        assert np.all(np.isfinite(handle.wxyz))
+    sandbox.animate_checkbox.value = False
+    sandbox.omega_input.value = (0.0, 0.0, 1.0)
+    choose(sandbox, panel="Orientation")
