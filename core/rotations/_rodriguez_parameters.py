@@ -254,8 +254,10 @@ def rodriguez_parameter_rates_from_omega(gamma, omega):
     gamma_dot : ndarray, shape (..., 3)
     """
     g, w = _gamma_vec(gamma, omega, "omega")
-    gw = np.einsum("...i,...i->...", g, w)
-    return 0.5 * (w - np.cross(g, w) + g * gw[..., None])
+    with np.errstate(over="ignore", invalid="ignore"):
+        gw = np.einsum("...i,...i->...", g, w)
+        rates = 0.5 * (w - np.cross(g, w) + g * gw[..., None])
+    return _finite_rates(rates, g)
 
 
 def rodriguez_parameter_rates(gamma, omega_body):
@@ -275,5 +277,24 @@ def rodriguez_parameter_rates(gamma, omega_body):
     gamma_dot : ndarray, shape (..., 3)
     """
     g, w = _gamma_vec(gamma, omega_body, "omega_body")
-    gw = np.einsum("...i,...i->...", g, w)
-    return 0.5 * (w + np.cross(g, w) + g * gw[..., None])
+    with np.errstate(over="ignore", invalid="ignore"):
+        gw = np.einsum("...i,...i->...", g, w)
+        rates = 0.5 * (w + np.cross(g, w) + g * gw[..., None])
+    return _finite_rates(rates, g)
+
+
+def _finite_rates(rates, g):
+    """Return ``rates``, or raise when they overflow float64.
+
+    The rates grow like |gamma|^2 |omega| near a half turn, where the
+    Rodriguez parameters themselves go to infinity (Eqs. 8.61-8.64).
+    """
+    bad = ~np.isfinite(rates).all(axis=-1)
+    if np.any(bad):
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(
+            "Expected `gamma` small enough for finite Rodriguez parameter rates "
+            f"(they grow like |gamma|^2 |omega| near a half turn), got |gamma| = "
+            f"{float(np.max(np.abs(g[index]))):.3g} (max entry) at index {index}"
+        )
+    return rates

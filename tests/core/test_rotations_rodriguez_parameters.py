@@ -150,3 +150,15 @@ def test_huge_gamma_tends_to_the_half_turn(scale):
     tol = 2.0 / scale + 1e-15
     np.testing.assert_allclose(A, reference, atol=tol)
     np.testing.assert_allclose(cr.matrix_from_euler_parameters(p), reference, atol=tol)
+
+
+def test_rates_that_overflow_are_a_clear_error():
+    # gamma_dot ~ |gamma|^2 |omega| / 2: with |gamma| = 1e200 that is beyond float64.
+    with pytest.raises(ValueError, match=r"Expected `gamma` small enough for finite Rodriguez parameter rates.*1e\+200"):
+        cr.rodriguez_parameter_rates_from_omega([1e200, 0.0, 0.0], [1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"Expected `gamma` small enough .*at index \(1,\)"):
+        cr.rodriguez_parameter_rates([[0.0, 0.0, 0.0], [0.0, 1e200, 0.0]], [0.0, 1.0, 0.0])
+    # a large but representable gamma still gives the closed form
+    gamma = np.array([1e100, 0.0, 0.0])
+    rates = cr.rodriguez_parameter_rates_from_omega(gamma, [1.0, 0.0, 0.0])
+    np.testing.assert_allclose(rates, [0.5 * (1.0 + 1e200), 0.0, 0.0], rtol=1e-15)
