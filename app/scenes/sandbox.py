@@ -802,6 +802,7 @@ class SandboxScene(Scene):
             self._readout_stale = True
         if moved or "omega" in dirty or "panel" in dirty:
             self.rates = self._rates()
+            self._readout_stale = True  # the rates text follows omega
         if "q1_from_body" in dirty:
             views = self.views or orientation_views(self.p, self.seq)
             with self._writing():
@@ -820,7 +821,7 @@ class SandboxScene(Scene):
                 self._show_panel()
             if "compose" in dirty and self.compose is not None:
                 self._show_compose()
-            if self.rates is not None and (moved or "omega" in dirty or "panel" in dirty):
+            if moved or "omega" in dirty or "panel" in dirty:
                 self._show_omega_arrow()
             with self._writing():
                 if "seq_widgets" in dirty or "all" in dirty:
@@ -1106,7 +1107,9 @@ class SandboxScene(Scene):
 
     def _show_omega_arrow(self) -> None:
         r = self.rates
-        if r is None:
+        if r is None:  # refused omega: nothing stale stays on screen
+            self.omega_arrow.visible = False
+            self.omega_label.visible = False
             return
         norm = float(np.linalg.norm(r.omega))
         if norm < 1e-12 or not math.isfinite(norm):
@@ -1172,8 +1175,11 @@ class SandboxScene(Scene):
         )
         if self.panel == PANELS[1] and self.compose is not None:
             self.compose_text.content = self._compose_markdown(self.compose)
-        if self.panel == PANELS[2] and self.rates is not None:
-            self.rates_text.content = self._rates_markdown(self.rates)
+        if self.panel == PANELS[2]:
+            self.rates_text.content = (
+                self._rates_markdown(self.rates) if self.rates is not None
+                else "*No valid \u03c9 entered: rates and animation are off.*"
+            )
         if self.panel == PANELS[3]:
             self.export_text.value = json.dumps(export_document(views), indent=1)
 

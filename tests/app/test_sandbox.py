@@ -483,6 +483,9 @@ def test_huge_omega_gives_a_notice_and_no_unreadable_rates(sandbox: Any) -> None
     assert "within \u00b11e+06 rad/s, got (1e+200, 0, 0)" in body and level == "warning"
     assert np.allclose(sandbox.body_frame.wxyz, before)  # not animated
     assert max(len(word) for word in sandbox.rates_text.content.split()) < 40
+    # nothing of the previous, valid omega stays on screen
+    assert "No valid" in sandbox.rates_text.content
+    assert sandbox.omega_arrow.visible is False and sandbox.omega_label.visible is False
     for handle in (sandbox.body_frame, *sandbox.ring_frames, sandbox.axis_frame):
         assert np.all(np.isfinite(handle.wxyz))
     sandbox.animate_checkbox.value = False
