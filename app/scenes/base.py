@@ -86,6 +86,26 @@ class Scene:
         self.root_frame = self.target.scene.add_frame(self.root, show_axes=False)
         return self.root_frame
 
+    def add_ground_grid(
+        self,
+        *,
+        width: float,
+        height: float,
+        position: tuple[float, float, float],
+        cell_size: float,
+        section_size: float,
+    ) -> Any:
+        """Add the scene's ground grid at ``{root}/grid`` (metres, global frame).
+
+        Every scene uses the same light colours and shadow, so the scenes
+        look alike; only the extent, height and spacing differ.
+        """
+        return self.target.scene.add_grid(
+            f"{self.root}/grid", width=width, height=height, position=position,
+            cell_size=cell_size, section_size=section_size, cell_color=(226, 228, 234),
+            section_color=(196, 200, 210), shadow_opacity=0.08,
+        )
+
     def make_folder(self) -> Any:
         """Create the scene's GUI folder; every GUI element goes inside it."""
         self._gui_folder = self.target.gui.add_folder(self.title)

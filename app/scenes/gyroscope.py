@@ -268,10 +268,8 @@ class GyroscopeScene(Scene):
         root = self.root
         self.make_root()
         meshes = _meshes()
-        scene.add_grid(
-            f"{root}/grid", width=6.0, height=6.0, position=(0.0, 0.0, _BASE_Z - 0.05),
-            cell_size=0.25, section_size=1.0, cell_color=(226, 228, 234),
-            section_color=(196, 200, 210), shadow_opacity=0.08,
+        self.add_ground_grid(
+            width=6.0, height=6.0, position=(0.0, 0.0, _BASE_Z - 0.05), cell_size=0.25, section_size=1.0
         )
         scene.add_mesh_simple(f"{root}/base", meshes["base"].vertices, meshes["base"].faces, color=(110, 110, 120))
         scene.add_mesh_simple(f"{root}/sphere", meshes["sphere"].vertices, meshes["sphere"].faces,

@@ -190,10 +190,8 @@ class ManipulatorScene(Scene):
         self.make_root()
         root = self.root
         scene.add_frame(f"{root}/global", axes_length=0.45, axes_radius=0.008)
-        scene.add_grid(
-            f"{root}/grid", width=3.0, height=3.0, position=(0.0, 0.0, -0.061),
-            cell_size=0.1, section_size=0.5, cell_color=(226, 228, 234),
-            section_color=(196, 200, 210), shadow_opacity=0.08,
+        self.add_ground_grid(
+            width=3.0, height=3.0, position=(0.0, 0.0, -0.061), cell_size=0.1, section_size=0.5
         )
         base = trimesh.creation.cylinder(radius=0.22, height=0.06, sections=40)
         base.apply_translation([0.0, 0.0, -0.03])

@@ -497,10 +497,8 @@ class SandboxScene(Scene):
         )
         for label, vec in (("X", (1.62, 0, 0)), ("Y", (0, 1.62, 0)), ("Z", (0, 0, 1.62))):
             scene.add_label(f"{root}/global_label_{label}", label, position=vec, anchor="center-center")
-        scene.add_grid(
-            f"{root}/grid", width=5.0, height=7.0, position=(0.0, 1.35, -1.3),
-            cell_size=0.25, section_size=1.0, cell_color=(226, 228, 234),
-            section_color=(196, 200, 210), shadow_opacity=0.08,
+        self.add_ground_grid(
+            width=5.0, height=7.0, position=(0.0, 1.35, -1.3), cell_size=0.25, section_size=1.0
         )
 
         # The body: frame with labelled axes, hull, nose (+x_b) and fin (+z_b).
