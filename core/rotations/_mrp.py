@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._euler_parameters import _matrix_from_unit_p, _p_from_matrix
-from ._validation import check_euler_parameters, check_matrix, check_vector
+from ._validation import _scaled_from_one, check_euler_parameters, check_matrix, check_vector
 
 
 def euler_parameters_from_mrp(sigma):
@@ -33,9 +33,7 @@ def euler_parameters_from_mrp(sigma):
     # sigma = m ss with m = max(1, max|sigma_i|): exact for |sigma_i| <= 1
     # (m = 1) and free of overflow for huge sigma (an angle near 2 pi, whose
     # limit is theta0 = -1, theta = 0: the identity).
-    m = np.maximum(np.max(np.abs(s), axis=-1), 1.0)
-    ss = s / m[..., None]
-    inv_m = 1.0 / m
+    ss, inv_m = _scaled_from_one(s)
     inv_m2 = inv_m * inv_m
     s2 = np.einsum("...i,...i->...", ss, ss)
     d = 1.0 / (inv_m2 + s2)

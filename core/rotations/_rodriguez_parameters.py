@@ -11,6 +11,7 @@ import numpy as np
 from ._euler_parameters import _p_from_matrix
 from ._validation import (
     _index_str,
+    _scaled_from_one,
     broadcast_batch,
     check_euler_parameters,
     check_matrix,
@@ -97,7 +98,7 @@ def euler_parameters_from_rodriguez_parameters(gamma):
         Unit Euler parameters, scalar first, with ``theta0 > 0``.
     """
     g = check_vector(gamma, "gamma", 3)
-    gs, inv_m = _scaled(g)
+    gs, inv_m = _scaled_from_one(g)
     # theta0 = 1 / sqrt(1 + g.g), written with g = m gs so that huge gamma
     # (near a half turn) tends to (0, axis) instead of overflowing.
     root = np.sqrt(inv_m * inv_m + np.einsum("...i,...i->...", gs, gs))
@@ -105,17 +106,6 @@ def euler_parameters_from_rodriguez_parameters(gamma):
     out[..., 0] = inv_m / root
     out[..., 1:] = gs / root[..., None]
     return out
-
-
-def _scaled(g):
-    """Split ``g = m gs`` with ``m = max(1, max|g_i|)``; returns ``gs, 1/m``.
-
-    For ``|g_i| <= 1`` this is exact (``m = 1``); for huge ``g`` it keeps
-    ``g . g`` from overflowing (Rodriguez parameters grow without bound as
-    the angle approaches pi).
-    """
-    m = np.maximum(np.max(np.abs(g), axis=-1), 1.0)
-    return g / m[..., None], 1.0 / m
 
 
 def matrix_from_rodriguez_parameters(g):
@@ -136,10 +126,10 @@ def matrix_from_rodriguez_parameters(g):
         Active rotation matrix, body to global.
     """
     g = check_vector(g, "g", 3)
-    # With g = m gs (see _scaled): k g_i g_j = kk gs_i gs_j and
+    # With g = m gs (see _scaled_from_one): k g_i g_j = kk gs_i gs_j and
     # k g_i = kk gs_i / m, where kk = 2 / (1/m^2 + gs.gs); exact for m = 1
     # and free of overflow for huge gamma (a rotation near pi).
-    gs, inv_m = _scaled(g)
+    gs, inv_m = _scaled_from_one(g)
     x = gs[..., 0]
     y = gs[..., 1]
     z = gs[..., 2]

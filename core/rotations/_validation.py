@@ -48,6 +48,18 @@ def _scaled_norm(arr):
     return m, s, np.sqrt(np.einsum("...i,...i->...", s, s))
 
 
+def _scaled_from_one(arr):
+    """Split vectors ``arr = m s`` along the last axis, ``m = max(1, max|arr_i|)``.
+
+    Returns ``s`` (..., k) and ``1 / m`` (...). For entries within +-1 this
+    is exact (``m = 1``), so formulas in ``1 + arr . arr`` written as
+    ``1/m^2 + s . s`` keep their values; for huge entries (Rodriguez
+    parameters near a half turn, MRP near a full turn) nothing overflows.
+    """
+    m = np.maximum(np.max(np.abs(arr), axis=-1), 1.0)
+    return arr / m[..., None], 1.0 / m
+
+
 def as_float_array(x, name):
     """Convert ``x`` to a float64 array or raise a ValueError naming it."""
     try:
