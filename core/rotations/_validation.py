@@ -60,15 +60,43 @@ def _scaled_from_one(arr):
     return arr / m[..., None], 1.0 / m
 
 
+_FLOAT64 = np.dtype(np.float64)
+
+
 def as_float_array(x, name):
-    """Convert ``x`` to a float64 array or raise a ValueError naming it."""
+    """Convert ``x`` to a float64 array or raise a ValueError naming it.
+
+    Complex input is refused rather than cast (a cast would silently drop
+    the imaginary part). A float64 ndarray is returned as is.
+    """
+    if type(x) is np.ndarray and x.dtype is _FLOAT64:
+        return x
     try:
-        arr = np.asarray(x, dtype=np.float64)
+        arr = np.asarray(x)
     except (TypeError, ValueError) as exc:
         raise ValueError(
             f"Expected `{name}` to be an array of real numbers, got {x!r}"
         ) from exc
-    return arr
+    if arr.dtype.kind == "c" or (
+        arr.dtype.kind == "O"
+        and any(isinstance(v, (complex, np.complexfloating)) for v in arr.flat)
+    ):
+        raise ValueError(
+            f"Expected `{name}` to be real numbers, got complex "
+            f"(dtype {arr.dtype}): {_short_repr(x)}"
+        )
+    try:
+        return arr.astype(np.float64, copy=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"Expected `{name}` to be an array of real numbers, got {x!r}"
+        ) from exc
+
+
+def _short_repr(x, limit=80):
+    """``repr(x)`` cut to ``limit`` characters for an error message."""
+    text = repr(x)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _raise_non_finite(arr, name, n_trailing):
@@ -296,6 +324,23 @@ def orthogonality_deviation(arr):
     return dev, det
 
 
+def _sequence_table():
+    """The 24 valid sequences and their parsed form (built once, read-only)."""
+    table = {}
+    for a in range(3):
+        for b in range(3):
+            for c in range(3):
+                if a != b and b != c:
+                    axes = (a, b, c)
+                    letters = "".join(_AXES[i] for i in axes)
+                    table[letters.upper()] = (axes, True)
+                    table[letters] = (axes, False)
+    return table
+
+
+_SEQUENCES = _sequence_table()
+
+
 def parse_seq(seq):
     """Parse an Euler-angle sequence.
 
@@ -311,6 +356,10 @@ def parse_seq(seq):
         Axis indices (0, 1, 2) of the three rotations, in the order given.
     intrinsic : bool
     """
+    if type(seq) is str:
+        parsed = _SEQUENCES.get(seq)
+        if parsed is not None:
+            return parsed
     if not isinstance(seq, str) or len(seq) != 3:
         raise ValueError(
             f"Expected `seq` to be a string of 3 axes such as 'ZXZ', got {seq!r}"
