@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._euler_parameters import (
+    _axis_and_angle_floats,
     _axis_angle_from_unit_p,
     _matrix_from_rows,
+    _matrix_single,
     _matrix_from_unit_p,
     _p_from_matrix,
 )
@@ -29,6 +33,22 @@ def _matrix_from_unit_axis_angle(axis, angle, batch):
     p[..., 0] = np.cos(half)
     p[..., 1:] = axis * np.sin(half)[..., None]
     return _matrix_from_unit_p(p)
+
+
+def _matrix_from_axis_angle_single(x, y, z, angle):
+    """The blocked arithmetic of :func:`matrix_from_axis_angle` for one
+    rotation: (3, 3), or None if the axis is not unit or the angle not
+    finite."""
+    n2 = x * x + y * y + z * z
+    if not (abs(n2 - 1.0) <= UNIT_NORM2_TOL and math.isfinite(angle)):
+        return None
+    h = math.tan(angle * 0.25)
+    h2 = h * h
+    den = h2 + 1.0
+    w = (1.0 - h2) / den
+    den *= math.sqrt(n2)
+    h = (h + h) / den
+    return _matrix_single(w, x * h, y * h, z * h)
 
 
 def matrix_from_axis_angle(axis, angle):
@@ -58,6 +78,11 @@ def matrix_from_axis_angle(axis, angle):
         Active rotation matrix, body to global; batch shape is the broadcast
         of the batch shapes of ``axis`` and ``angle``.
     """
+    single = _axis_and_angle_floats(axis, angle)
+    if single is not None:
+        out = _matrix_from_axis_angle_single(*single)
+        if out is not None:
+            return out
     axis_in = as_float_array(axis, "axis")
     angle_in = as_float_array(angle, "angle")
     if axis_in.ndim < 1 or axis_in.shape[-1] != 3:

@@ -10,6 +10,8 @@ axis of the fixed (global) frame, applied in the order given, so
 
 from __future__ import annotations
 
+import functools
+import math
 import warnings
 
 import numpy as np
@@ -20,6 +22,7 @@ from ._matrix import elementary_matrix
 from ._quaternion import _product
 from ._validation import (
     _index_str,
+    as_float_array,
     broadcast_batch,
     check_euler_parameters,
     check_matrix,
@@ -118,6 +121,57 @@ def _matrix_from_angles(angles, seq):
     return out.reshape(angles.shape[:-1] + (3, 3))
 
 
+@functools.cache
+def _single_form(seq):
+    """Index tables of the one-rotation kernels for a parsed ``seq``.
+
+    Returns the intrinsic axes ``(i, j, k)``, the angle positions of their
+    angles, and the neighbours ``(i1, i2)``, ``(j1, j2)``, ``(k1, k2)`` of
+    each axis, ``n1 = (n + 1) % 3`` and ``n2 = (n + 2) % 3``.
+    """
+    (i, j, k), cols, _ = _intrinsic_form(seq, None)
+    return (i, j, k), cols, tuple(((n + 1) % 3, (n + 2) % 3) for n in (i, j, k))
+
+
+def _matrix_from_angles_single(angles, seq):
+    """:func:`_matrix_from_angles` for one rotation: (3, 3), or None if an
+    angle is not finite.
+
+    ``(R_i(a) @ R_j(b)) @ R_k(c)`` with every entry of both products a sum
+    of at most two non-zero terms, so computing it as two row operations of
+    ``R_i(a)`` on ``R_j(b)`` and two column operations of ``R_k(c)`` gives
+    the same floats as the batched symbolic product.
+    """
+    x0, x1, x2 = angles.tolist()
+    if not math.isfinite(x0 + x1 + x2):  # NaN or infinity (or overflow)
+        return None
+    (i, j, k), (ca_, cb_, cc_), ((i1, i2), (j1, j2), (k1, k2)) = _single_form(seq)
+    values = (x0, x1, x2)
+    a, b, c = values[ca_], values[cb_], values[cc_]
+    ca, sa = math.cos(a), math.sin(a)
+    cb, sb = math.cos(b), math.sin(b)
+    cc, sc = math.cos(c), math.sin(c)
+    # R_j(b)
+    M = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    M[j][j] = 1.0
+    M[j1][j1] = cb
+    M[j1][j2] = -sb
+    M[j2][j1] = sb
+    M[j2][j2] = cb
+    # R_i(a) @ M: rows i1 and i2 turn.
+    r1 = M[i1]
+    r2 = M[i2]
+    M[i1] = [ca * r1[0] - sa * r2[0], ca * r1[1] - sa * r2[1], ca * r1[2] - sa * r2[2]]
+    M[i2] = [sa * r1[0] + ca * r2[0], sa * r1[1] + ca * r2[1], sa * r1[2] + ca * r2[2]]
+    # M @ R_k(c): columns k1 and k2 turn.
+    for row in M:
+        m1 = row[k1]
+        m2 = row[k2]
+        row[k1] = m1 * cc + m2 * sc
+        row[k2] = m2 * cc - m1 * sc
+    return np.array(M)
+
+
 def matrix_from_euler_angles(angles, seq="ZXZ"):
     """Rotation matrix of Euler angles (precession-nutation-spin product for ``"ZXZ"``).
 
@@ -138,7 +192,12 @@ def matrix_from_euler_angles(angles, seq="ZXZ"):
         ``R_k(c) @ R_j(b) @ R_i(a)``.
     """
     parse_seq(seq)
-    angles = check_vector(angles, "angles", 3)
+    arr = as_float_array(angles, "angles")
+    if arr.shape == (3,):
+        out = _matrix_from_angles_single(arr, seq)
+        if out is not None:
+            return out
+    angles = check_vector(arr, "angles", 3)
     return _matrix_from_angles(angles, seq)
 
 
@@ -250,6 +309,37 @@ def euler_angles_from_euler_parameters(p, seq="ZXZ"):
     return _angles_from_p(p, seq)
 
 
+def _p_from_angles_single(angles, seq):
+    """:func:`euler_parameters_from_euler_angles` for one rotation: (4,), or
+    None if an angle is not finite. The same quaternion products, zeros
+    included, on floats."""
+    x0, x1, x2 = angles.tolist()
+    if not math.isfinite(x0 + x1 + x2):  # NaN or infinity (or overflow)
+        return None
+    axes, cols, _ = _single_form(seq)
+    values = (0.5 * x0, 0.5 * x1, 0.5 * x2)
+    qs = []
+    for axis, col in zip(axes, cols):
+        q = [math.cos(values[col]), 0.0, 0.0, 0.0]
+        q[axis + 1] = math.sin(values[col])
+        qs.append(q)
+    p = _product_floats(_product_floats(qs[0], qs[1]), qs[2])
+    out = np.array(p)
+    return -out if p[0] < 0.0 else out
+
+
+def _product_floats(a, b):
+    """The arithmetic of :func:`_product` on two sequences of 4 floats."""
+    a0, a1, a2, a3 = a
+    b0, b1, b2, b3 = b
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 + a2 * b0 + a3 * b1 - a1 * b3,
+        a0 * b3 + a3 * b0 + a1 * b2 - a2 * b1,
+    )
+
+
 def euler_parameters_from_euler_angles(angles, seq="ZXZ"):
     """Euler parameters of Euler angles, any sequence.
 
@@ -269,7 +359,12 @@ def euler_parameters_from_euler_angles(angles, seq="ZXZ"):
         Unit Euler parameters, scalar first, with ``theta0 >= 0``.
     """
     parse_seq(seq)
-    angles = check_vector(angles, "angles", 3)
+    arr = as_float_array(angles, "angles")
+    if arr.shape == (3,):
+        out = _p_from_angles_single(arr, seq)
+        if out is not None:
+            return out
+    angles = check_vector(arr, "angles", 3)
     (i, j, k), cols, _ = _intrinsic_form(seq, angles)
     half = 0.5 * angles
     c = np.cos(half)

@@ -10,6 +10,8 @@ the same rotation; functions returning parameters from a matrix pick
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._batch import BLOCK, blocks
@@ -121,6 +123,118 @@ def _matrix_from_unit_p(p):
     return out.reshape(p.shape[:-1] + (3, 3))
 
 
+# ------------------------------------------------------------ one rotation
+# A single rotation (no batch axes) is evaluated on Python floats: the same
+# operations as the blocked kernels, in the same order, without the fixed
+# cost of a dozen array operations on length-one arrays. Each ``_single``
+# kernel returns None when its input fails validation; the caller then runs
+# the batched path, which raises the error naming the argument.
+
+
+def _matrix_single(w, x, y, z):
+    """The arithmetic of :func:`_matrix_from_rows` for one rotation: (3, 3)."""
+    X = x + x
+    Y = y + y
+    Z = z + z
+    ww = w * w
+    xx = x * x
+    yy = y * y
+    zz = z * z
+    xy = X * y
+    xz = X * z
+    yz = Y * z
+    zw = Z * w
+    yw = Y * w
+    xw = X * w
+    a = ww - zz
+    b = xx - yy
+    c = ww + zz
+    d = xx + yy
+    return np.array(
+        (a + b, xy - zw, xz + yw, xy + zw, a - b, yz - xw, xz - yw, yz + xw, c - d)
+    ).reshape((3, 3))
+
+
+def _matrix_from_p_single(w, x, y, z):
+    """:func:`_matrix_kernel` for one rotation; None if ``p`` is not unit."""
+    n2 = w * w + x * x + y * y + z * z
+    t = abs(n2 - 1.0)
+    if not t <= UNIT_NORM2_TOL:  # NaN and infinity fail too
+        return None
+    if t > NORMALIZED_TOL:
+        norm = math.sqrt(n2)
+        w, x, y, z = w / norm, x / norm, y / norm, z / norm
+    return _matrix_single(w, x, y, z)
+
+
+def _unit_p_single(w, x, y, z):
+    """:func:`check_euler_parameters` for one rotation: the normalized
+    parameters as floats, or None if ``p`` is not unit."""
+    n2 = w * w + x * x + y * y + z * z
+    if not abs(n2 - 1.0) <= UNIT_NORM2_TOL:  # NaN and infinity fail too
+        return None
+    norm = math.sqrt(n2)
+    return w / norm, x / norm, y / norm, z / norm
+
+
+def _p_from_matrix_single(a00, a01, a02, a10, a11, a12, a20, a21, a22):
+    """Validation and Shepperd's method (:func:`_shepperd_block`) for one
+    rotation matrix given row by row: (4,), or None if ``A`` is not a
+    rotation matrix."""
+    # orthogonality_deviation: rows orthonormal and det > 0 (NaN fails).
+    tol = ORTHOGONALITY_TOL
+    if not (
+        abs(a00 * a00 + a01 * a01 + a02 * a02 - 1.0) <= tol
+        and abs(a10 * a10 + a11 * a11 + a12 * a12 - 1.0) <= tol
+        and abs(a20 * a20 + a21 * a21 + a22 * a22 - 1.0) <= tol
+        and abs(a00 * a10 + a01 * a11 + a02 * a12) <= tol
+        and abs(a00 * a20 + a01 * a21 + a02 * a22) <= tol
+        and abs(a10 * a20 + a11 * a21 + a12 * a22) <= tol
+        and (a01 * a12 - a02 * a11) * a20
+        + (a02 * a10 - a00 * a12) * a21
+        + (a00 * a11 - a01 * a10) * a22
+        > 0.0
+    ):
+        return None
+    trace = a00 + a11 + a22
+    d0 = 1.0 + trace
+    e = 1.0 - trace
+    d1 = e + 2.0 * a00
+    d2 = e + 2.0 * a11
+    d3 = e + 2.0 * a22
+    s01 = a21 - a12
+    s02 = a02 - a20
+    s03 = a10 - a01
+    # The first largest pivot, as np.argmax picks it.
+    if d0 >= d1 and d0 >= d2 and d0 >= d3:
+        q0, q1, q2, q3 = d0, s01, s02, s03
+    elif d1 >= d2 and d1 >= d3:
+        q0, q1, q2, q3 = s01, d1, a10 + a01, a02 + a20
+    elif d2 >= d3:
+        q0, q1, q2, q3 = s02, a10 + a01, d2, a21 + a12
+    else:
+        q0, q1, q2, q3 = s03, a02 + a20, a21 + a12, d3
+    norm = math.copysign(math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3), q0)
+    return np.array((q0 / norm, q1 / norm, q2 / norm, q3 / norm))
+
+
+def _axis_and_angle_floats(axis, angle):
+    """``(x, y, z, angle)`` as floats when ``axis`` is one vector (3,) and
+    ``angle`` one number, else None (validation is left to the caller)."""
+    if type(angle) is float or type(angle) is np.float64:
+        a = float(angle)
+    else:
+        an = as_float_array(angle, "angle")
+        if an.shape != ():
+            return None
+        a = float(an)
+    ax = as_float_array(axis, "axis")
+    if ax.shape != (3,):
+        return None
+    x, y, z = ax.tolist()
+    return x, y, z, a
+
+
 def matrix_from_euler_parameters(p):
     """Rotation matrix of Euler parameters (Eqs. 8.48-8.50).
 
@@ -144,6 +258,10 @@ def matrix_from_euler_parameters(p):
         Active rotation matrix, body to global: ``u_global = A @ u_body``.
     """
     arr = as_float_array(p, "p")
+    if arr.shape == (4,):
+        out = _matrix_from_p_single(*arr.tolist())
+        if out is not None:
+            return out
     if arr.ndim < 1 or arr.shape[-1] != 4:
         check_euler_parameters(arr, "p")
     flat = arr.reshape(-1, 4)
@@ -226,6 +344,10 @@ def euler_parameters_from_matrix(A):
         first, with ``theta0 >= 0``.
     """
     arr = as_float_array(A, "A")
+    if arr.shape == (3, 3):
+        out = _p_from_matrix_single(*arr.ravel().tolist())
+        if out is not None:
+            return out
     if arr.ndim < 2 or arr.shape[-2:] != (3, 3):
         check_matrix(arr, "A")
     flat = arr.reshape(-1, 3, 3)
@@ -268,6 +390,17 @@ def euler_parameters_from_axis_angle(axis, angle):
         Euler parameters, scalar first; batch shape is the broadcast of the
         batch shapes of ``axis`` and ``angle``.
     """
+    single = _axis_and_angle_floats(axis, angle)
+    if single is not None:
+        x, y, z, a = single
+        n2 = x * x + y * y + z * z
+        if abs(n2 - 1.0) <= UNIT_NORM2_TOL and math.isfinite(a):
+            norm = math.sqrt(n2)
+            half = 0.5 * a
+            s = math.sin(half)
+            return np.array(
+                (math.cos(half), x / norm * s, y / norm * s, z / norm * s)
+            )
     axis = check_unit_vector(axis, "axis")
     angle = check_scalar_array(angle, "angle")
     (axis, angle), batch = broadcast_batch(("axis", axis, 1), ("angle", angle, 0))
@@ -296,8 +429,24 @@ def axis_angle_from_euler_parameters(p):
         Rotation angle in ``[0, pi]`` (``p`` and ``-p`` give the same
         result).
     """
-    p = check_euler_parameters(p, "p")
+    arr = as_float_array(p, "p")
+    if arr.shape == (4,):
+        unit = _unit_p_single(*arr.tolist())
+        if unit is not None:
+            return _axis_angle_from_p_single(*unit)
+    p = check_euler_parameters(arr, "p")
     return _axis_angle_from_unit_p(p)
+
+
+def _axis_angle_from_p_single(w, x, y, z):
+    """:func:`_axis_angle_from_unit_p` for one rotation."""
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.hypot(math.hypot(x, y), z)
+    angle = np.float64(2.0 * math.atan2(s, w))
+    if s == 0.0:
+        return np.array((0.0, 0.0, 1.0)), angle
+    return np.array((x / s, y / s, z / s)), angle
 
 
 def _axis_angle_from_unit_p(p):
@@ -330,7 +479,18 @@ def normalize_euler_parameters(p):
     p_unit : ndarray, shape (..., 4)
         ``p / ||p||``.
     """
-    p = check_quaternion(p, "p")
+    arr = as_float_array(p, "p")
+    if arr.shape == (4,):
+        w, x, y, z = arr.tolist()
+        m = max(abs(w), abs(x), abs(y), abs(z))
+        # Not zero, no NaN or infinity (a finite sum that overflows only
+        # sends huge parameters to the batched path).
+        if m > 0.0 and math.isfinite(w + x + y + z):
+            # _scaled_norm; einsum sums the four squares pairwise.
+            w, x, y, z = w / m, x / m, y / m, z / m
+            norm = math.sqrt((w * w + y * y) + (x * x + z * z))
+            return np.array((w / norm, x / norm, y / norm, z / norm))
+    p = check_quaternion(arr, "p")
     # Scaled by the largest entry: exact for huge and tiny (non-zero) p,
     # whose squares would overflow or underflow.
     m, s, norm = _scaled_norm(p)
@@ -358,7 +518,16 @@ def canonical_euler_parameters(p):
     -------
     p : ndarray, shape (..., 4)
     """
-    p = check_euler_parameters(p, "p")
+    arr = as_float_array(p, "p")
+    if arr.shape == (4,):
+        unit = _unit_p_single(*arr.tolist())
+        if unit is not None:
+            for c in unit:
+                if c != 0.0:
+                    break
+            out = np.array(unit)
+            return -out if c < 0.0 else out
+    p = check_euler_parameters(arr, "p")
     flip = np.zeros(p.shape[:-1], dtype=bool)
     undecided = np.ones(p.shape[:-1], dtype=bool)
     for k in range(4):

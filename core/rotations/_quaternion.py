@@ -7,11 +7,14 @@ A quaternion ``q = (q0, q1, q2, q3)`` has scalar part ``q0`` and vector part
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ._euler_parameters import _matrix_from_unit_p
+from ._euler_parameters import _matrix_from_unit_p, _unit_p_single
 from ._validation import (
     _index_str,
+    as_float_array,
     _scaled_norm,
     broadcast_batch,
     check_euler_parameters,
@@ -57,8 +60,25 @@ def quaternion_product(q1, q2):
     -------
     q : ndarray, shape (..., 4)
     """
-    a = check_quaternion(q1, "q1")
-    b = check_quaternion(q2, "q2")
+    a = as_float_array(q1, "q1")
+    b = as_float_array(q2, "q2")
+    if a.shape == (4,) and b.shape == (4,):
+        a0, a1, a2, a3 = a.tolist()
+        b0, b1, b2, b3 = b.tolist()
+        # No NaN or infinity (a finite sum that overflows only sends huge
+        # quaternions to the batched path).
+        if math.isfinite(a0 + a1 + a2 + a3 + b0 + b1 + b2 + b3):
+            # The arithmetic of _product, on floats.
+            return np.array(
+                (
+                    a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+                    a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+                    a0 * b2 + a2 * b0 + a3 * b1 - a1 * b3,
+                    a0 * b3 + a3 * b0 + a1 * b2 - a2 * b1,
+                )
+            )
+    a = check_quaternion(a, "q1")
+    b = check_quaternion(b, "q2")
     if a.shape != b.shape:
         (a, b), _ = broadcast_batch(("q1", a, 1), ("q2", b, 1))
     return _product(a, b, np.empty(a.shape))
@@ -78,7 +98,12 @@ def quaternion_conjugate(q):
     -------
     q_conj : ndarray, shape (..., 4)
     """
-    q = check_quaternion(q, "q")
+    arr = as_float_array(q, "q")
+    if arr.shape == (4,):
+        q0, q1, q2, q3 = arr.tolist()
+        if math.isfinite(q0 + q1 + q2 + q3):
+            return np.array((q0, -q1, -q2, -q3))
+    q = check_quaternion(arr, "q")
     out = -q
     out[..., 0] = q[..., 0]
     return out
@@ -166,8 +191,26 @@ def rotate_vector(p, u_body):
     u_global : ndarray, shape (..., 3)
         The same vectors with components in the global frame.
     """
-    p = check_euler_parameters(p, "p")
-    u = check_vector(u_body, "u_body", 3)
+    p_in = as_float_array(p, "p")
+    u_in = as_float_array(u_body, "u_body")
+    if p_in.shape == (4,) and u_in.shape == (3,):
+        unit = _unit_p_single(*p_in.tolist())
+        u0, u1, u2 = u_in.tolist()
+        if unit is not None and math.isfinite(u0 + u1 + u2):
+            w, v0, v1, v2 = unit
+            # u + w t + v x t with t = 2 v x u, as np.cross orders it.
+            t0 = 2.0 * (v1 * u2 - v2 * u1)
+            t1 = 2.0 * (v2 * u0 - v0 * u2)
+            t2 = 2.0 * (v0 * u1 - v1 * u0)
+            return np.array(
+                (
+                    u0 + w * t0 + (v1 * t2 - v2 * t1),
+                    u1 + w * t1 + (v2 * t0 - v0 * t2),
+                    u2 + w * t2 + (v0 * t1 - v1 * t0),
+                )
+            )
+    p = check_euler_parameters(p_in, "p")
+    u = check_vector(u_in, "u_body", 3)
     (p, u), _ = broadcast_batch(("p", p, 1), ("u_body", u, 1))
     w = p[..., :1]
     v = p[..., 1:]

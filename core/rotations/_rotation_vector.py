@@ -2,11 +2,39 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._axis_angle import _matrix_from_unit_axis_angle
 from ._euler_parameters import _p_from_matrix
-from ._validation import _index_str, check_euler_parameters, check_matrix, check_vector
+from ._validation import (
+    _index_str,
+    as_float_array,
+    check_euler_parameters,
+    check_matrix,
+    check_vector,
+)
+
+
+def _p_from_rotation_vector_single(x, y, z):
+    """:func:`euler_parameters_from_rotation_vector` for one rotation: (4,),
+    or None for a non-finite entry or an angle beyond float64."""
+    angle = math.hypot(math.hypot(x, y), z)
+    if not math.isfinite(angle):
+        return None
+    half = 0.5 * angle
+    s = math.sin(half)
+    if angle < 1.0:
+        # 0.5 * np.sinc(angle / (2 pi)), as numpy evaluates it (1 at 0)
+        arg = _PI * (angle / _TWO_PI)
+        scale = 0.5 * (math.sin(arg) / arg) if arg != 0.0 else 0.5
+        return np.array((math.cos(half), x * scale, y * scale, z * scale))
+    return np.array((math.cos(half), x / angle * s, y / angle * s, z / angle * s))
+
+
+_PI = float(np.pi)
+_TWO_PI = 2.0 * _PI
 
 
 def euler_parameters_from_rotation_vector(r):
@@ -28,7 +56,12 @@ def euler_parameters_from_rotation_vector(r):
     ValueError
         If ``|r|`` (the angle) exceeds the float64 range.
     """
-    r = check_vector(r, "r", 3)
+    arr = as_float_array(r, "r")
+    if arr.shape == (3,):
+        out = _p_from_rotation_vector_single(*arr.tolist())
+        if out is not None:
+            return out
+    r = check_vector(arr, "r", 3)
     angle = _angle(r)
     half = 0.5 * angle
     small = angle < 1.0
