@@ -1,17 +1,23 @@
 """Throughput of core.rotations against scipy's Rotation, measured in the same run.
 
-Rows: matrix -> Euler parameters, Euler parameters -> matrix, matrix <- Euler
-angles (ZXZ), quaternion product and axis-angle -> matrix, for N = 1e3,
-1e5 and 1e6 rotations. Each row times both implementations on the same
-seeded inputs, alternating them, and reports the best time per call, the
+Batched rows: matrix -> Euler parameters, Euler parameters -> matrix, matrix
+<- Euler angles (ZXZ), quaternion product and axis-angle -> matrix, for
+N = 1e3, 1e5 and 1e6 rotations. Each row times both implementations on the
+same seeded inputs, alternating them, and reports the best time per call, the
 ratio (scipy time / our time; above 1 means core.rotations is faster) and
 the largest absolute difference between the two outputs (quaternions are
 compared up to their sign).
 
+Single-call rows: the same operations on one rotation (input shape (3,),
+(4,) or (3, 3), what a scene does per frame), the Euler-angle matrix for all
+24 sequences, against the equivalent scipy call on one rotation
+(``Rotation.from_euler(seq, angles).as_matrix()`` and so on), with the time
+per call in microseconds, best of ``--repeat``.
+
 Usage::
 
     python bench/rotations.py [--sizes 1000 100000 1000000] [--repeat 7]
-                              [--json bench/out/rotations.json]
+                              [--no-single] [--json bench/out/rotations.json]
 """
 
 from __future__ import annotations
@@ -187,10 +193,11 @@ def _loops_for(f, target=0.05):
     return max(1, int(target / dt))
 
 
-def _best_times(f_ours, f_scipy, repeat):
-    """Best time per call of each function, alternating them ``repeat`` times."""
-    n_ours = _loops_for(f_ours)
-    n_scipy = _loops_for(f_scipy)
+def _best_times(f_ours, f_scipy, repeat, target=0.05):
+    """Best time per call of each function, alternating them ``repeat`` times
+    (each timing loop runs for about ``target`` seconds)."""
+    n_ours = _loops_for(f_ours, target)
+    n_scipy = _loops_for(f_scipy, target)
     best_ours = best_scipy = np.inf
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -242,6 +249,110 @@ def run(sizes=(1_000, 100_000, 1_000_000), repeat=7):
     return results
 
 
+SEQUENCES = tuple(
+    seq
+    for letters in ("XYZ", "xyz")
+    for seq in (a + b + c for a in letters for b in letters for c in letters)
+    if seq[0] != seq[1] and seq[1] != seq[2]
+)
+
+
+def _single_rows(seed=1):
+    """(name, ours, scipy, compare up to sign) on one rotation each."""
+    rng = np.random.default_rng(seed)
+    p = _unit_quaternions(rng, 1)[0]
+    q = _unit_quaternions(rng, 1)[0]
+    A = Rotation.from_quat(p, scalar_first=True).as_matrix()
+    angles = rng.uniform(-np.pi, np.pi, size=3)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    angle = float(rng.uniform(-np.pi, np.pi))
+    rows = [
+        (
+            "matrix -> Euler parameters",
+            lambda: cr.euler_parameters_from_matrix(A),
+            lambda: Rotation.from_matrix(A).as_quat(scalar_first=True),
+            True,
+        ),
+        (
+            "Euler parameters -> matrix",
+            lambda: cr.matrix_from_euler_parameters(p),
+            lambda: Rotation.from_quat(p, scalar_first=True).as_matrix(),
+            False,
+        ),
+        (
+            "quaternion product",
+            lambda: cr.quaternion_product(p, q),
+            lambda: (
+                Rotation.from_quat(p, scalar_first=True)
+                * Rotation.from_quat(q, scalar_first=True)
+            ).as_quat(scalar_first=True),
+            True,
+        ),
+        (
+            "axis-angle -> matrix",
+            lambda: cr.matrix_from_axis_angle(axis, angle),
+            lambda: Rotation.from_rotvec(axis * angle).as_matrix(),
+            False,
+        ),
+    ]
+    for seq in SEQUENCES:
+        rows.append(
+            (
+                f"matrix <- Euler angles {seq}",
+                lambda seq=seq: cr.matrix_from_euler_angles(angles, seq),
+                lambda seq=seq: Rotation.from_euler(seq, angles).as_matrix(),
+                False,
+            )
+        )
+    return rows
+
+
+def run_single(repeat=7, target=0.05):
+    """Measure every single-call row (one rotation per call), each timing
+    loop running for about ``target`` seconds.
+
+    Returns
+    -------
+    results : list of dict
+        One entry per row with keys ``row``, ``ours_s``, ``scipy_s`` (best
+        time per call), ``ratio`` (scipy time / our time) and ``max_dev``
+        (largest absolute difference between the outputs).
+    """
+    results = []
+    for name, f_ours, f_scipy, up_to_sign in _single_rows():
+        ours = f_ours()
+        theirs = f_scipy()
+        if up_to_sign:
+            theirs = _align_sign(ours, theirs)
+        t_ours, t_scipy = _best_times(f_ours, f_scipy, repeat, target)
+        results.append(
+            {
+                "row": name,
+                "ours_s": t_ours,
+                "scipy_s": t_scipy,
+                "ratio": t_scipy / t_ours,
+                "max_dev": float(np.max(np.abs(ours - theirs))),
+            }
+        )
+    return results
+
+
+def format_single_table(results):
+    """Markdown table of :func:`run_single`'s results."""
+    lines = [
+        "| single call | core.rotations (us) | scipy Rotation (us) | ratio (scipy/ours) "
+        "| max deviation |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for r in results:
+        lines.append(
+            f"| {r['row']} | {1e6 * r['ours_s']:.2f} | {1e6 * r['scipy_s']:.2f} | "
+            f"{r['ratio']:.2f}x | {r['max_dev']:.1e} |"
+        )
+    return "\n".join(lines)
+
+
 def format_table(results):
     """Markdown table of :func:`run`'s results."""
     lines = [
@@ -264,6 +375,9 @@ def main(argv=None):
         "--sizes", type=int, nargs="+", default=[1_000, 100_000, 1_000_000]
     )
     parser.add_argument("--repeat", type=int, default=7)
+    parser.add_argument(
+        "--no-single", action="store_true", help="skip the single-call rows"
+    )
     parser.add_argument("--json", type=Path, default=None, help="also write results here")
     args = parser.parse_args(argv)
     results = run(args.sizes, args.repeat)
@@ -272,6 +386,11 @@ def main(argv=None):
         f"Python {platform.python_version()}, best of {args.repeat}"
     )
     print(format_table(results))
+    single = []
+    if not args.no_single:
+        single = run_single(args.repeat)
+        print()
+        print(format_single_table(single))
     print(
         "ratio > 1: core.rotations is faster. max deviation: largest |ours - scipy|. "
         "error: largest |result - reference| with the reference evaluated in "
@@ -279,8 +398,8 @@ def main(argv=None):
     )
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=2))
-    return results
+        args.json.write_text(json.dumps({"batched": results, "single": single}, indent=2))
+    return results, single
 
 
 if __name__ == "__main__":

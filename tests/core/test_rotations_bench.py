@@ -31,3 +31,23 @@ def test_bench_runs_and_results_agree_with_scipy_and_reference():
     table = bench.format_table(results)
     assert table.count("\n") == len(results) + 1
     assert "ratio (scipy/ours)" in table
+
+
+def test_single_call_rows_cover_the_five_operations_and_all_24_sequences():
+    bench = _load()
+    results = bench.run_single(repeat=1, target=0.002)
+    rows = [r["row"] for r in results]
+    assert rows[:4] == [
+        "matrix -> Euler parameters",
+        "Euler parameters -> matrix",
+        "quaternion product",
+        "axis-angle -> matrix",
+    ]
+    seqs = [row.rsplit(" ", 1)[1] for row in rows[4:]]
+    assert len(set(seqs)) == 24 and all(row.startswith("matrix <- Euler angles") for row in rows[4:])
+    for r in results:
+        assert r["ours_s"] > 0 and r["scipy_s"] > 0
+        assert r["max_dev"] < 3e-15, r
+    table = bench.format_single_table(results)
+    assert table.count("\n") == len(results) + 1
+    assert "(us)" in table
