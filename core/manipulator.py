@@ -51,6 +51,7 @@ import dataclasses
 
 import numpy as np
 
+from core._validation import float_array
 from core.rotations import matrix_from_axis_angle
 
 __all__ = [
@@ -75,7 +76,7 @@ _AXIS_LETTERS = "XYZ"
 
 
 def _as_unit_rows(value: object, name: str) -> np.ndarray:
-    array = np.array(value, dtype=float)
+    array = float_array(value, name, expected="a (3, 3) array of unit vectors", copy=True)
     if array.shape != (3, 3):
         raise ValueError(
             f"{name} must have shape (3, 3) (one unit 3-vector per joint), "
@@ -133,7 +134,7 @@ class ManipulatorGeometry:
         object.__setattr__(
             self, "link_directions", _as_unit_rows(self.link_directions, "link_directions")
         )
-        lengths = np.array(self.link_lengths, dtype=float)
+        lengths = float_array(self.link_lengths, "link_lengths", expected="3 lengths in metres", copy=True)
         if lengths.shape != (3,):
             raise ValueError(
                 f"link_lengths must have shape (3,) (one length per link), "
@@ -200,7 +201,7 @@ class EulerForm:
 
 
 def _check_joint_vector(value: object, name: str) -> np.ndarray:
-    array = np.asarray(value, dtype=float)
+    array = float_array(value, name, expected="a (..., 3) array of real numbers")
     if array.ndim == 0 or array.shape[-1] != 3:
         raise ValueError(
             f"{name} must have shape (..., 3) (one value per joint), got shape {array.shape}"

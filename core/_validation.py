@@ -1,0 +1,91 @@
+"""Conversion of user input to float64, shared by the core modules.
+
+``np.asarray(x, dtype=float)`` casts complex input to its real part with
+only a ``ComplexWarning``; the helpers here refuse it instead. Messages
+follow the ``name: expected ..., got ...`` style of :mod:`core.rigid_body`,
+:mod:`core.gyroscope`, :mod:`core.integrators` and :mod:`core.manipulator`
+(:mod:`core.rotations` has its own validation module).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+
+_FLOAT64 = np.dtype(np.float64)
+
+
+def short_repr(x: Any, limit: int = 80) -> str:
+    """``repr(x)`` cut to ``limit`` characters for an error message."""
+    text = repr(x)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _is_complex(arr: np.ndarray) -> bool:
+    if arr.dtype.kind == "c":
+        return True
+    return arr.dtype.kind == "O" and any(
+        isinstance(v, (complex, np.complexfloating)) for v in arr.flat
+    )
+
+
+def float_array(x: Any, name: str, *, expected: str = "an array of real numbers", copy: bool = False) -> np.ndarray:
+    """``x`` as a float64 array; complex or non-numeric input raises.
+
+    Parameters
+    ----------
+    x : array_like
+    name : str
+        Argument name used in error messages.
+    expected : str
+        What the argument should be, for the message of a failed conversion.
+    copy : bool
+        Always return a new array (otherwise a float64 ndarray is returned
+        as is).
+
+    Returns
+    -------
+    ndarray, float64, the shape of ``x``.
+
+    Raises
+    ------
+    ValueError
+        ``{name}: expected real numbers, got complex ...`` for complex input
+        (numpy would drop the imaginary part), ``{name}: expected
+        {expected}, got ...`` when ``x`` is not numeric.
+    """
+    if type(x) is np.ndarray and x.dtype is _FLOAT64:
+        return x.copy() if copy else x
+    try:
+        arr = np.asarray(x)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected {expected}, got {short_repr(x)}") from None
+    if _is_complex(arr):
+        raise ValueError(f"{name}: expected real numbers, got complex (dtype {arr.dtype}): {short_repr(x)}")
+    try:
+        return np.array(arr, dtype=np.float64) if copy else np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected {expected}, got {short_repr(x)}") from None
+
+
+def real_number(x: Any, name: str, *, expected: str = "a finite real number") -> float:
+    """``x`` as a finite Python float; bools, complex numbers, arrays,
+    non-finite and non-numeric values raise ``{name}: expected ..., got ...``."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real):
+        if isinstance(x, (complex, np.complexfloating)):
+            raise ValueError(f"{name}: expected real numbers, got complex {x!r}")
+        raise ValueError(f"{name}: expected {expected}, got {short_repr(x)}")
+    value = float(x)
+    if not math.isfinite(value):
+        raise ValueError(f"{name}: expected {expected}, got {value!r}")
+    return value
+
+
+def positive_integer(x: Any, name: str) -> int:
+    """``x`` as an int >= 1 (Python or numpy integer, not a bool)."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or x < 1:
+        raise ValueError(f"{name}: expected an integer >= 1, got {short_repr(x)}")
+    return int(x)
