@@ -31,6 +31,15 @@ inputs are never mutated.
 ``solve_ivp``) and returns a frozen :class:`Trajectory` with a
 :class:`DriftReport`.
 
+Every step function and :func:`integrate` validate their inputs: the state
+must be a finite real vector (complex input is refused, not cast), ``dt`` a
+finite number > 0 and ``t`` a finite real number; a :class:`ValueError`
+names the argument. A run is limited to :data:`MAX_STEPS` steps (fixed-step
+methods, checked before the run starts) or right-hand-side evaluations
+(adaptive methods, checked as they are made): a step of 1e-12 s over 1000 s
+is refused at once instead of filling memory for hours. ``integrate(...,
+max_steps=n)`` raises the limit.
+
 Methods (``integrate(..., method=name)``):
 
 ============== ====== ===================================================
@@ -55,6 +64,7 @@ name           order  notes
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -62,9 +72,12 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from core._validation import float_array, positive_integer, real_number, short_repr
+
 __all__ = [
     "ADAPTIVE_METHODS",
     "FIXED_STEP_METHODS",
+    "MAX_STEPS",
     "METHOD_ORDERS",
     "DivergenceError",
     "DriftReport",
@@ -79,6 +92,15 @@ __all__ = [
     "splitting8_step",
     "splitting_step",
 ]
+
+
+#: Largest number of steps of a fixed-step run (and of right-hand-side
+#: evaluations of an adaptive run) that :func:`integrate` takes without being
+#: asked for more with ``max_steps``. Ten million steps of a 7-state model
+#: record 0.5 GB of states (``save_every=1``) and take minutes with the
+#: pure-Python steppers; a run that needs more is almost always a mistake in
+#: ``dt`` or ``t_span``.
+MAX_STEPS = 10_000_000
 
 
 class IntegrationError(ValueError):
@@ -158,7 +180,8 @@ def drift_report(model: Any, states: np.ndarray) -> DriftReport:
     inv = getattr(model, "invariants", None)
     if inv is None:
         return DriftReport()
-    values = inv(np.asarray(states))
+    states = float_array(states, "states", expected="an (n, m) array of states")
+    values = inv(states)
     initial, max_abs, max_rel, final_abs = {}, {}, {}, {}
     for name, val in values.items():
         val = np.asarray(val, dtype=float).reshape(len(states), -1)
@@ -173,21 +196,55 @@ def drift_report(model: Any, states: np.ndarray) -> DriftReport:
 
 
 # ---------------------------------------------------------------- steps
+def _check_step(model: Any, state: Any, dt: Any, t: Any) -> tuple[np.ndarray, float, float]:
+    """Validated ``(state, dt, t)`` of a public step function.
+
+    ``state`` must be a finite real (m,) vector (m = ``model.state_size``
+    when the model states it), ``dt`` a finite number > 0 and ``t`` a
+    finite real number.
+    """
+    y = float_array(state, "state", expected="an (m,) state vector of real numbers")
+    size = getattr(model, "state_size", None)
+    if y.ndim != 1 or (size is not None and y.shape != (int(size),)):
+        want = f"({int(size)},)" if size is not None else "(m,)"
+        raise ValueError(f"state: expected shape {want}, got {y.shape}")
+    finite = np.isfinite(y)
+    if not finite.all():
+        i = int(np.argmin(finite))
+        raise ValueError(f"state: expected finite values, got {float(y[i])!r} at index {i}")
+    dt = real_number(dt, "dt", expected="a finite step dt > 0")
+    if not dt > 0.0:
+        raise ValueError(f"dt: expected a finite step dt > 0, got {dt!r}")
+    t = real_number(t, "t", expected="a finite time")
+    return y, dt, t
+
+
 def rk4_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
     """One step of the classical fourth-order Runge-Kutta method.
 
     Parameters
     ----------
     model : object with ``rhs(t, state) -> (m,)``.
-    state : (m,) state at time ``t`` (not modified).
-    dt : step size.
-    t : time of ``state`` (keyword).
+    state : (m,) finite real state at time ``t`` (not modified).
+    dt : finite step size > 0.
+    t : finite time of ``state`` (keyword).
 
     Returns
     -------
     (m,) state at ``t + dt``.
+
+    Raises
+    ------
+    ValueError
+        For a non-finite, complex or wrongly shaped ``state``, or a ``dt``
+        that is not a finite number > 0 (NaN, infinity, zero, negative).
     """
-    y = np.asarray(state, dtype=float)
+    y, dt, t = _check_step(model, state, dt, t)
+    return _rk4(model, y, dt, t)
+
+
+def _rk4(model: Any, y: np.ndarray, dt: float, t: float) -> np.ndarray:
+    """:func:`rk4_step` without validation (the loop of :func:`integrate`)."""
     f = model.rhs
     k1 = f(t, y)
     k2 = f(t + 0.5 * dt, y + (0.5 * dt) * k1)
@@ -217,13 +274,41 @@ def implicit_midpoint_step(
     an explicit Euler predictor, until the update is below
     ``tol * (1 + |y|)`` (or stops decreasing at round-off).
 
+    Parameters
+    ----------
+    model : object with ``rhs(t, state) -> (m,)``.
+    state : (m,) finite real state at time ``t`` (not modified).
+    dt : finite step size > 0.
+    t : finite time of ``state`` (keyword).
+    tol : finite relative tolerance >= 0 of the fixed-point iteration
+        (keyword; 0 iterates until the update stops decreasing).
+    max_iter : largest number of fixed-point iterations, an integer >= 1
+        (keyword).
+
+    Returns
+    -------
+    (m,) state at ``t + dt``.
+
     Raises
     ------
+    ValueError
+        For a bad ``state``, ``dt``, ``t``, ``tol`` or ``max_iter``.
     IntegrationError
         If the iteration does not converge in ``max_iter`` iterations (the
         step is too large for the problem's stiffness).
     """
-    y0 = np.asarray(state, dtype=float)
+    y0, dt, t = _check_step(model, state, dt, t)
+    tol = real_number(tol, "tol", expected="a finite tolerance >= 0")
+    if tol < 0.0:
+        raise ValueError(f"tol: expected a finite tolerance >= 0, got {tol!r}")
+    max_iter = positive_integer(max_iter, "max_iter")
+    return _midpoint(model, y0, dt, t, tol, max_iter)
+
+
+def _midpoint(
+    model: Any, y0: np.ndarray, dt: float, t: float, tol: float = 4e-16, max_iter: int = 100
+) -> np.ndarray:
+    """:func:`implicit_midpoint_step` without validation."""
     th = t + 0.5 * dt
     f = model.rhs
     y1 = y0 + dt * f(th, y0)
@@ -297,33 +382,45 @@ def splitting_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) 
     For the free rigid body (:class:`core.rigid_body.FreeBodyModel`) the
     flows are exact rotations, so the Euler-parameter norm stays 1 to
     round-off and the method is symplectic. ``t`` is accepted for the common
-    interface; split models are autonomous.
+    interface; split models are autonomous. ``state``, ``dt`` and ``t`` are
+    validated as in :func:`rk4_step`.
     """
     _require_split(model, "splitting")
-    z = model.to_split_state(np.asarray(state, dtype=float))
+    y, dt, t = _check_step(model, state, dt, t)
+    z = model.to_split_state(y)
     return model.from_split_state(_split_advance(model, z, dt, _COMPOSITIONS["splitting"]))
 
 
 def splitting4_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
     """Fourth-order step: Suzuki's composition of five Strang steps."""
     _require_split(model, "splitting4")
-    z = model.to_split_state(np.asarray(state, dtype=float))
+    y, dt, t = _check_step(model, state, dt, t)
+    z = model.to_split_state(y)
     return model.from_split_state(_split_advance(model, z, dt, _SUZUKI4))
 
 
 def splitting6_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
     """Sixth-order step: Kahan & Li's composition of nine Strang steps (s9odr6a)."""
     _require_split(model, "splitting6")
-    z = model.to_split_state(np.asarray(state, dtype=float))
+    y, dt, t = _check_step(model, state, dt, t)
+    z = model.to_split_state(y)
     return model.from_split_state(_split_advance(model, z, dt, _KAHAN_LI6))
 
 
 def splitting8_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
     """Eighth-order step: Kahan & Li's composition of fifteen Strang steps (s15odr8)."""
     _require_split(model, "splitting8")
-    z = model.to_split_state(np.asarray(state, dtype=float))
+    y, dt, t = _check_step(model, state, dt, t)
+    z = model.to_split_state(y)
     return model.from_split_state(_split_advance(model, z, dt, _KAHAN_LI8))
 
+
+# The loop of integrate() validates once and then calls these, which skip
+# the per-step validation of the public step functions.
+_STEPPERS: Mapping[str, Callable[[Any, np.ndarray, float, float], np.ndarray]] = {
+    "rk4": _rk4,
+    "midpoint": _midpoint,
+}
 
 FIXED_STEP_METHODS: Mapping[str, Callable[..., np.ndarray]] = {
     "rk4": rk4_step,
@@ -347,15 +444,26 @@ METHOD_ORDERS: Mapping[str, int] = {
 
 
 # ---------------------------------------------------------------- runs
-class _CountingModel:
-    """Wraps a model to count rhs calls (internal)."""
+class _BudgetExceeded(Exception):
+    """Raised inside a solver's rhs call when a run used up its budget."""
 
-    def __init__(self, model: Any):
+    def __init__(self, t: float):
+        super().__init__(t)
+        self.t = t
+
+
+class _CountingModel:
+    """Wraps a model to count rhs calls, optionally at most ``max_calls`` (internal)."""
+
+    def __init__(self, model: Any, max_calls: float = math.inf):
         self._model = model
         self.calls = 0
+        self._max_calls = max_calls
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         self.calls += 1
+        if self.calls > self._max_calls:
+            raise _BudgetExceeded(float(t))
         return self._model.rhs(t, y)
 
 
@@ -425,6 +533,7 @@ def integrate(
     atol: float = 1e-10,
     t_eval: np.ndarray | None = None,
     max_drift: float = 1.0,
+    max_steps: int = MAX_STEPS,
 ) -> Trajectory:
     """Integrate ``model`` from ``state0`` over ``t_span`` with one method.
 
@@ -445,6 +554,11 @@ def integrate(
     t_eval : adaptive methods: times to record (default: scipy's steps).
     max_drift : a run stops with :class:`DivergenceError` when an invariant
         moves by more than ``max_drift`` times its initial magnitude.
+    max_steps : largest number of steps of a fixed-step run, refused before
+        it starts when ``ceil((t1 - t0) / dt)`` exceeds it, and of
+        right-hand-side evaluations of an adaptive run, which stops with
+        :class:`IntegrationError` when it has made that many; default
+        :data:`MAX_STEPS` (ten million).
 
     Returns
     -------
@@ -455,47 +569,65 @@ def integrate(
     Raises
     ------
     ValueError
-        For an unknown method, a bad ``t_span``, ``dt``, ``state0`` shape or
-        option that does not apply to the method.
+        For an unknown method, a bad ``t_span``, ``dt``, ``state0`` (shape,
+        non-finite or complex entries) or option that does not apply to the
+        method, and for a fixed-step run of more than ``max_steps`` steps.
     DivergenceError
         When the state becomes non-finite or an invariant blows up (the
         message names the step and time).
     IntegrationError
-        When scipy's solver or the implicit iteration fails.
+        When scipy's solver or the implicit iteration fails, or an adaptive
+        run reaches ``max_steps`` right-hand-side evaluations.
     """
-    y0 = np.array(state0, dtype=float)
+    y0 = float_array(state0, "state0", expected="an (m,) state vector of real numbers", copy=True)
     m = int(getattr(model, "state_size", y0.size))
     if y0.shape != (m,):
         raise ValueError(f"state0: expected shape ({m},), got {y0.shape}")
     if not np.all(np.isfinite(y0)):
         raise ValueError(f"state0: expected finite values, got {y0}")
     try:
-        t0, t1 = (float(v) for v in t_span)
+        t0, t1 = t_span
     except (TypeError, ValueError):
-        raise ValueError(f"t_span: expected (t0, t1), got {t_span!r}") from None
-    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise ValueError(f"t_span: expected (t0, t1), got {short_repr(t_span)}") from None
+    if any(isinstance(v, (complex, np.complexfloating)) for v in (t0, t1)):
+        raise ValueError(f"t_span: expected real numbers, got complex {t_span!r}")
+    if not all(isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)) for v in (t0, t1)):
+        raise ValueError(f"t_span: expected (t0, t1) of real numbers, got {short_repr(t_span)}")
+    t0, t1 = float(t0), float(t1)
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0 and math.isfinite(t1 - t0)):
         raise ValueError(f"t_span: expected finite t0 < t1, got {t_span!r}")
-    if not max_drift > 0:
-        raise ValueError(f"max_drift: expected > 0, got {max_drift!r}")
+    if isinstance(max_drift, (bool, np.bool_)) or not isinstance(max_drift, numbers.Real) or not max_drift > 0:
+        raise ValueError(f"max_drift: expected a real number > 0 (inf: never stop), got {max_drift!r}")
+    max_steps = positive_integer(max_steps, "max_steps")
     inv0 = None
     if getattr(model, "invariants", None) is not None and getattr(model, "conserves_invariants", True):
         inv0 = {k: np.asarray(v, dtype=float).reshape(-1) for k, v in model.invariants(y0[None, :]).items()}
 
     if method in FIXED_STEP_METHODS:
-        if dt is None or not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt: method '{method}' needs a finite step dt > 0, got {dt!r}")
+        needs = f"dt: method '{method}' needs a finite step dt > 0"
+        if dt is None:
+            raise ValueError(f"{needs}, got None")
+        dt = real_number(dt, "dt", expected=f"a finite step dt > 0 for method '{method}'")
+        if not dt > 0:
+            raise ValueError(f"{needs}, got {dt!r}")
         if t_eval is not None:
             raise ValueError(f"t_eval: applies to adaptive methods only, got it with method '{method}'")
-        if not (isinstance(save_every, int) and save_every >= 1):
-            raise ValueError(f"save_every: expected an integer >= 1, got {save_every!r}")
-        n = max(1, math.ceil((t1 - t0) / dt - 1e-9))
+        save_every = positive_integer(save_every, "save_every")
+        steps = (t1 - t0) / dt - 1e-9  # inf when dt underflows the span
+        if not steps <= max_steps:
+            raise ValueError(
+                f"dt: t_span ({t0:g}, {t1:g}) with dt={dt:g} needs {steps:.4g} steps, more than "
+                f"max_steps={max_steps} (core.integrators.MAX_STEPS = {MAX_STEPS}); use a larger dt "
+                "or a shorter t_span, or pass a larger max_steps"
+            )
+        n = max(1, math.ceil(steps))
         h = (t1 - t0) / n
         return _run_fixed(model, y0, t0, h, n, method, save_every, inv0, max_drift)
 
     if method in ADAPTIVE_METHODS:
         if dt is not None:
             raise ValueError(f"dt: adaptive method '{method}' takes rtol/atol, not dt (got dt={dt!r})")
-        return _run_adaptive(model, y0, t0, t1, method, rtol, atol, t_eval, inv0, max_drift)
+        return _run_adaptive(model, y0, t0, t1, method, rtol, atol, t_eval, inv0, max_drift, max_steps)
 
     raise ValueError(
         f"method: expected one of {sorted(FIXED_STEP_METHODS) + list(ADAPTIVE_METHODS)}, got {method!r}"
@@ -541,13 +673,13 @@ def _run_fixed(
         n_rhs = 0
     else:
         counter = _CountingModel(model)
-        step = FIXED_STEP_METHODS[method]
+        step = _STEPPERS[method]
         y = y0
         check_inv = inv0 if inv0 is not None else None
         for k in range(1, n + 1):
             tk = t0 + (k - 1) * h
             try:
-                y = step(counter, y, h, t=tk)
+                y = step(counter, y, h, tk)
             except IntegrationError as e:
                 raise type(e)(f"step {k}: {e}", step=k, t=tk) from e
             saving = k == save_idx[k_out]
@@ -573,19 +705,37 @@ def _run_adaptive(
     t_eval: np.ndarray | None,
     inv0: dict[str, np.ndarray] | None,
     max_drift: float,
+    max_steps: int = MAX_STEPS,
 ) -> Trajectory:
-    if not (rtol > 0 and atol > 0):
+    tols = [rtol, atol]
+    for k, value in enumerate(tols):
+        if isinstance(value, (complex, np.complexfloating)):
+            raise ValueError(f"rtol, atol: expected real numbers, got complex rtol={rtol!r}, atol={atol!r}")
+        try:
+            tols[k] = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}") from None
+    if not (tols[0] > 0 and tols[1] > 0):
         raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}")
+    rtol, atol = tols
     if t_eval is not None:
-        t_eval = np.asarray(t_eval, dtype=float)
+        t_eval = float_array(t_eval, "t_eval", expected="sorted 1-D times within t_span")
         if t_eval.ndim != 1 or np.any(t_eval < t0) or np.any(t_eval > t1) or np.any(np.diff(t_eval) < 0):
             raise ValueError(f"t_eval: expected sorted 1-D times within t_span, got shape {t_eval.shape}")
-    counter = _CountingModel(model)
+    counter = _CountingModel(model, max_calls=max_steps)
     # t_eval is served from scipy's dense output (what solve_ivp itself does
     # for t_eval), so the accepted steps stay countable.
-    sol = solve_ivp(
-        counter.rhs, (t0, t1), y0, method=method, rtol=rtol, atol=atol, dense_output=t_eval is not None
-    )
+    try:
+        sol = solve_ivp(
+            counter.rhs, (t0, t1), y0, method=method, rtol=rtol, atol=atol, dense_output=t_eval is not None
+        )
+    except _BudgetExceeded as stop:
+        raise IntegrationError(
+            f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
+            f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "
+            "shorten t_span or pass a larger max_steps",
+            t=stop.t,
+        ) from None
     if not sol.success:
         tf = float(sol.t[-1]) if sol.t.size else t0
         raise IntegrationError(

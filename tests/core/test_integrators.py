@@ -196,7 +196,7 @@ def test_midpoint_nonconvergence_message():
         (dict(method="DOP853", dt=0.1), r"dt: adaptive method 'DOP853' takes rtol/atol"),
         (dict(method="RK45", rtol=0.0), r"rtol, atol: expected > 0"),
         (dict(method="RK45", t_eval=[3.0]), r"t_eval: expected sorted 1-D times within t_span"),
-        (dict(method="rk4", dt=0.1, max_drift=0), r"max_drift: expected > 0, got 0"),
+        (dict(method="rk4", dt=0.1, max_drift=0), r"max_drift: expected a real number > 0 \(inf: never stop\), got 0"),
     ],
 )
 def test_argument_errors(kwargs, match):
@@ -243,3 +243,123 @@ def test_unstable_splitting_run_is_divergence():
     # reports the first recorded step where it blew up (or became non-finite).
     with pytest.raises(itg.DivergenceError, match=r"run diverged: .* at step \d+ \(t="):
         itg.integrate(Oscillator(w=1.3), Y0, (0.0, 300.0), method="splitting", dt=3.0)
+
+
+# ------------------------------------------------------------ fuzz findings
+STEPS = [itg.rk4_step, itg.implicit_midpoint_step, itg.splitting_step, itg.splitting4_step,
+         itg.splitting6_step, itg.splitting8_step]
+
+
+@pytest.mark.parametrize("step", STEPS, ids=lambda f: f.__name__)
+@pytest.mark.parametrize(
+    ("dt", "match"),
+    [
+        (math.nan, r"dt: expected a finite step dt > 0, got nan"),
+        (math.inf, r"dt: expected a finite step dt > 0, got inf"),
+        (-math.inf, r"dt: expected a finite step dt > 0, got -inf"),
+        (0.0, r"dt: expected a finite step dt > 0, got 0\.0"),
+        (-0.1, r"dt: expected a finite step dt > 0, got -0\.1"),
+        (True, r"dt: expected a finite step dt > 0, got True"),
+        ("0.1", r"dt: expected a finite step dt > 0, got '0\.1'"),
+        (0.1 + 0j, r"dt: expected real numbers, got complex"),
+    ],
+)
+def test_step_functions_refuse_bad_dt(step, dt, match):
+    # NaN and inf gave NaN states or a math domain error, zero and negative
+    # steps were taken silently.
+    with pytest.raises(ValueError, match=match):
+        step(Oscillator(), Y0, dt)
+
+
+@pytest.mark.parametrize("step", STEPS, ids=lambda f: f.__name__)
+def test_step_functions_refuse_bad_states_and_times(step):
+    with pytest.raises(ValueError, match=r"state: expected finite values, got nan at index 1"):
+        step(Oscillator(), np.array([0.0, np.nan]), 0.1)
+    with pytest.raises(ValueError, match=r"state: expected finite values, got inf at index 0"):
+        step(Oscillator(), np.array([np.inf, 0.0]), 0.1)
+    with pytest.raises(ValueError, match=r"state: expected shape \(2,\), got \(3,\)"):
+        step(Oscillator(), np.zeros(3), 0.1)
+    with pytest.raises(ValueError, match=r"state: expected real numbers, got complex"):
+        step(Oscillator(), Y0 + 0j, 0.1)
+    with pytest.raises(ValueError, match=r"t: expected a finite time, got nan"):
+        step(Oscillator(), Y0, 0.1, t=math.nan)
+
+
+def test_step_functions_accept_numpy_scalars_and_do_not_mutate():
+    y = Y0.copy()
+    a = itg.rk4_step(Oscillator(), y, np.float32(0.25), t=np.int64(1))
+    b = itg.rk4_step(Oscillator(), y, 0.25, t=1.0)
+    np.testing.assert_allclose(a, b, rtol=0, atol=0)
+    np.testing.assert_array_equal(y, Y0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        (dict(max_iter=0), r"max_iter: expected an integer >= 1, got 0"),
+        (dict(max_iter=-3), r"max_iter: expected an integer >= 1, got -3"),
+        (dict(max_iter=2.5), r"max_iter: expected an integer >= 1, got 2\.5"),
+        (dict(max_iter=True), r"max_iter: expected an integer >= 1, got True"),
+        (dict(tol=math.nan), r"tol: expected a finite tolerance >= 0, got nan"),
+        (dict(tol=-1e-12), r"tol: expected a finite tolerance >= 0, got -1e-12"),
+        (dict(tol=math.inf), r"tol: expected a finite tolerance >= 0, got inf"),
+    ],
+)
+def test_midpoint_options_are_validated(kwargs, match):
+    # max_iter=0 raised UnboundLocalError; tol=nan iterated max_iter times.
+    with pytest.raises(ValueError, match=match):
+        itg.implicit_midpoint_step(Oscillator(), Y0, 0.1, **kwargs)
+
+
+def test_midpoint_with_one_iteration_or_zero_tolerance():
+    # max_iter=1 is a valid (if loose) request: one fixed-point update, then
+    # the non-convergence error; tol=0 iterates until the update stagnates.
+    with pytest.raises(itg.IntegrationError, match=r"did not converge in 1 iterations"):
+        itg.implicit_midpoint_step(Oscillator(), Y0, 0.1, max_iter=1)
+    y = itg.implicit_midpoint_step(Oscillator(), Y0, 0.1, tol=0.0)
+    assert np.all(np.isfinite(y))
+
+
+@pytest.mark.parametrize(
+    ("span", "dt", "count"),
+    [((0.0, 1e3), 1e-12, r"1e\+15"), ((0.0, 1e300), 1.0, r"1e\+300"), ((0.0, 1.0), 1e-320, r"inf")],
+)
+def test_runs_beyond_max_steps_are_refused_up_front(span, dt, count):
+    # These used to allocate the whole run (MemoryError) or overflow range().
+    with pytest.raises(ValueError, match=rf"dt: t_span .* needs {count} steps, more than max_steps=10000000 "
+                                         r"\(core.integrators.MAX_STEPS = 10000000\)"):
+        itg.integrate(Oscillator(), Y0, span, method="rk4", dt=dt)
+
+
+def test_max_steps_keyword_moves_the_limit():
+    assert itg.MAX_STEPS == 10_000_000
+    with pytest.raises(ValueError, match=r"needs 200 steps, more than max_steps=100"):
+        itg.integrate(Oscillator(), Y0, (0.0, 2.0), method="rk4", dt=0.01, max_steps=100)
+    run = itg.integrate(Oscillator(), Y0, (0.0, 2.0), method="rk4", dt=0.01, max_steps=200)
+    assert run.n_steps == 200
+    for bad in (0, 2.5, True, None):
+        with pytest.raises(ValueError, match=r"max_steps: expected an integer >= 1"):
+            itg.integrate(Oscillator(), Y0, (0.0, 2.0), method="rk4", dt=0.01, max_steps=bad)
+
+
+def test_adaptive_runs_stop_at_max_steps_evaluations():
+    with pytest.raises(itg.IntegrationError, match=r"RK45 stopped at t=.* before t1=1000: it used max_steps=50 "
+                                                   r"right-hand-side evaluations"):
+        itg.integrate(Oscillator(), Y0, (0.0, 1000.0), method="RK45", max_steps=50)
+    run = itg.integrate(Oscillator(), Y0, (0.0, 1.0), method="RK45", max_steps=10_000)
+    assert run.n_rhs <= 10_000
+
+
+def test_integrate_refuses_bad_numbers():
+    with pytest.raises(ValueError, match=r"t_span: expected finite t0 < t1, got \(0.0, nan\)"):
+        itg.integrate(Oscillator(), Y0, (0.0, math.nan), dt=0.1)
+    with pytest.raises(ValueError, match=r"t_span: expected finite t0 < t1, got \(-1e\+308, 1e\+308\)"):
+        itg.integrate(Oscillator(), Y0, (-1e308, 1e308), dt=0.1)
+    with pytest.raises(ValueError, match=r"dt: expected a finite step dt > 0 for method 'rk4', got True"):
+        itg.integrate(Oscillator(), Y0, (0.0, 1.0), dt=True)
+    with pytest.raises(ValueError, match=r"max_drift: expected a real number > 0 \(inf: never stop\), got nan"):
+        itg.integrate(Oscillator(), Y0, (0.0, 1.0), dt=0.1, max_drift=math.nan)
+    # numpy scalars are numbers too (np.float32 was refused as a dt)
+    run = itg.integrate(Oscillator(), Y0, (np.float32(0.0), np.int64(1)), dt=np.float32(0.25))
+    assert run.n_steps == 4
+    assert itg.integrate(Oscillator(), Y0, (0.0, 1.0), dt=0.1, max_drift=math.inf).n_steps == 10
