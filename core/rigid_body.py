@@ -40,13 +40,17 @@ from typing import Any
 import numpy as np
 from scipy.special import ellipj, ellipkm1, elliprf, elliprj
 
+from core._validation import float_array, real_number
 from core.rotations import (
+    UNIT_NORM_TOL,
     euler_parameters_from_matrix,
     quaternion_conjugate,
     quaternion_product,
 )
 
 __all__ = [
+    "FREE_BODY_MAX_PHASE",
+    "INERTIA_TRIANGLE_TOL",
     "EulerParameterModel",
     "FreeBodyModel",
     "FreeBodyMotion",
@@ -81,10 +85,35 @@ class RodriguezSingularityError(ValueError):
         self.t = t
 
 
+#: Relative tolerance of the triangle inequality of principal moments of
+#: inertia: an inertia is accepted when ``J3 - (J1 + J2) <= INERTIA_TRIANGLE_TOL
+#: * J3`` for its ascending moments ``J1 <= J2 <= J3`` (equality is a flat
+#: body, e.g. a plate; a larger J3 belongs to no mass distribution).
+INERTIA_TRIANGLE_TOL = 1e-12
+
+#: Largest phase (rad) through which :meth:`FreeBodySolution.at` evaluates
+#: the exact motion: ``|t|`` times the largest angular rate of the motion,
+#: ``|L| / J_min`` (a bound on ``|omega|``, on the precession rate and on
+#: the rate of the elliptic argument). The phases are float64 numbers, so
+#: they carry an absolute error of about ``eps * phase``: at 1e14 rad one
+#: unit in the last place is 0.016 rad (about a degree). Beyond it the
+#: orientation at ``t`` is not defined by float64 arithmetic, and times
+#: that far are refused instead of returning an unrelated attitude.
+FREE_BODY_MAX_PHASE = 1e14
+
+# |I omega| sqrt(J_max / J_min) above which the squares in the constants of
+# the exact motion (|L|^2, 2 E J) overflow float64.
+_MAX_MOMENTUM_SCALE = 1e150
+
+
 # ------------------------------------------------------------- validation
 def _inertia(inertia: Any, name: str = "inertia") -> np.ndarray:
-    """Return a symmetric positive-definite (3, 3) tensor from (3,) or (3, 3)."""
-    a = np.asarray(inertia, dtype=float)
+    """Return a symmetric positive-definite (3, 3) tensor from (3,) or (3, 3).
+
+    Its principal moments must satisfy the triangle inequality
+    ``J1 + J2 >= J3`` (within :data:`INERTIA_TRIANGLE_TOL`).
+    """
+    a = float_array(inertia, name, expected="principal moments (3,) or a tensor (3, 3) of real numbers")
     if a.shape == (3,):
         a = np.diag(a)
     if a.shape != (3, 3):
@@ -98,16 +127,41 @@ def _inertia(inertia: Any, name: str = "inertia") -> np.ndarray:
     w = np.linalg.eigvalsh(a)
     if not w[0] > 0:
         raise ValueError(f"{name}: expected positive-definite (all principal moments > 0), got moments {w.tolist()}")
+    if w[2] - (w[0] + w[1]) > INERTIA_TRIANGLE_TOL * w[2]:
+        raise ValueError(
+            f"{name}: expected principal moments that satisfy the triangle inequality J1 + J2 >= J3 "
+            f"(within {INERTIA_TRIANGLE_TOL:g} of J3; no mass distribution has one moment larger than "
+            f"the sum of the other two), got moments {w.tolist()}"
+        )
     return a
 
 
 def _vec(x: Any, name: str, size: int = 3) -> np.ndarray:
-    a = np.asarray(x, dtype=float)
+    a = float_array(x, name, expected=f"a ({size},) vector of real numbers")
     if a.shape != (size,):
         raise ValueError(f"{name}: expected shape ({size},), got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name}: expected finite values, got {a.tolist()}")
     return a
+
+
+def _unit_p_batch(p: Any, name: str = "p") -> np.ndarray:
+    """Euler parameters (..., 4), unit within ``UNIT_NORM_TOL``, normalized."""
+    a = float_array(p, name, expected="(..., 4) Euler parameters of real numbers")
+    if a.ndim == 0 or a.shape[-1] != 4:
+        raise ValueError(f"{name}: expected shape (..., 4) (theta0, theta1, theta2, theta3), got {a.shape}")
+    n = np.sqrt(np.einsum("...i,...i->...", a, a))
+    bad = ~(np.abs(n - 1.0) <= UNIT_NORM_TOL)  # NaN and infinity fail too
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = f" at index {index}" if index else ""
+        with np.errstate(over="ignore"):  # the true norm, inf only past float64
+            norm = float(np.hypot(np.hypot(a[index][0], a[index][1]), np.hypot(a[index][2], a[index][3])))
+        raise ValueError(
+            f"{name}: expected unit Euler parameters (| |{name}| - 1 | <= {UNIT_NORM_TOL:g}), got norm "
+            f"{norm!r}{where}; renormalize with core.rotations.normalize_euler_parameters"
+        )
+    return a / n[..., None]
 
 
 def _unit_p(p: Any, name: str = "p0", tol: float = 1e-9) -> np.ndarray:
@@ -145,36 +199,89 @@ def principal_axes(inertia: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 # ------------------------------------------------------------- invariants
+def _vectors(x: Any, name: str) -> np.ndarray:
+    """Real vectors (..., 3), e.g. angular velocities (entries may be inf or NaN)."""
+    a = float_array(x, name, expected="(..., 3) vectors of real numbers")
+    if a.ndim == 0 or a.shape[-1] != 3:
+        raise ValueError(f"{name}: expected shape (..., 3), got {a.shape}")
+    return a
+
+
 def rotational_kinetic_energy(inertia: Any, omega_body: Any) -> np.ndarray:
     """``T = omega_body . (I omega_body) / 2``; omega_body (..., 3) body frame -> (...)."""
     J = _inertia(inertia)
-    w = np.asarray(omega_body, dtype=float)
+    w = _vectors(omega_body, "omega_body")
     return 0.5 * np.einsum("...i,ij,...j->...", w, J, w)
 
 
 def angular_momentum_body(inertia: Any, omega_body: Any) -> np.ndarray:
     """Angular momentum about the center of mass in the body frame, ``I omega_body``: (..., 3)."""
-    return np.einsum("ij,...j->...i", _inertia(inertia), np.asarray(omega_body, dtype=float))
+    return np.einsum("ij,...j->...i", _inertia(inertia), _vectors(omega_body, "omega_body"))
 
 
 def angular_momentum_global(inertia: Any, omega_body: Any, p: Any) -> np.ndarray:
     """Angular momentum in the global frame, ``A(p) I omega_body`` (Eq. 8.48 for A): (..., 3).
 
-    ``p`` (..., 4) are Euler parameters, scalar first; they are used as
-    given (not renormalized), so a drift of ``|p|`` shows up here too.
+    Parameters
+    ----------
+    inertia : (3,) principal moments or (3, 3) inertia tensor in the body
+        frame, kg m^2 (validated on every call; a :class:`FreeBodyModel`
+        validates it once, see :meth:`FreeBodyModel.angular_momentum_global`).
+    omega_body : (..., 3) angular velocity in the body frame, rad/s.
+    p : (..., 4) unit Euler parameters (theta0..theta3, scalar first), body
+        to global, unit within :data:`core.rotations.UNIT_NORM_TOL` and
+        normalized before use. Batch shapes broadcast.
+
+    Returns
+    -------
+    (..., 3) angular momentum about the center of mass, global frame.
+
+    Raises
+    ------
+    ValueError
+        For a bad inertia, non-unit ``p`` (renormalize drifting parameters
+        with :func:`core.rotations.normalize_euler_parameters`) or complex
+        input.
     """
-    return np.einsum("...ij,...j->...i", _matrix_unnormalized(np.asarray(p, dtype=float)),
-                     angular_momentum_body(inertia, omega_body))
+    return _angular_momentum_global(_inertia(inertia), omega_body, p)
+
+
+def _angular_momentum_global(J: np.ndarray, omega_body: Any, p: Any) -> np.ndarray:
+    """:func:`angular_momentum_global` for a validated inertia tensor ``J``."""
+    w = _vectors(omega_body, "omega_body")
+    a = float_array(p, "p", expected="(..., 4) Euler parameters of real numbers")
+    if w.shape == (3,) and a.shape == (4,):
+        # one body: Python floats, a few microseconds instead of ~50
+        e0, e1, e2, e3 = a.tolist()
+        n = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+        if abs(n - 1.0) <= UNIT_NORM_TOL:  # else the batched path raises
+            e0, e1, e2, e3 = e0 / n, e1 / n, e2 / n, e3 / n
+            w0, w1, w2 = w.tolist()
+            (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = J.tolist()
+            l0 = j00 * w0 + j01 * w1 + j02 * w2
+            l1 = j10 * w0 + j11 * w1 + j12 * w2
+            l2 = j20 * w0 + j21 * w1 + j22 * w2
+            ee, xx, yy, zz = e0 * e0, e1 * e1, e2 * e2, e3 * e3
+            return np.array((
+                (ee + xx - yy - zz) * l0 + 2.0 * (e1 * e2 - e3 * e0) * l1 + 2.0 * (e1 * e3 + e2 * e0) * l2,
+                2.0 * (e1 * e2 + e3 * e0) * l0 + (ee - xx + yy - zz) * l1 + 2.0 * (e2 * e3 - e1 * e0) * l2,
+                2.0 * (e1 * e3 - e2 * e0) * l0 + 2.0 * (e2 * e3 + e1 * e0) * l1 + (ee - xx - yy + zz) * l2,
+            ))
+    p = _unit_p_batch(a, "p")
+    return np.einsum("...ij,...j->...i", _matrix_unnormalized(p), np.einsum("ij,...j->...i", J, w))
 
 
 def euler_parameter_norm_error(p: Any) -> np.ndarray:
     """``|p| - 1`` for Euler parameters p (..., 4) -> (...)."""
-    return np.linalg.norm(np.asarray(p, dtype=float), axis=-1) - 1.0
+    return np.linalg.norm(float_array(p, "p", expected="(..., 4) Euler parameters of real numbers"), axis=-1) - 1.0
 
 
 def kinetic_energy(mass: float, inertia: Any, v: Any, omega_body: Any) -> np.ndarray:
     """Total kinetic energy ``m |v|^2 / 2 + omega_body . I omega_body / 2``: (...)."""
-    v = np.asarray(v, dtype=float)
+    mass = real_number(mass, "mass", expected="a finite mass > 0")
+    if not mass > 0:
+        raise ValueError(f"mass: expected a finite mass > 0, got {mass!r}")
+    v = _vectors(v, "v")
     return 0.5 * mass * np.einsum("...i,...i->...", v, v) + rotational_kinetic_energy(inertia, omega_body)
 
 
@@ -211,8 +318,8 @@ def rotation_angle_between(p: Any, q: Any) -> np.ndarray:
     not renormalized). Uses ``2 atan2(|v|, |w|)`` of ``conj(p) q`` (Eq. 8.82),
     accurate for small angles too. Returns (...).
     """
-    p = np.asarray(p, dtype=float)
-    q = np.asarray(q, dtype=float)
+    p = float_array(p, "p", expected="(..., 4) Euler parameters of real numbers")
+    q = float_array(q, "q", expected="(..., 4) Euler parameters of real numbers")
     pc = p * np.array([1.0, -1.0, -1.0, -1.0])
     r = _qmul_arr(pc, q)
     return 2.0 * np.arctan2(np.linalg.norm(r[..., 1:], axis=-1), np.abs(r[..., 0]))
@@ -272,8 +379,10 @@ class RigidBody:
     torque_body: Vector | None = None
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.mass, (int, float)) and math.isfinite(self.mass) and self.mass > 0):
+        mass = real_number(self.mass, "mass", expected="a finite number > 0")
+        if not mass > 0:
             raise ValueError(f"mass: expected a finite number > 0, got {self.mass!r}")
+        object.__setattr__(self, "mass", mass)
         J = _inertia(self.inertia)
         J.setflags(write=False)
         object.__setattr__(self, "inertia", J)
@@ -291,8 +400,8 @@ def rodriguez_state(r: Any, gamma: Any, v: Any, omega_body: Any) -> np.ndarray:
 
 
 def _loads(body: RigidBody, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    F = np.zeros(3) if body.force is None else np.asarray(body.force(t, y), dtype=float)
-    n = np.zeros(3) if body.torque_body is None else np.asarray(body.torque_body(t, y), dtype=float)
+    F = np.zeros(3) if body.force is None else float_array(body.force(t, y), "force")
+    n = np.zeros(3) if body.torque_body is None else float_array(body.torque_body(t, y), "torque_body")
     return F, n
 
 
@@ -324,7 +433,7 @@ class EulerParameterModel:
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """State derivative (13,) at time ``t``."""
-        y = np.asarray(y, dtype=float)
+        y = float_array(y, "y")
         p, v, w = y[3:7], y[7:10], y[10:13]
         F, n = _loads(self.body, t, y)
         out = np.empty(13)
@@ -344,7 +453,7 @@ class EulerParameterModel:
 
         ``states`` (..., 13). Without loads, all are conserved.
         """
-        s = np.asarray(states, dtype=float)
+        s = float_array(states, "states")
         p, v, w = s[..., 3:7], s[..., 7:10], s[..., 10:13]
         J = self.body.inertia
         L_body = angular_momentum_body(J, w)
@@ -381,7 +490,7 @@ class RodriguezModel:
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """State derivative (12,) at time ``t``."""
-        y = np.asarray(y, dtype=float)
+        y = float_array(y, "y")
         g, v, w = y[3:6], y[6:9], y[9:12]
         gn = float(np.linalg.norm(g))
         if not gn <= self.gamma_max:
@@ -402,7 +511,7 @@ class RodriguezModel:
     @staticmethod
     def euler_parameters(states: np.ndarray) -> np.ndarray:
         """Euler parameters (..., 4) of the states' Rodriguez parameters (Eq. 8.59)."""
-        g = np.asarray(states, dtype=float)[..., 3:6]
+        g = float_array(states, "states")[..., 3:6]
         p = np.concatenate([np.ones(g.shape[:-1] + (1,)), g], axis=-1)
         return p / np.linalg.norm(p, axis=-1, keepdims=True)
 
@@ -413,7 +522,7 @@ class RodriguezModel:
 
     def invariants(self, states: np.ndarray) -> dict[str, np.ndarray]:
         """Kinetic energy and angular momentum (global, and ``|L|`` in the body frame)."""
-        s = np.asarray(states, dtype=float)
+        s = float_array(states, "states")
         v, w = s[..., 6:9], s[..., 9:12]
         J = self.body.inertia
         L_body = angular_momentum_body(J, w)
@@ -505,7 +614,7 @@ class FreeBodyModel:
     # -- equations
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """State derivative (7,)."""
-        p0, p1, p2, p3, w1, w2, w3 = np.asarray(y, dtype=float).tolist()
+        p0, p1, p2, p3, w1, w2, w3 = float_array(y, "y").tolist()
         I = self.inertia
         L = I @ np.array((w1, w2, w3))
         l1, l2, l3 = L.tolist()
@@ -523,17 +632,44 @@ class FreeBodyModel:
 
     def invariants(self, states: np.ndarray) -> dict[str, np.ndarray]:
         """``energy`` (...), ``angular_momentum_global`` (..., 3), ``p_norm`` (...)."""
-        s = np.asarray(states, dtype=float)
+        s = float_array(states, "states")
         p, w = s[..., :4], s[..., 4:]
+        # p as given (not renormalized): a drift of |p| shows up in L too
+        L_global = np.einsum("...ij,...j->...i", _matrix_unnormalized(p), np.einsum("ij,...j->...i", self.inertia, w))
         return {
-            "energy": rotational_kinetic_energy(self.inertia, w),
-            "angular_momentum_global": angular_momentum_global(self.inertia, w, p),
+            "energy": 0.5 * np.einsum("...i,ij,...j->...", w, self.inertia, w),
+            "angular_momentum_global": L_global,
             "p_norm": np.linalg.norm(p, axis=-1),
         }
 
+    def angular_momentum_global(self, omega_body: Any, p: Any) -> np.ndarray:
+        """Angular momentum in the global frame, ``A(p) I omega_body`` (Eq. 8.48 for A).
+
+        :func:`angular_momentum_global` for this model's inertia, which was
+        validated once when the model was built (the free function checks
+        it, an eigenvalue problem, on every call).
+
+        Parameters
+        ----------
+        omega_body : (..., 3) angular velocity in the body frame, rad/s.
+        p : (..., 4) unit Euler parameters (theta0..theta3, scalar first),
+            body to global, unit within :data:`core.rotations.UNIT_NORM_TOL`
+            and normalized before use. Batch shapes broadcast.
+
+        Returns
+        -------
+        (..., 3) angular momentum about the center of mass, global frame.
+
+        Raises
+        ------
+        ValueError
+            For non-unit ``p``, wrong shapes or complex input.
+        """
+        return _angular_momentum_global(self.inertia, omega_body, p)
+
     def exact(self, state0: np.ndarray, t: Any) -> np.ndarray:
         """Exact states (..., 7) at times ``t`` (...) from ``state0`` at t = 0."""
-        s = np.asarray(state0, dtype=float)
+        s = _vec(state0, "state0", 7)
         m = free_body_exact(self.inertia, s[4:], s[:4], t)
         return np.concatenate([m.p, m.omega_body], axis=-1)
 
@@ -543,7 +679,7 @@ class FreeBodyModel:
 
         ``tau`` is the time the Casimir flow still has to run (0 here).
         """
-        y = np.asarray(y, dtype=float)
+        y = float_array(y, "y")
         p_pr = _qmul(tuple(y[:4].tolist()), self._q_Q)
         L_pr = (self._Q.T @ (self.inertia @ y[4:])).tolist()
         if self.compensated:
@@ -858,10 +994,28 @@ class FreeBodySolution:
     _c: dict = field(repr=False, compare=False)
 
     def at(self, t: Any) -> FreeBodyMotion:
-        """Exact motion at times ``t`` (any shape, s): see :class:`FreeBodyMotion`."""
-        t = np.asarray(t, dtype=float)
+        """Exact motion at times ``t`` (any shape, s): see :class:`FreeBodyMotion`.
+
+        Raises
+        ------
+        ValueError
+            For non-finite or complex ``t``, and for ``|t|`` beyond
+            ``FREE_BODY_MAX_PHASE / (|L| / J_min)``: there the phases of the
+            motion exceed :data:`FREE_BODY_MAX_PHASE` (1e14 rad) and their
+            float64 rounding alone moves the body by more than a degree.
+        """
+        t = float_array(t, "t", expected="times of real numbers")
         if not np.all(np.isfinite(t)):
             raise ValueError(f"t: expected finite times, got {t.ravel()[~np.isfinite(t.ravel())][:3].tolist()}")
+        rate = self._c["max_rate"]
+        t_max = float(np.max(np.abs(t))) if t.size else 0.0
+        if rate * t_max > FREE_BODY_MAX_PHASE:
+            raise ValueError(
+                f"t: expected |t| <= {FREE_BODY_MAX_PHASE / rate:.6g} s for this motion, got |t| = {t_max:.6g} s: "
+                f"its phases (|L| |t| / J_min, {rate:.6g} rad/s) would exceed FREE_BODY_MAX_PHASE = "
+                f"{FREE_BODY_MAX_PHASE:g} rad, where one float64 rounding of a phase turns the body by "
+                "more than a degree"
+            )
         shape = t.shape
         tt = t.ravel()
         c = self._c
@@ -911,15 +1065,16 @@ class FreeBodySolution:
             am_turns = np.zeros_like(u)
         else:
             K = c["K"]
-            j = np.floor((u + K) / (2.0 * K))
+            # u = 2 K j + r, |r| <= K; everything below uses this one (j, r)
+            # pair, so sn, cn, dn and the signs of omega stay consistent
+            # (sn^2 + cn^2 = 1, the energy exact) however large u is.
+            j, r = _reduce(u, K)
             if c.get("table") is not None:
-                sn, cn, dn, periodic = _table_functions(c["table"], u, K)
-                integral = (c["Pi"] / K) * u + periodic
-                # reduced values: sn(r) = (-1)^j sn(u), cn(r) = (-1)^j cn(u) >= 0
-                flip_r = 1.0 - 2.0 * np.mod(j, 2.0)
-                sn, cn = flip_r * sn, np.maximum(flip_r * cn, 0.0)
+                sn, cn, dn, periodic = _table_functions(c["table"], r, K)
+                cn = np.maximum(cn, 0.0)  # cn(r) >= 0 for |r| <= K
+                integral = 2.0 * j * c["Pi"] + (c["Pi"] / K) * r + periodic
             else:
-                sn, cn, dn, integral = _direct_functions(u, j, c)
+                sn, cn, dn, integral = _direct_functions(j, r, c)
             am_turns = j
         s1, s2, s3 = c["signs"]
         # omega with sn, cn, dn of the reduced argument r; cn(u) = (-1)^j cn(r),
@@ -940,11 +1095,27 @@ class FreeBodySolution:
         return np.einsum("nk,jk->nj", r_q, c["sandwich"]), np.einsum("nk,jk->nj", w, c["QP"])
 
 
-def _direct_functions(u: np.ndarray, j: np.ndarray, c: dict) -> tuple[np.ndarray, ...]:
+def _reduce(u: np.ndarray, K: float) -> tuple[np.ndarray, np.ndarray]:
+    """``u = 2 K j + r`` with integer ``j`` and ``|r| <= K``, consistently.
+
+    ``fmod`` gives the remainder of ``u + K`` by ``2 K`` exactly, and ``j``
+    is read back from that remainder, so ``j`` and ``r`` agree even where
+    ``u`` is so large that ``u - 2 K j`` would cancel to a few bits (there
+    ``r`` carries the rounding of ``u + K``, an error of one unit in the
+    last place of ``u``, the error ``u`` already has).
+    """
+    two_K = 2.0 * K
+    s = u + K
+    rem = np.fmod(s, two_K)
+    rem = np.where(rem < 0.0, rem + two_K, rem)  # [0, 2K]
+    j = np.round((s - rem) / two_K)
+    return j, rem - K
+
+
+def _direct_functions(j: np.ndarray, r: np.ndarray, c: dict) -> tuple[np.ndarray, ...]:
     """sn, cn, dn of the reduced argument ``r = u - 2 K j`` (|r| <= K) and
     ``I(u) = int_0^u du' / (1 - n sn^2 u')``, by ``ellipj`` and Carlson's integrals."""
     K, m, mc, n = c["K"], c["m"], c["mc"], c["n"]
-    r = u - 2.0 * K * j
     sn, cn, dn = _ellipj_accurate(r, m, mc)
     cn = np.maximum(cn, 0.0)
     integral = 2.0 * j * c["Pi"] + _pi_reduced(r, sn, cn, dn, n, m, mc, K, c["Pi"])
@@ -975,8 +1146,8 @@ def _chebyshev_tables(c: dict) -> np.ndarray | None:
     nodes = np.cos(np.pi * (k + 0.5) / (d + 1))
     u = (-2.0 * K + h * (np.arange(_TABLE_INTERVALS) + 0.5))[:, None] + 0.5 * h * nodes[None, :]
     flat = u.ravel()
-    j = np.floor((flat + K) / (2.0 * K))
-    sn, cn, dn, integral = _direct_functions(flat, j, c)
+    j, r = _reduce(flat, K)
+    sn, cn, dn, integral = _direct_functions(j, r, c)
     flip = 1.0 - 2.0 * np.mod(j, 2.0)
     f = np.stack([flip * sn, flip * cn, dn, integral - (c["Pi"] / K) * flat]).reshape(4, _TABLE_INTERVALS, d + 1)
     T = np.cos(np.outer(k, (k + 0.5) * np.pi / (d + 1)))  # T_k at the nodes
@@ -1049,7 +1220,7 @@ def free_body_solution(
         ``.at(t)`` evaluates the motion; see :func:`free_body_exact`.
     """
     J_body = _inertia(inertia)
-    w0 = _vec(omega_body0, "omega_body0")
+    w0 = _vec(omega_body0, "omega_body0").copy()  # frozen below: never the caller's array
     p0 = _unit_p(p0, "p0")
     J_body.setflags(write=False)
     w0.setflags(write=False)
@@ -1059,8 +1230,17 @@ def free_body_solution(
     eq01 = Jsorted[1] - Jsorted[0] <= equal_tol * scale
     eq12 = Jsorted[2] - Jsorted[1] <= equal_tol * scale
     w_pr = Q.T @ w0
-    wn = float(np.linalg.norm(w0))
-    c: dict[str, Any] = {}
+    wn = math.hypot(*w0.tolist())  # hypot: no overflow of the squares
+    with np.errstate(over="ignore"):
+        L_norm = math.hypot(*(Jsorted * w_pr).tolist())
+    if not L_norm * math.sqrt(scale / float(Jsorted[0])) <= _MAX_MOMENTUM_SCALE:
+        raise ValueError(
+            f"omega_body0: expected an angular velocity whose angular momentum squared fits float64 "
+            f"(|I omega| sqrt(J_max / J_min) <= {_MAX_MOMENTUM_SCALE:g}), got |omega_body0| = {wn:.6g} rad/s "
+            f"with |I omega| = {L_norm:.6g}"
+        )
+    # every angular rate of the motion is at most |L| / J_min (see FREE_BODY_MAX_PHASE)
+    c: dict[str, Any] = {"max_rate": L_norm / float(Jsorted[0])}
 
     def done(kind: str, period: float) -> FreeBodySolution:
         return FreeBodySolution(kind, period, J_body, p0, w0, c)
@@ -1164,12 +1344,26 @@ def free_body_exact(inertia: Any, omega_body0: Any, p0: Any, t: Any) -> FreeBody
     omega_body0 : (3,) angular velocity at t = 0 in the body frame, rad/s.
     p0 : (4,) unit Euler parameters at t = 0 (theta0..theta3, scalar first;
         ``A(p0)`` maps body to global).
-    t : (...) times, s (any shape, any sign, any magnitude).
+    t : (...) times, s (any shape, any sign), with ``|t| |L| / J_min <=
+        FREE_BODY_MAX_PHASE`` (1e14 rad).
 
     Returns
     -------
     FreeBodyMotion
         ``p`` (..., 4) and ``omega_body`` (..., 3) at ``t``.
+
+    Raises
+    ------
+    ValueError
+        For a bad inertia (including one that violates the triangle
+        inequality), non-unit ``p0``, complex input, an angular velocity
+        whose ``|L|^2`` overflows float64, and times beyond the phase bound
+        :data:`FREE_BODY_MAX_PHASE`: every phase of the motion (elliptic
+        argument ``lambda t``, precession, spin) is at most ``|L| |t| /
+        J_min``, and a float64 phase is only known to about ``eps`` times
+        its size, so past 1e14 rad (where that is a degree) the attitude at
+        ``t`` is not defined by the arithmetic; the energy and ``|L|`` would
+        still be right, the orientation would not.
 
     Notes
     -----

@@ -177,7 +177,7 @@ def test_large_times_reduce_by_the_period():
         ([1.0, 1.0, 2.0], [1.0, 2.0, 3.0], "symmetric"),
         ([3.0, 4.0, 6.0], [2.0, 0.5, 1.0], "separatrix"),
         ([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], "asymmetric"),
-        ([1e-6, 1.0, 1.0 + 1e-3], [1e3, 1.0, 0.5], "asymmetric"),  # tiny I, huge spin
+        ([1e-6, 1.0, 1.0 + 5e-7], [1e3, 1.0, 0.5], "asymmetric"),  # needle: tiny I, huge spin
     ],
 )
 def test_special_cases_are_finite_and_conservative(J, w0, kind):
@@ -432,3 +432,145 @@ def test_compensated_splitting_keeps_the_norm_at_one_ulp():
         y = itg.splitting4_step(m, y, 0.05)
     run = itg.integrate(m, y0, (0.0, 1.0), method="splitting4", dt=0.05)
     np.testing.assert_allclose(run.states[-1], y, rtol=0, atol=1e-13)
+
+
+# ------------------------------------------------------------ fuzz findings
+def _rotated_tensor(moments, seed=3):
+    q = np.random.default_rng(seed).normal(size=4)
+    R = matrix_from_euler_parameters(q / np.linalg.norm(q))
+    return R @ np.diag(moments) @ R.T
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda J: rb.FreeBodyModel(J),
+        lambda J: rb.RigidBody(1.0, J),
+        lambda J: rb.free_body_solution(J, [1.0, 0.2, 0.1], P0),
+        lambda J: rb.principal_axes(J),
+        lambda J: rb.rotational_kinetic_energy(J, [1.0, 0.0, 0.0]),
+        lambda J: rb.angular_momentum_global(J, [1.0, 0.0, 0.0], P0),
+    ],
+)
+def test_inertia_must_satisfy_the_triangle_inequality(call):
+    # (1, 1, 3) belongs to no mass distribution (J3 <= J1 + J2 for every
+    # body); it was accepted and integrated.
+    for J in ([1.0, 1.0, 3.0], [3.0, 1.0, 1.0], _rotated_tensor([1.0, 1.0, 2.5]), [1e-6, 1.0, 1.001]):
+        with pytest.raises(ValueError, match=r"inertia: expected principal moments that satisfy the triangle "
+                                             r"inequality J1 \+ J2 >= J3 \(within 1e-12 of J3.* got moments"):
+            call(J)
+    # equality is a flat body (a plate), within the stated tolerance
+    assert rb.INERTIA_TRIANGLE_TOL == 1e-12
+    call([1.0, 1.0, 2.0])
+    call([1.0, 1.5, 2.5 * (1.0 + 0.5e-12)])
+    call(_rotated_tensor([1.0, 1.5, 2.5]))
+    with pytest.raises(ValueError, match=r"inertia: expected positive-definite .* got moments"):
+        call([0.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match=r"inertia: expected positive-definite .* got moments"):
+        call([-1.0, 2.0, 2.0])
+
+
+def test_angular_momentum_global_refuses_non_unit_euler_parameters():
+    J = [1.0, 2.0, 2.5]
+    w = np.array([0.3, -1.0, 0.2])
+    with pytest.raises(ValueError, match=r"p: expected unit Euler parameters \(\| \|p\| - 1 \| <= 1e-06\), got norm 2\.0; "
+                                         r"renormalize with core.rotations.normalize_euler_parameters"):
+        rb.angular_momentum_global(J, w, 2.0 * P0)
+    batch = np.stack([P0, P0 * (1.0 + 1e-3)])
+    with pytest.raises(ValueError, match=r"got norm 1\.001 at index \(1,\)"):
+        rb.angular_momentum_global(J, w, batch)
+    for bad, shown in ((np.full(4, np.nan), "nan"), (np.array([1e200, 0, 0, 0]), r"1e\+200")):
+        with pytest.raises(ValueError, match=rf"p: expected unit Euler parameters .* got norm {shown}"):
+            rb.angular_momentum_global(J, w, bad)
+    with pytest.raises(ValueError, match=r"p: expected shape \(\.\.\., 4\)"):
+        rb.angular_momentum_global(J, w, P0[:3])
+    # within the tolerance: normalized before use
+    p = _unit([0.9, 0.1, -0.3, 0.2])
+    np.testing.assert_allclose(rb.angular_momentum_global(J, w, p * (1 + 5e-7)),
+                               matrix_from_euler_parameters(p) @ (np.array(J) * w), rtol=0, atol=2e-15)
+    # the model's invariants still show a drift of |p| (the integrators' report)
+    y = np.concatenate([2.0 * p, w])
+    L = rb.FreeBodyModel(J).invariants(y)["angular_momentum_global"]
+    np.testing.assert_allclose(L, 4.0 * matrix_from_euler_parameters(p) @ (np.array(J) * w), rtol=1e-14)
+
+
+def test_free_body_model_angular_momentum_equals_the_free_function():
+    rng = np.random.default_rng(RNG_SEED + 11)
+    for J in ([1.0, 2.0, 2.5], _rotated_tensor([1.0, 1.4, 2.0], seed=5)):
+        model = rb.FreeBodyModel(J)
+        w = rng.normal(size=(20, 3))
+        p = rng.normal(size=(20, 4))
+        p /= np.linalg.norm(p, axis=-1, keepdims=True)
+        ref = rb.angular_momentum_global(J, w, p)
+        np.testing.assert_allclose(model.angular_momentum_global(w, p), ref, rtol=0, atol=1e-14)
+        for k in range(20):  # one body at a time: the float path
+            np.testing.assert_allclose(model.angular_momentum_global(w[k], p[k]), ref[k], rtol=0, atol=1e-14)
+            np.testing.assert_allclose(rb.angular_momentum_global(J, w[k], p[k]), ref[k], rtol=0, atol=1e-14)
+        # broadcasting: one orientation, many angular velocities
+        np.testing.assert_allclose(model.angular_momentum_global(w, p[0]), rb.angular_momentum_global(J, w, p[0]),
+                                   rtol=0, atol=1e-14)
+        with pytest.raises(ValueError, match=r"p: expected unit Euler parameters"):
+            model.angular_momentum_global(w[0], 2.0 * p[0])
+        with pytest.raises(ValueError, match=r"omega_body: expected real numbers, got complex"):
+            model.angular_momentum_global(w[0] + 0j, p[0])
+
+
+def test_free_body_energy_is_exact_at_large_phases():
+    # |omega| = 1e12 rad/s, times next to the half periods 2K of the elliptic
+    # argument at u ~ 4e12: the old reduction computed j and u - 2 K j
+    # separately, so sn, cn and the sign of omega disagreed there (energy
+    # errors of 1e-8). One consistent (j, r) pair keeps the energy exact.
+    J = np.array([1.0, 2.0, 3.0])
+    w0 = np.array([1.0, 2.0, 3.0]) * 1e12 / math.sqrt(14.0)
+    E0 = rb.rotational_kinetic_energy(J, w0)
+    for tables in (True, False):
+        sol = rb.free_body_solution(J, w0, P0, tables=tables)
+        c = sol._c
+        K, lam, u0 = c["K"], c["lam"], c["u0"]
+        k = np.arange(1, 1001) * 17 + int(4e12 / (2 * K))
+        t_b = ((2 * k + 1) * K - u0) / lam
+        t = np.concatenate([t_b, np.nextafter(t_b, np.inf), np.nextafter(t_b, -np.inf)])
+        m = sol.at(t)
+        E = rb.rotational_kinetic_energy(J, m.omega_body)
+        assert np.abs(E / E0 - 1.0).max() < 1e-14
+        np.testing.assert_allclose(np.linalg.norm(m.p, axis=-1), 1.0, rtol=0, atol=1e-15)
+
+
+def test_free_body_times_beyond_the_phase_bound_are_refused():
+    # At |omega| >= 1e14 rad/s and t ~ 1 s the phases exceed 1e14 rad, where
+    # float64 rounding alone turns the body by a degree; the energy came out
+    # 10-33 % wrong. Refused, naming t and the bound.
+    assert rb.FREE_BODY_MAX_PHASE == 1e14
+    J = np.array([1.0, 2.0, 3.0])
+    for w in (1e14, 1e15, 1e16):
+        w0 = np.array([1.0, 2.0, 3.0]) * w / math.sqrt(14.0)
+        sol = rb.free_body_solution(J, w0, P0)
+        rate = np.linalg.norm(J * w0) / J[0]
+        t_ok = 0.99 * rb.FREE_BODY_MAX_PHASE / rate
+        E = rb.rotational_kinetic_energy(J, sol.at(np.linspace(0.0, t_ok, 101)).omega_body)
+        assert np.abs(E / E[0] - 1.0).max() < 1e-14
+        with pytest.raises(ValueError, match=r"t: expected \|t\| <= .* s for this motion, got \|t\| = 1 s: its phases "
+                                             r"\(\|L\| \|t\| / J_min, .*\) would exceed FREE_BODY_MAX_PHASE = 1e\+14 rad"):
+            sol.at([0.0, 1.0])
+        with pytest.raises(ValueError, match=r"FREE_BODY_MAX_PHASE"):
+            rb.free_body_exact(J, w0, P0, -1.0)
+    # ordinary motions are not affected: a day at 10 rad/s is a phase of 2.6e6 rad
+    m = rb.free_body_exact(J, [3.0, 5.0, 7.0], P0, [0.0, 86400.0])
+    assert np.all(np.isfinite(m.p))
+
+
+def test_free_body_angular_velocity_beyond_float64_is_refused():
+    # |omega| ~ 1e160 overflowed: OverflowError or NaN energies.
+    for J in ([1.0, 2.0, 3.0], [1.0, 1.0, 1.5]):
+        with pytest.raises(ValueError, match=r"omega_body0: expected an angular velocity whose angular momentum squared "
+                                             r"fits float64 .* got \|omega_body0\| = 1e\+160 rad/s"):
+            rb.free_body_solution(J, [0.0, 0.0, 1e160], P0)
+    sol = rb.free_body_solution([1.0, 2.0, 3.0], np.array([1.0, 2.0, 3.0]) * 1e140, P0)
+    E = rb.rotational_kinetic_energy([1.0, 2.0, 3.0], sol.at(np.linspace(0, 1e-139, 50)).omega_body)
+    assert np.abs(E / E[0] - 1.0).max() < 1e-14
+
+
+def test_free_body_solution_does_not_freeze_the_callers_array():
+    w0 = np.array([0.3, 1.0, 0.2])
+    rb.free_body_solution([1.0, 2.0, 3.0], w0, P0)
+    assert w0.flags.writeable
