@@ -44,12 +44,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.special import ellipj, elliprf, elliprj
+
+from core._validation import float_array, positive_integer, short_repr
+from core.integrators import MAX_STEPS
 
 __all__ = [
     "GyroscopeTrajectory",
@@ -58,6 +61,7 @@ __all__ = [
     "RotorParams",
     "RotorVectors",
     "SteadyPrecessionRates",
+    "TopMotion",
     "equations_of_motion",
     "invariants",
     "nutation",
@@ -66,6 +70,7 @@ __all__ = [
     "sleeping_top_critical_spin",
     "steady_precession_rates",
     "steady_precession_torque",
+    "top_motion",
 ]
 
 # |sin theta| below which the numerical path leaves the Euler-angle equations
@@ -107,6 +112,8 @@ class RotorParams:
     def __post_init__(self) -> None:
         for name in ("I", "I3", "mgl"):
             value = getattr(self, name)
+            if isinstance(value, (complex, np.complexfloating)):
+                raise ValueError(f"{name}: expected real numbers, got complex {value!r}")
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
                 raise ValueError(f"{name}: expected a real number, got {value!r}")
             if not math.isfinite(float(value)):
@@ -216,10 +223,7 @@ def _check_params(params: Any) -> RotorParams:
 
 
 def _check_state(state: Any, name: str = "state") -> np.ndarray:
-    try:
-        s = np.asarray(state, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a (..., 6) array of numbers, got {state!r}") from None
+    s = float_array(state, name, expected="a (..., 6) array of numbers")
     if s.ndim == 0 or s.shape[-1] != 6:
         raise ValueError(
             f"{name}: expected shape (..., 6) = (phi, theta, psi, phi_dot, theta_dot, psi_dot), got {s.shape}"
@@ -230,10 +234,7 @@ def _check_state(state: Any, name: str = "state") -> np.ndarray:
 
 
 def _check_array(value: Any, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number or array of numbers, got {value!r}") from None
+    a = float_array(value, name, expected="a number or array of numbers")
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name}: expected finite values, got {a}")
     return a
@@ -527,12 +528,42 @@ def _normalize_state(s: np.ndarray) -> np.ndarray:
     return s
 
 
+def _cubic_root_bisect_float(c0, c1, c2, c3, lo, hi, positive_at_lo):
+    """:func:`_cubic_root_bisect` for one state, on Python floats (the same
+    operations in the same order, without the cost of numpy calls on 0-d
+    arrays)."""
+
+    def poly(x):
+        return c0 + x * (c1 + x * (c2 + x * c3))
+
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        val = poly(mid)
+        if (val >= 0.0) if positive_at_lo else (val <= 0.0):
+            lo = mid
+        else:
+            hi = mid
+    x = 0.5 * (lo + hi)
+    bottom, top = min(lo, hi) - 1e-300, max(lo, hi) + 1e-300
+    for _ in range(3):
+        d = c1 + x * (2.0 * c2 + 3.0 * c3 * x)
+        step = poly(x) / d if d != 0.0 else 0.0
+        xn = x - step
+        if math.isfinite(xn) and bottom <= xn <= top and abs(poly(xn)) <= abs(poly(x)):
+            x = xn
+    return x
+
+
 def _cubic_root_bisect(c0, c1, c2, c3, lo, hi, *, positive_at_lo: bool) -> np.ndarray:
     """Root of ``c0 + c1 x + c2 x^2 + c3 x^3`` in [lo, hi] by bisection + Newton.
 
     Vectorized. The polynomial is >= 0 at ``lo`` and <= 0 at ``hi`` when
     ``positive_at_lo`` (the reverse otherwise), with one sign change.
     """
+    if all(np.ndim(a) == 0 for a in (c0, c1, c2, c3, lo, hi)):
+        args = (float(c0), float(c1), float(c2), float(c3), float(lo), float(hi))
+        if all(math.isfinite(a) for a in args):
+            return np.float64(_cubic_root_bisect_float(*args, positive_at_lo))
     lo = np.array(lo, dtype=float, copy=True)
     hi = np.array(hi, dtype=float, copy=True)
 
@@ -787,88 +818,196 @@ def _constant_rates(c: _TopConstants):
     return phid, psid
 
 
-def _closed_form(params: RotorParams, s0: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, str]:
-    """Exact motion of the heavy / torque-free symmetric rotor at times t."""
+@dataclass(frozen=True)
+class TopMotion:
+    """One exact torque-free motion of the rotor (gravity allowed); evaluate with :meth:`at`.
+
+    Build with :func:`top_motion`. Holds the constants of the closed form
+    (Eqs. 8.19-8.21): the turning points ``u1 <= u0 <= u2`` of the cubic
+    ``f(u)`` of Eq. 8.21 (a bisection per root), the modulus, the rate
+    ``lambda`` and the phase of Jacobi's ``sn``, and the complete elliptic
+    integrals of the third kind of the precession and spin integrals.
+    Computing them costs about a millisecond; :meth:`at` then costs only
+    the evaluation at the requested times, so a caller that samples one
+    motion chunk after chunk pays for the constants once.
+
+    Attributes
+    ----------
+    params : RotorParams
+    state0 : (6,) initial state ``(phi, theta, psi, phi_dot, theta_dot,
+        psi_dot)`` with theta mapped into [0, pi] (see :func:`simulate`).
+    method : ``"closed_form"`` (Jacobi elliptic functions; ``k = 0`` for
+        the balanced rotor) or ``"steady"`` (theta constant).
+    period : nutation period ``2 K(k) / lambda`` (s); ``inf`` when steady.
+    """
+
+    params: RotorParams
+    state0: np.ndarray = field(repr=False)  # (6,)
+    method: str
+    period: float
+    _k: dict = field(repr=False, compare=False)
+
+    def at(self, t: Any) -> GyroscopeTrajectory:
+        """The motion sampled at times ``t``.
+
+        Parameters
+        ----------
+        t : (n,) sample times (s), non-decreasing, >= 0.
+
+        Returns
+        -------
+        GyroscopeTrajectory
+            ``t`` (n,), ``angles`` (n, 3), ``rates`` (n, 3) and ``method``;
+            exactly what ``simulate(params, state0, t)`` returns.
+
+        Raises
+        ------
+        ValueError
+            For bad times, or when the motion reaches a non-finite state.
+        """
+        tt = _check_times(t)
+        angles, rates = self._evaluate(tt)
+        if not (np.all(np.isfinite(angles)) and np.all(np.isfinite(rates))):
+            raise ValueError("state0: the motion reached a non-finite state")
+        for a in (tt, angles, rates):
+            a.setflags(write=False)
+        return GyroscopeTrajectory(t=tt, angles=angles, rates=rates, method=self.method)
+
+    def _evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Angles (n, 3) and rates (n, 3) of the exact motion at times t (n,)."""
+        k = self._k
+        phi0, theta0, psi0 = k["phi0"], k["theta0"], k["psi0"]
+        n_t = t.shape[0]
+        angles = np.empty((n_t, 3))
+        rates = np.empty((n_t, 3))
+        if self.method == "steady":
+            phid, psid = k["phid"], k["psid"]
+            angles[:, 0] = phi0 + phid * t
+            angles[:, 1] = theta0
+            angles[:, 2] = psi0 + psid * t
+            rates[:, 0] = phid
+            rates[:, 1] = 0.0
+            rates[:, 2] = psid
+            return angles, rates
+        lam, m, K, v0, delta = k["lam"], k["m"], k["K"], k["v0"], k["delta"]
+        A, B = k["A"], k["B"]
+        one_minus_u1, one_plus_u2 = k["one_minus_u1"], k["one_plus_u2"]
+        eps_top, eps_bottom = k["eps_top"], k["eps_bottom"]
+        v = v0 + lam * t
+        j = np.floor((v + K) / (2.0 * K))
+        r = v - 2.0 * K * j
+        sn_, cn_, dn_, _ = ellipj(r, m)
+        s2 = sn_**2
+        one_m_u = one_minus_u1 * cn_**2 + eps_top * s2
+        one_p_u = eps_bottom + delta * s2
+        theta = 2.0 * np.arctan2(np.sqrt(0.5 * one_m_u), np.sqrt(0.5 * one_p_u))
+        # theta_dot = -u_dot / sin(theta), u_dot = 2 delta lambda sn cn dn
+        sin_theta = np.sqrt(one_m_u * one_p_u)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            thetad = np.where(sin_theta > 0.0, -2.0 * delta * lam * sn_ * cn_ * dn_ / np.where(sin_theta > 0, sin_theta, 1), 0.0)
+        # exactly through a pole: the limit of cn / sqrt(1 - u) (or sn / sqrt(1 + u))
+        at_top = (one_m_u == 0.0)
+        at_bot = (one_p_u == 0.0)
+        if np.any(at_top):
+            thetad = np.where(at_top, -2.0 * delta * lam * sn_ * np.sign(cn_ + 0.0) * dn_
+                              / math.sqrt(one_minus_u1 * one_plus_u2), thetad)
+        if np.any(at_bot):
+            thetad = np.where(at_bot, -2.0 * delta * lam * np.sign(sn_) * cn_ * dn_
+                              / math.sqrt(delta * one_plus_u2), thetad)
+        term_top = _safe_div(np.full_like(one_m_u, A), one_m_u)
+        term_bot = _safe_div(np.full_like(one_p_u, B), one_p_u)
+        phid = term_top + term_bot
+        psid = k["spin_base"] - term_top + term_bot
+        # phi, psi: int dt/(1-u) and int dt/(1+u) from v0 to v
+        dv = lam * t
+        if A != 0.0:
+            n, one_minus_n, qc = k["n"], k["one_minus_n"], k["qc_plus"]
+            q = _q_incomplete(v, n, one_minus_n, m, K, qc) - k["q0_plus"]
+            j_plus = (dv + n * q) / (lam * one_minus_u1)
+        else:
+            j_plus = np.zeros_like(t)
+        if B != 0.0:
+            # 1/(1+u) in terms of v'' = K - v: (1 - m s''^2) / ((1+u2)(1 - N s''^2))
+            N, one_minus_N, qc = k["N"], k["one_minus_N"], k["qc_minus"]
+            q = _q_incomplete(K - v, N, one_minus_N, m, K, qc) - k["q0_minus"]
+            j_minus = -(-(dv) + (N - m) * q) / (lam * one_plus_u2)
+        else:
+            j_minus = np.zeros_like(t)
+        phi = phi0 + A * j_plus + B * j_minus
+        psi = psi0 + k["spin_base"] * t - A * j_plus + B * j_minus
+        # Passing exactly through a pole (A = 0 or B = 0 with the pole reached):
+        # the Euler angles jump by pi there (theta is kept in [0, pi]).
+        if A == 0.0 and eps_top == 0.0:
+            passes = _count_crossings(v, v0, K)  # u = 1 at v = K (mod 2K)
+            phi = phi + np.pi * passes
+            psi = psi - np.pi * passes
+        if B == 0.0 and eps_bottom == 0.0:
+            passes = _count_crossings(v, v0, 0.0 * K, period=2.0 * K)  # u = -1 at v = 0 (mod 2K)
+            phi = phi + np.pi * passes
+            psi = psi + np.pi * passes
+        angles[:, 0] = phi
+        angles[:, 1] = theta
+        angles[:, 2] = psi
+        rates[:, 0] = phid
+        rates[:, 1] = thetad
+        rates[:, 2] = psid
+        return angles, rates
+
+
+def top_motion(params: RotorParams, state0: Any) -> TopMotion:
+    """Precompute the exact torque-free (gravity only) motion from ``state0`` at t = 0.
+
+    The closed form of :func:`simulate` without applied torques, split into
+    its per-motion constants (computed here once) and its evaluation at
+    given times (:meth:`TopMotion.at`): ``top_motion(params, state0).at(t)``
+    equals ``simulate(params, state0, t)`` for every ``t``.
+
+    Parameters
+    ----------
+    params : RotorParams
+    state0 : (6,) ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)`` at
+        t = 0. A theta outside [0, pi] is first mapped to the same
+        orientation with ``(phi + pi, -theta, psi + pi)``.
+
+    Returns
+    -------
+    TopMotion
+        ``.at(t)`` gives the :class:`GyroscopeTrajectory` at times ``t``.
+
+    Raises
+    ------
+    ValueError
+        For bad parameters or a bad state.
+    """
+    params = _check_params(params)
+    s0 = _check_state(state0, "state0")
+    if s0.shape != (6,):
+        raise ValueError(f"state0: expected shape (6,), got {s0.shape}")
+    s0 = _normalize_state(s0)
+    s0.setflags(write=False)
     c = _top_constants(params, s0)
-    phi0, theta0, psi0 = s0[0], s0[1], s0[2]
-    n_t = t.shape[0]
-    angles = np.empty((n_t, 3))
-    rates = np.empty((n_t, 3))
+    k: dict[str, float] = {"phi0": float(s0[0]), "theta0": float(s0[1]), "psi0": float(s0[2])}
     if bool(c.steady):
         phid, psid = _constant_rates(c)
-        phid, psid = float(phid), float(psid)
-        angles[:, 0] = phi0 + phid * t
-        angles[:, 1] = theta0
-        angles[:, 2] = psi0 + psid * t
-        rates[:, 0] = phid
-        rates[:, 1] = 0.0
-        rates[:, 2] = psid
-        return angles, rates, "steady"
-    lam, m, K, v0, delta = float(c.lam), float(c.m), float(c.K), float(c.v0), float(c.delta)
-    A, B = float(c.A), float(c.B)
-    v = v0 + lam * t
-    j = np.floor((v + K) / (2.0 * K))
-    r = v - 2.0 * K * j
-    sn_, cn_, dn_, _ = ellipj(r, m)
-    s2 = sn_**2
-    one_m_u = float(c.one_minus_u1) * cn_**2 + float(c.eps_top) * s2
-    one_p_u = float(c.eps_bottom) + delta * s2
-    theta = 2.0 * np.arctan2(np.sqrt(0.5 * one_m_u), np.sqrt(0.5 * one_p_u))
-    # theta_dot = -u_dot / sin(theta), u_dot = 2 delta lambda sn cn dn
-    sin_theta = np.sqrt(one_m_u * one_p_u)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        thetad = np.where(sin_theta > 0.0, -2.0 * delta * lam * sn_ * cn_ * dn_ / np.where(sin_theta > 0, sin_theta, 1), 0.0)
-    # exactly through a pole: the limit of cn / sqrt(1 - u) (or sn / sqrt(1 + u))
-    at_top = (one_m_u == 0.0)
-    at_bot = (one_p_u == 0.0)
-    if np.any(at_top):
-        thetad = np.where(at_top, -2.0 * delta * lam * sn_ * np.sign(cn_ + 0.0) * dn_
-                          / math.sqrt(float(c.one_minus_u1) * float(c.one_plus_u2)), thetad)
-    if np.any(at_bot):
-        thetad = np.where(at_bot, -2.0 * delta * lam * np.sign(sn_) * cn_ * dn_
-                          / math.sqrt(delta * float(c.one_plus_u2)), thetad)
-    term_top = _safe_div(np.full_like(one_m_u, A), one_m_u)
-    term_bot = _safe_div(np.full_like(one_p_u, B), one_p_u)
-    phid = term_top + term_bot
-    psid = float(c.spin_base) - term_top + term_bot
-    # phi, psi: int dt/(1-u) and int dt/(1+u) from v0 to v
-    n, one_minus_n = (float(x) for x in _char_plus(c))
-    N, one_minus_N = (float(x) for x in _char_minus(c))
-    dv = lam * t
-    if A != 0.0:
+        k.update(phid=float(phid), psid=float(psid))
+        return TopMotion(params, s0, "steady", math.inf, k)
+    k.update(
+        lam=float(c.lam), m=float(c.m), K=float(c.K), v0=float(c.v0), delta=float(c.delta),
+        A=float(c.A), B=float(c.B), one_minus_u1=float(c.one_minus_u1), one_plus_u2=float(c.one_plus_u2),
+        eps_top=float(c.eps_top), eps_bottom=float(c.eps_bottom), spin_base=float(c.spin_base),
+    )
+    m, K, v0 = k["m"], k["K"], k["v0"]
+    if k["A"] != 0.0:
+        n, one_minus_n = (float(x) for x in _char_plus(c))
         qc = float(_q_complete(one_minus_n, m))
-        q = _q_incomplete(v, n, one_minus_n, m, K, qc) - _q_incomplete(np.float64(v0), n, one_minus_n, m, K, qc)
-        j_plus = (dv + n * q) / (lam * float(c.one_minus_u1))
-    else:
-        j_plus = np.zeros_like(t)
-    if B != 0.0:
-        # 1/(1+u) in terms of v'' = K - v: (1 - m s''^2) / ((1+u2)(1 - N s''^2))
+        q0 = float(_q_incomplete(np.float64(v0), n, one_minus_n, m, K, qc))
+        k.update(n=n, one_minus_n=one_minus_n, qc_plus=qc, q0_plus=q0)
+    if k["B"] != 0.0:
+        N, one_minus_N = (float(x) for x in _char_minus(c))
         qc = float(_q_complete(one_minus_N, m))
-        w_ = K - v
-        w0 = K - v0
-        q = _q_incomplete(w_, N, one_minus_N, m, K, qc) - _q_incomplete(np.float64(w0), N, one_minus_N, m, K, qc)
-        j_minus = -(-(dv) + (N - m) * q) / (lam * float(c.one_plus_u2))
-    else:
-        j_minus = np.zeros_like(t)
-    phi = phi0 + A * j_plus + B * j_minus
-    psi = psi0 + float(c.spin_base) * t - A * j_plus + B * j_minus
-    # Passing exactly through a pole (A = 0 or B = 0 with the pole reached):
-    # the Euler angles jump by pi there (theta is kept in [0, pi]).
-    if A == 0.0 and float(c.eps_top) == 0.0:
-        passes = _count_crossings(v, v0, K)  # u = 1 at v = K (mod 2K)
-        phi = phi + np.pi * passes
-        psi = psi - np.pi * passes
-    if B == 0.0 and float(c.eps_bottom) == 0.0:
-        passes = _count_crossings(v, v0, 0.0 * K, period=2.0 * K)  # u = -1 at v = 0 (mod 2K)
-        phi = phi + np.pi * passes
-        psi = psi + np.pi * passes
-    angles[:, 0] = phi
-    angles[:, 1] = theta
-    angles[:, 2] = psi
-    rates[:, 0] = phid
-    rates[:, 1] = thetad
-    rates[:, 2] = psid
-    return angles, rates, "closed_form"
+        q0 = float(_q_incomplete(np.float64(K - v0), N, one_minus_N, m, K, qc))
+        k.update(N=N, one_minus_N=one_minus_N, qc_minus=qc, q0_minus=q0)
+    return TopMotion(params, s0, "closed_form", 2.0 * K / k["lam"], k)
 
 
 def _count_crossings(v, v0, at, period=None):
@@ -887,9 +1026,10 @@ def _torque_function(torques: Any) -> Callable[[float, np.ndarray], np.ndarray] 
         return None
     if callable(torques):
         def f(t, state, _f=torques):
-            out = np.asarray(_f(t, state), dtype=float)
+            value = _f(t, state)
+            out = float_array(value, "torques", expected="3 finite numbers from the callable")
             if out.shape != (3,) or not np.all(np.isfinite(out)):
-                raise ValueError(f"torques: the callable must return 3 finite numbers, got {out!r}")
+                raise ValueError(f"torques: the callable must return 3 finite numbers, got {short_repr(value)}")
             return out
         return f
     m = _check_array(torques, "torques")
@@ -900,17 +1040,44 @@ def _torque_function(torques: Any) -> Callable[[float, np.ndarray], np.ndarray] 
     return lambda t, state, _m=m: _m
 
 
-def _rhs_angles(params: RotorParams, torque: Callable) -> Callable:
+class _StopNumerical(Exception):
+    """Stops the numerical path from inside a right-hand side (internal)."""
+
+    def __init__(self, reason: str, t: float):
+        super().__init__(reason, t)
+        self.reason = reason  # "non-finite", "pole" or "budget"
+        self.t = float(t)
+
+
+class _Budget:
+    """Counts right-hand-side evaluations of one numerical run (internal)."""
+
+    def __init__(self, limit: int):
+        self.limit = limit
+        self.calls = 0
+
+    def spend(self, t: float) -> None:
+        self.calls += 1
+        if self.calls > self.limit:
+            raise _StopNumerical("budget", t)
+
+
+def _rhs_angles(params: RotorParams, torque: Callable, budget: _Budget) -> Callable:
     I, I3, mgl = params.I, params.I3, params.mgl
 
     def rhs(t, y):
+        budget.spend(t)
         m_phi, m_theta, m_psi = torque(t, y)
         theta, phid, thetad, psid = y[1], y[3], y[4], y[5]
+        if not math.isfinite(theta):
+            raise _StopNumerical("non-finite", t)
         sn, cs = math.sin(theta), math.cos(theta)
         omega3 = psid + phid * cs
         theta_dd = (I * phid * phid * sn * cs - I3 * omega3 * phid * sn + mgl * sn + m_theta) / I
         phi_dd = (m_phi - m_psi * cs + thetad * sn * (I3 * omega3 - 2.0 * I * phid * cs)) / (I * sn * sn)
         psi_dd = m_psi / I3 - phi_dd * cs + phid * thetad * sn
+        if not math.isfinite(phid + thetad + psid + phi_dd + theta_dd + psi_dd):
+            raise _StopNumerical("non-finite", t)
         return np.array([phid, thetad, psid, phi_dd, theta_dd, psi_dd])
 
     return rhs
@@ -952,7 +1119,7 @@ def _zxz_from_quaternion(p: np.ndarray, phi_ref: float, psi_ref: float):
     return out_phi, theta, out_psi
 
 
-def _rhs_parameters(params: RotorParams, torque: Callable, angle_ref: list) -> Callable:
+def _rhs_parameters(params: RotorParams, torque: Callable, angle_ref: list, budget: _Budget) -> Callable:
     """Newton-Euler in Euler parameters: y = (p (4), omega_body (3)).
 
     ``p_dot = 1/2 G_bar^T omega_body`` (Eq. 8.54) and Euler's equations
@@ -965,8 +1132,10 @@ def _rhs_parameters(params: RotorParams, torque: Callable, angle_ref: list) -> C
     J = np.array([I, I, I3])
 
     def rhs(t, y):
+        budget.spend(t)
         p, w = y[:4], y[4:]
         e0, e1, e2, e3 = p
+        s2 = 0.0
         # third row of A (Z1 in body coordinates)
         z1_b = np.array([2.0 * (e1 * e3 - e0 * e2), 2.0 * (e2 * e3 + e0 * e1), e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3])
         m_body = mgl * np.array([z1_b[1], -z1_b[0], 0.0])  # z1_b x (0, 0, 1)
@@ -991,9 +1160,33 @@ def _rhs_parameters(params: RotorParams, torque: Callable, angle_ref: list) -> C
             e0 * w[1] + e3 * w[0] - e1 * w[2],
             e0 * w[2] + e1 * w[1] - e2 * w[0],
         ])
-        return np.concatenate([p_dot, w_dot])
+        out = np.concatenate([p_dot, w_dot])
+        if not math.isfinite(float(out @ out)):
+            # unbounded torque vector next to a pole, or accelerations beyond float64
+            raise _StopNumerical("pole" if 0.0 < s2 < 1e-12 else "non-finite", t)
+        return out
 
     return rhs
+
+
+def _raise_failed(sol, t_start: float, rhs: Callable, y_start: np.ndarray, params: RotorParams) -> None:
+    """ValueError naming ``torques`` for a failed solve_ivp run of one segment.
+
+    Reports the angular accelerations at the segment's start: when scipy
+    cannot find a step (``Required step size is less than spacing between
+    numbers``), they are what the steps cannot follow.
+    """
+    try:
+        accel = float(np.max(np.abs(rhs(t_start, y_start)[-3:])))
+    except _StopNumerical:
+        accel = math.inf
+    cause = ""
+    if "spacing" in sol.message:
+        cause = "; the applied torques are too large for this rotor, its motion changes faster than float64 time steps resolve"
+    raise ValueError(
+        f"torques: the numerical integration failed after t={t_start:.6g} s ({sol.message}); angular "
+        f"accelerations {accel:.3g} rad/s^2 with I={params.I!r}, I3={params.I3!r}{cause}"
+    )
 
 
 def _omega_body_from_rates(theta, psi, phid, thetad, psid):
@@ -1012,8 +1205,34 @@ def _rates_from_omega_body(theta, psi, w):
     return phid, thetad, psid
 
 
-def _numerical(params, s0, t, torque, rtol, atol):
-    """DOP853 on Eq. 8.16, in Euler parameters while |sin theta| is small."""
+def _numerical(params, s0, t, torque, rtol, atol, max_steps=MAX_STEPS):
+    """DOP853 on Eq. 8.16, in Euler parameters while |sin theta| is small.
+
+    At most ``max_steps`` right-hand-side evaluations; ValueError naming
+    ``t`` beyond, and naming ``torques`` when the motion becomes non-finite.
+    """
+    try:
+        return _numerical_run(params, s0, t, torque, rtol, atol, _Budget(max_steps))
+    except _StopNumerical as stop:
+        if stop.reason == "budget":
+            raise ValueError(
+                f"t: the numerical path (applied torques) used max_steps={max_steps} right-hand-side "
+                f"evaluations and stopped at t={stop.t:.6g} s before t={float(t[-1]):.6g} s "
+                f"(core.integrators.MAX_STEPS = {MAX_STEPS}); ask for a shorter time span, loosen rtol/atol "
+                "or pass a larger max_steps"
+            ) from None
+        if stop.reason == "pole":
+            raise ValueError(
+                f"torques: the motion reached sin(theta) = 0 at t={stop.t:.6g} s, where constant generalized "
+                "torques M_phi != +-M_psi need an unbounded torque on the rotor (massless gimbals in gimbal lock)"
+            ) from None
+        raise ValueError(
+            f"torques: the motion became non-finite at t={stop.t:.6g} s: the applied torques are too large "
+            f"for this rotor (I={params.I!r}, I3={params.I3!r}); the angle accelerations overflow float64"
+        ) from None
+
+
+def _numerical_run(params, s0, t, torque, rtol, atol, budget):
     n_t = t.shape[0]
     angles = np.empty((n_t, 3))
     rates = np.empty((n_t, 3))
@@ -1044,13 +1263,16 @@ def _numerical(params, s0, t, torque, rtol, atol):
                 return abs(math.sin(y[1])) - _SIN_ENTER_PARAMETERS
             ev.terminal = True
             ev.direction = -1
-            sol = solve_ivp(_rhs_angles(params, torque), (t_cur, t_end), y_angles, method="DOP853",
+            rhs = _rhs_angles(params, torque, budget)
+            sol = solve_ivp(rhs, (t_cur, t_end), y_angles, method="DOP853",
                             rtol=rtol, atol=atol, t_eval=t_eval, events=ev)
             if sol.status < 0:
-                raise ValueError(f"torques: integration failed at t={sol.t[-1] if sol.t.size else t_cur}: {sol.message}")
-            k = sol.t.shape[0]
-            angles[filled:filled + k] = sol.y[:3].T
-            rates[filled:filled + k] = sol.y[3:].T
+                _raise_failed(sol, t_cur, rhs, y_angles, params)
+            # sol.t is a list, not an array, when an event comes before the first t_eval sample
+            k = np.asarray(sol.t).shape[0]
+            if k:
+                angles[filled:filled + k] = sol.y[:3].T
+                rates[filled:filled + k] = sol.y[3:].T
             filled += k
             if sol.status == 1:
                 y_e = sol.y_events[0][0]
@@ -1074,11 +1296,12 @@ def _numerical(params, s0, t, torque, rtol, atol):
                 return sin_t - _SIN_LEAVE_PARAMETERS
             ev.terminal = True
             ev.direction = 1
-            sol = solve_ivp(_rhs_parameters(params, torque, ref), (t_cur, t_end), y_par, method="DOP853",
+            rhs = _rhs_parameters(params, torque, ref, budget)
+            sol = solve_ivp(rhs, (t_cur, t_end), y_par, method="DOP853",
                             rtol=rtol, atol=atol, t_eval=t_eval, events=ev)
             if sol.status < 0:
-                raise ValueError(f"torques: integration failed at t={sol.t[-1] if sol.t.size else t_cur}: {sol.message}")
-            k = sol.t.shape[0]
+                _raise_failed(sol, t_cur, rhs, y_par, params)
+            k = np.asarray(sol.t).shape[0]
             if k:
                 p = sol.y[:4].T
                 phi, theta, psi = _zxz_from_quaternion(p, ref[0], ref[1])
@@ -1102,6 +1325,44 @@ def _numerical(params, s0, t, torque, rtol, atol):
     return angles, rates
 
 
+def _check_numerical_work(params: RotorParams, s0: np.ndarray, t_end: float, torque: Callable, max_steps: int) -> None:
+    """Refuse up front a numerical run that certainly needs more than ``max_steps`` evaluations.
+
+    The angle through which the rotor turns by ``t_end`` is estimated as
+    ``|omega0| t + (|M| + mgl) t^2 / (2 I_min)`` with ``|M|`` the largest
+    generalized torque at t = 0 and ``I_min = min(I, I3)``. DOP853 at the
+    default tolerances spends 15 to 100 right-hand-side evaluations per
+    radian; a run whose estimate exceeds ``max_steps`` radians (one
+    evaluation per radian) is refused before it starts. The count during
+    the run (:func:`_numerical`) remains the limit for the rest.
+    """
+    omega0 = float(np.linalg.norm(rotor_vectors(params, s0).omega))
+    m0 = float(np.max(np.abs(torque(0.0, s0))))
+    spin_part = omega0 * t_end
+    torque_part = (m0 + params.mgl) / min(params.I, params.I3) * 0.5 * t_end * t_end
+    estimate = spin_part + torque_part
+    if not estimate <= max_steps:
+        # the torques are to blame when they, not the spin or gravity, dominate
+        name = "torques" if m0 >= params.mgl and torque_part > spin_part else "t"
+        raise ValueError(
+            f"{name}: the numerical path (applied torques) would turn the rotor through about {estimate:.3g} rad "
+            f"by t={t_end:.6g} s (|omega0| t + (|M| + mgl) t^2 / (2 min(I, I3)), |omega0| = {omega0:.3g} rad/s, "
+            f"|M| = {m0:.3g} N m), which takes more than max_steps={max_steps} right-hand-side evaluations "
+            f"(at least one per radian; core.integrators.MAX_STEPS = {MAX_STEPS}); ask for a shorter time span "
+            "or smaller torques, or pass a larger max_steps"
+        )
+
+
+def _check_times(t: Any) -> np.ndarray:
+    """Sample times: a new non-empty 1-D float array, finite, non-decreasing, >= 0."""
+    tt = np.array(_check_array(t, "t"), dtype=float, copy=True)
+    if tt.ndim != 1 or tt.shape[0] == 0:
+        raise ValueError(f"t: expected a non-empty 1-D array of times, got shape {tt.shape}")
+    if tt[0] < 0.0 or np.any(np.diff(tt) < 0.0):
+        raise ValueError(f"t: expected non-decreasing times >= 0, got t[0]={float(tt[0])!r} and {int(np.sum(np.diff(tt) < 0))} decreases")
+    return tt
+
+
 def simulate(
     params: RotorParams,
     state0: Any,
@@ -1110,6 +1371,7 @@ def simulate(
     *,
     rtol: float = 1e-11,
     atol: float = 1e-12,
+    max_steps: int = MAX_STEPS,
 ) -> GyroscopeTrajectory:
     """Motion of the rotor from ``state0`` at time 0, sampled at times ``t``.
 
@@ -1121,7 +1383,10 @@ def simulate(
       with d1, d2 (Eqs. 8.19-8.20) conserved exactly; ``mgl = 0`` gives
       regular precession (``k = 0``). Accurate for any t (arguments reduced
       by whole nutation periods) and when theta passes near or through 0 or
-      pi (the pole distances ``1 -+ u`` are carried without cancellation);
+      pi (the pole distances ``1 -+ u`` are carried without cancellation).
+      This is ``top_motion(params, state0).at(t)``; a caller that samples
+      one motion repeatedly should keep the :class:`TopMotion` and call
+      :meth:`TopMotion.at` (the constants cost about a millisecond);
     * applied torques: scipy DOP853 on Eq. 8.16, switching to the
       Euler-parameter Newton-Euler form (``p``, ``omega_body``) while
       ``|sin theta| < 0.05`` (back above 0.1) and converting back to angles
@@ -1137,6 +1402,11 @@ def simulate(
     torques : None, (3,) constant ``(M_phi, M_theta, M_psi)``, or a callable
         ``torques(t, state) -> (3,)`` of time and the (6,) state.
     rtol, atol : keyword-only, tolerances of the numerical path.
+    max_steps : keyword-only, largest number of right-hand-side evaluations
+        of the numerical path (default ``core.integrators.MAX_STEPS``, ten
+        million); a run that needs more stops with a ValueError naming
+        ``t`` instead of running for hours. The closed form costs O(n)
+        whatever the time span.
 
     Returns
     -------
@@ -1146,33 +1416,33 @@ def simulate(
     Raises
     ------
     ValueError
-        For a bad state, times or torques, or a failed numerical run.
+        For a bad state, times or torques (including complex input), a
+        failed numerical run, torques so large that the motion becomes
+        non-finite, or a numerical run that would need more than
+        ``max_steps`` right-hand-side evaluations.
     """
     params = _check_params(params)
     s0 = _check_state(state0, "state0")
     if s0.shape != (6,):
         raise ValueError(f"state0: expected shape (6,), got {s0.shape}")
-    tt = np.array(_check_array(t, "t"), dtype=float, copy=True)
-    if tt.ndim != 1 or tt.shape[0] == 0:
-        raise ValueError(f"t: expected a non-empty 1-D array of times, got shape {tt.shape}")
-    if tt[0] < 0.0 or np.any(np.diff(tt) < 0.0):
-        raise ValueError(f"t: expected non-decreasing times >= 0, got t[0]={float(tt[0])!r} and {int(np.sum(np.diff(tt) < 0))} decreases")
+    tt = _check_times(t)
+    for name, value in (("rtol", rtol), ("atol", atol)):
+        if isinstance(value, (complex, np.complexfloating)):
+            raise ValueError(f"{name}: expected real numbers, got complex {value!r}")
     if not (rtol > 0 and atol > 0):
         raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}")
+    max_steps = positive_integer(max_steps, "max_steps")
     torque = _torque_function(torques)
-    s0 = _normalize_state(s0)
     if torque is None:
-        angles, rates, method = _closed_form(params, s0, tt)
-    else:
-        angles, rates = _numerical(params, s0, tt, torque, rtol, atol)
-        method = "numerical"
+        return top_motion(params, s0).at(tt)
+    s0 = _normalize_state(s0)
+    _check_numerical_work(params, s0, float(tt[-1]), torque, max_steps)
+    angles, rates = _numerical(params, s0, tt, torque, rtol, atol, max_steps)
     if not (np.all(np.isfinite(angles)) and np.all(np.isfinite(rates))):
-        if torque is not None:
-            raise ValueError(
-                "torques: the motion reached sin(theta) = 0, where constant generalized torques "
-                "M_phi != +-M_psi need an unbounded torque on the rotor (massless gimbals in gimbal lock)"
-            )
-        raise ValueError("state0: the motion reached a non-finite state")
+        raise ValueError(
+            "torques: the motion reached sin(theta) = 0, where constant generalized torques "
+            "M_phi != +-M_psi need an unbounded torque on the rotor (massless gimbals in gimbal lock)"
+        )
     for a in (tt, angles, rates):
         a.setflags(write=False)
-    return GyroscopeTrajectory(t=tt, angles=angles, rates=rates, method=method)
+    return GyroscopeTrajectory(t=tt, angles=angles, rates=rates, method="numerical")
