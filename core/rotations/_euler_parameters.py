@@ -446,7 +446,10 @@ def _axis_angle_from_p_single(w, x, y, z):
     angle = np.float64(2.0 * math.atan2(s, w))
     if s == 0.0:
         return np.array((0.0, 0.0, 1.0)), angle
-    return np.array((x / s, y / s, z / s)), angle
+    m = max(abs(x), abs(y), abs(z))
+    x, y, z = x / m, y / m, z / m
+    n = math.hypot(math.hypot(x, y), z)
+    return np.array((x / n, y / n, z / n)), angle
 
 
 def _axis_angle_from_unit_p(p):
@@ -456,8 +459,12 @@ def _axis_angle_from_unit_p(p):
     s = np.hypot(np.hypot(vec[..., 0], vec[..., 1]), vec[..., 2])
     angle = 2.0 * np.arctan2(s, p[..., 0])
     zero = s == 0.0
-    safe = np.where(zero, 1.0, s)
-    axis = vec / safe[..., None]
+    # The axis from the vector part scaled by its largest entry first:
+    # dividing by s directly gives a non-unit axis for subnormal vector
+    # parts (angles below 1e-307), whose hypot is rounded to the coarse
+    # subnormal grid (hypot(5e-324, 5e-324) = 5e-324).
+    m, scaled, n = _scaled_norm(vec)
+    axis = scaled / np.where(zero, 1.0, n)[..., None]
     axis = np.where(zero[..., None], np.array([0.0, 0.0, 1.0]), axis)
     return axis, angle
 

@@ -187,3 +187,17 @@ def test_axis_angle_errors():
         cr.elementary_matrix(3, 0.1)
     assert cr.is_rotation_matrix(cr.elementary_matrix(2, 0.3))
     assert not cr.is_rotation_matrix(np.diag([1.0, 1.0, -1.0]))
+
+
+def test_axis_of_a_subnormal_rotation_is_unit():
+    # A vector part of (5e-324, 5e-324, 0): its hypot rounds to 5e-324 on
+    # the subnormal grid, and dividing by it gave the axis (1, 1, 0) of norm
+    # sqrt(2), which matrix_from_axis_angle then refused (found by hypothesis).
+    p = np.array([1.0, 5e-324, 5e-324, 0.0])
+    A = cr.matrix_from_euler_parameters(p)
+    for axis, angle in (cr.axis_angle_from_euler_parameters(p), cr.axis_angle_from_matrix(A)):
+        np.testing.assert_allclose(axis, [2**-0.5, 2**-0.5, 0.0], rtol=0, atol=2e-16)
+        assert 0.0 < angle < 1e-322
+        np.testing.assert_allclose(cr.matrix_from_axis_angle(axis, angle), np.eye(3), rtol=0, atol=1e-300)
+    axes, _ = cr.axis_angle_from_euler_parameters(np.stack([p, -p, [1.0, 0.0, -5e-324, 0.0]]))
+    np.testing.assert_allclose(np.linalg.norm(axes, axis=-1), 1.0, rtol=0, atol=2e-16)
