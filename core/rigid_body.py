@@ -485,7 +485,8 @@ class RodriguezModel:
     state_size: int = 12
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.gamma_max) and self.gamma_max > 0):
+        gamma_max = real_number(self.gamma_max, "gamma_max", expected="a finite number > 0")
+        if not gamma_max > 0:
             raise ValueError(f"gamma_max: expected a finite number > 0, got {self.gamma_max!r}")
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
@@ -1219,6 +1220,9 @@ def free_body_solution(
     FreeBodySolution
         ``.at(t)`` evaluates the motion; see :func:`free_body_exact`.
     """
+    equal_tol = real_number(equal_tol, "equal_tol", expected="a finite tolerance >= 0")
+    if equal_tol < 0.0:
+        raise ValueError(f"equal_tol: expected a finite tolerance >= 0, got {equal_tol!r}")
     J_body = _inertia(inertia)
     w0 = _vec(omega_body0, "omega_body0").copy()  # frozen below: never the caller's array
     p0 = _unit_p(p0, "p0")

@@ -231,6 +231,12 @@ def test_complex_keyword_and_callable_outputs_are_refused():
     with pytest.raises(ValueError, match=r"real numbers, got complex"):
         rb.principal_axes(np.array([1.0, 2.0, 2.5 + 0j], dtype=object))
     assert cr.is_rotation_matrix(A) and not cr.is_rotation_matrix(A + 0j)
+    with pytest.raises(ValueError, match=r"gamma_max: expected real numbers, got complex"):
+        rb.RodriguezModel(BODY, gamma_max=1e3 + 0j)
+    with pytest.raises(ValueError, match=r"equal_tol: expected real numbers, got complex"):
+        rb.free_body_solution(INERTIA, V3, P, equal_tol=1e-12 + 0j)
+    with pytest.raises(ValueError, match=r"equal_tol: expected a finite tolerance >= 0, got -1\.0"):
+        rb.free_body_solution(INERTIA, V3, P, equal_tol=-1.0)
 
 
 def _public_callables(module, prefix):
