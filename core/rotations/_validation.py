@@ -7,6 +7,8 @@ was given. Conventions are stated once in ``docs/conventions.md``.
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import numpy as np
 
 #: Largest accepted deviation ``| ||p|| - 1 |`` of Euler parameters (and of
@@ -338,7 +340,7 @@ def _sequence_table():
     return table
 
 
-_SEQUENCES = _sequence_table()
+_SEQUENCES = MappingProxyType(_sequence_table())
 
 
 def parse_seq(seq):
