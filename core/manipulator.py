@@ -286,7 +286,10 @@ def link_frames_successive(
     ValueError
         As :func:`relative_rotation_matrices`.
     """
-    relative = relative_rotation_matrices(joint_angles, geometry=geometry)
+    geometry, theta = _check_arguments(joint_angles, geometry)
+    if theta.ndim == 1:  # one configuration: the scalar path of the rotation core
+        return _successive_single(theta, geometry)
+    relative = relative_rotation_matrices(theta, geometry=geometry)
     batch = relative.shape[:-3]
     orientations = np.empty(batch + (3, 3, 3))
     origins = np.empty(batch + (3, 3))
@@ -301,6 +304,38 @@ def link_frames_successive(
         origin = origin + orientation @ link_vectors[k]
     return LinkFrames(orientations=orientations, origins=origins, end_point=origin)
 
+
+
+def _successive_single(theta: np.ndarray, geometry: ManipulatorGeometry) -> LinkFrames:
+    """:func:`link_frames_successive` for one configuration ``theta`` (3,) (same arithmetic)."""
+    orientations = np.empty((3, 3, 3))
+    origins = np.empty((3, 3))
+    origin = np.zeros(3)
+    orientation = None
+    link_vectors = geometry.link_vectors
+    axes = geometry.joint_axes
+    for k in range(3):
+        relative = matrix_from_axis_angle(axes[k], float(theta[k]))
+        orientation = relative if orientation is None else orientation @ relative
+        orientations[k] = orientation
+        origins[k] = origin
+        origin = origin + orientation @ link_vectors[k]
+    return LinkFrames(orientations=orientations, origins=origins, end_point=origin)
+
+
+def _global_single(theta: np.ndarray, geometry: ManipulatorGeometry, steps: int) -> LinkFrames:
+    """:func:`link_frames_global_axis_rotations` for one configuration (same arithmetic)."""
+    zero_origins = np.zeros((4, 3))
+    zero_origins[1:] = np.cumsum(geometry.link_vectors, axis=0)
+    orientations = np.tile(np.eye(3), (3, 1, 1))
+    points = zero_origins.copy()
+    axes = geometry.joint_axes
+    for joint in range(2, 2 - steps, -1):
+        rotation = matrix_from_axis_angle(axes[joint], float(theta[joint]))
+        pivot = zero_origins[joint]
+        orientations[joint:] = rotation @ orientations[joint:]
+        points[joint + 1:] = pivot + (points[joint + 1:] - pivot) @ rotation.T
+    return LinkFrames(orientations=orientations, origins=points[:3], end_point=points[3])
 
 def matrix_from_successive_rotations(
     joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY
@@ -376,6 +411,8 @@ def link_frames_global_axis_rotations(
     geometry, theta = _check_arguments(joint_angles, geometry)
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not 0 <= steps <= 3:
         raise ValueError(f"steps must be an integer from 0 to 3, got {steps!r}")
+    if theta.ndim == 1:  # one configuration: the scalar path of the rotation core
+        return _global_single(theta, geometry, steps)
     batch = theta.shape[:-1]
     # Zero configuration: every link frame parallel to the global frame.
     zero_origins = np.zeros((4, 3))
