@@ -22,6 +22,18 @@ Every method integrates a *model*: any object with
     A fast equivalent of ``n_steps`` steps of the composition of Strang
     steps with stage weights ``gammas``; :func:`integrate` uses it between
     recorded states when present.
+``project(t, state) -> state`` (optional)
+    A map back onto the model's invariant manifold (e.g. the constraints
+    of :mod:`core.multibody`), applied by :func:`integrate` after every
+    step (not to ``state0``): after each ``rk4`` or ``midpoint`` step;
+    for ``RK45`` and ``DOP853`` after each accepted step of scipy's
+    solver, which then continues from the projected state (its stored
+    derivative is re-evaluated there unless the projection moved the
+    state by less than 1e-3 of the error tolerance ``atol + rtol |y|``,
+    where the stale derivative changes the next step by far less than the
+    local error), and to every dense-output state at ``t_eval``. The
+    splitting methods and ``LSODA`` (which keep internal state that a
+    projection would invalidate) refuse a model with ``project``.
 
 Single steps are pure functions ``step(model, state, dt, *, t=0.0) -> state``
 (:func:`rk4_step`, :func:`implicit_midpoint_step`, :func:`splitting_step`,
@@ -540,7 +552,8 @@ def integrate(
     Parameters
     ----------
     model : object with ``state_size``, ``rhs(t, y)`` and optionally
-        ``invariants(states)`` and split flows (see the module docstring).
+        ``invariants(states)``, split flows and ``project(t, y)``, applied
+        after every step (see the module docstring).
     state0 : (m,) initial state (not modified).
     t_span : (t0, t1) with t1 > t0.
     method : one of ``FIXED_STEP_METHODS`` (``rk4``, ``midpoint``,
@@ -653,6 +666,11 @@ def _run_fixed(
     k_out = 1
     if method.startswith("splitting"):
         _require_split(model, method)
+        if getattr(model, "project", None) is not None:
+            raise ValueError(
+                f"method: '{method}' advances the model's exact flows and cannot apply model.project; "
+                "use rk4, midpoint, RK45 or DOP853"
+            )
         gammas = _COMPOSITIONS[method]
         z = model.to_split_state(y0)
         fast = getattr(model, "split_run", None)
@@ -674,6 +692,7 @@ def _run_fixed(
     else:
         counter = _CountingModel(model)
         step = _STEPPERS[method]
+        project = getattr(model, "project", None)
         y = y0
         check_inv = inv0 if inv0 is not None else None
         for k in range(1, n + 1):
@@ -682,6 +701,8 @@ def _run_fixed(
                 y = step(counter, y, h, tk)
             except IntegrationError as e:
                 raise type(e)(f"step {k}: {e}", step=k, t=tk) from e
+            if project is not None:
+                y = project(tk + h, y)
             saving = k == save_idx[k_out]
             if saving:
                 _check_finite_and_drift(model, y, check_inv, max_drift, k, tk + h)
@@ -722,6 +743,8 @@ def _run_adaptive(
         t_eval = float_array(t_eval, "t_eval", expected="sorted 1-D times within t_span")
         if t_eval.ndim != 1 or np.any(t_eval < t0) or np.any(t_eval > t1) or np.any(np.diff(t_eval) < 0):
             raise ValueError(f"t_eval: expected sorted 1-D times within t_span, got shape {t_eval.shape}")
+    if getattr(model, "project", None) is not None:
+        return _run_adaptive_projected(model, y0, t0, t1, method, rtol, atol, t_eval, inv0, max_drift, max_steps)
     counter = _CountingModel(model, max_calls=max_steps)
     # t_eval is served from scipy's dense output (what solve_ivp itself does
     # for t_eval), so the accepted steps stay countable.
@@ -746,6 +769,111 @@ def _run_adaptive(
         t_out, states = sol.t, sol.y.T
     else:
         t_out, states = t_eval, sol.sol(t_eval).T
+    return _adaptive_result(model, method, t_out, states, n_steps, counter.calls, inv0, max_drift)
+
+
+# Below this fraction of the error tolerance a projection leaves scipy's
+# stored derivative f(t, y) in place (see the module docstring).
+_STALE_DERIVATIVE_TOL = 1e-3
+
+
+def _run_adaptive_projected(
+    model: Any,
+    y0: np.ndarray,
+    t0: float,
+    t1: float,
+    method: str,
+    rtol: float,
+    atol: float,
+    t_eval: np.ndarray | None,
+    inv0: dict[str, np.ndarray] | None,
+    max_drift: float,
+    max_steps: int,
+) -> Trajectory:
+    """Adaptive run that applies ``model.project`` after every accepted step."""
+    from scipy.integrate import DOP853, RK45
+
+    solvers = {"RK45": RK45, "DOP853": DOP853}
+    if method not in solvers:
+        raise ValueError(
+            f"method: '{method}' keeps internal state that model.project would invalidate; "
+            "use RK45, DOP853, rk4 or midpoint"
+        )
+    counter = _CountingModel(model, max_calls=max_steps)
+    project = model.project
+    t_rec: list[float] = []
+    y_rec: list[np.ndarray] = []
+    if t_eval is None:
+        t_rec.append(t0)
+        y_rec.append(y0.copy())
+        pending = np.zeros(0)
+    else:
+        first = t_eval <= t0
+        for _ in range(int(first.sum())):
+            t_rec.append(t0)
+            y_rec.append(y0.copy())
+        pending = t_eval[~first]
+    k_next = 0
+    n_steps = 0
+    try:
+        solver = solvers[method](counter.rhs, t0, y0, t1, rtol=rtol, atol=atol)
+        while solver.status == "running":
+            message = solver.step()
+            if solver.status == "failed":
+                raise IntegrationError(
+                    f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1, t=solver.t
+                )
+            n_steps += 1
+            t_new = float(solver.t)
+            y_raw = solver.y
+            dense = None
+            if k_next < pending.size and pending[k_next] < t_new:
+                dense = solver.dense_output()
+            y_new = project(t_new, y_raw)
+            if not np.all(np.isfinite(y_new)):
+                raise DivergenceError(
+                    f"run diverged: non-finite state at step {n_steps} (t={t_new:.6g}); tighten the tolerances",
+                    step=n_steps,
+                    t=t_new,
+                )
+            if t_eval is None:
+                t_rec.append(t_new)
+                y_rec.append(np.array(y_new))
+            else:
+                while k_next < pending.size and pending[k_next] <= t_new:
+                    te = float(pending[k_next])
+                    t_rec.append(te)
+                    y_rec.append(np.array(y_new) if te == t_new else project(te, dense(te)))
+                    k_next += 1
+            change = np.max(np.abs(y_new - y_raw) / (atol + rtol * np.maximum(np.abs(y_raw), np.abs(y_new))))
+            if change > 0.0:
+                solver.y = np.array(y_new)
+                if change > _STALE_DERIVATIVE_TOL:
+                    solver.f = solver.fun(t_new, solver.y)
+    except _BudgetExceeded as stop:
+        raise IntegrationError(
+            f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
+            f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "
+            "shorten t_span or pass a larger max_steps",
+            t=stop.t,
+        ) from None
+    while t_eval is not None and len(t_rec) < t_eval.size:  # times equal to t1 after the last step
+        t_rec.append(float(t_eval[len(t_rec)]))
+        y_rec.append(np.array(y_rec[-1]))
+    states = np.array(y_rec).reshape(len(y_rec), y0.size)
+    return _adaptive_result(model, method, np.array(t_rec), states, n_steps, counter.calls, inv0, max_drift)
+
+
+def _adaptive_result(
+    model: Any,
+    method: str,
+    t_out: np.ndarray,
+    states: np.ndarray,
+    n_steps: int,
+    n_rhs: int,
+    inv0: dict[str, np.ndarray] | None,
+    max_drift: float,
+) -> Trajectory:
     bad = ~np.all(np.isfinite(states), axis=1)
     if bad.any():
         i = int(np.argmax(bad))
@@ -766,4 +894,4 @@ def _run_adaptive(
                     step=i,
                     t=float(t_out[i]),
                 )
-    return Trajectory(_frozen(t_out), _frozen(states), method, n_steps, counter.calls, drift_report(model, states))
+    return Trajectory(_frozen(t_out), _frozen(states), method, n_steps, n_rhs, drift_report(model, states))
