@@ -33,16 +33,30 @@ def _sort_key(eq: str) -> tuple[float, ...]:
 
 
 def collect() -> list[tuple[str, str, str]]:
-    """Return ``(equation, code, page)`` rows from every docs page."""
+    """Return ``(equation, code, page)`` rows from every docs page.
+
+    Raises
+    ------
+    ValueError
+        For a row whose code cell has an odd number of backticks: a ``|``
+        inside a code span (``|p|``) ends a Markdown table cell, which cuts
+        the entry; write ``norm(p)`` or ``abs(x)`` in tables instead.
+    """
     rows = set()
     for page in sorted(DOCS.glob("*.md")):
         if page == INDEX:
             continue
-        for line in page.read_text(encoding="utf-8").splitlines():
+        for number, line in enumerate(page.read_text(encoding="utf-8").splitlines(), start=1):
             match = ROW.match(line)
             if match:
                 eq = re.sub(r"^Eq\.\s*", "", match.group(1)).strip()
-                rows.add((eq, match.group(2).strip(), page.name))
+                code = match.group(2).strip()
+                if code.count("`") % 2:
+                    raise ValueError(
+                        f"{page.name}:{number}: the code cell {code!r} has an unclosed code span "
+                        "(a '|' inside backticks ends a table cell); avoid '|' in table rows"
+                    )
+                rows.add((eq, code, page.name))
     return sorted(rows, key=lambda r: (_sort_key(r[0]), r[1], r[2]))
 
 
