@@ -1,0 +1,691 @@
+"""Dynamics: the index-1 equations, their stabilization, integration and the trajectory.
+
+The accelerations come from the augmented equations (Newton-Euler form)
+
+    [[M, D^T], [D, 0]] [a; lambda] = [Q_e + Q_v; gamma]
+
+solved by the Schur complement ``D M^-1 D^T`` (Cholesky) when ``M`` is
+regular, and as one LU-factorized system when a body has no rotational
+inertia. After every step the state is projected back onto the position
+constraints (Newton, least change in the mass metric) and the velocity
+constraints (mass-weighted); Baumgarte's feedback is the compared option.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+from scipy.linalg import lapack
+
+from core._validation import float_array, positive_integer, real_number, short_repr
+from core.integrators import MAX_STEPS, IntegrationError, integrate
+
+from ._analysis import AssemblyError, analyze_rank, check_constrained_mass, constraints_at, row_label
+from ._elements import Body, Joint, Motor
+from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, matrices, parameter_rates
+from ._system import State, _make_state
+
+__all__ = ["ADAPTIVE_METHODS", "FIXED_STEP_METHODS", "STABILIZATIONS", "MultibodyTrajectory"]
+
+#: scipy's adaptive Runge-Kutta methods, stepped one accepted step at a time.
+ADAPTIVE_METHODS = ("DOP853", "RK45")
+#: The project's fixed-step methods, run through :func:`core.integrators.integrate`.
+FIXED_STEP_METHODS = ("rk4", "midpoint")
+#: Constraint stabilization options of :func:`simulate`.
+STABILIZATIONS = ("projection", "baumgarte", "none")
+
+
+# ------------------------------------------------------------------ model
+class _Dynamics:
+    """The first-order model ``y' = f(t, y)`` of a compiled System, for core.integrators."""
+
+    def __init__(self, system: Any, eng: _Engine, *, stabilization: str, baumgarte: float, position_tol: float):
+        self.system = system
+        self.eng = eng
+        self.state_size = eng.y_size
+        self.alpha = baumgarte if stabilization == "baumgarte" else 0.0
+        self.position_tol = position_tol
+        if stabilization != "projection":
+            self.project = None
+        n = eng.n
+        self._n = n
+        self._n3, self._n7, self._n10 = 3 * n, 7 * n, 10 * n
+        self.output_times: frozenset = frozenset()
+        self.residuals: dict[float, tuple[np.ndarray, float, float]] = {}
+        # With a regular, diagonal M the projection metric is M, so D M^-1 D^T of
+        # the last right-hand side (its Cholesky factor) serves the projection.
+        self._reuse = (stabilization == "projection" and eng.mass_regular and eng.minv_sqrt is not None
+                       and eng.winv_diag is not None and not self.alpha)
+        self._last: tuple | None = None
+
+    def _state(self, t: float, y: np.ndarray) -> State:
+        return _make_state(self.system, t, y)
+
+    def _solve(self, t, y, D, Q, gamma):
+        eng = self.eng
+        try:
+            return eng.solve(t, D, Q, gamma)
+        except _FactorizationFailed:
+            _recheck_rank(eng, t, y)
+            try:
+                return eng.solve(t, D, Q, gamma)
+            except _FactorizationFailed:
+                raise SingularSystemError(
+                    f"the constrained equations became singular at t={t:.6g} although the constraint rows "
+                    "are independent: the constrained mass matrix is singular there", t=t) from None
+
+    def accelerations(self, t: float, y: np.ndarray):
+        """``(a (6n,), lambda (m,), C, D, C_t)`` at ``(t, y)``."""
+        eng = self.eng
+        At, Y, Phi, gam = eng.table(t, y, level=2)
+        C, D, Ct, gamma = eng.constraint_rows(t, Y, Phi, gam, level=2)
+        if self.alpha:
+            al = self.alpha
+            gamma = gamma - 2.0 * al * (D @ y[self._n7 :] + Ct) - al * al * C
+        Q = eng.applied(t, y, At, Y, Phi, self._state)
+        if eng.m:
+            a, lam = self._solve(t, y, D, Q, gamma)
+        else:
+            a, lam = eng.solve(t, np.zeros((0, 6 * eng.n)), Q, np.zeros(0))
+        return a, lam, C, D, Ct
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """``y_dot = [R_dot, p_dot = G_bar^T omega_body / 2, a]`` (Eqs. 8.51-8.54)."""
+        eng = self.eng
+        n, n3, n7, n10 = self._n, self._n3, self._n7, self._n10
+        At, Y, Phi, gam = eng.table(t, y, level=2)
+        C, D, Ct, gamma = eng.constraint_rows(t, Y, Phi, gam, level=2)
+        if self.alpha:
+            al = self.alpha
+            gamma = gamma - 2.0 * al * (D @ y[n7:] + Ct) - al * al * C
+        Q = eng.applied(t, y, At, Y, Phi, self._state)
+        if eng.m:
+            eng.last_factor = None
+            a, _ = self._solve(t, y, D, Q, gamma)
+            if self._reuse:
+                # the projection after this step starts where this evaluation is (FSAL): keep its work
+                self._last = (y, t, np.array(C), np.array(D), np.array(Ct), eng.last_factor)
+        else:
+            a = eng.solve(t, np.zeros((0, 6 * n)), Q, np.zeros(0))[0]
+        return np.concatenate([y[n7:n10], parameter_rates(y[n3:n7].reshape(n, 4), y[n10:].reshape(n, 3)).ravel(), a])
+
+    def _metric_factor(self, Dk: np.ndarray, t: float):
+        eng = self.eng
+        WD = Dk * eng.winv_diag if eng.winv_diag is not None else eng.winv_apply(Dk.T).T
+        c, info = lapack.dpotrf(WD @ Dk.T, lower=0, overwrite_a=1, clean=0)
+        if info != 0:
+            raise _FactorizationFailed(t)
+        return WD, c
+
+    def project(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Newton projection of positions onto ``C(q, t) = 0``, then of velocities onto ``D v + C_t = 0``.
+
+        Both corrections are least-change in the metric ``W`` (the mass
+        matrix): ``dq = -W^-1 D^T (D W^-1 D^T)^-1 C`` applied as ``R +=
+        dR`` and ``p <- (p + G_bar^T dpi_body / 2) / |.|`` (a first-order
+        retraction; Newton stays quadratic) until ``max |C| <=
+        position_tol``; then ``v -= W^-1 D^T (D W^-1 D^T)^-1 (D v + C_t)``,
+        repeated while the residual is above round-off.
+        """
+        eng = self.eng
+        n, n3, n7 = self._n, self._n3, self._n7
+        y_in = y
+        y = np.array(y, dtype=float)
+        P = y[n3:n7].reshape(n, 4)
+        P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
+        if eng.m == 0:
+            return y
+        tol = self.position_tol
+        factor = None
+        prev = math.inf
+        last = self._last
+        self._last = None
+        for it in range(10):
+            if it == 0 and last is not None and last[0] is y_in and last[1] == t and last[5] is not None:
+                _, _, C, D, Ct, c = last
+                factor = (D[eng.keep] if eng.keep is not None else D) * eng.winv_diag, c
+            else:
+                C, D, Ct, _ = constraints_at(eng, t, y, 1)
+                if factor is not None:  # from the previous iterate: O(dq) off, enough for Newton's next step
+                    Dk = D if eng.keep is None else D[eng.keep]
+                    factor = (Dk * eng.winv_diag if eng.winv_diag is not None else eng.winv_apply(Dk.T).T, factor[1])
+            res = float(np.max(np.abs(C)))
+            if res <= tol or (it and res <= 1e-8 and res > 0.25 * prev):
+                break  # converged, or at the round-off floor
+            if it == 9 or not math.isfinite(res):
+                raise IntegrationError(
+                    f"projection onto the constraints did not converge at t={t:.6g} (residual {res:.3e}); "
+                    "tighten the tolerances or reduce the step", t=t)
+            keep = eng.keep
+            Dk = D if keep is None else D[keep]
+            if factor is None or it:
+                try:
+                    factor = self._metric_factor(Dk, t)
+                except _FactorizationFailed:
+                    _recheck_rank(eng, t, y)
+                    continue
+            WD, c = factor
+            mu, _ = lapack.dpotrs(c, C if keep is None else C[keep], lower=0)
+            dq = WD.T @ mu
+            # first-order retraction R -= dR, p <- (p - G_bar^T dpi / 2) / |.|: Newton stays quadratic
+            y[:n3] -= dq[:n3]
+            P = y[n3:n7].reshape(n, 4)
+            P -= parameter_rates(P, dq[n3:].reshape(n, 3))
+            P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
+            prev = res
+        keep = eng.keep
+        Dk = D if keep is None else D[keep]
+        Ctk = Ct if keep is None else Ct[keep]
+        if factor is None:
+            factor = self._metric_factor(Dk, t)
+        WD, c = factor
+        v = y[n7:]
+        scale = 1.0 + float(np.max(np.abs(v)))
+        for _ in range(4):  # the factor may be from before the last Newton step: repeat until round-off
+            r = Dk @ v + Ctk
+            if float(np.max(np.abs(r))) <= 4e-16 * scale * max(1.0, float(np.max(np.abs(Dk)))):
+                break
+            mu, _ = lapack.dpotrs(c, r, lower=0)
+            v = v - WD.T @ mu
+        y[n7:] = v
+        if t in self.output_times:
+            rv = float(np.max(np.abs(D @ v + Ct)))
+            self.residuals[t] = (y.copy(), res, rv)
+        return y
+
+
+def _recheck_rank(eng: _Engine, t: float, y: np.ndarray) -> None:
+    """After a failed factorization: new independent rows, or a clear error if the rank dropped."""
+    old_rank = eng.rank
+    old_keep = eng.keep
+    keep = analyze_rank(eng, t, y)
+    if keep.size < old_rank:
+        before = set(range(eng.m)) if old_keep is None else set(old_keep.tolist())
+        lost = sorted(before - set(keep.tolist()))
+        names = "; ".join(row_label(eng, r) for r in lost) or "?"
+        raise SingularSystemError(
+            f"the constraint Jacobian lost rank at t={t:.6g} (rank {keep.size} < {old_rank}): the mechanism "
+            f"reached a singular configuration; dependent rows: {names}", t=t)
+
+
+# ------------------------------------------------------------------ outputs
+def _energy(eng: _Engine, states: np.ndarray) -> np.ndarray:
+    """Kinetic + gravitational + spring energy (N,) of states (N, 13n), batched over the outputs."""
+    n = eng.n
+    N = states.shape[0]
+    R = states[:, : 3 * n].reshape(N, n, 3)
+    P = states[:, 3 * n : 7 * n].reshape(N, n, 4)
+    Rd = states[:, 7 * n : 10 * n].reshape(N, n, 3)
+    W = states[:, 10 * n :].reshape(N, n, 3)
+    e = 0.5 * np.einsum("k,nki,nki->n", eng.mass, Rd, Rd) + 0.5 * np.einsum("nki,kij,nkj->n", W, eng.inertia, W)
+    e -= np.einsum("k,nki,i->n", eng.mass, R, eng.gravity)
+    if eng.n_sp or eng.n_rs:
+        A = matrices(P.reshape(N * n, 4)).reshape(N, n, 3, 3)
+
+        def point(body, u, h):
+            if body.index < 0:
+                return np.broadcast_to(u, (N, 3))
+            return h * R[:, body.index] + A[:, body.index] @ u
+
+        for k, sp in enumerate(eng.springs):
+            d = point(sp.body_j, sp._local["u_j"], 1.0) - point(sp.body_i, sp._local["u_i"], 1.0)
+            L = np.sqrt(np.einsum("ni,ni->n", d, d))
+            e += 0.5 * eng.sp_k[k] * (L - eng.sp_L0[k]) ** 2
+        for k, rs in enumerate(eng.rot_springs):
+            jt = rs.joint
+            L = jt._local
+            f_i = point(jt.body_i, L["f_i"], 0.0)
+            g_i = point(jt.body_i, L["g_i"], 0.0)
+            f_j = point(jt.body_j, L["f_j"], 0.0)
+            P1 = np.einsum("ni,ni->n", g_i, f_j)
+            P2 = np.einsum("ni,ni->n", f_i, f_j)
+            a0 = eng.rs_0[k]
+            d = np.arctan2(P1 * math.cos(a0) - P2 * math.sin(a0), P2 * math.cos(a0) + P1 * math.sin(a0))
+            e += 0.5 * eng.rs_k[k] * d**2
+    return e
+
+
+def _residuals(model: _Dynamics, ts: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """max |C| and max |D v + C_t| per output; taken from the output projections where they ran."""
+    eng = model.eng
+    N = ts.size
+    res_p = np.zeros(N)
+    res_v = np.zeros(N)
+    if eng.m == 0:
+        return res_p, res_v
+    n7 = 7 * eng.n
+    for k in range(N):
+        t, y = float(ts[k]), states[k]
+        hit = model.residuals.get(t)
+        if hit is not None and np.array_equal(hit[0], y):
+            res_p[k], res_v[k] = hit[1], hit[2]
+            continue
+        C, D, Ct, _ = constraints_at(eng, t, y, 1)
+        res_p[k] = float(np.max(np.abs(C)))
+        res_v[k] = float(np.max(np.abs(D @ y[n7:] + Ct)))
+    return res_p, res_v
+
+
+def _reaction_tables(eng: _Engine) -> dict:
+    items = list(eng.joints) + list(eng.motors)
+    k = len(items)
+    inc = np.zeros((k, eng.m))
+    body = np.zeros(k, dtype=np.intp)
+    sign = np.ones(k)
+    u = np.zeros((k, 3))
+    fixed_point = np.zeros((k, 3))
+    for idx, item in enumerate(items):
+        jt = item if isinstance(item, Joint) else item.joint
+        if isinstance(item, Joint):
+            inc[idx, eng.joint_rows[idx]] = 1.0
+            for mt in eng.motors:
+                if mt.joint is jt:
+                    inc[idx, eng.motor_rows[mt]] = 1.0
+        else:
+            inc[idx, eng.motor_rows[item]] = 1.0
+        if jt.body_j.is_ground:
+            body[idx] = jt.body_i.index
+            sign[idx] = -1.0
+            fixed_point[idx] = jt._local["u_j"]
+        else:
+            body[idx] = jt.body_j.index
+            u[idx] = jt._local["u_j"]
+    n = eng.n
+    return {
+        "items": {item: idx for idx, item in enumerate(items)},
+        "inc": inc,
+        "body": body,
+        "sign": sign,
+        "u": u,
+        "fixed": fixed_point,
+        "fcols": 3 * body[:, None] + np.arange(3)[None, :],
+        "tcols": 3 * n + 3 * body[:, None] + np.arange(3)[None, :],
+        "ground_j": sign < 0,
+    }
+
+
+def _multipliers_and_reactions(model: _Dynamics, ts: np.ndarray, states: np.ndarray):
+    """Multipliers (N, m) and reactions (N, k, 6) [force, torque about the joint point] at the outputs."""
+    eng = model.eng
+    n, m = eng.n, eng.m
+    tabs = _reaction_tables(eng)
+    k_items = len(tabs["items"])
+    N = ts.size
+    lam_out = np.zeros((N, m))
+    F = np.zeros((N, k_items, 3))
+    nb = np.zeros((N, k_items, 3))
+    rows = np.arange(k_items)[:, None]
+    for idx in range(N):
+        _, lam, _, D, _ = model.accelerations(float(ts[idx]), states[idx])
+        lam_out[idx] = lam
+        if k_items and m:
+            G = -(tabs["inc"] * lam) @ D  # (k, 6n) generalized constraint forces per item
+            F[idx] = G[rows, tabs["fcols"]]
+            nb[idx] = G[rows, tabs["tcols"]]
+    react = np.zeros((N, k_items, 6))
+    if k_items and m:
+        b = tabs["body"]
+        P = states[:, 3 * n : 7 * n].reshape(N, n, 4)[:, b]
+        Ab = matrices(P.reshape(-1, 4)).reshape(N, k_items, 3, 3)
+        n_glob = np.einsum("nkij,nkj->nki", Ab, nb)
+        R = states[:, : 3 * n].reshape(N, n, 3)[:, b]
+        lever = np.where(tabs["ground_j"][None, :, None], tabs["fixed"][None] - R, np.einsum("nkij,kj->nki", Ab, tabs["u"]))
+        T = n_glob - cross(lever.reshape(-1, 3), F.reshape(-1, 3)).reshape(N, k_items, 3)
+        s = tabs["sign"][None, :, None]
+        react[:, :, 0:3] = s * F
+        react[:, :, 3:6] = s * T
+    return lam_out, react, tabs["items"]
+
+
+# ------------------------------------------------------------------ result
+def _ro(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class MultibodyTrajectory:
+    """Result of :meth:`System.simulate`: states and derived quantities at the output times.
+
+    All arrays are read-only, ``(n_times, ...)``. The multipliers and
+    reactions need one solve of the equations of motion per output time;
+    they are computed on first use (:attr:`multipliers`,
+    :meth:`reaction`) and kept.
+
+    Attributes
+    ----------
+    t : (n,) output times (s).
+    q : (n, 7 nb) ``[R (3 nb) | p (4 nb)]`` per time (see :class:`State`).
+    v : (n, 6 nb) ``[R_dot (3 nb) | omega_body (3 nb)]`` per time.
+    energy : (n,) kinetic + gravitational + spring potential energy (J);
+        constant without dampers, motors and user loads.
+    residual_position : (n,) ``max |C(q, t)|`` over all constraint rows
+        (m for point rows, dimensionless for direction rows).
+    residual_velocity : (n,) ``max |D v + C_t|`` (m/s for point rows, 1/s
+        for direction rows).
+    method : str
+    stabilization : str
+    n_steps : int
+        Accepted steps.
+    n_rhs : int
+        Right-hand-side evaluations of the integrator (projections and
+        output evaluations not counted).
+    """
+
+    t: np.ndarray  # (n,)
+    q: np.ndarray = field(repr=False)  # (n, 7 nb)
+    v: np.ndarray = field(repr=False)  # (n, 6 nb)
+    energy: np.ndarray = field(repr=False)  # (n,)
+    residual_position: np.ndarray = field(repr=False)  # (n,)
+    residual_velocity: np.ndarray = field(repr=False)  # (n,)
+    method: str
+    stabilization: str
+    n_steps: int
+    n_rhs: int
+    _model: Any = field(repr=False, compare=False)
+    _owner: Any = field(repr=False, compare=False)
+    _cache: dict = field(repr=False, compare=False, default_factory=dict)
+    _lock: Any = field(repr=False, compare=False, default_factory=threading.Lock)
+
+    @property
+    def n_bodies(self) -> int:
+        """Number of bodies the trajectory describes."""
+        return self.v.shape[1] // 6
+
+    def _loads(self) -> tuple[np.ndarray, np.ndarray, Mapping[Any, int]]:
+        with self._lock:
+            if "lam" not in self._cache:
+                states = np.concatenate([self.q, self.v], axis=1)
+                lam, react, items = _multipliers_and_reactions(self._model, self.t, states)
+                self._cache["items"] = MappingProxyType(dict(items))
+                self._cache["react"] = _ro(react)
+                self._cache["lam"] = _ro(lam)
+            return self._cache["lam"], self._cache["react"], self._cache["items"]
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        """(n, m) Lagrange multipliers of the constraint rows (zero for rows found redundant)."""
+        return self._loads()[0]
+
+    def _index(self, body: Any) -> int:
+        if not isinstance(body, Body):
+            raise ValueError(f"body: expected a Body, got {short_repr(body)}")
+        if body._owner is not self._owner:
+            raise ValueError(f"body: {body.name!r} belongs to another System than this trajectory")
+        if body.index >= self.n_bodies:
+            raise ValueError(
+                f"body: {body.name!r} was added after this trajectory was computed; it is not in the trajectory"
+            )
+        return body.index
+
+    def position(self, body: Body) -> np.ndarray:
+        """(n, 3) centre of mass of ``body``, global (m)."""
+        i = self._index(body)
+        if i < 0:
+            return np.zeros((self.t.size, 3))
+        return self.q[:, 3 * i : 3 * i + 3].copy()
+
+    def orientation(self, body: Body) -> np.ndarray:
+        """(n, 4) Euler parameters of ``body``, scalar first (viser's wxyz)."""
+        i = self._index(body)
+        if i < 0:
+            return np.tile([1.0, 0.0, 0.0, 0.0], (self.t.size, 1))
+        nb = self.n_bodies
+        return self.q[:, 3 * nb + 4 * i : 3 * nb + 4 * i + 4].copy()
+
+    def velocity(self, body: Body) -> np.ndarray:
+        """(n, 3) velocity of the centre of mass, global (m/s)."""
+        i = self._index(body)
+        if i < 0:
+            return np.zeros((self.t.size, 3))
+        return self.v[:, 3 * i : 3 * i + 3].copy()
+
+    def omega_body(self, body: Body) -> np.ndarray:
+        """(n, 3) angular velocity in the body frame (rad/s)."""
+        i = self._index(body)
+        if i < 0:
+            return np.zeros((self.t.size, 3))
+        nb = self.n_bodies
+        return self.v[:, 3 * nb + 3 * i : 3 * nb + 3 * i + 3].copy()
+
+    def omega(self, body: Body) -> np.ndarray:
+        """(n, 3) angular velocity in the global frame (rad/s)."""
+        i = self._index(body)
+        if i < 0:
+            return np.zeros((self.t.size, 3))
+        A = matrices(self.orientation(body))
+        return np.einsum("nij,nj->ni", A, self.omega_body(body))
+
+    def reaction(self, item: Joint | Motor, *, frame: str = "global") -> tuple[np.ndarray, np.ndarray]:
+        """Force and torque the joint (or motor) applies to its ``body_j`` at the joint point.
+
+        From the multipliers: the generalized constraint forces ``-D^T
+        lambda`` of the item's rows, on ``body_j``, as a force and a torque
+        about the joint point fixed in ``body_j``. For a joint, its own rows
+        plus those of the motors driving it (the whole load it transmits);
+        for a motor, only the motor's row (the driving torque or force). The
+        load on ``body_i`` is the opposite, about the same point. When
+        ``body_j`` is the ground it is computed from ``body_i``'s share.
+
+        Parameters
+        ----------
+        item : Joint or Motor
+        frame : ``"global"`` (default) or ``"body"`` (``body_j``'s frame;
+            the global frame when ``body_j`` is the ground), keyword-only.
+
+        Returns
+        -------
+        force : (n, 3) N
+        torque : (n, 3) N m
+        """
+        if not isinstance(item, (Joint, Motor)):
+            raise ValueError(f"item: expected a Joint or Motor, got {short_repr(item)}")
+        if item._owner is not self._owner:
+            raise ValueError(f"item: {item.name!r} belongs to another System than this trajectory")
+        if frame not in ("global", "body"):
+            raise ValueError(f"frame: expected 'global' or 'body', got {short_repr(frame)}")
+        _, react, items = self._loads()
+        if item not in items:
+            raise ValueError(f"item: {item.name!r} was added after this trajectory was computed")
+        k = items[item]
+        F = react[:, k, 0:3].copy()
+        T = react[:, k, 3:6].copy()
+        jt = item if isinstance(item, Joint) else item.joint
+        if frame == "body" and not jt.body_j.is_ground:
+            A = matrices(self.orientation(jt.body_j))
+            F = np.einsum("nji,nj->ni", A, F)
+            T = np.einsum("nji,nj->ni", A, T)
+        return F, T
+
+    def state(self, index: int) -> State:
+        """The :class:`State` at output ``index`` (negative counts from the end)."""
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise ValueError(f"index: expected an integer, got {short_repr(index)}")
+        n = self.t.size
+        if not -n <= index < n:
+            raise ValueError(f"index: expected -{n} <= index < {n}, got {index}")
+        return _make_state(self._owner, float(self.t[index]), np.concatenate([self.q[index], self.v[index]]))
+
+
+# ------------------------------------------------------------------ simulate
+def _times(t: Any) -> np.ndarray:
+    tt = float_array(t, "t", expected="a 1-D array of output times", copy=True)
+    if tt.ndim == 0:
+        tt = tt.reshape(1)
+    if tt.ndim != 1 or tt.size == 0:
+        raise ValueError(f"t: expected a non-empty 1-D array of output times, got shape {tt.shape}")
+    if not np.all(np.isfinite(tt)):
+        raise ValueError("t: expected finite times")
+    if np.any(np.diff(tt) < 0.0):
+        raise ValueError("t: expected non-decreasing times")
+    return tt
+
+
+def simulate(
+    system: Any,
+    t: Any,
+    *,
+    method: str = "DOP853",
+    rtol: float | None = None,
+    atol: float | None = None,
+    dt: float | None = None,
+    stabilization: str = "projection",
+    baumgarte: float = 20.0,
+    position_tol: float = 1e-12,
+    max_steps: int = MAX_STEPS,
+) -> MultibodyTrajectory:
+    """Integrate the constrained equations of motion from the System's current state.
+
+    The current state is taken as the state at ``t[0]``; it must satisfy
+    the constraints (to 1e-8; call :meth:`System.assemble` first). The
+    System is not changed.
+
+    Parameters
+    ----------
+    system : System
+    t : (n,) non-decreasing output times (s).
+    method : str, keyword-only
+        ``"DOP853"`` (default, order 8) or ``"RK45"`` (order 5): scipy's
+        adaptive methods, stepped one accepted step at a time, outputs by
+        dense output; ``"rk4"`` or ``"midpoint"``: fixed steps of at most
+        ``dt`` through :func:`core.integrators.integrate`.
+    rtol, atol : float, keyword-only
+        Adaptive methods: scipy's tolerances (default 1e-8 and 1e-10).
+    dt : float, keyword-only
+        Fixed-step methods: the largest step (required).
+    stabilization : str, keyword-only
+        ``"projection"`` (default): Newton projection of positions and
+        mass-weighted projection of velocities after every step and at
+        every output; ``"baumgarte"``: feedback ``gamma - 2 alpha (D v +
+        C_t) - alpha^2 C`` (critically damped), no projection;
+        ``"none"``: the bare index-1 equations (the residuals drift).
+    baumgarte : float, keyword-only
+        ``alpha`` of Baumgarte's feedback (rad/s, > 0).
+    position_tol : float, keyword-only
+        Newton tolerance of the position projection, ``max |C|``.
+    max_steps : int, keyword-only
+        Limit on steps (fixed) or right-hand-side evaluations (adaptive).
+
+    Returns
+    -------
+    MultibodyTrajectory
+
+    Raises
+    ------
+    ValueError
+        For bad options or times; ``AssemblyError`` when the state does not
+        satisfy the constraints; ``SingularSystemError`` when the
+        constrained equations are singular; ``IntegrationError`` when the
+        integrator fails.
+    """
+    tt = _times(t)
+    if not isinstance(method, str) or method not in ADAPTIVE_METHODS + FIXED_STEP_METHODS:
+        raise ValueError(f"method: expected one of {list(ADAPTIVE_METHODS + FIXED_STEP_METHODS)}, got {short_repr(method)}")
+    adaptive = method in ADAPTIVE_METHODS
+    if adaptive:
+        if dt is not None:
+            raise ValueError(f"dt: adaptive method '{method}' takes rtol/atol, not dt (got dt={dt!r})")
+        rtol = 1e-8 if rtol is None else real_number(rtol, "rtol", expected="a finite tolerance > 0")
+        atol = 1e-10 if atol is None else real_number(atol, "atol", expected="a finite tolerance > 0")
+        if not (rtol > 0 and atol > 0):
+            raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}")
+    else:
+        if rtol is not None or atol is not None:
+            raise ValueError(f"rtol, atol: fixed-step method '{method}' takes dt, not tolerances")
+        if dt is None:
+            raise ValueError(f"dt: method '{method}' needs a finite step dt > 0, got None")
+        dt = real_number(dt, "dt", expected="a finite step dt > 0")
+        if not dt > 0:
+            raise ValueError(f"dt: expected a finite step dt > 0, got {dt!r}")
+    if not isinstance(stabilization, str) or stabilization not in STABILIZATIONS:
+        raise ValueError(f"stabilization: expected one of {list(STABILIZATIONS)}, got {short_repr(stabilization)}")
+    baumgarte = real_number(baumgarte, "baumgarte", expected="a finite rate > 0 (rad/s)")
+    if not baumgarte > 0:
+        raise ValueError(f"baumgarte: expected a finite rate > 0 (rad/s), got {baumgarte!r}")
+    position_tol = real_number(position_tol, "position_tol", expected="a finite tolerance > 0")
+    if not position_tol > 0:
+        raise ValueError(f"position_tol: expected a finite tolerance > 0, got {position_tol!r}")
+    max_steps = positive_integer(max_steps, "max_steps")
+
+    shared = system._engine()
+    n = shared.n
+    if n == 0:
+        raise ValueError("system: has no bodies to simulate (add_body first)")
+    t0 = float(tt[0])
+    y0 = np.array(system._y)
+    if shared.m:
+        C, D, Ct, _ = constraints_at(shared, t0, y0, 1)
+        res_p = float(np.max(np.abs(C)))
+        rv = np.array(D) @ y0[7 * n :] + Ct
+        res_v = float(np.max(np.abs(rv)))
+        limit = max(1e-8, 1e3 * position_tol)
+        if res_p > limit or res_v > limit * (1.0 + float(np.max(np.abs(y0[7 * n :])))):
+            r = int(np.argmax(np.abs(C))) if res_p > limit else int(np.argmax(np.abs(rv)))
+            raise AssemblyError(
+                f"simulate: the current state violates the constraints at t={t0:g} (position residual "
+                f"{res_p:.3e}, velocity residual {res_v:.3e}; largest in {row_label(shared, r)}); "
+                f"call system.assemble(t={t0:g}) first"
+            )
+        if not shared.analyzed:
+            analyze_rank(shared, t0, y0)
+    else:
+        shared.analyzed = True
+    check_constrained_mass(shared, t0, y0)
+    eng = shared.workspace()
+    model = _Dynamics(system, eng, stabilization=stabilization, baumgarte=baumgarte, position_tol=position_tol)
+    if model.project is not None:
+        model.output_times = frozenset(float(x) for x in tt)
+        y0 = model.project(t0, y0)
+
+    n_steps = n_rhs = 0
+    if tt[-1] == t0:
+        states = np.tile(y0, (tt.size, 1))
+    elif adaptive:
+        res = integrate(model, y0, (t0, float(tt[-1])), method=method, rtol=rtol, atol=atol, t_eval=tt,
+                        max_steps=max_steps)
+        states = np.array(res.states)
+        n_steps, n_rhs = res.n_steps, res.n_rhs
+    else:
+        gaps = np.diff(tt)
+        counts = np.where(gaps > 0, np.ceil(gaps / dt - 1e-9), 0).astype(np.int64)
+        counts[(gaps > 0) & (counts < 1)] = 1
+        if int(counts.sum()) > max_steps:
+            raise ValueError(
+                f"dt: the output times with dt={dt:g} need {int(counts.sum())} steps, more than "
+                f"max_steps={max_steps}; use a larger dt or pass a larger max_steps"
+            )
+        states = np.empty((tt.size, y0.size))
+        states[0] = y0
+        y = y0
+        for k in range(1, tt.size):
+            if counts[k - 1]:
+                res = integrate(model, y, (float(tt[k - 1]), float(tt[k])), method=method,
+                                dt=float(gaps[k - 1] / counts[k - 1]), save_every=int(counts[k - 1]),
+                                max_steps=max_steps)
+                y = np.array(res.states[-1])
+                n_steps += res.n_steps
+                n_rhs += res.n_rhs
+            states[k] = y
+    res_p, res_v = _residuals(model, tt, states)
+    model.residuals = {}
+    return MultibodyTrajectory(
+        t=_ro(tt),
+        q=_ro(states[:, : 7 * n]),
+        v=_ro(states[:, 7 * n :]),
+        energy=_ro(_energy(eng, states)),
+        residual_position=_ro(res_p),
+        residual_velocity=_ro(res_v),
+        method=method,
+        stabilization=stabilization,
+        n_steps=int(n_steps),
+        n_rhs=int(n_rhs),
+        _model=model,
+        _owner=system,
+    )

@@ -1,0 +1,995 @@
+"""The System: bodies, joints, drivers and forces added by kind, and the current state.
+
+A :class:`System` is the *model* (constant items added with ``add_*``) plus
+one *current state* ``(t, q, v)``: the configuration and velocities that
+``add_joint`` and friends read their global points in, that
+:meth:`System.assemble` and :meth:`System.equilibrium` update and that
+:meth:`System.simulate` starts from. Results of analyses are separate frozen
+objects (:class:`~core.multibody.MultibodyTrajectory`,
+:class:`~core.multibody.AssemblyReport`, ...); a simulation never changes
+the System. This is MuJoCo's model/data split with the data's one
+persistent state kept on the System.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from core._validation import float_array, real_number, short_repr
+from core.rotations import UNIT_NORM_TOL
+
+from ._drivers import driver_function
+from ._elements import (
+    JOINT_KINDS,
+    Body,
+    Force,
+    Joint,
+    Motor,
+    RotationalSpringDamper,
+    SpringDamper,
+    Torque,
+)
+from ._engine import _Engine, matrices
+
+__all__ = ["INERTIA_TRIANGLE_TOL", "PERPENDICULAR_TOL", "State", "System"]
+
+#: Relative tolerance of the triangle inequality of principal moments:
+#: ``J3 - (J1 + J2) <= INERTIA_TRIANGLE_TOL * J3`` (as in core.rigid_body).
+INERTIA_TRIANGLE_TOL = 1e-12
+
+#: Largest ``|cos|`` of the angle between the two cross arms of a universal
+#: joint (they must be perpendicular).
+PERPENDICULAR_TOL = 1e-6
+
+
+# ------------------------------------------------------------- validation
+def _vector(x: Any, name: str, size: int = 3) -> np.ndarray:
+    a = float_array(x, name, expected=f"a ({size},) vector of real numbers", copy=True)
+    if a.shape != (size,):
+        raise ValueError(f"{name}: expected shape ({size},), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected finite values, got {a.tolist()}")
+    return a
+
+
+def _unit_axis(x: Any, name: str) -> np.ndarray:
+    a = _vector(x, name)
+    big = float(np.max(np.abs(a)))
+    if big == 0.0:
+        raise ValueError(f"{name}: expected a nonzero axis, got {a.tolist()}")
+    a = a / big  # scaled first: tiny and huge axes keep their direction
+    return a / float(np.linalg.norm(a))
+
+
+def _check_inertia(inertia: Any) -> np.ndarray:
+    a = float_array(inertia, "inertia", expected="principal moments (3,) or a (3, 3) tensor of real numbers", copy=True)
+    if a.shape == (3,):
+        a = np.diag(a)
+    if a.shape != (3, 3):
+        raise ValueError(f"inertia: expected principal moments (3,) or a tensor (3, 3), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"inertia: expected finite values, got {a.tolist()}")
+    scale = float(np.max(np.abs(a)))
+    if np.max(np.abs(a - a.T)) > 1e-12 * scale:
+        raise ValueError(f"inertia: expected a symmetric tensor, got {a.tolist()}")
+    a = 0.5 * (a + a.T)
+    w = np.linalg.eigvalsh(a)
+    if w[0] < -1e-12 * scale:
+        raise ValueError(
+            f"inertia: expected principal moments >= 0 (zero: a point mass), got moments {w.tolist()}"
+        )
+    if w[2] - (w[0] + w[1]) > INERTIA_TRIANGLE_TOL * w[2]:
+        raise ValueError(
+            "inertia: expected principal moments that satisfy the triangle inequality J1 + J2 >= J3 "
+            f"(no mass distribution has one moment larger than the sum of the other two), got moments {w.tolist()}"
+        )
+    if w[0] < 0.0:
+        # within round-off of zero: snap the tiny negative moment to zero
+        vals, vecs = np.linalg.eigh(a)
+        a = (vecs * np.maximum(vals, 0.0)) @ vecs.T
+        a = 0.5 * (a + a.T)
+    return a
+
+
+def _positive(x: Any, name: str, *, allow_zero: bool) -> float:
+    bound = ">= 0" if allow_zero else "> 0"
+    v = real_number(x, name, expected=f"a finite number {bound}")
+    if v < 0.0 or (v == 0.0 and not allow_zero):
+        raise ValueError(f"{name}: expected a finite number {bound}, got {v!r}")
+    return v
+
+
+def _unit_parameters(p: Any) -> np.ndarray:
+    a = _vector(p, "orientation", 4)
+    norm = float(np.linalg.norm(a))
+    if abs(norm - 1.0) > UNIT_NORM_TOL:
+        raise ValueError(
+            f"orientation: expected unit Euler parameters (theta0, theta1, theta2, theta3), scalar first "
+            f"(| |p| - 1 | <= {UNIT_NORM_TOL:g}), got norm {norm!r}; renormalize with "
+            "core.rotations.normalize_euler_parameters"
+        )
+    return a / norm
+
+
+def _check_name(name: Any, taken: set[str], what: str) -> str:
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name: expected a non-empty string, got {short_repr(name)}")
+    if name in taken:
+        raise ValueError(f"name: a {what} named {name!r} already exists in this System")
+    return name
+
+
+def _perpendicular(h: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to the unit vector h (deterministic)."""
+    e = np.zeros(3)
+    e[int(np.argmin(np.abs(h)))] = 1.0
+    f = e - (e @ h) * h
+    return f / np.linalg.norm(f)
+
+
+# ------------------------------------------------------------------ state
+@dataclass(frozen=True, eq=False)
+class State:
+    """The state ``(t, q, v)`` of a System's bodies (a read-only snapshot).
+
+    Layout for ``n`` bodies (ground excluded), in the order they were added::
+
+        q = [R (3n) | p (4n)]            centres of mass (global, m); Euler
+                                         parameters (scalar first, unit)
+        v = [R_dot (3n) | omega_body (3n)]  global velocities (m/s); body-frame
+                                         angular velocities (rad/s)
+
+    The accessors take a body handle and return copies.
+
+    Attributes
+    ----------
+    t : float
+        Time (s).
+    q : (7n,) ndarray
+    v : (6n,) ndarray
+    """
+
+    t: float
+    q: np.ndarray = field(repr=False)  # (7n,)
+    v: np.ndarray = field(repr=False)  # (6n,)
+    _owner: Any = field(repr=False, compare=False)
+
+    @property
+    def n_bodies(self) -> int:
+        """Number of bodies (ground excluded) the state describes."""
+        return self.v.shape[0] // 6
+
+    def _index(self, body: Any) -> int:
+        if not isinstance(body, Body):
+            raise ValueError(f"body: expected a Body, got {short_repr(body)}")
+        if body._owner is not self._owner:
+            raise ValueError(f"body: {body.name!r} belongs to another System than this state")
+        if body.index >= self.n_bodies:
+            raise ValueError(
+                f"body: {body.name!r} was added after this state was taken; the state does not know it"
+            )
+        return body.index
+
+    def position(self, body: Body) -> np.ndarray:
+        """(3,) centre of mass R of ``body``, global (m); the origin for the ground."""
+        i = self._index(body)
+        return np.zeros(3) if i < 0 else self.q[3 * i : 3 * i + 3].copy()
+
+    def orientation(self, body: Body) -> np.ndarray:
+        """(4,) Euler parameters of ``body`` (scalar first, unit); ``(1, 0, 0, 0)`` for the ground."""
+        i = self._index(body)
+        if i < 0:
+            return np.array([1.0, 0.0, 0.0, 0.0])
+        n = self.n_bodies
+        p = self.q[3 * n + 4 * i : 3 * n + 4 * i + 4]
+        return p / np.linalg.norm(p)
+
+    def velocity(self, body: Body) -> np.ndarray:
+        """(3,) velocity of the centre of mass, global (m/s)."""
+        i = self._index(body)
+        return np.zeros(3) if i < 0 else self.v[3 * i : 3 * i + 3].copy()
+
+    def omega_body(self, body: Body) -> np.ndarray:
+        """(3,) angular velocity in the body frame (the chapter's omega-bar, rad/s)."""
+        i = self._index(body)
+        n = self.n_bodies
+        return np.zeros(3) if i < 0 else self.v[3 * n + 3 * i : 3 * n + 3 * i + 3].copy()
+
+    def omega(self, body: Body) -> np.ndarray:
+        """(3,) angular velocity in the global frame (rad/s): ``A(p) omega_body``."""
+        i = self._index(body)
+        if i < 0:
+            return np.zeros(3)
+        return matrices(self.orientation(body)[None])[0] @ self.omega_body(body)
+
+    def rotation_matrix(self, body: Body) -> np.ndarray:
+        """(3, 3) rotation matrix A of ``body`` (body to global, Eq. 8.48)."""
+        return matrices(self.orientation(body)[None])[0]
+
+    def point(self, body: Body, u_body: Any) -> np.ndarray:
+        """(3,) global position ``R + A u_body`` of a point given in the body frame."""
+        u = _vector(u_body, "u_body")
+        return self.position(body) + self.rotation_matrix(body) @ u
+
+    def displaced(self, dq: Any = None, dv: Any = None) -> State:
+        """A new state moved by tangent-space increments.
+
+        Parameters
+        ----------
+        dq : (6n,) or None
+            ``[dR (3n) | dpi_body (3n)]``: translations (global, m) and small
+            rotations (body frame, rad); the Euler parameters become
+            ``p * exp(dpi_body / 2)`` (quaternion product, exact).
+        dv : (6n,) or None
+            Added to ``v``.
+
+        Returns
+        -------
+        State
+            Same time, same System.
+        """
+        n = self.n_bodies
+        y = np.concatenate([self.q, self.v])
+        if dq is not None:
+            d = float_array(dq, "dq", copy=True)
+            if d.shape != (6 * n,):
+                raise ValueError(f"dq: expected shape ({6 * n},), got {d.shape}")
+            y = retract(y, n, d)
+        if dv is not None:
+            d = float_array(dv, "dv", copy=True)
+            if d.shape != (6 * n,):
+                raise ValueError(f"dv: expected shape ({6 * n},), got {d.shape}")
+            y[7 * n :] += d
+        return _make_state(self._owner, self.t, y)
+
+
+def _make_state(owner: Any, t: float, y: np.ndarray) -> State:
+    n = y.shape[0] // 13
+    q = np.array(y[: 7 * n])
+    v = np.array(y[7 * n :])
+    q.setflags(write=False)
+    v.setflags(write=False)
+    return State(float(t), q, v, owner)
+
+
+def exp_parameters(phi: np.ndarray) -> np.ndarray:
+    """Euler parameters (k, 4) of rotation vectors phi (k, 3): ``(cos(|phi|/2), sin(|phi|/2) phi/|phi|)``."""
+    ang = np.sqrt(np.einsum("ki,ki->k", phi, phi))
+    half = 0.5 * ang
+    # sin(x/2)/x, accurate near 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sinc = np.where(ang > 1e-4, np.sin(half) / np.where(ang > 0, ang, 1.0), 0.5 - ang * ang / 48.0)
+    return np.concatenate([np.cos(half)[:, None], sinc[:, None] * phi], axis=1)
+
+
+def quaternion_products(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products (k, 4) of (k, 4) arrays, scalar first (Eqs. 8.69-8.72)."""
+    w1, x1, y1, z1 = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
+    w2, x2, y2, z2 = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
+    return np.stack(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ],
+        axis=1,
+    )
+
+
+def retract(y: np.ndarray, n: int, dq: np.ndarray) -> np.ndarray:
+    """``y`` (13n,) moved by tangent increments dq = [dR (3n) | dpi_body (3n)] (new array, unit p)."""
+    out = np.array(y, dtype=float)
+    out[: 3 * n] += dq[: 3 * n]
+    P = out[3 * n : 7 * n].reshape(n, 4)
+    P = quaternion_products(P, exp_parameters(dq[3 * n : 6 * n].reshape(n, 3)))
+    P /= np.linalg.norm(P, axis=1)[:, None]
+    out[3 * n : 7 * n] = P.ravel()
+    return out
+
+
+# ------------------------------------------------------------------ system
+class System:
+    """A constrained multibody system in absolute coordinates (R, Euler parameters).
+
+    Items are added by kind: :meth:`add_body`, :meth:`add_joint`,
+    :meth:`add_motor`, :meth:`add_spring_damper`,
+    :meth:`add_rotational_spring_damper`, :meth:`add_force`,
+    :meth:`add_torque`. Global points and axes are read in the System's
+    current configuration (the current state). Analyses:
+    :meth:`assemble` (Newton onto the constraints), :meth:`equilibrium`
+    (statics), :meth:`simulate` (dynamics; returns a
+    :class:`~core.multibody.MultibodyTrajectory` and leaves the System
+    unchanged), :meth:`evaluate` (all matrices of the equations of motion
+    at the current state).
+
+    Parameters
+    ----------
+    gravity : (3,) array_like, keyword-only
+        Gravitational acceleration, global (m/s^2). Default ``(0, 0, -9.81)``
+        (global +Z is up).
+    """
+
+    def __init__(self, *, gravity: Any = (0.0, 0.0, -9.81)):
+        self.gravity = _vector(gravity, "gravity")
+        self.gravity.setflags(write=False)
+        self._bodies: list[Body] = []
+        self._joints: list[Joint] = []
+        self._motors: list[Motor] = []
+        self._springs: list[SpringDamper] = []
+        self._rot_springs: list[RotationalSpringDamper] = []
+        self._forces: list[Force] = []
+        self._torques: list[Torque] = []
+        self._names: dict[str, set[str]] = {"body": {"ground"}, "joint": set(), "item": set()}
+        self._y = np.zeros(0)
+        self._t = 0.0
+        self._engine_cache: _Engine | None = None
+        self.ground = Body("ground", -1, math.inf, np.zeros((3, 3)), self)
+
+    # ------------------------------------------------------------- access
+    @property
+    def bodies(self) -> tuple[Body, ...]:
+        """Bodies in the order they were added (ground excluded)."""
+        return tuple(self._bodies)
+
+    @property
+    def joints(self) -> tuple[Joint, ...]:
+        """Joints in the order they were added."""
+        return tuple(self._joints)
+
+    @property
+    def motors(self) -> tuple[Motor, ...]:
+        """Motors (driving constraints) in the order they were added."""
+        return tuple(self._motors)
+
+    @property
+    def spring_dampers(self) -> tuple[SpringDamper, ...]:
+        """Translational spring-dampers in the order they were added."""
+        return tuple(self._springs)
+
+    @property
+    def rotational_spring_dampers(self) -> tuple[RotationalSpringDamper, ...]:
+        """Torsion spring-dampers in the order they were added."""
+        return tuple(self._rot_springs)
+
+    @property
+    def state(self) -> State:
+        """The current state (a read-only snapshot)."""
+        return _make_state(self, self._t, self._y)
+
+    def set_state(self, state: State) -> None:
+        """Make ``state`` (of this System, with all its bodies) the current state.
+
+        Raises
+        ------
+        ValueError
+            For a state of another System or one taken before bodies were
+            added.
+        """
+        if not isinstance(state, State):
+            raise ValueError(f"state: expected a State, got {short_repr(state)}")
+        if state._owner is not self:
+            raise ValueError("state: belongs to another System")
+        n = len(self._bodies)
+        if state.n_bodies != n:
+            raise ValueError(
+                f"state: describes {state.n_bodies} bodies, this System has {n} (bodies were added after it was taken)"
+            )
+        y = np.concatenate([state.q, state.v])
+        if not np.all(np.isfinite(y)):
+            raise ValueError("state: expected finite values")
+        P = y[3 * n : 7 * n].reshape(n, 4)
+        y[3 * n : 7 * n] = (P / np.linalg.norm(P, axis=1)[:, None]).ravel()
+        self._y = y
+        self._t = float(state.t)
+
+    def __repr__(self) -> str:
+        return (
+            f"System({len(self._bodies)} bodies, {len(self._joints)} joints, {len(self._motors)} motors, "
+            f"{len(self._springs) + len(self._rot_springs)} spring-dampers, "
+            f"{len(self._forces) + len(self._torques)} loads)"
+        )
+
+    # ------------------------------------------------------------- helpers
+    def _changed(self) -> None:
+        self._engine_cache = None
+
+    def _engine(self) -> _Engine:
+        if self._engine_cache is None:
+            self._engine_cache = _Engine(
+                self._bodies, self._joints, self._motors, self._springs, self._rot_springs,
+                self._forces, self._torques, self.gravity,
+            )
+        return self._engine_cache
+
+    def _body(self, body: Any, name: str, *, allow_ground: bool = True) -> Body:
+        if not isinstance(body, Body):
+            raise ValueError(
+                f"{name}: expected a Body of this System (from add_body, or system.ground), got {short_repr(body)}"
+            )
+        if body._owner is not self:
+            raise ValueError(f"{name}: body {body.name!r} belongs to another System")
+        if body.is_ground and not allow_ground:
+            raise ValueError(f"{name}: expected a moving body, got the ground")
+        return body
+
+    def _joint(self, joint: Any, name: str = "joint") -> Joint:
+        if not isinstance(joint, Joint):
+            raise ValueError(f"{name}: expected a Joint of this System (from add_joint), got {short_repr(joint)}")
+        if joint._owner is not self:
+            raise ValueError(f"{name}: joint {joint.name!r} belongs to another System")
+        return joint
+
+    def _frame(self, body: Body) -> tuple[np.ndarray, np.ndarray]:
+        """Current (R, A) of a body; the ground's are (0, I)."""
+        if body.is_ground:
+            return np.zeros(3), np.eye(3)
+        n = len(self._bodies)
+        i = body.index
+        R = self._y[3 * i : 3 * i + 3]
+        p = self._y[3 * n + 4 * i : 3 * n + 4 * i + 4]
+        return R.copy(), matrices(p[None])[0]
+
+    def _local_point(self, body: Body, point: np.ndarray) -> np.ndarray:
+        R, A = self._frame(body)
+        return A.T @ (point - R)
+
+    def _local_dir(self, body: Body, d: np.ndarray) -> np.ndarray:
+        _, A = self._frame(body)
+        return A.T @ d
+
+    def _item_name(self, name: Any, default: str, pool: str = "item") -> str:
+        if name is None:
+            k = 1
+            while f"{default}{k}" in self._names[pool]:
+                k += 1
+            name = f"{default}{k}"
+        name = _check_name(name, self._names[pool], "joint" if pool == "joint" else "item")
+        self._names[pool].add(name)
+        return name
+
+    # ------------------------------------------------------------- bodies
+    def add_body(
+        self,
+        name: str,
+        *,
+        mass: float,
+        inertia: Any,
+        position: Any = (0.0, 0.0, 0.0),
+        orientation: Any = (1.0, 0.0, 0.0, 0.0),
+        velocity: Any = (0.0, 0.0, 0.0),
+        omega: Any = None,
+        omega_body: Any = None,
+    ) -> Body:
+        """Add a rigid body; its initial state becomes part of the current state.
+
+        Parameters
+        ----------
+        name : str
+            Unique body name (not ``"ground"``).
+        mass : float
+            kg, finite and > 0.
+        inertia : (3,) or (3, 3)
+            Principal moments about the centre of mass (body axes), or the
+            body-frame tensor about the centre of mass (kg m^2). Symmetric,
+            moments >= 0 (zero rotational inertia is allowed: a point mass
+            whose rotation the joints fix) that satisfy ``J1 + J2 >= J3``.
+        position : (3,)
+            Centre of mass R, global (m).
+        orientation : (4,)
+            Euler parameters (theta0, theta1, theta2, theta3), scalar first,
+            unit within ``core.rotations.UNIT_NORM_TOL`` (1e-6); normalized.
+        velocity : (3,)
+            Velocity of the centre of mass, global (m/s).
+        omega : (3,) or None
+            Angular velocity, global frame (rad/s).
+        omega_body : (3,) or None
+            Angular velocity, body frame (omega-bar). At most one of
+            ``omega`` and ``omega_body``; default zero.
+
+        Returns
+        -------
+        Body
+            The handle to pass to joints, forces and trajectories.
+
+        Raises
+        ------
+        ValueError
+            Naming the argument: a duplicate or empty name, a mass that is
+            not > 0, an inertia that is negative, not symmetric or violates
+            the triangle inequality, non-unit Euler parameters, non-finite
+            or wrongly shaped vectors, both omegas given.
+        """
+        name = _check_name(name, self._names["body"], "body")
+        m = real_number(mass, "mass", expected="a finite mass > 0 (kg)")
+        if not m > 0.0:
+            raise ValueError(f"mass: expected a finite mass > 0 (kg), got {m!r}")
+        J = _check_inertia(inertia)
+        R = _vector(position, "position")
+        p = _unit_parameters(orientation)
+        Rd = _vector(velocity, "velocity")
+        if omega is not None and omega_body is not None:
+            raise ValueError("omega, omega_body: expected at most one of them, got both")
+        A = matrices(p[None])[0]
+        if omega is not None:
+            w_body = A.T @ _vector(omega, "omega")
+        elif omega_body is not None:
+            w_body = _vector(omega_body, "omega_body")
+        else:
+            w_body = np.zeros(3)
+        J.setflags(write=False)
+        n = len(self._bodies)
+        body = Body(name, n, m, J, self)
+        y = self._y
+        blocks = [y[: 3 * n], R, y[3 * n : 7 * n], p, y[7 * n : 10 * n], Rd, y[10 * n :], w_body]
+        self._y = np.concatenate(blocks)
+        self._names["body"].add(name)
+        self._bodies.append(body)
+        self._changed()
+        return body
+
+    # ------------------------------------------------------------- joints
+    def add_joint(
+        self,
+        kind: str,
+        body_i: Body,
+        body_j: Body,
+        *,
+        point: Any,
+        axis: Any = None,
+        axis_j: Any = None,
+        name: str | None = None,
+    ) -> Joint:
+        """Add a joint between two bodies (either may be ``system.ground``).
+
+        Parameters
+        ----------
+        kind : str
+            ``"fixed"`` (6 equations), ``"spherical"`` (3), ``"revolute"``
+            (5), ``"prismatic"`` (5), ``"cylindrical"`` (4) or
+            ``"universal"`` (4).
+        body_i, body_j : Body
+            Two different bodies of this System.
+        point : (3,)
+            Joint point, global, in the current configuration (m). For
+            prismatic and cylindrical joints a point on the sliding line.
+        axis : (3,) or None
+            Global axis in the current configuration (any nonzero length;
+            normalized): the rotation axis (revolute, cylindrical), the
+            sliding direction (prismatic, cylindrical), or for a universal
+            joint the cross arm fixed in ``body_i``. Required by those four
+            kinds, refused by ``"fixed"`` and ``"spherical"``.
+        axis_j : (3,) or None
+            Universal joints only (required): the cross arm fixed in
+            ``body_j``, perpendicular to ``axis`` (``|cos| <=
+            PERPENDICULAR_TOL``).
+        name : str or None
+            Unique joint name; default ``"<kind><k>"``.
+
+        Returns
+        -------
+        Joint
+
+        Raises
+        ------
+        ValueError
+            For an unknown kind, a body that is not of this System, the same
+            body twice, a zero or missing axis, an axis a kind does not
+            take, or universal arms that are not perpendicular.
+        """
+        if not isinstance(kind, str) or kind not in JOINT_KINDS:
+            raise ValueError(f"kind: expected one of {sorted(JOINT_KINDS)}, got {short_repr(kind)}")
+        bi = self._body(body_i, "body_i")
+        bj = self._body(body_j, "body_j")
+        if bi is bj:
+            raise ValueError(f"body_i, body_j: expected two different bodies, got {bi.name!r} twice")
+        P = _vector(point, "point")
+        needs_axis = kind in ("revolute", "prismatic", "cylindrical", "universal")
+        if needs_axis and axis is None:
+            raise ValueError(f"axis: a {kind} joint needs an axis, got None")
+        if not needs_axis and axis is not None:
+            raise ValueError(f"axis: a {kind} joint takes no axis, got {short_repr(axis)}")
+        if kind != "universal" and axis_j is not None:
+            raise ValueError(f"axis_j: only universal joints take axis_j, got it for a {kind} joint")
+        h = _unit_axis(axis, "axis") if needs_axis else np.array([0.0, 0.0, 1.0])
+        b = None
+        if kind == "universal":
+            if axis_j is None:
+                raise ValueError("axis_j: a universal joint needs axis_j (the cross arm fixed in body_j), got None")
+            b = _unit_axis(axis_j, "axis_j")
+            if abs(float(h @ b)) > PERPENDICULAR_TOL:
+                raise ValueError(
+                    f"axis_j: expected perpendicular to axis (|cos| <= {PERPENDICULAR_TOL:g}), got cos {float(h @ b)!r}"
+                )
+        if kind == "fixed":
+            f, g = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+        else:
+            f = _perpendicular(h)
+            g = np.cross(h, f)
+        name = self._item_name(name, kind, "joint")
+        local = {
+            "u_i": self._local_point(bi, P),
+            "u_j": self._local_point(bj, P),
+            "f_i": self._local_dir(bi, f),
+            "g_i": self._local_dir(bi, g),
+            "h_i": self._local_dir(bi, h),
+            "f_j": self._local_dir(bj, f),
+            "g_j": self._local_dir(bj, g),
+            "h_j": self._local_dir(bj, h),
+        }
+        if b is not None:
+            local["a_i"] = self._local_dir(bi, h)
+            local["b_j"] = self._local_dir(bj, b)
+        for v in local.values():
+            v.setflags(write=False)
+        for arr in (P, h):
+            arr.setflags(write=False)
+        if b is not None:
+            b.setflags(write=False)
+        joint = Joint(name, kind, bi, bj, P, h if needs_axis else None, b, len(self._joints), local, self)
+        self._joints.append(joint)
+        self._changed()
+        return joint
+
+    def add_motor(
+        self, joint: Joint, *, angle: Any = None, displacement: Any = None, name: str | None = None
+    ) -> Motor:
+        """Drive a joint coordinate as a function of time (a driving constraint).
+
+        The angle of a revolute or cylindrical joint is the rotation of
+        ``body_j`` relative to ``body_i`` about the joint axis (right hand),
+        zero in the configuration at which the joint was added; the
+        constraint is ``sin(theta - f(t)) = (g_i . f_j) cos f - (f_i . f_j)
+        sin f = 0`` (smooth, no angle wrapping; ``f_i, g_i`` span the plane
+        normal to the axis on body i, ``f_j`` on body j). The displacement of a
+        prismatic or cylindrical joint is ``h_i . (r_j - r_i) = f(t)``,
+        zero at creation.
+
+        Parameters
+        ----------
+        joint : Joint
+        angle, displacement : callable or tuple, keyword-only
+            Exactly one: ``f(t) -> float`` (rad or m) or a tuple
+            ``(f, f_dot, f_ddot)`` of callables. With a single callable,
+            ``f_dot`` and ``f_ddot`` come from complex steps when ``f``
+            accepts complex input, else from finite differences (see
+            docs/multibody.md for the rules and their accuracy).
+        name : str or None
+
+        Returns
+        -------
+        Motor
+
+        Raises
+        ------
+        ValueError
+            For a joint of another System, a coordinate the joint kind does
+            not have, a coordinate already driven, both or neither of
+            ``angle`` and ``displacement``, or a function that does not
+            return a finite real number at the current time.
+        """
+        jt = self._joint(joint)
+        if (angle is None) == (displacement is None):
+            raise ValueError("angle, displacement: expected exactly one of them")
+        coord = "angle" if angle is not None else "displacement"
+        allowed = {"revolute": ("angle",), "cylindrical": ("angle", "displacement"), "prismatic": ("displacement",)}
+        if coord not in allowed.get(jt.kind, ()):
+            raise ValueError(
+                f"{coord}: a {jt.kind} joint has no driven {coord} (angle: revolute, cylindrical; "
+                "displacement: prismatic, cylindrical)"
+            )
+        for mt in self._motors:
+            if mt.joint is jt and mt.coordinate == coord:
+                raise ValueError(f"joint: the {coord} of joint {jt.name!r} is already driven by motor {mt.name!r}")
+        func, how = driver_function(angle if angle is not None else displacement, coord, self._t)
+        name = self._item_name(name, "motor")
+        motor = Motor(name, jt, coord, how, len(self._motors), func, self)
+        self._motors.append(motor)
+        self._changed()
+        return motor
+
+    # ------------------------------------------------------------- forces
+    def add_spring_damper(
+        self,
+        body_i: Body,
+        point_i: Any,
+        body_j: Body,
+        point_j: Any,
+        *,
+        stiffness: float,
+        damping: float = 0.0,
+        free_length: float | None = None,
+        name: str | None = None,
+    ) -> SpringDamper:
+        """Add a linear spring-damper between two body points (global, current configuration).
+
+        Force on ``body_j``: ``-(k (L - L0) + c L_dot) e``, ``e`` the unit
+        vector from point i to point j; the opposite on ``body_i``. With
+        ``free_length = 0`` the force is ``-k d - c d_dot`` (``d = r_j -
+        r_i``), defined also when the points meet.
+
+        Parameters
+        ----------
+        body_i, body_j : Body
+            Different bodies of this System (either may be the ground).
+        point_i, point_j : (3,)
+            Attachment points, global, current configuration (m).
+        stiffness : float
+            N/m, >= 0.
+        damping : float
+            N s/m, >= 0.
+        free_length : float or None
+            m, >= 0; default the current distance of the points.
+        name : str or None
+
+        Returns
+        -------
+        SpringDamper
+        """
+        bi = self._body(body_i, "body_i")
+        bj = self._body(body_j, "body_j")
+        if bi is bj:
+            raise ValueError(f"body_i, body_j: expected two different bodies, got {bi.name!r} twice")
+        Pi = _vector(point_i, "point_i")
+        Pj = _vector(point_j, "point_j")
+        k = _positive(stiffness, "stiffness", allow_zero=True)
+        c = _positive(damping, "damping", allow_zero=True)
+        L0 = float(np.linalg.norm(Pj - Pi)) if free_length is None else _positive(free_length, "free_length", allow_zero=True)
+        name = self._item_name(name, "spring_damper")
+        local = {"u_i": self._local_point(bi, Pi), "u_j": self._local_point(bj, Pj)}
+        sp = SpringDamper(name, bi, bj, Pi, Pj, k, c, L0, len(self._springs), local, self)
+        self._springs.append(sp)
+        self._changed()
+        return sp
+
+    def add_rotational_spring_damper(
+        self, joint: Joint, *, stiffness: float, damping: float = 0.0, angle0: float = 0.0, name: str | None = None
+    ) -> RotationalSpringDamper:
+        """Add a torsion spring-damper in a revolute or cylindrical joint.
+
+        Torque on ``body_j`` about the joint axis ``-k (theta - angle0) - c
+        theta_dot`` (the opposite on ``body_i``), ``theta`` the joint angle
+        of :meth:`add_motor`, taken in ``(angle0 - pi, angle0 + pi]``.
+
+        Parameters
+        ----------
+        joint : Joint
+            A revolute or cylindrical joint of this System.
+        stiffness : float
+            N m/rad, >= 0.
+        damping : float
+            N m s/rad, >= 0.
+        angle0 : float
+            Angle at which the spring is relaxed (rad).
+        name : str or None
+
+        Returns
+        -------
+        RotationalSpringDamper
+        """
+        jt = self._joint(joint)
+        if jt.kind not in ("revolute", "cylindrical"):
+            raise ValueError(f"joint: a rotational spring-damper needs a revolute or cylindrical joint, got {jt.kind}")
+        k = _positive(stiffness, "stiffness", allow_zero=True)
+        c = _positive(damping, "damping", allow_zero=True)
+        a0 = real_number(angle0, "angle0")
+        name = self._item_name(name, "rotational_spring_damper")
+        rs = RotationalSpringDamper(name, jt, k, c, a0, len(self._rot_springs), self)
+        self._rot_springs.append(rs)
+        self._changed()
+        return rs
+
+    def add_force(self, body: Body, f: Callable, *, point: Any = None, name: str | None = None) -> Force:
+        """Add a force ``f(t, state) -> (3,)`` (global, N) at a point of ``body``.
+
+        Parameters
+        ----------
+        body : Body
+            A moving body of this System.
+        f : callable
+            ``f(t, state)`` with ``state`` a :class:`State`; returns the
+            force in the global frame.
+        point : (3,) or None
+            Global point of application in the current configuration; it
+            moves with the body. Default: the centre of mass.
+        name : str or None
+
+        Returns
+        -------
+        Force
+        """
+        b = self._body(body, "body", allow_ground=False)
+        if not callable(f):
+            raise ValueError(f"f: expected a callable f(t, state) -> (3,), got {short_repr(f)}")
+        P = None if point is None else _vector(point, "point")
+        u = None if P is None else self._local_point(b, P)
+        name = self._item_name(name, "force")
+        force = Force(name, b, P, len(self._forces), f, u, self)
+        self._forces.append(force)
+        self._changed()
+        return force
+
+    def add_torque(self, body: Body, f: Callable, *, name: str | None = None) -> Torque:
+        """Add a torque ``f(t, state) -> (3,)`` (global frame, N m) on ``body``.
+
+        Parameters
+        ----------
+        body : Body
+            A moving body of this System.
+        f : callable
+            ``f(t, state)`` with ``state`` a :class:`State`.
+        name : str or None
+
+        Returns
+        -------
+        Torque
+        """
+        b = self._body(body, "body", allow_ground=False)
+        if not callable(f):
+            raise ValueError(f"f: expected a callable f(t, state) -> (3,), got {short_repr(f)}")
+        name = self._item_name(name, "torque")
+        torque = Torque(name, b, len(self._torques), f, self)
+        self._torques.append(torque)
+        self._changed()
+        return torque
+
+    # ------------------------------------------------------------- analyses
+    def assemble(self, *, t: float | None = None, tol: float = 1e-12, max_iterations: int = 50):
+        """Move the current state onto the constraints (positions, then velocities).
+
+        Newton iterations with least-change (mass-weighted, minimum-norm)
+        corrections in the tangent space bring the position constraints
+        ``C(q, t) = 0`` to ``tol``; then the velocities are projected onto
+        ``D v + C_t = 0`` with the least change of kinetic energy. The
+        constraint rows are checked for redundancy at the result.
+
+        Parameters
+        ----------
+        t : float or None
+            Time of the driving constraints; default the state's time. The
+            state's time becomes ``t``.
+        tol : float
+            Largest accepted ``|C|`` (m for point rows, dimensionless for
+            direction rows).
+        max_iterations : int
+
+        Returns
+        -------
+        AssemblyReport
+            Which bodies moved and by how much, iterations, residuals, rank
+            and redundant rows.
+
+        Raises
+        ------
+        AssemblyError
+            (a ValueError) when the configuration cannot be assembled: no
+            convergence, or joints that cannot all hold at once; the message
+            names the joint with the largest residual.
+        """
+        from ._analysis import assemble
+
+        return assemble(self, t=t, tol=tol, max_iterations=max_iterations)
+
+    def equilibrium(self, *, t: float | None = None, tol: float = 1e-10, max_iterations: int = 50):
+        """Find a static equilibrium near the current configuration; velocities become zero.
+
+        Newton iterations on the tangent-space coordinates and the
+        multipliers solve ``Q(q, 0, t) - D(q)^T lambda = 0``, ``C(q, t) = 0``
+        (applied forces balanced by the joints). The result is the nearest
+        equilibrium, stable or not.
+
+        Parameters
+        ----------
+        t : float or None
+            Time of the drivers and loads; default the state's time.
+        tol : float
+            Largest accepted force residual relative to the largest applied
+            generalized force (and 1e-12 on the constraints).
+        max_iterations : int
+
+        Returns
+        -------
+        EquilibriumReport
+
+        Raises
+        ------
+        AssemblyError
+            When Newton does not converge.
+        """
+        from ._analysis import equilibrium
+
+        return equilibrium(self, t=t, tol=tol, max_iterations=max_iterations)
+
+    def simulate(
+        self,
+        t: Any,
+        *,
+        method: str = "DOP853",
+        rtol: float | None = None,
+        atol: float | None = None,
+        dt: float | None = None,
+        stabilization: str = "projection",
+        baumgarte: float = 20.0,
+        position_tol: float = 1e-12,
+        max_steps: int | None = None,
+    ):
+        """Integrate the constrained equations of motion from the current state.
+
+        The augmented index-1 equations ``[[M, D^T], [D, 0]] [a; lambda] =
+        [Q_e + Q_v; gamma]`` in Newton-Euler form (velocities ``R_dot`` and
+        ``omega_body``, ``p_dot = G_bar^T omega_body / 2``, Eqs. 8.51-8.54)
+        are integrated with the state projected back onto the constraints
+        after every step. The current state is taken as the state at
+        ``t[0]``; it must satisfy the constraints to 1e-8 (call
+        :meth:`assemble` first). The System is not changed; continue with
+        ``system.set_state(traj.state(-1))``.
+
+        Parameters
+        ----------
+        t : (n,) array_like
+            Non-decreasing output times (s).
+        method : str, keyword-only
+            ``"DOP853"`` (default, order 8) or ``"RK45"`` (order 5): scipy's
+            adaptive methods stepped one accepted step at a time, outputs by
+            dense output; ``"rk4"`` or ``"midpoint"``: fixed steps of at
+            most ``dt`` through :func:`core.integrators.integrate`.
+        rtol, atol : float, keyword-only
+            Adaptive methods: scipy's tolerances (defaults 1e-8, 1e-10).
+        dt : float, keyword-only
+            Fixed-step methods: the largest step (required).
+        stabilization : str, keyword-only
+            ``"projection"`` (default): Newton projection of positions and
+            mass-weighted projection of velocities after every step and at
+            every output; ``"baumgarte"``: the feedback ``gamma - 2 alpha
+            (D v + C_t) - alpha^2 C``, no projection; ``"none"``: the bare
+            index-1 equations (the residuals drift).
+        baumgarte : float, keyword-only
+            ``alpha`` of Baumgarte's feedback (rad/s, > 0).
+        position_tol : float, keyword-only
+            Newton tolerance of the position projection, ``max |C|``.
+        max_steps : int, keyword-only
+            Limit on steps (fixed) or right-hand-side evaluations
+            (adaptive); default ``core.integrators.MAX_STEPS``.
+
+        Returns
+        -------
+        MultibodyTrajectory
+
+        Raises
+        ------
+        ValueError
+            For bad options or times; ``AssemblyError`` when the state does
+            not satisfy the constraints; ``SingularSystemError`` when the
+            constrained equations are singular; ``IntegrationError`` when
+            the integrator fails.
+        """
+        from core.integrators import MAX_STEPS
+
+        from ._simulate import simulate
+
+        return simulate(
+            self, t, method=method, rtol=rtol, atol=atol, dt=dt, stabilization=stabilization, baumgarte=baumgarte,
+            position_tol=position_tol, max_steps=MAX_STEPS if max_steps is None else max_steps,
+        )
+
+    def evaluate(self, *, t: float | None = None):
+        """All terms of the equations of motion at the current state.
+
+        Parameters
+        ----------
+        t : float or None
+            Time; default the state's time.
+
+        Returns
+        -------
+        Evaluation
+        """
+        from ._evaluation import evaluate
+
+        return evaluate(self, t=t)
+
