@@ -826,10 +826,10 @@ def _run_adaptive_projected(
             n_steps += 1
             t_new = float(solver.t)
             y_raw = solver.y
+            y_new = project(t_new, y_raw)
             dense = None
             if k_next < pending.size and pending[k_next] < t_new:
-                dense = solver.dense_output()
-            y_new = project(t_new, y_raw)
+                dense = solver.dense_output()  # of the unprojected step: solver.y and .f are reset below
             if not np.all(np.isfinite(y_new)):
                 raise DivergenceError(
                     f"run diverged: non-finite state at step {n_steps} (t={t_new:.6g}); tighten the tolerances",

@@ -287,7 +287,8 @@ def _fail(eng: _Engine, C: np.ndarray, it: int, message: str) -> None:
 def assemble(system: Any, *, t: Any = None, tol: Any = 1e-12, max_iterations: Any = 50) -> AssemblyReport:
     """See :meth:`System.assemble`."""
     t, tol, max_iterations = _args(system, t, tol, max_iterations)
-    eng = system._engine()
+    shared = system._engine()
+    eng = shared.workspace()
     n = eng.n
     y0 = np.array(system._y)
     y = y0.copy()
@@ -309,6 +310,7 @@ def assemble(system: Any, *, t: Any = None, tol: Any = 1e-12, max_iterations: An
         res_v, rank = 0.0, 0
         eng.analyzed = True
     check_constrained_mass(eng, t, y)
+    shared.adopt(eng)
     disp, rot, moved = _moves(eng, y0, y)
     dvel = {b.name: float(np.linalg.norm(np.concatenate([
         y[7 * n + 3 * k : 7 * n + 3 * k + 3] - y0[7 * n + 3 * k : 7 * n + 3 * k + 3],
@@ -345,7 +347,8 @@ def _static_residual(eng: _Engine, system: Any, t: float, y: np.ndarray, lam: np
 def equilibrium(system: Any, *, t: Any = None, tol: Any = 1e-10, max_iterations: Any = 50) -> EquilibriumReport:
     """See :meth:`System.equilibrium`."""
     t, tol, max_iterations = _args(system, t, tol, max_iterations)
-    eng = system._engine()
+    shared = system._engine()
+    eng = shared.workspace()
     n = eng.n
     n6 = 6 * n
     y0 = np.array(system._y)
@@ -404,6 +407,7 @@ def equilibrium(system: Any, *, t: Any = None, tol: Any = 1e-10, max_iterations:
                 "no equilibrium found near this configuration"
             )
         y, lam, F, Q, Dk, C = y_try, lam_try, F_try, Q_try, Dk_try, C_try
+    shared.adopt(eng)
     disp, rot, moved = _moves(eng, y0, y)
     system._y = y
     system._t = t

@@ -236,6 +236,7 @@ class _Engine:
         self._force_tables(springs, rot_springs, forces, torques)
         self.keep: np.ndarray | None = None  # independent rows (None: all)
         self.last_factor = None
+        self.generation = 0
         self.rank = self.m
         self.analyzed = False  # rank analysis done (by assemble, equilibrium or simulate)
         self.K_aug = None
@@ -381,10 +382,13 @@ class _Engine:
 
         # Selection matrix U (n_sel, 4 (n + 1)): rows are linear combinations
         # of the body matrices B_b; U @ B gives, in this order,
-        #   [a (m_tab) | a (m_tab) | a (m_tab) | X (m_tab) | -arm_b1 (m_tab) |
-        #    arm_b2 (m_tab) | b = y_b1 - y_b2 (m_tab) | -a of dot-2 rows |
+        #   [a (m_tab) | b = y_b1 - y_b2 (m_tab) | X of dot-2 rows | unique arms |
         #    spring points i, j | spring arms i, j]
-        # with X = b + arm_b2 when a and y_b2 are on the same body (dot-2), else b.
+        # with X = b + arm_b2 (a and y_b2 on the same body). The cross products
+        # of the Jacobian, a x X (slot a), a x -arm_b1 (slot b1), a x arm_b2
+        # (slot b2), are taken only for slots whose body moves (the ground's
+        # and the zero vector's would be discarded); their partners are
+        # gathered from U @ B with a sign (the arm of a direction b1 is b).
         sel: list[dict[int, np.ndarray]] = []
 
         def vec(body, u, h):
@@ -395,17 +399,46 @@ class _Engine:
                 dst[b] = dst.get(b, np.zeros(4)) + scale * v
             return dst
 
-        A_rows = [vec(a[0], a[1], 0.0) for a in rows.a]
-        b_rows = [add(vec(b1[0], b1[1], b1[2]), vec(b2[0], b2[1], b2[2]), -1.0) for b1, b2 in zip(rows.b1, rows.b2)]
         sigma = [k == "dot2" for k in rows.kind]
-        X_rows = [add(dict(b), vec(b2[0], b2[1], 0.0)) if s else dict(b) for b, b2, s in zip(b_rows, rows.b2, sigma)]
-        sel += A_rows * 3
-        sel += X_rows
-        sel += [vec(b1[0], -np.asarray(b1[1]), 0.0) for b1 in rows.b1]
-        sel += [vec(b2[0], b2[1], 0.0) for b2 in rows.b2]
-        sel += b_rows
-        self.sel_dot2 = len(sel)
-        sel += [vec(rows.a[r][0], -np.asarray(rows.a[r][1]), 0.0) for r in self.rows_dot2]
+        sel += [vec(a[0], a[1], 0.0) for a in rows.a]
+        sel += [add(vec(b1[0], b1[1], b1[2]), vec(b2[0], b2[1], b2[2]), -1.0) for b1, b2 in zip(rows.b1, rows.b2)]
+        x_row = {}
+        for r in self.rows_dot2:
+            x_row[r] = len(sel)
+            sel.append(add(dict(sel[m_tab + r]), vec(rows.b2[r][0], rows.b2[r][1], 0.0)))
+        arm_row: dict[tuple, int] = {}
+
+        def arm(body, u):
+            key = (int(body), tuple(np.round(np.asarray(u, dtype=float), 15)))
+            if key not in arm_row:
+                arm_row[key] = len(sel)
+                sel.append(vec(body, u, 0.0))
+            return arm_row[key]
+
+        cross_a, cross_u, cross_sign, cross_row, cross_body = [], [], [], [], []
+        for r in range(m_tab):
+            ba_, bb1_, bb2_ = rows.a[r][0], rows.b1[r][0], rows.b2[r][0]
+            if ba_ != g:  # slot a: a x X
+                cross_a.append(r)
+                cross_u.append(x_row.get(r, m_tab + r))
+                cross_sign.append(1.0)
+                cross_row.append(r)
+                cross_body.append(ba_)
+            if bb1_ != g:  # slot b1: a x (-arm_b1); a direction's arm is b itself (y_b2 = 0)
+                cross_a.append(r)
+                cross_u.append(arm(bb1_, rows.b1[r][1]) if rows.b1[r][2] else m_tab + r)
+                cross_sign.append(-1.0)
+                cross_row.append(r)
+                cross_body.append(bb1_)
+            if bb2_ != g and not sigma[r] and rows.b2[r][2]:  # slot b2: a x arm_b2 (a point of a third body)
+                cross_a.append(r)
+                cross_u.append(arm(bb2_, rows.b2[r][1]))
+                cross_sign.append(1.0)
+                cross_row.append(r)
+                cross_body.append(bb2_)
+        self.cross_a = np.array(cross_a, dtype=np.intp)
+        self.cross_u = np.array(cross_u, dtype=np.intp)
+        self.cross_sign = np.array(cross_sign, dtype=float).reshape(-1, 1)
         self.sel_springs = len(sel)
         for side in ("u_i", "u_j"):
             sel += [vec(_ext(getattr(sp, "body_" + side[-1]), g), sp._local[side], 1.0) for sp in springs]
@@ -417,11 +450,10 @@ class _Engine:
                 U[r, 4 * b : 4 * b + 4] += v
         self.U = U
 
-        # Jacobian scatter: global-omega entries of slots a, b1, b2 go to the
-        # omega columns of their bodies in Dw (slot b2 of a dot-2 row to the
-        # ground's dummy column: its entry is already in slot a's X); R_dot
-        # entries of dot-2 rows (+-a) go straight to Dt; the point rows'
-        # constant R_dot entries (+-e_k) are filled once.
+        # Jacobian scatter: the global-omega entries of the live slots go to
+        # the omega columns of their bodies in Dw; R_dot entries of dot-2 rows
+        # (+-a) go straight to Dt; the point rows' constant R_dot entries
+        # (+-e_k) are filled once.
         self.Dt_full = np.zeros((m_tab, 6 * n + 6))
         self.Dw = np.zeros((m_tab, 3 * n + 3))
         self.Dt = self.Dt_full[:, : 6 * n]  # (view)
@@ -429,24 +461,22 @@ class _Engine:
         def col_R(b):
             return 3 * b if b < n else 6 * n
 
-        ba = np.array([a[0] for a in rows.a], dtype=np.intp)
         bb1 = np.array([b[0] for b in rows.b1], dtype=np.intp)
         bb2 = np.array([b[0] for b in rows.b2], dtype=np.intp)
-        bb2_w = np.where(np.array(sigma, dtype=bool), g, bb2)
-        r = np.arange(m_tab)
         k3 = np.arange(3)
         nw, nt = 3 * n + 3, 6 * n + 6
 
         def flat(rr, cols, width):
             return (rr[:, None] * width + cols[:, None] + k3[None, :]).ravel()
 
-        self.flat_w = (np.concatenate([flat(r, 3 * ba, nw), flat(r, 3 * bb1, nw), flat(r, 3 * bb2_w, nw)])
-                       if m_tab else np.zeros(0, np.intp))
+        self.flat_w = flat(np.array(cross_row, dtype=np.intp), 3 * np.array(cross_body, dtype=np.intp), nw)
         r2 = self.rows_dot2
         self.flat_R = (np.concatenate([
             flat(r2, np.array([col_R(b) for b in bb1[r2]], dtype=np.intp), nt),
             flat(r2, np.array([col_R(b) for b in bb2[r2]], dtype=np.intp), nt),
         ]) if r2.size else np.zeros(0, np.intp))
+        self.R_rows = np.concatenate([r2, r2])
+        self.R_sign = np.concatenate([np.ones(r2.size), -np.ones(r2.size)]).reshape(-1, 1)
         for rr in self.rows_pc:
             e = np.asarray(rows.a[rr][1])
             cj, ci = col_R(rows.b1[rr][0]), col_R(rows.b2[rr][0])
@@ -498,6 +528,12 @@ class _Engine:
             self.rs_H = H[: 3 * n]
         self.user_forces = tuple((f, f.body.index, f._u) for f in forces)
         self.user_torques = tuple((tq, tq.body.index) for tq in torques)
+
+    def adopt(self, work: _Engine) -> None:
+        """Take the row selection found by a workspace's rank analysis."""
+        self.keep = None if work.keep is None else work.keep.copy()
+        self.rank = work.rank
+        self.analyzed = work.analyzed
 
     def workspace(self) -> _Engine:
         """A copy sharing the constant tables but with its own work arrays and row selection.
@@ -552,19 +588,19 @@ class _Engine:
         the value and ``gamma`` (None below level 2). The Jacobian is left
         in ``self.Dt`` (body velocities) when ``level >= 1``.
         """
+        self.generation += 1  # the Jacobian buffers are overwritten
         At = self.frames(y, velocities=level >= 2)
         m = self.m_tab
         Y = self.U @ (self.B if level >= 2 else self.B[:, 0:3])
         a9 = Y[:m]
-        b9 = Y[6 * m : 7 * m]
+        b9 = Y[m : 2 * m]
         Phi = np.einsum("ri,ri->r", a9[:, 0:3], b9[:, 0:3])
         gam = np.einsum("ri,ri->r", a9, b9 @ _GAMMA_MAP) if level >= 2 else None
         if level >= 1 and m:
-            self.Dw.flat[self.flat_w] = cross(Y[: 3 * m, 0:3], Y[3 * m : 6 * m, 0:3]).ravel()
+            c = cross(Y[self.cross_a, 0:3], Y[self.cross_u, 0:3] * self.cross_sign)
+            self.Dw.flat[self.flat_w] = c.ravel()
             if self.rows_dot2.size:
-                r2 = self.rows_dot2.size
-                a2 = Y[self.sel_dot2 : self.sel_dot2 + r2, 0:3]
-                self.Dt_full.flat[self.flat_R] = np.concatenate([-a2, a2]).ravel()
+                self.Dt_full.flat[self.flat_R] = (Y[self.R_rows, 0:3] * self.R_sign).ravel()
             n = self.n
             if self.dense:
                 np.put(self.blockA, self.blockA_idx, At)
@@ -577,7 +613,7 @@ class _Engine:
     def rates(self, Y: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """``d/dt Phi`` (k,) of the table rows ``rows`` from level-2 selected vectors ``Y``."""
         m = self.m_tab
-        return np.einsum("ri,ri->r", Y[rows, 0:6], Y[6 * m + rows] @ _RATE9_MAP)
+        return np.einsum("ri,ri->r", Y[rows, 0:6], Y[m + rows] @ _RATE9_MAP)
 
     def constraint_rows(self, t: float, Y, Phi, gam, *, level: int):
         """Constraint vector (m,), its Jacobian D (m, 6n) or None, C_t (m,) and gamma (m,) or None.

@@ -151,11 +151,13 @@ def evaluate(system: Any, *, t: Any = None) -> Evaluation:
     from ._simulate import _Dynamics
 
     t = system._t if t is None else real_number(t, "t", expected="a finite time (s)")
-    eng = system._engine()
+    shared = system._engine()
+    eng = shared.workspace()
     n = eng.n
     y = np.array(system._y)
     if not eng.analyzed:
         analyze_rank(eng, t, y)
+        shared.adopt(eng)
     check_constrained_mass(eng, t, y)
     model = _Dynamics(system, eng, stabilization="none", baumgarte=1.0, position_tol=1e-12)
     a, lam, C, D, Ct = model.accelerations(t, y)

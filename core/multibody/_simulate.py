@@ -109,8 +109,9 @@ class _Dynamics:
             eng.last_factor = None
             a, _ = self._solve(t, y, D, Q, gamma)
             if self._reuse:
-                # the projection after this step starts where this evaluation is (FSAL): keep its work
-                self._last = (y, t, np.array(C), np.array(D), np.array(Ct), eng.last_factor)
+                # the projection after a step starts where the step's last evaluation is (FSAL):
+                # keep its work (valid while no other evaluation overwrote the buffers)
+                self._last = (y, t, C, D, Ct, eng.last_factor, eng.generation)
         else:
             a = eng.solve(t, np.zeros((0, 6 * n)), Q, np.zeros(0))[0]
         return np.concatenate([y[n7:n10], parameter_rates(y[n3:n7].reshape(n, 4), y[n10:].reshape(n, 3)).ravel(), a])
@@ -147,8 +148,9 @@ class _Dynamics:
         last = self._last
         self._last = None
         for it in range(10):
-            if it == 0 and last is not None and last[0] is y_in and last[1] == t and last[5] is not None:
-                _, _, C, D, Ct, c = last
+            if (it == 0 and last is not None and last[0] is y_in and last[1] == t and last[5] is not None
+                    and last[6] == eng.generation):
+                _, _, C, D, Ct, c, _ = last
                 factor = (D[eng.keep] if eng.keep is not None else D) * eng.winv_diag, c
             else:
                 C, D, Ct, _ = constraints_at(eng, t, y, 1)
@@ -615,13 +617,14 @@ def simulate(
     max_steps = positive_integer(max_steps, "max_steps")
 
     shared = system._engine()
-    n = shared.n
+    eng = shared.workspace()  # this run's own work arrays: simulations may run in parallel threads
+    n = eng.n
     if n == 0:
         raise ValueError("system: has no bodies to simulate (add_body first)")
     t0 = float(tt[0])
     y0 = np.array(system._y)
-    if shared.m:
-        C, D, Ct, _ = constraints_at(shared, t0, y0, 1)
+    if eng.m:
+        C, D, Ct, _ = constraints_at(eng, t0, y0, 1)
         res_p = float(np.max(np.abs(C)))
         rv = np.array(D) @ y0[7 * n :] + Ct
         res_v = float(np.max(np.abs(rv)))
@@ -630,15 +633,15 @@ def simulate(
             r = int(np.argmax(np.abs(C))) if res_p > limit else int(np.argmax(np.abs(rv)))
             raise AssemblyError(
                 f"simulate: the current state violates the constraints at t={t0:g} (position residual "
-                f"{res_p:.3e}, velocity residual {res_v:.3e}; largest in {row_label(shared, r)}); "
+                f"{res_p:.3e}, velocity residual {res_v:.3e}; largest in {row_label(eng, r)}); "
                 f"call system.assemble(t={t0:g}) first"
             )
-        if not shared.analyzed:
-            analyze_rank(shared, t0, y0)
+        if not eng.analyzed:
+            analyze_rank(eng, t0, y0)
+            shared.adopt(eng)
     else:
-        shared.analyzed = True
-    check_constrained_mass(shared, t0, y0)
-    eng = shared.workspace()
+        eng.analyzed = True
+    check_constrained_mass(eng, t0, y0)
     model = _Dynamics(system, eng, stabilization=stabilization, baumgarte=baumgarte, position_tol=position_tol)
     if model.project is not None:
         model.output_times = frozenset(float(x) for x in tt)
