@@ -249,6 +249,34 @@ def test_reactions_of_a_slider_crank_at_rest_against_virtual_work():
     np.testing.assert_allclose(traj.multipliers.shape, (1, model.system.evaluate().C.size))
 
 
+def test_reaction_on_the_ground_is_the_opposite_of_the_reaction_on_the_body():
+    """The same driven hinge added as (ground, rod) and as (rod, ground): action and reaction at the hinge.
+
+    Reversing the joint reverses its angle (the ground relative to the rod), so the motor turns the other way
+    round to give the same motion.
+    """
+
+    def run(ground_first):
+        system = System(gravity=(0.0, 0.0, -9.81))
+        rod = system.add_body("rod", mass=2.0, inertia=(1e-3, 0.375, 0.375), position=(0.75, 0.0, 0.0),
+                              orientation=(math.cos(0.2), 0.0, math.sin(0.2), 0.0))
+        pair = (system.ground, rod) if ground_first else (rod, system.ground)
+        hinge = system.add_joint("revolute", *pair, point=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0))
+        w = 0.3 if ground_first else -0.3
+        motor = system.add_motor(hinge, angle=(lambda t: w * t, lambda t: w, lambda t: 0.0))
+        system.assemble()
+        traj = system.simulate(np.linspace(0.0, 1.0, 5))
+        return traj.reaction(hinge), traj.reaction(motor), traj.position(rod)
+
+    (F1, T1), (Fm1, Tm1), R1 = run(True)
+    (F2, T2), (Fm2, Tm2), R2 = run(False)
+    np.testing.assert_allclose(R1, R2, atol=1e-12)
+    np.testing.assert_allclose(F1, -F2, atol=1e-12)
+    np.testing.assert_allclose(T1, -T2, atol=1e-12)
+    np.testing.assert_allclose(Tm1, -Tm2, atol=1e-12)
+    assert np.abs(Tm1[:, 1]).min() > 1.0  # the motor really holds the rod's weight
+
+
 def test_equilibrium_of_a_pendulum_pushed_sideways():
     """A rod on a revolute joint under a constant horizontal tip force: tan(phi) = F L / (m g L/2)."""
     m, L, g, Fx = 1.0, 1.0, 9.81, 3.0
