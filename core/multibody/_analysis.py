@@ -126,6 +126,36 @@ def constraints_at(eng: _Engine, t: float, y: np.ndarray, level: int):
     return eng.constraint_rows(t, Y, Phi, gam, level=level)
 
 
+def assembly_rows(eng: _Engine, t: float, y: np.ndarray):
+    """``(C, D)`` for Newton in assembly: the angle motors' rows are the wrapped angle error.
+
+    The driving constraint ``sin(theta - f) = 0`` also holds at ``theta = f +
+    pi``, and Newton on the sine from more than a quarter turn away goes
+    there; ``atan2(sin, cos)`` of the error has the one root ``theta = f``
+    in ``(-pi, pi]`` and the Jacobian ``(c ds - s dc) / (s^2 + c^2)``.
+    """
+    At, Y, Phi, gam = eng.table(t, y, level=1)
+    C, D, _, _ = eng.constraint_rows(t, Y, Phi, gam, level=1)
+    if not eng.angle_motors:
+        return C, D
+    C = np.array(C)
+    D = np.array(D)
+    s, c, ds, dc = eng.angle_motor_errors(t, Phi)
+    r = slice(eng.m_dir, eng.m)
+    C[r] = np.arctan2(s, c)
+    D[r] = (c[:, None] * ds - s[:, None] * dc) / (s * s + c * c)[:, None]
+    return C, D
+
+
+def flipped_motors(eng: _Engine, t: float, y: np.ndarray) -> list:
+    """Angle motors whose joint is nearer ``f(t) + pi`` than ``f(t)`` (``cos(theta - f) < 0``)."""
+    if not eng.angle_motors:
+        return []
+    At, Y, Phi, gam = eng.table(t, y, level=1)
+    _, c, _, _ = eng.angle_motor_errors(t, Phi)
+    return [mt for mt, ck in zip(eng.angle_motors, c) if ck < 0.0]
+
+
 def metric_inv_sqrt(eng: _Engine) -> np.ndarray:
     """Dense (6n, 6n) ``W^-1/2`` of the projection metric."""
     n = eng.n
@@ -253,7 +283,7 @@ def _newton_positions(eng: _Engine, t: float, y: np.ndarray, tol: float, max_ite
     n = eng.n
     Wmh = metric_inv_sqrt(eng)
     it = 0
-    C, D, _, _ = constraints_at(eng, t, y, 1)
+    C, D = assembly_rows(eng, t, y)
     res = float(np.max(np.abs(C))) if C.size else 0.0
     while res > tol:
         if it >= max_iterations:
@@ -264,7 +294,7 @@ def _newton_positions(eng: _Engine, t: float, y: np.ndarray, tol: float, max_ite
         lam = 1.0
         while True:
             y_try = retract(y, n, lam * step)
-            C_try, D_try, _, _ = constraints_at(eng, t, y_try, 1)
+            C_try, D_try = assembly_rows(eng, t, y_try)
             res_try = float(np.max(np.abs(C_try)))
             if res_try < res or lam < 1e-4:
                 break

@@ -667,6 +667,22 @@ class _Engine:
             raise ValueError(f"motor: a driving function returned a non-finite value at t={t:.6g}")
         return C, D, Ct, gamma
 
+    def angle_motor_errors(self, t: float, Phi: np.ndarray):
+        """``(s, c, ds_rows, dc_rows)`` of the angle motors: ``s = sin(theta - f)``, ``c = cos(theta - f)``.
+
+        ``ds_rows`` is the motor rows' Jacobian (computed from the table's
+        ``Dt``) and ``dc_rows`` that of ``c``; needs a level-1 table.
+        """
+        fv = np.array([mt.values(t) for mt in self.angle_motors]).reshape(-1, 3)
+        cf, sf = np.cos(fv[:, 0]), np.sin(fv[:, 0])
+        p1, p2 = self.aux_motor[:, 0], self.aux_motor[:, 1]
+        P1, P2 = Phi[p1], Phi[p2]
+        s = P1 * cf - P2 * sf
+        c = P2 * cf + P1 * sf
+        ds = cf[:, None] * self.Dt[p1] - sf[:, None] * self.Dt[p2]
+        dc = cf[:, None] * self.Dt[p2] + sf[:, None] * self.Dt[p1]
+        return s, c, ds, dc
+
     # ------------------------------------------------------------ forces
     def applied(self, t: float, y: np.ndarray, At: np.ndarray, Y: np.ndarray, Phi, state_factory) -> np.ndarray:
         """Generalized applied and quadratic-velocity forces Q_e + Q_v (6n,), Newton-Euler form.

@@ -26,7 +26,14 @@ from scipy.linalg import lapack
 from core._validation import float_array, positive_integer, real_number, short_repr
 from core.integrators import MAX_STEPS, IntegrationError, integrate
 
-from ._analysis import AssemblyError, analyze_rank, check_constrained_mass, constraints_at, row_label
+from ._analysis import (
+    AssemblyError,
+    analyze_rank,
+    check_constrained_mass,
+    constraints_at,
+    flipped_motors,
+    row_label,
+)
 from ._elements import Body, Joint, Motor
 from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, matrices, parameter_rates
 from ._system import State, _make_state
@@ -635,6 +642,12 @@ def simulate(
                 f"simulate: the current state violates the constraints at t={t0:g} (position residual "
                 f"{res_p:.3e}, velocity residual {res_v:.3e}; largest in {row_label(eng, r)}); "
                 f"call system.assemble(t={t0:g}) first"
+            )
+        flipped = flipped_motors(eng, t0, y0)
+        if flipped:
+            raise AssemblyError(
+                f"simulate: motor {flipped[0].name!r} holds its joint half a turn from its angle f(t) at "
+                f"t={t0:g} (sin(theta - f) = 0 with cos(theta - f) < 0); call system.assemble(t={t0:g}) first"
             )
         if not eng.analyzed:
             analyze_rank(eng, t0, y0)

@@ -254,6 +254,31 @@ def test_simulate_refuses_a_state_off_the_constraints(two):
         system.simulate([0.0, 1.0])
 
 
+@pytest.mark.parametrize("f0", [2.0, -3.0, 3.1, 0.4])
+def test_assemble_turns_a_driven_joint_to_its_angle_from_any_offset(f0):
+    """sin(theta - f) = 0 also at theta = f + pi: assembly works on the wrapped angle error instead."""
+    system = System()
+    rod = system.add_body("rod", mass=1.0, inertia=(1 / 12, 1 / 12, 1e-4), position=(0.0, 0.0, -0.5))
+    hinge = system.add_joint("revolute", system.ground, rod, point=(0, 0, 0), axis=(1, 0, 0))
+    system.add_motor(hinge, angle=lambda t: f0 + 0.0 * t)
+    report = system.assemble()
+    p = system.state.orientation(rod)
+    assert 2.0 * math.atan2(p[1], p[0]) == pytest.approx(f0, abs=1e-12)
+    assert report.rotation["rod"] == pytest.approx(abs(f0), abs=1e-12)
+
+
+def test_simulate_refuses_a_motor_half_a_turn_off():
+    system = System()
+    rod = system.add_body("rod", mass=1.0, inertia=(1 / 12, 1 / 12, 1e-4), position=(0.0, 0.0, -0.5))
+    hinge = system.add_joint("revolute", system.ground, rod, point=(0, 0, 0), axis=(1, 0, 0))
+    system.add_motor(hinge, angle=lambda t: math.pi + 0.0 * t, name="drive")
+    assert abs(system.evaluate().C[-1]) < 1e-15  # the sine form is satisfied ...
+    with pytest.raises(AssemblyError, match=r"simulate: motor 'drive' holds its joint half a turn from its angle"):
+        system.simulate([0.0, 0.1])  # ... but the joint is half a turn from f
+    system.assemble()
+    assert system.simulate([0.0, 0.1]).position(rod)[0] == pytest.approx([0.0, 0.0, 0.5], abs=1e-12)
+
+
 def test_singular_constrained_mass_matrix_is_a_clear_error():
     """A point mass on a spherical joint: its rotation is free and has no inertia."""
     system = System()
