@@ -16,7 +16,7 @@ import warnings
 
 import numpy as np
 
-from ._euler_parameters import _p_from_matrix
+from ._euler_parameters import _p_from_matrix, _p_from_matrix_single
 from ._batch import blocks
 from ._matrix import elementary_matrix
 from ._quaternion import _product
@@ -251,6 +251,54 @@ def _angles_from_p(p, seq, warn=True):
     return out
 
 
+
+def _angles_from_p_single(p, seq, warn=True):
+    """:func:`_angles_from_p` for one rotation ``p`` (4 floats): (3,), the same
+    formulas on floats (``atan2``, ``hypot``, the same wrapping)."""
+    axes, intrinsic = parse_seq(seq)
+    extrinsic = not intrinsic
+    i, j, k = axes if extrinsic else axes[::-1]
+    symmetric = i == k
+    if symmetric:
+        k = 3 - i - j
+    sign = (i - j) * (j - k) * (k - i) // 2
+    w, qi, qj, qk = p[0], p[i + 1], p[j + 1], p[k + 1] * sign
+    if symmetric:
+        a, b, c, d = w, qi, qj, qk
+    else:
+        a, b, c, d = w - qj, qi + qk, qj + w, qk - qi
+    half_sum = math.atan2(b, a)
+    half_diff = math.atan2(d, c)
+    middle = 2.0 * math.atan2(math.hypot(c, d), math.hypot(a, b))
+    case1 = abs(middle) <= GIMBAL_LOCK_TOL
+    case2 = abs(middle - math.pi) <= GIMBAL_LOCK_TOL
+    case0 = not (case1 or case2)
+    if warn and not case0:
+        warnings.warn(
+            f"Gimbal lock in sequence {seq!r}: the middle "
+            "angle is at its singular value, so only the sum or difference of "
+            "the first and third angles is defined; the third angle is set "
+            "to zero.",
+            GimbalLockWarning,
+            stacklevel=3,
+        )
+    first = 0 if extrinsic else 2
+    third = 2 if extrinsic else 0
+    out = [0.0, middle, 0.0]
+    out[0] = 2.0 * half_sum if case1 else 2.0 * half_diff * (-1.0 if extrinsic else 1.0)
+    if case0:
+        out[first] = half_sum - half_diff
+    a3 = half_sum + half_diff if case0 else out[third]
+    if not symmetric:
+        a3 = a3 * sign
+        out[1] -= 0.5 * math.pi
+    out[third] = a3
+    two_pi = 2.0 * math.pi
+    out[0] = (out[0] + math.pi) % two_pi - math.pi
+    out[2] = (out[2] + math.pi) % two_pi - math.pi
+    return np.array(out)
+
+
 def euler_angles_from_matrix(A, seq="ZXZ"):
     """Euler angles of a rotation matrix (any sequence).
 
@@ -284,7 +332,12 @@ def euler_angles_from_matrix(A, seq="ZXZ"):
         ``A``.
     """
     parse_seq(seq)
-    A = check_matrix(A, "A")
+    arr = as_float_array(A, "A")
+    if arr.shape == (3, 3):  # one rotation: the float path, same formulas
+        p = _p_from_matrix_single(*arr.ravel().tolist())
+        if p is not None:
+            return _angles_from_p_single(p.tolist(), seq)
+    A = check_matrix(arr, "A")
     return _angles_from_p(_p_from_matrix(A), seq)
 
 

@@ -304,3 +304,26 @@ BAD_SINGLE_CALLS = [
 def test_bad_single_inputs_raise_as_in_the_batch(f, args, match):
     with pytest.raises(ValueError, match=match):
         f(*args)
+
+
+@pytest.mark.parametrize("seq", SEQUENCES)
+def test_euler_angles_from_matrix_single_equals_batch_and_warns_the_same(seq):
+    # Same formulas on floats: agreement to a few ulps of pi (angles are
+    # compared modulo 2 pi, where -pi and pi are the same angle).
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(200, 4))
+    A = cr.matrix_from_euler_parameters(q / np.linalg.norm(q, axis=1, keepdims=True))
+    batch = cr.euler_angles_from_matrix(A, seq)
+    single = np.array([cr.euler_angles_from_matrix(a, seq) for a in A])
+    difference = np.abs(batch - single)
+    assert np.minimum(difference, np.abs(difference - 2 * np.pi)).max() <= 4 * np.finfo(float).eps * np.pi
+    # At gimbal lock both paths warn once and give the same angles.
+    proper = seq[0].upper() == seq[2].upper()
+    locked = cr.matrix_from_euler_angles(np.array([0.3, 0.0 if proper else np.pi / 2, 0.2]), seq)
+    with pytest.warns(cr.GimbalLockWarning, match=f"Gimbal lock in sequence '{seq}'"):
+        one = cr.euler_angles_from_matrix(locked, seq)
+    with pytest.warns(cr.GimbalLockWarning):
+        many = cr.euler_angles_from_matrix(locked[None], seq)[0]
+    np.testing.assert_allclose(cr.matrix_from_euler_angles(one, seq), locked, atol=1e-15)
+    difference = np.abs(one - many)
+    assert np.minimum(difference, np.abs(difference - 2 * np.pi)).max() <= 4 * np.finfo(float).eps * np.pi
