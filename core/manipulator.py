@@ -49,6 +49,8 @@ from __future__ import annotations
 
 import dataclasses
 
+import math
+
 import numpy as np
 
 from core._validation import float_array
@@ -146,6 +148,11 @@ class ManipulatorGeometry:
             )
         lengths.setflags(write=False)
         object.__setattr__(self, "link_lengths", lengths)
+        # Python-float copies for the one-configuration paths (validated arrays are read-only).
+        object.__setattr__(self, "_floats", (
+            [tuple(float(c) for c in row) for row in self.joint_axes],
+            [tuple(float(c) for c in row) for row in self.link_vectors],
+        ))
 
     @property
     def link_vectors(self) -> np.ndarray:
@@ -306,36 +313,96 @@ def link_frames_successive(
 
 
 
+def _rodriguez_floats(axis: tuple[float, float, float], angle: float) -> tuple[float, ...]:
+    """Row-major Rodriguez matrix (Eq. 8.29) of a unit ``axis`` on Python floats.
+
+    ``R = I + sin(theta) a~ + 2 sin^2(theta/2) a~^2``: the same formula as
+    :func:`core.rotations.matrix_from_axis_angle`, without array overhead (a
+    one-configuration call costs a few microseconds instead of tens).
+    """
+    x, y, z = axis
+    s = math.sin(angle)
+    v = 2.0 * math.sin(0.5 * angle) ** 2
+    return (
+        1.0 - v * (y * y + z * z), v * x * y - s * z, v * x * z + s * y,
+        v * x * y + s * z, 1.0 - v * (x * x + z * z), v * y * z - s * x,
+        v * x * z - s * y, v * y * z + s * x, 1.0 - v * (x * x + y * y),
+    )
+
+
+def _mul33(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, ...]:
+    """Row-major product of two 3x3 matrices given as 9-tuples."""
+    a0, a1, a2, a3, a4, a5, a6, a7, a8 = a
+    b0, b1, b2, b3, b4, b5, b6, b7, b8 = b
+    return (
+        a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8,
+        a3 * b0 + a4 * b3 + a5 * b6, a3 * b1 + a4 * b4 + a5 * b7, a3 * b2 + a4 * b5 + a5 * b8,
+        a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8,
+    )
+
+
+def _mulv(a: tuple[float, ...], v: tuple[float, float, float]) -> tuple[float, float, float]:
+    """Row-major 3x3 matrix times a vector."""
+    x, y, z = v
+    return (
+        a[0] * x + a[1] * y + a[2] * z,
+        a[3] * x + a[4] * y + a[5] * z,
+        a[6] * x + a[7] * y + a[8] * z,
+    )
+
+
+_IDENTITY9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def _float_geometry(geometry: ManipulatorGeometry) -> tuple[list, list]:
+    """Joint axes and link vectors of ``geometry`` as tuples of Python floats."""
+    return geometry._floats  # type: ignore[attr-defined]
+
+
 def _successive_single(theta: np.ndarray, geometry: ManipulatorGeometry) -> LinkFrames:
-    """:func:`link_frames_successive` for one configuration ``theta`` (3,) (same arithmetic)."""
-    orientations = np.empty((3, 3, 3))
-    origins = np.empty((3, 3))
-    origin = np.zeros(3)
-    orientation = None
-    link_vectors = geometry.link_vectors
-    axes = geometry.joint_axes
+    """:func:`link_frames_successive` for one configuration ``theta`` (3,), on floats."""
+    axes, links = _float_geometry(geometry)
+    orientations = []
+    origins = []
+    origin = (0.0, 0.0, 0.0)
+    orientation = _IDENTITY9
     for k in range(3):
-        relative = matrix_from_axis_angle(axes[k], float(theta[k]))
-        orientation = relative if orientation is None else orientation @ relative
-        orientations[k] = orientation
-        origins[k] = origin
-        origin = origin + orientation @ link_vectors[k]
-    return LinkFrames(orientations=orientations, origins=origins, end_point=origin)
+        orientation = _mul33(orientation, _rodriguez_floats(axes[k], float(theta[k])))
+        orientations.append(orientation)
+        origins.append(origin)
+        step = _mulv(orientation, links[k])
+        origin = (origin[0] + step[0], origin[1] + step[1], origin[2] + step[2])
+    return LinkFrames(
+        orientations=np.array(orientations).reshape(3, 3, 3),
+        origins=np.array(origins),
+        end_point=np.array(origin),
+    )
 
 
 def _global_single(theta: np.ndarray, geometry: ManipulatorGeometry, steps: int) -> LinkFrames:
-    """:func:`link_frames_global_axis_rotations` for one configuration (same arithmetic)."""
-    zero_origins = np.zeros((4, 3))
-    zero_origins[1:] = np.cumsum(geometry.link_vectors, axis=0)
-    orientations = np.tile(np.eye(3), (3, 1, 1))
-    points = zero_origins.copy()
-    axes = geometry.joint_axes
+    """:func:`link_frames_global_axis_rotations` for one configuration, on floats."""
+    axes, links = _float_geometry(geometry)
+    zero = [(0.0, 0.0, 0.0)]
+    for link in links:
+        last = zero[-1]
+        zero.append((last[0] + link[0], last[1] + link[1], last[2] + link[2]))
+    orientations = [_IDENTITY9] * 3
+    points = list(zero)
     for joint in range(2, 2 - steps, -1):
-        rotation = matrix_from_axis_angle(axes[joint], float(theta[joint]))
-        pivot = zero_origins[joint]
-        orientations[joint:] = rotation @ orientations[joint:]
-        points[joint + 1:] = pivot + (points[joint + 1:] - pivot) @ rotation.T
-    return LinkFrames(orientations=orientations, origins=points[:3], end_point=points[3])
+        rotation = _rodriguez_floats(axes[joint], float(theta[joint]))
+        px, py, pz = zero[joint]
+        for k in range(joint, 3):
+            orientations[k] = _mul33(rotation, orientations[k])
+        for k in range(joint + 1, 4):
+            x = points[k]
+            r = _mulv(rotation, (x[0] - px, x[1] - py, x[2] - pz))
+            points[k] = (px + r[0], py + r[1], pz + r[2])
+    return LinkFrames(
+        orientations=np.array(orientations).reshape(3, 3, 3),
+        origins=np.array(points[:3]),
+        end_point=np.array(points[3]),
+    )
+
 
 def matrix_from_successive_rotations(
     joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY

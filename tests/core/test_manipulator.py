@@ -271,7 +271,8 @@ def test_angular_velocity_broadcasts_rates_against_angles() -> None:
     omega = end_link_angular_velocity(angles, rates)
     assert omega.shape == (4, 1, 3)
     one = end_link_angular_velocity(angles[2, 0], rates)
-    np.testing.assert_allclose(omega[2, 0], one, rtol=0, atol=0)
+    # one configuration takes the float path: same formulas, other rounding order
+    np.testing.assert_allclose(omega[2, 0], one, rtol=0, atol=ROUNDING)
 
 
 # -- batch shapes ---------------------------------------------------------
@@ -382,3 +383,27 @@ def test_joint_rates_are_validated() -> None:
         end_link_angular_velocity(np.zeros(3), [np.nan, 0, 0])
     with pytest.raises(ValueError, match=r"joint_rates must broadcast against joint_angles.*\(2, 3\).*\(5, 3\)"):
         end_link_angular_velocity(np.zeros((5, 3)), np.zeros((2, 3)))
+
+
+@pytest.mark.parametrize("steps", [0, 1, 2, 3])
+def test_one_configuration_float_path_matches_the_batch(steps: int) -> None:
+    """A (3,) configuration takes the Python-float path; a (1, 3) batch the array path."""
+    rng = np.random.default_rng(31 + steps)
+    axes = rng.normal(size=(3, 3))
+    directions = rng.normal(size=(3, 3))
+    geometry = ManipulatorGeometry(
+        joint_axes=axes / np.linalg.norm(axes, axis=1, keepdims=True),
+        link_lengths=[0.3, 1.2, 0.7],
+        link_directions=directions / np.linalg.norm(directions, axis=1, keepdims=True),
+    )
+    for angles in random_angles(rng, (50,)):
+        for function, kwargs in (
+            (link_frames_successive, {"geometry": geometry}),
+            (link_frames_global_axis_rotations, {"geometry": geometry, "steps": steps}),
+            (link_frames_global_axis_rotations, {"steps": steps}),
+        ):
+            one = function(angles, **kwargs)
+            batch = function(angles[None], **kwargs)
+            np.testing.assert_allclose(one.orientations, batch.orientations[0], rtol=0, atol=ROUNDING)
+            np.testing.assert_allclose(one.origins, batch.origins[0], rtol=0, atol=ROUNDING)
+            np.testing.assert_allclose(one.end_point, batch.end_point[0], rtol=0, atol=ROUNDING)
