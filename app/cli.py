@@ -6,6 +6,8 @@ Examples
     Serve every scene on http://127.0.0.1:8080 (loopback only).
 ``rigidlab serve --host 0.0.0.0 --mode per-client``
     Serve a classroom LAN; every browser gets its own state.
+``rigidlab serve --present --state demo.json``
+    Start in presenter view from a saved scene state (Share > Download state).
 ``rigidlab bench``
     List the benchmarks under ``bench/``.
 ``rigidlab bench rotations app_stream``
@@ -15,6 +17,7 @@ Examples
 from __future__ import annotations
 
 import argparse
+import errno
 import logging
 import socket
 import subprocess
@@ -47,22 +50,78 @@ def _lan_addresses() -> list[str]:
     return sorted({info[4][0] for info in infos if not info[4][0].startswith("127.")})
 
 
+def _port(text: str) -> int:
+    """argparse type of ``--port``: an integer from 0 to 65535."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer from 0 to 65535, got {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"expected an integer from 0 to 65535, got {port}")
+    return port
+
+
+def _is_loopback(host: str) -> bool:
+    return host in ("localhost", "::1") or host.startswith("127.")
+
+
+def _port_free(host: str, port: int) -> OSError | None:
+    """None if ``host:port`` can be bound now, else the error (port 0 is always free)."""
+    if port == 0:
+        return None
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            return exc
+    return None
+
+
 def _serve(args: argparse.Namespace) -> int:
+    from app import state as state_codec
     from app.server import create_app
 
+    state = None
+    if args.state is not None:
+        try:
+            state = state_codec.load_file(args.state)
+        except state_codec.StateError as exc:
+            print(f"rigidlab serve: --state: {exc}", file=sys.stderr)
+            return 2
+    busy = _port_free(args.host, args.port)
+    if busy is not None:
+        reason = "is in use" if busy.errno == errno.EADDRINUSE else f"cannot be used ({busy.strerror or busy})"
+        print(f"rigidlab serve: port {args.port} on {args.host} {reason}; choose another with --port "
+              "(--port 0 picks a free one)", file=sys.stderr)
+        return 2
     try:
-        app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode)
+        app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
+                         presenter=args.present, state=state)
     except ValueError as exc:
         print(f"rigidlab serve: {exc}", file=sys.stderr)
         return 2
-    except OSError as exc:
+    except (OSError, OverflowError) as exc:
         print(f"rigidlab serve: cannot listen on {args.host}:{args.port}: {exc}", file=sys.stderr)
-        return 1
-    print(f"rigidlab: serving {', '.join(app.scene_names)} ({app.mode} mode)")
+        return 2
+    if args.port != 0 and app.port != args.port:  # taken between the check and the bind
+        app.stop()
+        print(f"rigidlab serve: port {args.port} on {args.host} is in use; choose another with --port",
+              file=sys.stderr)
+        return 2
+    print(f"rigidlab: serving {', '.join(app.scene_names)} ({app.mode} mode"
+          f"{', presenter view' if args.present else ''})")
     print(f"rigidlab: open {app.url}")
-    if args.host in ("0.0.0.0", "", "::"):
+    if not _is_loopback(args.host):
         for address in _lan_addresses():
             print(f"rigidlab: on the LAN: http://{address}:{app.port}")
+        warning = (f"rigidlab: warning: serving on {args.host}: anyone who can reach this address can "
+                   "open the page, with no password")
+        if app.mode == "shared":
+            warning += (", and every browser drives the same scene; for a class of students exploring "
+                        "on their own, use --mode per-client")
+        print(warning + ".", file=sys.stderr, flush=True)
     print("rigidlab: press Ctrl-C to stop", flush=True)
     try:
         threading.Event().wait()
@@ -100,22 +159,43 @@ def _bench(args: argparse.Namespace) -> int:
     return status
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (and exit status 2)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rigidlab`` command."""
     from app.server import MODES
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="rigidlab", description="Interactive lab for spatial rigid-body dynamics."
     )
     sub = parser.add_subparsers(dest="command", required=True)
 
-    serve = sub.add_parser("serve", help="serve the scenes to browsers")
+    from app.scenes import discover_scenes
+
+    scene_names = list(discover_scenes())
+    serve = sub.add_parser(
+        "serve", help="serve the scenes to browsers",
+        description="Serve the scenes to browsers. Scenes: " + ", ".join(scene_names) + ".",
+    )
     serve.add_argument("--host", default="127.0.0.1",
-                       help="interface to bind (default 127.0.0.1; 0.0.0.0 serves a LAN)")
-    serve.add_argument("--port", type=int, default=8080, help="TCP port (default 8080)")
-    serve.add_argument("--scene", default=None, help="scene shown first (default: the first one)")
+                       help="interface to bind (default 127.0.0.1, this machine only; 0.0.0.0 serves "
+                            "the LAN, with no password)")
+    serve.add_argument("--port", type=_port, default=8080,
+                       help="TCP port, 0-65535 (default 8080; 0 picks a free one)")
+    serve.add_argument("--scene", default=None, choices=scene_names, metavar="NAME",
+                       help="scene shown first: " + ", ".join(scene_names) + " (default: the first)")
     serve.add_argument("--mode", choices=MODES, default="shared",
                        help="shared: one state for everyone; per-client: one per browser")
+    serve.add_argument("--present", action="store_true",
+                       help="start in presenter view (large labels, thick arrows, large readouts)")
+    serve.add_argument("--state", default=None, metavar="FILE",
+                       help="start from a scene state saved with Share > Download state (JSON) "
+                            "or a state string")
     serve.set_defaults(func=_serve)
 
     bench = sub.add_parser("bench", help="run benchmark scripts from bench/")

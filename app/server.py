@@ -5,7 +5,8 @@ Two modes:
 ``shared``
     One :class:`Session` built on the :class:`viser.ViserServer` itself: every
     browser sees the same scene state (the instructor drives, the class
-    watches). Notices go to every connected browser.
+    watches). Notices about the scene go to every browser; a notice about a
+    refused value goes only to the browser that sent it.
 ``per-client``
     One :class:`Session` per browser, built on its :class:`viser.ClientHandle`
     when the client registers and torn down when it leaves; state is isolated
@@ -13,16 +14,27 @@ Two modes:
 
 The pattern is the one of viser's SMPL demo: GUI callbacks (run by viser in a
 thread pool) only record what changed, under a lock; one loop thread at about
-60 Hz visits every session, applies a requested scene switch and calls the
-active scene's ``update(dt)``, which assigns poses inside ``atomic()``. Hidden
-scenes are never updated. Any exception raised by a scene is caught, logged and
-shown as a notice; the server keeps serving.
+60 Hz visits every session, applies a requested scene switch, presenter
+toggle or state load and calls the active scene's ``frame(dt)``, which assigns
+poses inside ``atomic()``. Hidden scenes are never updated. Every GUI value
+passes the gate (:mod:`app.gate`) before viser stores it. An exception in a
+scene pauses that scene (:meth:`app.scenes.base.Scene.frame`); the server
+keeps serving. Long work runs on one background executor per app
+(:mod:`app.worker`).
+
+Besides the scene chooser, every session has a presenter-view switch and a
+*Share* folder: *Copy state* (the active scene's state as a short string, a
+link and a copy button), *Load state* and *Download state (JSON)*, the file
+that ``rigidlab serve --state FILE`` starts from (:mod:`app.state`).
 """
 
 from __future__ import annotations
 
 import collections
+import concurrent.futures
 import dataclasses
+import html
+import json
 import logging
 import threading
 import time
@@ -32,8 +44,13 @@ from typing import Any, Literal
 
 import viser
 
+from app import state as state_codec
+from app.controls import Button, Choice, Text, Toggle
+from app.gate import Gate, RefusedValue, client_request_path
+from app.panel import ControlPanel
 from app.scenes import discover_scenes, discovery_errors
-from app.scenes.base import Scene
+from app.scenes.base import Scene, SceneContext
+from app.worker import make_executor
 
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
 
@@ -50,10 +67,21 @@ _LEVEL_SECONDS = {"info": 6.0, "warning": 10.0, "error": 15.0}
 _NOTICE_REPEAT_SECONDS = 5.0
 #: Loop period (about 60 Hz) and the largest dt handed to a scene (s).
 _PERIOD = 1.0 / 60.0
+_MAX_DT = 0.1
 #: View for scenes that do not declare ``camera_position`` / ``camera_look_at``.
 DEFAULT_CAMERA_POSITION = (3.2, -4.2, 2.6)
 DEFAULT_CAMERA_LOOK_AT = (0.0, 0.0, 0.3)
-_MAX_DT = 0.1
+#: Thread switch interval while an app runs (s): a background job holding the
+#: GIL delays the loop thread by at most about this much (Python's default is 5 ms).
+SWITCH_INTERVAL = 0.0005
+
+_COPY_JS = (
+    "(function(b){var t=b.getAttribute('data-copy');var ok=function(){var o=b.innerText;"
+    "b.innerText='Copied';setTimeout(function(){b.innerText=o},1500)};"
+    "if(navigator.clipboard&&window.isSecureContext){navigator.clipboard.writeText(t).then(ok)}"
+    "else{var a=document.createElement('textarea');a.value=t;document.body.appendChild(a);a.select();"
+    "document.execCommand('copy');document.body.removeChild(a);ok()}})(this)"
+)
 
 
 def _send_notice(client: Any, title: str, body: str, level: str) -> None:
@@ -64,6 +92,14 @@ def _send_notice(client: Any, title: str, body: str, level: str) -> None:
         auto_close_seconds=_LEVEL_SECONDS.get(level, 8.0),
         color=_LEVEL_COLORS.get(level, "blue"),
         with_close_button=True,
+    )
+
+
+def _copy_button(label: str, text: str) -> str:
+    return (
+        f"<button data-copy=\"{html.escape(text, quote=True)}\" onclick=\"{_COPY_JS}\" "
+        "style='margin:0 0.4em 0.3em 0;padding:0.25em 0.7em;border:1px solid #228be6;border-radius:4px;"
+        f"background:#e7f5ff;color:#1864ab;cursor:pointer;font-size:0.85em'>{html.escape(label)}</button>"
     )
 
 
@@ -80,12 +116,18 @@ class Session:
         Name of the scene shown first.
     send_notice : callable
         ``send_notice(title, body, level)`` shows a notice to this audience.
+    executor : concurrent.futures.Executor, keyword-only
+        Background executor for the scenes' long work.
+    page_url : str, keyword-only
+        Address of the page (for share links).
+    presenter : bool, keyword-only
+        Start in presenter view.
 
     Notes
     -----
     Scenes are built lazily, the first time they are shown, so a scene nobody
     opens costs nothing. ``run_lock`` is held while a scene is built, switched
-    or updated; ``lock`` only guards the recorded (pending) scene switch.
+    or updated; ``lock`` only guards the recorded requests.
     """
 
     def __init__(
@@ -96,6 +138,9 @@ class Session:
         send_notice: Callable[[str, str, str], None],
         *,
         client_id: int | None = None,
+        executor: concurrent.futures.Executor | None = None,
+        page_url: str = "",
+        presenter: bool = False,
     ) -> None:
         self.target = target
         self.client_id = client_id
@@ -105,12 +150,16 @@ class Session:
         self.run_lock = threading.RLock()
         self.active_name: str | None = None
         self.closed = False
+        self.presenter = bool(presenter)
+        self.page_url = page_url
+        self._owns_executor = executor is None
+        self.executor = executor if executor is not None else make_executor()
         self._initial = initial_scene
         self._pending: str | None = None
+        self._pending_states: list[tuple[dict[str, Any], str]] = []
         self._send_notice = send_notice
         self._last_notice: dict[tuple[str, str], float] = {}
         self._notice_lock = threading.Lock()
-        self._chooser: Any = None
         self._title_to_name = {
             (cls.title or name): name for name, cls in self.scene_classes.items()
         }
@@ -118,6 +167,9 @@ class Session:
         self.update_counts: dict[str, int] = {name: 0 for name in self.scene_classes}
         #: The latest notices shown to this audience: ``(title, body, level)``.
         self.notices: collections.deque[tuple[str, str, str]] = collections.deque(maxlen=100)
+        self.gate = Gate.for_gui(target.gui, on_refused=self._on_refused)
+        self.controls = ControlPanel(target.gui, self.gate, self.notify_client)
+        self._chooser: Any = None
 
     # -- notices ---------------------------------------------------------
     def notify(self, title: str, body: str, level: str = "info") -> None:
@@ -137,6 +189,36 @@ class Session:
         except Exception:  # a vanished client must not break the caller
             _log.debug("could not deliver notice", exc_info=True)
 
+    def notify_client(self, client: Any, title: str, body: str, level: str = "info") -> None:
+        """A notice to the browser ``client`` only (the audience when None)."""
+        if client is None or not isinstance(self.target, viser.ViserServer):
+            self.notify(title, body, level)
+            return
+        with self._notice_lock:
+            self.notices.append((title, body, level))
+        _log.info("notice to client %s [%s] %s: %s", getattr(client, "client_id", "?"), level, title, body)
+        try:
+            _send_notice(client, title, body, level)
+        except Exception:
+            _log.debug("could not deliver notice", exc_info=True)
+
+    def _client(self, client_id: int) -> Any:
+        if isinstance(self.target, viser.ViserServer):
+            return self.target.get_clients().get(client_id)
+        return self.target if self.target.client_id == client_id else None
+
+    def _on_refused(self, refused: RefusedValue) -> None:
+        # viser's event loop thread: a notice to the sender only
+        in_use = refused.in_use
+        shown = in_use if isinstance(in_use, str) else json.dumps(in_use) if in_use is not None else ""
+        body = f"{refused.reason}." + (f" Keeping {shown}." if shown else "")
+        client = self._client(refused.client_id)
+        if client is None:
+            with self._notice_lock:
+                self.notices.append((f"Refused: {refused.label}", body, "warning"))
+            return
+        self.notify_client(client, f"Refused: {refused.label}", body, "warning")
+
     def _guard(self, what: str, func: Callable[[], Any]) -> bool:
         """Run ``func``; on an exception log it, show a notice, return False."""
         try:
@@ -153,23 +235,32 @@ class Session:
 
     # -- life cycle -------------------------------------------------------
     def build(self) -> None:
-        """Create the scene chooser and show the initial scene."""
+        """Create the scene chooser, presenter switch and Share folder; show the initial scene."""
         with self.run_lock:
-            titles = list(self._title_to_name)
+            gui = self.target.gui
+            titles = tuple(self._title_to_name)
             initial_title = self._name_to_title[self._initial]
-            self._chooser = self.target.gui.add_dropdown(
-                "Scene", options=titles, initial_value=initial_title, order=-1000.0
+            self._chooser = self.controls.add(
+                Choice("scene", "Scene", options=titles, default=initial_title, in_state=False),
+                order=-1000.0,
             )
-            self._chooser.on_update(self._on_chooser)
+            self.controls.add(
+                Toggle("presenter", "Presenter view", default=self.presenter, in_state=False,
+                       hint="Large labels, thick arrows and large readouts for a projector."),
+                order=-999.0,
+            )
+            with gui.add_folder("Share", order=1e6, expand_by_default=False):
+                self.controls.add(Button("copy_state", "Copy state",
+                                         hint="The scene's parameters as a short string and a link"))
+                self.controls.add(Text("state_out", "State", disabled=True))
+                self._share_html = gui.add_html("")
+                self.controls.add(Text("state_in", "State to load",
+                                       hint="Paste a state string, its JSON or a link, then press Load state"))
+                self.controls.add(Button("load_state", "Load state"))
+                self.controls.add(Button("download_state", "Download state (JSON)",
+                                         hint="A file for rigidlab serve --state FILE"))
             if not self.activate(self._initial):
                 raise RuntimeError(f"the initial scene {self._initial!r} could not be built")
-
-    def _on_chooser(self, event: Any) -> None:
-        # GUI thread pool: only record the request; the loop applies it.
-        name = self._title_to_name.get(event.target.value)
-        if name is not None:
-            with self.lock:
-                self._pending = name
 
     def request_switch(self, name: str) -> None:
         """Record a scene switch; the loop applies it before the next update."""
@@ -179,6 +270,18 @@ class Session:
             )
         with self.lock:
             self._pending = name
+
+    def request_state(self, state: dict[str, Any], *, source: str = "a state") -> None:
+        """Record a state to load (switching scene if needed) at the next tick."""
+        state = state_codec.check(state)
+        with self.lock:
+            self._pending_states.append((state, source))
+
+    def context(self) -> SceneContext:
+        return SceneContext(
+            gate=self.gate, executor=self.executor, notify_client=self.notify_client,
+            presenter=self.presenter,
+        )
 
     def activate(self, name: str) -> bool:
         """Show scene ``name`` now (building it first if needed); hide the others.
@@ -198,7 +301,7 @@ class Session:
             previous = self.active_name
             if name not in self.scenes:
                 cls = self.scene_classes[name]
-                scene = cls(self.target, self.notify)
+                scene = cls(self.target, self.notify, context=self.context())
                 if not self._guard(f"building scene '{name}'", scene.build):
                     self._guard(f"removing scene '{name}'", scene.close)
                     self._set_chooser(previous)
@@ -209,19 +312,17 @@ class Session:
                     f"hiding scene '{previous}'",
                     lambda: self.scenes[previous].set_active(False),
                 )
-            self._guard(f"showing scene '{name}'", lambda: self.scenes[name].set_active(True))
+            scene = self.scenes[name]
+            if scene.presenter != self.presenter:
+                self._guard(f"presenter view of '{name}'", lambda: scene.set_presenter(self.presenter))
+            self._guard(f"showing scene '{name}'", lambda: scene.set_active(True))
             self.active_name = name
             self._set_chooser(name)
             self._guard(f"framing scene '{name}'", lambda: self._frame_camera(name))
             return True
 
     def _frame_camera(self, name: str) -> None:
-        """Point the camera(s) at the scene, if it declares a framing.
-
-        A scene may set the optional class attributes ``camera_position`` and
-        ``camera_look_at`` (global frame, metres); scenes without them get the
-        app's default view.
-        """
+        """Point the camera(s) at the scene, if it declares a framing."""
         cls = self.scene_classes[name]
         position = getattr(cls, "camera_position", None) or DEFAULT_CAMERA_POSITION
         look_at = getattr(cls, "camera_look_at", None) or DEFAULT_CAMERA_LOOK_AT
@@ -239,30 +340,120 @@ class Session:
     def _set_chooser(self, name: str | None) -> None:
         if self._chooser is None or name is None:
             return
-        title = self._name_to_title[name]
-        if self._chooser.value != title:
-            # Assigning fires _on_chooser synchronously; it records the same
-            # name, which the loop then sees as already active.
-            self._chooser.value = title
+        self.controls.set("scene", self._name_to_title[name])
 
+    def set_presenter(self, on: bool) -> None:
+        """Presenter view on or off for every built scene (loop thread)."""
+        with self.run_lock:
+            self.presenter = bool(on)
+            if self._chooser is not None:
+                self.controls.set("presenter", self.presenter)
+            for name, scene in self.scenes.items():
+                self._guard(f"presenter view of '{name}'", lambda scene=scene: scene.set_presenter(self.presenter))
+
+    def active_scene(self) -> Scene | None:
+        with self.run_lock:
+            return None if self.active_name is None else self.scenes[self.active_name]
+
+    # -- the loop ---------------------------------------------------------------
     def step(self, dt: float) -> None:
-        """One loop tick: apply a recorded switch, then update the active scene."""
+        """One loop tick: shell requests, then the active scene's frame."""
+        changes = self.controls.take_changes()
+        clicks = self.controls.take_clicks()
+        if "scene" in changes:
+            name = self._title_to_name.get(self.controls.value("scene"))
+            if name is not None:
+                with self.lock:
+                    self._pending = name
         with self.lock:
             pending, self._pending = self._pending, None
+            states, self._pending_states = self._pending_states, []
         with self.run_lock:
             if self.closed:
                 return
+            if "presenter" in changes:
+                self.set_presenter(bool(self.controls.value("presenter")))
             if pending is not None and pending != self.active_name:
                 self.activate(pending)
+            for state, source in states:
+                self._load(state, source)
+            for key, _, client in clicks:
+                self._guard(f"Share: {key.replace('_', ' ')}", lambda key=key, client=client: self._share(key, client))
             name = self.active_name
             if name is None:
                 return
             scene = self.scenes[name]
             self.update_counts[name] += 1
-            self._guard(f"scene '{name}'", lambda: scene.update(dt))
+            try:
+                scene.frame(dt)
+            except Exception:  # frame contains scene errors; this is a last resort
+                _log.error("frame of scene %r failed:\n%s", name, traceback.format_exc())
+
+    def _share(self, key: str, client: Any) -> None:
+        scene = self.active_scene()
+        if scene is None:
+            return
+        if key == "copy_state":
+            string = state_codec.encode(scene.state())
+            self.controls.set("state_out", string)
+            link = state_codec.share_link(self._link_base(client), string)
+            self._share_html.content = (
+                "<div style='padding:0 0.75em 0.5em 0.75em;font-size:0.8em'>"
+                + _copy_button("Copy state string", string) + _copy_button("Copy link", link)
+                + f"<div style='word-break:break-all;color:#555'>Link (opens {html.escape(scene.title)} "
+                f"with these values in a per-client session): <a href=\"{html.escape(link, quote=True)}\" "
+                f"target='_blank'>{html.escape(link)}</a></div></div>"
+            )
+        elif key == "load_state":
+            text = self.controls.value("state_in")
+            try:
+                state = state_codec.decode(text)
+            except state_codec.StateError as exc:
+                self.notify_client(client, "Load state", f"{exc}.", "warning")
+                return
+            self._load(state, "the pasted state", client=client)
+        elif key == "download_state":
+            content = json.dumps(scene.state(), indent=2).encode()
+            target = client if client is not None else self.target
+            target.send_file_download(f"{scene.name}_state.json", content, save_immediately=True)
+
+    def _link_base(self, client: Any) -> str:
+        """``http://host:port`` as the browser ``client`` reached the server."""
+        if client is not None and isinstance(self.target, viser.ViserServer):
+            try:
+                connection = self.target._websock_server._live_connections.get(client.client_id)
+                host = connection.request.headers.get("Host") if connection is not None else None
+                if host:
+                    return f"http://{host}"
+            except Exception:
+                _log.debug("no Host header", exc_info=True)
+        return self.page_url
+
+    def _load(self, state: dict[str, Any], source: str, *, client: Any = None) -> None:
+        name = state.get("scene")
+        if name not in self.scene_classes:
+            self.notify_client(
+                client, "Load state",
+                f"state: expected a scene of {list(self.scene_classes)}, got {name!r}.", "warning",
+            )
+            return
+        if name != self.active_name and not self.activate(name):
+            return
+        scene = self.scenes[name]
+        refused = scene.load_state(state)
+        title = self._name_to_title[name]
+        if refused:
+            self.notify(
+                "State loaded in part",
+                f"{title}: from {source}; refused: " + "; ".join(refused[:6])
+                + (" ..." if len(refused) > 6 else "") + ". The other values are in use.",
+                "warning",
+            )
+        else:
+            self.notify("State loaded", f"{title}: every value from {source} is in use.", "info")
 
     def close(self, *, client_gone: bool = False) -> None:
-        """Close every built scene (so it can release what it holds) and the chooser.
+        """Close every built scene (so it can release what it holds) and the shell GUI.
 
         With ``client_gone`` (the browser already left, its nodes died with
         the connection) failures are only logged: nobody is left to notify.
@@ -272,8 +463,9 @@ class Session:
                 return
             self.closed = True
             closers = [(f"closing scene '{n}'", sc.close) for n, sc in self.scenes.items()]
-            if self._chooser is not None:
-                closers.append(("removing the scene chooser", self._chooser.remove))
+            for key, handle in self.controls.handles.items():
+                closers.append((f"removing {key}", handle.remove))
+            closers.append(("releasing the shell controls", self.controls.remove_all))
             for what, close in closers:
                 if client_gone:
                     try:
@@ -283,6 +475,8 @@ class Session:
                 else:
                     self._guard(what, close)
             self.scenes.clear()
+            if self._owns_executor:
+                self.executor.shutdown(wait=False, cancel_futures=True)
 
 
 @dataclasses.dataclass(eq=False)
@@ -305,6 +499,10 @@ class RigidlabApp:
         Keep updating the shared scene while no browser is connected (tests
         and notebooks that inspect the scene without a browser). By default
         a shared scene nobody looks at does no work at all.
+    presenter : bool
+        Sessions start in presenter view.
+    initial_state : dict or None
+        State every new session starts from (``rigidlab serve --state``).
     """
 
     server: viser.ViserServer
@@ -315,12 +513,16 @@ class RigidlabApp:
     initial_scene: str
     run_unwatched: bool
     _scene_classes: dict[str, type[Scene]]
+    presenter: bool = False
+    initial_state: dict[str, Any] | None = None
+    executor: concurrent.futures.Executor = dataclasses.field(default_factory=make_executor)
     _shared: Session | None = None
     _sessions: dict[int, Session] = dataclasses.field(default_factory=dict)
     _lock: threading.Lock = dataclasses.field(default_factory=threading.Lock)
     _stop: threading.Event = dataclasses.field(default_factory=threading.Event)
     _thread: threading.Thread | None = None
     _ticks: int = 0
+    _switch_interval: float | None = None
 
     # -- sessions -------------------------------------------------------
     def session_for(self, client_id: int | None = None) -> Session:
@@ -427,8 +629,29 @@ class RigidlabApp:
                 delay = 0.0
             self._stop.wait(max(delay, 0.0))
 
+    def _link_state(self, client_id: int) -> dict[str, Any] | None:
+        string = state_codec.state_from_path(client_request_path(self.server, client_id))
+        if string is None:
+            return None
+        try:
+            return state_codec.decode(string)
+        except state_codec.StateError as exc:
+            client = self.server.get_clients().get(client_id)
+            if client is not None:
+                _send_notice(client, "State link", f"{exc}.", "warning")
+            return None
+
     def _on_connect(self, client: viser.ClientHandle) -> None:
-        if self.mode != "per-client" or self._stop.is_set():
+        if self._stop.is_set():
+            return
+        link_state = self._link_state(client.client_id)
+        if self.mode != "per-client":
+            if link_state is not None:
+                _send_notice(
+                    client, "State link not applied",
+                    "This server runs one shared scene for everyone, so a link does not change it. "
+                    "Paste the state into Share > State to load to apply it for everyone.", "info",
+                )
             return
         session = Session(
             client,
@@ -436,10 +659,16 @@ class RigidlabApp:
             self.initial_scene,
             lambda t, b, lvl: _send_notice(client, t, b, lvl),
             client_id=client.client_id,
+            executor=self.executor,
+            page_url=self.url,
+            presenter=self.presenter,
         )
         ok = session._guard("building the session", session.build)
         if not ok:
             return
+        for state, source in ((self.initial_state, "--state"), (link_state, "the link")):
+            if state is not None:
+                session.request_state(state, source=source)
         with self._lock:
             if self._stop.is_set():
                 return
@@ -465,7 +694,12 @@ class RigidlabApp:
             session.close(client_gone=True)
         if self._shared is not None:
             self._shared.close()
+        self.executor.shutdown(wait=False, cancel_futures=True)
         self.server.stop()
+        if self._switch_interval is not None:
+            import sys
+
+            sys.setswitchinterval(self._switch_interval)
 
 
 def create_app(
@@ -476,6 +710,8 @@ def create_app(
     mode: Mode = "shared",
     scene_classes: dict[str, type[Scene]] | None = None,
     run_unwatched: bool = False,
+    presenter: bool = False,
+    state: dict[str, Any] | None = None,
 ) -> RigidlabApp:
     """Start a viser server with every registered scene and the session loop.
 
@@ -486,7 +722,8 @@ def create_app(
     port : int
         TCP port; 0 picks a free one (read it back from ``app.port``).
     scene : str or None
-        Name of the scene shown first; default the first registered one.
+        Name of the scene shown first; default the first registered one (or
+        the scene of ``state``).
     mode : {"shared", "per-client"}
         One state for every browser, or one per browser.
     scene_classes : dict or None
@@ -495,6 +732,10 @@ def create_app(
     run_unwatched : bool
         Shared mode only: keep updating the scene while no browser is
         connected. Default False: with nobody watching, the loop does nothing.
+    presenter : bool
+        Start in presenter view (large labels, thick arrows, large readouts).
+    state : dict or None
+        A scene state (:mod:`app.state`) every session starts from.
 
     Returns
     -------
@@ -504,8 +745,11 @@ def create_app(
     Raises
     ------
     ValueError
-        For an unknown ``mode`` or ``scene``, or when no scene is registered.
+        For an unknown ``mode`` or ``scene``, a ``state`` of an unknown
+        scene, or when no scene is registered.
     """
+    import sys
+
     if mode not in MODES:
         raise ValueError(f"mode: expected one of {list(MODES)}, got {mode!r}")
     if scene_classes is None:
@@ -514,12 +758,23 @@ def create_app(
         raise ValueError(
             f"no scene is registered (import errors: {discovery_errors() or 'none'})"
         )
+    if state is not None:
+        state = state_codec.check(state)
+        if state["scene"] not in scene_classes:
+            raise ValueError(f"state: expected a scene of {list(scene_classes)}, got {state['scene']!r}")
+        if scene is None:
+            scene = state["scene"]
     if scene is None:
         scene = next(iter(scene_classes))
     elif scene not in scene_classes:
         raise ValueError(f"scene: expected one of {list(scene_classes)}, got {scene!r}")
 
-    server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)
+    executor = make_executor(processes=True, preload=[cls.__module__ for cls in scene_classes.values()])
+    try:
+        server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)
+    except BaseException:
+        executor.shutdown(wait=False, cancel_futures=True)
+        raise
     try:
         server.gui.configure_theme(control_width="large", show_share_button=False)
         bound = server.get_port()
@@ -533,20 +788,29 @@ def create_app(
             initial_scene=scene,
             run_unwatched=run_unwatched,
             _scene_classes=scene_classes,
+            presenter=presenter,
+            initial_state=state,
+            executor=executor,
         )
+        app._switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(SWITCH_INTERVAL, app._switch_interval))
+        server.on_client_connect(app._on_connect)
         if mode == "shared":
             session = Session(
-                server, scene_classes, scene, app.notify_all, client_id=None
+                server, scene_classes, scene, app.notify_all, client_id=None,
+                executor=app.executor, page_url=app.url, presenter=presenter,
             )
             if not session._guard("building the session", session.build):
                 raise RuntimeError(f"the initial scene {scene!r} could not be built")
+            if state is not None:
+                session.request_state(state, source="--state")
             app._shared = session
         else:
-            server.on_client_connect(app._on_connect)
             server.on_client_disconnect(app._on_disconnect)
         app._thread = threading.Thread(target=app._loop, name="rigidlab-loop", daemon=True)
         app._thread.start()
     except BaseException:
         server.stop()
+        executor.shutdown(wait=False, cancel_futures=True)
         raise
     return app

@@ -20,3 +20,39 @@ def wait_until(predicate: Callable[[], object], timeout: float = 20.0, *, interv
     if predicate():  # one last look after the deadline
         return True
     raise AssertionError(f"condition not met within {timeout:g} s")
+
+
+def send_value(owner: object, key: str, raw: object, *, timeout: float = 10.0) -> bool:
+    """Deliver ``raw`` to control ``key`` exactly as a browser would (through the gate).
+
+    ``owner`` is a scene, a session or a :class:`app.panel.ControlPanel`.
+    Returns whether the gate accepted the value; an accepted value has reached
+    the panel when this returns (text that does not parse is then pending).
+    Button controls take ``raw=True`` (a click); button groups the option.
+    """
+    from app.controls import Button, ButtonGroup, Refused
+
+    panel = getattr(owner, "controls", owner)
+    spec = panel.specs[key]
+    handle = panel.handles[key]
+    version = panel.version
+    before = handle.value
+    try:
+        checked = spec.check(raw)
+    except Refused:
+        checked = None
+        accepted = False
+    else:
+        accepted = True
+    panel.gate.submit(handle, raw).result(timeout)
+    if not accepted:
+        return False
+    if not isinstance(spec, (Button, ButtonGroup)) and checked == before:
+        return True  # unchanged: viser runs no callback
+    wait_until(lambda: panel.version > version or key in panel._pending, timeout)
+    return True
+
+
+def click(owner: object, key: str, option: object = True, *, timeout: float = 10.0) -> None:
+    """Click button ``key`` (or ``option`` of a button group) as a browser would."""
+    assert send_value(owner, key, option, timeout=timeout)

@@ -34,9 +34,15 @@ def extend_trail(points: np.ndarray, point: np.ndarray, *, min_step: float, capa
     added : bool
         Whether ``point`` was added.
     """
-    if points.shape[0] and not np.linalg.norm(point - points[-1]) > min_step:
-        return points, False
-    return np.vstack([points, point])[-(capacity + 1):], True
+    n = points.shape[0]
+    if n:
+        d = point - points[-1]
+        if not float(d @ d) > min_step * min_step:
+            return points, False
+    out = np.empty((n + 1, 3))
+    out[:n] = points
+    out[n] = point
+    return out[-(capacity + 1):], True
 
 
 def trail_segments(points: np.ndarray, capacity: int) -> np.ndarray:

@@ -1,61 +1,158 @@
-"""The one small interface every scene implements.
+"""The scene layer: the one small interface every scene implements, and what it gets for free.
 
-A scene is a class in its own module under ``app/scenes/``. The session that
-owns it (one per server in ``shared`` mode, one per browser in ``per-client``
-mode) drives it:
+A scene is a class in its own module under ``app/scenes/``. It declares its
+controls, its state and its update; the layer gives it, the same for every
+scene:
 
-1. ``scene = SceneClass(target, notify)`` -- store handles, do no work.
-2. ``scene.build()`` -- once: create scene nodes under ``scene.root`` and GUI
-   elements inside one GUI folder. Meshes are sent here and never again.
-3. ``scene.set_active(True / False)`` -- show or hide the nodes and the GUI
-   folder. A hidden scene's ``update`` is never called, so it does no work.
-4. ``scene.update(dt)`` -- called by the session loop (about 60 Hz) while the
-   scene is active. GUI callbacks only record changes (under ``self.lock``);
-   ``update`` recomputes what is dirty and assigns poses / small buffers
-   inside ``target.atomic()``.
-5. ``scene.close()`` -- remove nodes and GUI (server shutdown or client leaving).
+* **validated controls** -- ``self.controls.add(Slider(...))`` creates the
+  element; every value a browser sends passes the gate (:mod:`app.gate`)
+  and the control's parser before the scene sees it (:mod:`app.panel`);
+* **shareable state** -- :meth:`Scene.state` / :meth:`Scene.load_state`
+  (the values of the controls, plus what a scene adds in
+  :meth:`extra_state` / :meth:`load_extra_state`);
+* **failure containment** -- an exception in ``update`` is reported once
+  (a notice and one log entry with its traceback) and pauses the scene,
+  which resumes when a control changes; the session goes on;
+* **presenter view** -- labels, arrows, lines and readouts made with
+  :meth:`add_label`, :meth:`add_arrows`, :meth:`add_lines` and
+  :meth:`add_readout` grow together when presenter view is on;
+* **help and export** -- the class attribute :attr:`help` becomes a "What you
+  see" section; :meth:`add_download` a button that sends a file to the
+  browser that clicked it;
+* **a frame budget** -- :meth:`frame` times each update (wall and CPU time of
+  the loop thread, ``frame_seconds``); long work goes to ``self.executor``
+  (see :mod:`app.worker`).
+
+Life cycle, driven by the session that owns the scene (one per server in
+``shared`` mode, one per browser in ``per-client`` mode):
+
+1. ``scene = SceneClass(target, notify, context=...)`` -- store handles, no work.
+2. ``scene.build()`` -- once: nodes under ``scene.root``, controls inside
+   ``scene.make_folder()``. Meshes are sent here and never again.
+3. ``scene.set_active(True / False)`` -- show or hide nodes and GUI; a hidden
+   scene's ``frame`` is never called, so it does no work.
+4. ``scene.frame(dt)`` -- about 60 Hz while active; calls ``update(dt)``,
+   which reads ``self.controls`` and assigns poses / small buffers inside
+   ``target.atomic()``.
+5. ``scene.close()`` -- remove nodes and GUI.
 
 ``target`` is a ``viser.ViserServer`` (shared mode) or a ``viser.ClientHandle``
 (per-client mode); both expose ``.scene``, ``.gui`` and ``.atomic()``.
-``notify(title, body, level)`` shows a visible notice in the browser(s) that
-the scene belongs to (``level`` is ``"info"``, ``"warning"`` or ``"error"``).
+``notify(title, body, level)`` shows a notice to the scene's audience.
 """
 
 from __future__ import annotations
 
+import collections
+import concurrent.futures
+import dataclasses
+import logging
 import threading
+import time
+import traceback
 from collections.abc import Callable
 from typing import Any, ClassVar
 
+import numpy as np
+
+from app.controls import Button
+from app.gate import Gate
+from app.panel import ControlPanel, NotifyClient
+from app.readout import Readout
+from app.worker import make_executor
+
+__all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE"]
+
+_log = logging.getLogger(__name__)
+
 Notify = Callable[[str, str, str], None]
+
+#: Presenter view: labels, arrow radii and line widths grow by these factors.
+PRESENTER_LABEL_SCALE = 1.8
+PRESENTER_ARROW_SCALE = 1.8
+PRESENTER_LINE_SCALE = 2.0
+#: Frame timings kept per scene (wall s, loop-thread CPU s).
+FRAME_HISTORY = 4096
+
+
+@dataclasses.dataclass
+class SceneContext:
+    """What the session gives each scene.
+
+    Attributes
+    ----------
+    gate : the validation gate of the target's GUI API
+    executor : background executor for long work (one per app)
+    notify_client : ``notify_client(client, title, body, level)``: a notice to
+        the browser that acted (``client``), or to the audience when None
+    presenter : whether presenter view is on when the scene is built
+    owns_executor : whether the scene shuts ``executor`` down when closed
+    """
+
+    gate: Gate
+    executor: concurrent.futures.Executor
+    notify_client: NotifyClient
+    presenter: bool = False
+    owns_executor: bool = False
+
+    @classmethod
+    def standalone(cls, target: Any, notify: Notify) -> SceneContext:
+        """A context for a scene used without a session (tests, notebooks)."""
+
+        def notify_client(client: Any, title: str, body: str, level: str) -> None:
+            notify(title, body, level)
+
+        return cls(
+            gate=Gate.for_gui(target.gui),
+            executor=make_executor(),
+            notify_client=notify_client,
+            owns_executor=True,
+        )
 
 
 class Scene:
-    """Base class of every scene (see the module docstring for the life cycle).
+    """Base class of every scene (see the module docstring).
 
     Subclasses set ``name`` (registry key, used by ``--scene``), ``title``
-    (shown in the scene chooser), ``order`` (position in the chooser) and,
-    optionally, ``camera_position`` / ``camera_look_at``, and override ``build``, ``update`` and, if
-    they hold extra resources, ``close``.
+    (shown in the scene chooser), ``order`` (position in the chooser),
+    ``help`` (the "What you see" text, naming the equations) and,
+    optionally, ``camera_position`` / ``camera_look_at``; they override
+    ``build`` and ``update`` and, if they hold extra resources, ``close``.
     """
 
     name: ClassVar[str] = ""
     title: ClassVar[str] = ""
     #: Position in the scene chooser (lower first).
     order: ClassVar[int] = 1000
+    #: "What you see": what the scene shows and the equations behind it (Markdown).
+    help: ClassVar[str] = ""
     #: Optional default view when the scene is shown (global frame, metres);
     #: ``None`` means the app's default view.
     camera_position: ClassVar[tuple[float, float, float] | None] = None
     camera_look_at: ClassVar[tuple[float, float, float] | None] = None
 
-    def __init__(self, target: Any, notify: Notify) -> None:
+    def __init__(self, target: Any, notify: Notify, *, context: SceneContext | None = None) -> None:
         self.target = target
         self.notify = notify
+        self.context = context if context is not None else SceneContext.standalone(target, notify)
+        self.executor = self.context.executor
+        self.controls = ControlPanel(target.gui, self.context.gate, self.context.notify_client)
         self.lock = threading.Lock()
         self.root = f"/{self.name}"
         self.active = False
-        self._node_handles: list[Any] = []
+        self.presenter = bool(self.context.presenter)
+        self.paused_error: str | None = None
+        self._paused_version = -1
+        self._logged_errors: set[str] = set()
         self._gui_folder: Any = None
+        self._labels: list[tuple[Any, float]] = []
+        self._arrows: list[tuple[Any, float, float, float]] = []
+        self._lines: list[tuple[Any, float]] = []
+        self._readouts: list[Readout] = []
+        self._downloads: dict[str, tuple[str, Callable[[], bytes]]] = {}
+        #: (wall seconds, loop-thread CPU seconds) of the latest frames.
+        self.frame_seconds: collections.deque[tuple[float, float]] = collections.deque(maxlen=FRAME_HISTORY)
+        self.frames = 0
 
     # -- life cycle -----------------------------------------------------
     def build(self) -> None:  # pragma: no cover - abstract
@@ -64,27 +161,146 @@ class Scene:
     def update(self, dt: float) -> None:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def frame(self, dt: float) -> None:
+        """One loop tick: text restores, downloads, then ``update(dt)`` unless paused.
+
+        An exception in ``update`` pauses the scene (reported once: a notice
+        and one log entry); it resumes at the next browser change or click.
+        """
+        wall0, cpu0 = time.perf_counter(), time.thread_time()
+        try:
+            self.controls.poll()
+            self._serve_downloads()
+            if self.paused_error is not None:
+                if self.controls.version == self._paused_version:
+                    return
+                self.paused_error = None
+                self.notify(f"{self.title} resumed", "A control changed: the scene runs again.", "info")
+            self.update(dt)
+        except Exception as exc:
+            self._pause(exc)
+        finally:
+            self.frames += 1
+            self.frame_seconds.append((time.perf_counter() - wall0, time.thread_time() - cpu0))
+
+    def _pause(self, exc: BaseException) -> None:
+        message = f"{type(exc).__name__}: {exc}"
+        self.paused_error = message
+        self._paused_version = self.controls.version
+        if message not in self._logged_errors:
+            self._logged_errors.add(message)
+            _log.error("scene %r paused after an error:\n%s", self.name, traceback.format_exc())
+        self.notify(
+            f"{self.title} paused",
+            f"{message}. The scene is paused; change a control (or press Reset) to run it again. "
+            "The server keeps running.",
+            "error",
+        )
+
     def set_active(self, active: bool) -> None:
-        """Show or hide this scene's root frame and GUI folder."""
+        """Show or hide this scene's root frame and GUI folder.
+
+        On showing, the visibility of the labels made with :meth:`add_label`
+        is sent again: viser 1.1.1's page does not draw a label created while
+        it is connected (a scene built when a browser first opens it) until
+        the label's visibility changes.
+        """
         self.active = active
         root = getattr(self, "root_frame", None)
         if root is not None:
             root.visible = active
         if self._gui_folder is not None:
             self._gui_folder.visible = active
+        if active and self._labels:
+            with self.target.atomic():
+                for handle, _ in self._labels:
+                    if handle.visible:
+                        handle.visible = False
+                        handle.visible = True
 
     def close(self) -> None:
+        self.controls.remove_all()
         root = getattr(self, "root_frame", None)
         if root is not None:
             root.remove()
         if self._gui_folder is not None:
             self._gui_folder.remove()
+        if self.context.owns_executor:
+            self.executor.shutdown(wait=False, cancel_futures=True)
+
+    # -- presenter view -------------------------------------------------------
+    def set_presenter(self, on: bool) -> None:
+        """Large labels, thick arrows and lines, large readouts (``on``), or normal."""
+        self.presenter = bool(on)
+        label_scale = PRESENTER_LABEL_SCALE if on else 1.0
+        arrow_scale = PRESENTER_ARROW_SCALE if on else 1.0
+        line_scale = PRESENTER_LINE_SCALE if on else 1.0
+        for handle, base in self._labels:
+            handle.font_screen_scale = base * label_scale
+        for handle, shaft, head, length in self._arrows:
+            handle.shaft_radius = shaft * arrow_scale
+            handle.head_radius = head * arrow_scale
+            handle.head_length = length * arrow_scale
+        for handle, thickness in self._lines:
+            handle.thickness = thickness * line_scale
+        for readout in self._readouts:
+            readout.set_presenter(on)
+        self.on_presenter(bool(on))
+
+    def on_presenter(self, on: bool) -> None:
+        """Hook: anything else a scene enlarges in presenter view."""
+
+    # -- shareable state ------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        """The scene's state: ``{"scene": name, "values": {...}}`` plus :meth:`extra_state`."""
+        out: dict[str, Any] = {"format": "rigidlab state 1", "scene": self.name, "values": self.controls.state()}
+        out.update(self.extra_state())
+        return out
+
+    def extra_state(self) -> dict[str, Any]:
+        """Hook: state that is not a control value (JSON types)."""
+        return {}
+
+    def load_state(self, state: dict[str, Any]) -> list[str]:
+        """Apply ``state`` (as :meth:`state` gives, checked like browser input).
+
+        Returns one message per refused entry; the accepted values are
+        applied and count as changes (a paused scene resumes).
+
+        Raises
+        ------
+        ValueError
+            If ``state`` belongs to another scene.
+        """
+        scene = state.get("scene")
+        if scene != self.name:
+            raise ValueError(f"state: expected a state of scene {self.name!r}, got one of {scene!r}")
+        values = state.get("values", {})
+        if not isinstance(values, dict):
+            raise ValueError(f"state: expected 'values' to be an object, got {type(values).__name__}")
+        refused = self.controls.load(values)
+        refused += self.load_extra_state({k: v for k, v in state.items() if k not in ("format", "scene", "values")})
+        return refused
+
+    def load_extra_state(self, extra: dict[str, Any]) -> list[str]:
+        """Hook: apply what :meth:`extra_state` gave; return refusal messages."""
+        return [f"{key!r}: not part of this scene's state" for key in extra]
 
     # -- helpers for subclasses -----------------------------------------
     def make_root(self) -> Any:
         """Create the scene's root frame; every node goes under ``self.root``."""
         self.root_frame = self.target.scene.add_frame(self.root, show_axes=False)
         return self.root_frame
+
+    def make_folder(self) -> Any:
+        """Create the scene's GUI folder (with its "What you see" section)."""
+        gui = self.target.gui
+        self._gui_folder = gui.add_folder(self.title)
+        if self.help:
+            with self._gui_folder:
+                with gui.add_folder("What you see", expand_by_default=False):
+                    self.help_readout = self.add_readout(self.help)
+        return self._gui_folder
 
     def add_ground_grid(
         self,
@@ -106,7 +322,65 @@ class Scene:
             section_color=(196, 200, 210), shadow_opacity=0.08,
         )
 
-    def make_folder(self) -> Any:
-        """Create the scene's GUI folder; every GUI element goes inside it."""
-        self._gui_folder = self.target.gui.add_folder(self.title)
-        return self._gui_folder
+    def add_label(self, name: str, text: str, *, position: Any = (0.0, 0.0, 0.0),
+                  scale: float = 1.0, **kwargs: Any) -> Any:
+        """A 3-D label that grows in presenter view (``scale`` is its normal size)."""
+        kwargs.setdefault("anchor", "center-center")
+        handle = self.target.scene.add_label(
+            name, text, position=tuple(float(x) for x in position),
+            font_screen_scale=scale * (PRESENTER_LABEL_SCALE if self.presenter else 1.0), **kwargs,
+        )
+        self._labels.append((handle, scale))
+        return handle
+
+    def add_arrows(self, name: str, points: Any, colors: Any, *, shaft_radius: float, head_radius: float,
+                   head_length: float, **kwargs: Any) -> Any:
+        """Arrows whose radii and heads grow in presenter view."""
+        f = PRESENTER_ARROW_SCALE if self.presenter else 1.0
+        handle = self.target.scene.add_arrows(
+            name, np.asarray(points, dtype=np.float32), colors, shaft_radius=shaft_radius * f,
+            head_radius=head_radius * f, head_length=head_length * f, **kwargs,
+        )
+        self._arrows.append((handle, shaft_radius, head_radius, head_length))
+        return handle
+
+    def add_lines(self, name: str, points: Any, colors: Any, *, thickness: float, **kwargs: Any) -> Any:
+        """Line segments whose width grows in presenter view."""
+        f = PRESENTER_LINE_SCALE if self.presenter else 1.0
+        handle = self.target.scene.add_line_segments(
+            name, np.asarray(points, dtype=np.float32), colors, thickness=thickness * f, **kwargs,
+        )
+        self._lines.append((handle, thickness))
+        return handle
+
+    def add_readout(self, content: str = "", **kwargs: Any) -> Readout:
+        """A text panel in the current GUI folder (sent only when it changes)."""
+        handle = self.target.gui.add_html("", **kwargs)
+        readout = Readout(handle, presenter=self.presenter)
+        readout.content = content
+        self._readouts.append(readout)
+        return readout
+
+    def add_download(self, key: str, label: str, filename: str, make: Callable[[], bytes],
+                     *, hint: str | None = None) -> Any:
+        """A button that sends ``make()`` as ``filename`` to the browser that clicked it.
+
+        ``make`` runs on the loop thread when the click is served.
+        """
+        handle = self.controls.add(Button(key, label, hint=hint))
+        self._downloads[key] = (filename, make)
+        return handle
+
+    def _serve_downloads(self) -> None:
+        if not self._downloads:
+            return
+        for key, _, client in self.controls.take_clicks(self._downloads):
+            filename, make = self._downloads[key]
+            try:
+                content = make()
+            except Exception as exc:
+                _log.error("export %s failed:\n%s", filename, traceback.format_exc())
+                self.notify("Export failed", f"{filename}: {type(exc).__name__}: {exc}", "warning")
+                continue
+            target = client if client is not None else self.target
+            target.send_file_download(filename, content, save_immediately=True)

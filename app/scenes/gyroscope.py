@@ -8,34 +8,47 @@ Three nested bodies on a base, each turned by its own ZXZ Euler angle:
 
 The nodes are nested frames, so each frame streams one pose: three poses per
 frame. The rotor-axis tip leaves a trail (a capped line-segment buffer) on a
-sphere, showing nutation loops, waves or cusps. Arrows show the angular
-velocity, the angular momentum and the torque about the fixed point.
+sphere, showing nutation loops, waves or cusps. Arrows from the fixed point
+show the angular velocity, the angular momentum and the torque, in colours
+that are not the red / green / blue of frame axes, with labels and a legend.
 
-The scene holds no physics: :func:`core.gyroscope.simulate` computes the
-motion (closed form without applied torques, DOP853 with them) in chunks of
-simulated time ahead of the display clock, cached while the parameters do
-not change; :func:`core.gyroscope.nutation`, :func:`invariants`,
-:func:`rotor_vectors`, :func:`steady_precession_rates`,
-:func:`steady_precession_torque` and :func:`sleeping_top_critical_spin` give
-the readouts, plots and presets. Poses go to viser as Euler parameters
-(``wxyz``) from :func:`core.rotations.euler_parameters_from_axis_angle`.
+The scene holds no physics. Everything long runs on the app's executor
+(:class:`app.worker.ChunkTimeline`), in chunks of 2 s of simulated time ahead
+of the display clock, and the clock holds while the chunk it needs is not
+ready. Without applied torques :func:`core.gyroscope.top_motion` evaluates
+the closed form at absolute times (its constants computed once per
+parameter set); with them :func:`core.gyroscope.simulate` runs DOP853,
+continuing from the previous chunk. The same job evaluates
+:func:`core.gyroscope.rotor_vectors` and :func:`core.gyroscope.invariants`
+at every sample and formats the CSV rows. The other per-model constants
+(:func:`core.gyroscope.nutation`, the plot window, the static readout) are
+computed once per parameter set on the executor and cached. The loop thread
+only interpolates between samples and converts the angles to viser's
+``wxyz`` (Euler parameters) with
+:func:`core.rotations.euler_parameters_from_axis_angle`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Any, ClassVar
 
 import numpy as np
 import trimesh
 
-from app.scenes._controls import Playback
+from app.controls import Slider, Toggle
+from app.nodes import set_array, set_pose
+from app.scenes._playback import Playback
+from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
 from app.scenes._trail import extend_trail, trail_segments
 from app.scenes.base import Scene
+from app.worker import ChunkTimeline
 from core.gyroscope import (
-    GyroscopeTrajectory,
+    NutationResult,
     RotorParams,
+    TopMotion,
     invariants,
     nutation,
     rotor_vectors,
@@ -43,10 +56,11 @@ from core.gyroscope import (
     sleeping_top_critical_spin,
     steady_precession_rates,
     steady_precession_torque,
+    top_motion,
 )
 from core.rotations import euler_parameters_from_axis_angle
 
-__all__ = ["GyroscopeScene", "PRESETS", "Inputs"]
+__all__ = ["CSV_HEADER", "GyroscopeScene", "Inputs", "PRESETS", "SLIDERS", "drift_log10", "preset_inputs"]
 
 # Geometry (scene units = metres): ring radii, rotor, trail sphere.
 _OUTER_RADIUS = 1.2
@@ -60,19 +74,36 @@ _BASE_Z = -1.6
 _TRAIL_CAPACITY = 400  # line segments kept in the trail buffer
 _TRAIL_MIN_STEP = 0.004  # do not add a trail point closer than this (m)
 DRIFT_FLOOR_LOG10 = -17.0  # below double-precision round-off of O(1) invariants
-_HISTORY = 360  # samples kept for the plots
-_PLOT_PERIOD = 0.25  # s of wall time between plot / readout refreshes
+_REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes (~5 Hz)
 _TRAIL_PERIOD = 0.05  # s of wall time between trail buffer updates
 _CHUNK_SIM_TIME = 2.0  # s of simulated time per computed chunk
-_CHUNK_SAMPLES = 481
-_CACHE_CHUNKS = 64
+_CHUNK_SAMPLES = 481  # samples per chunk (240 per simulated second)
+_CHUNKS_KEPT = 8  # chunks the timeline keeps for a replay (the history keeps the window's tables)
 _NUMERICAL_RTOL = 1e-9  # display accuracy of the torque-driven runs
 _NUMERICAL_ATOL = 1e-10
+_WINDOW_CAP = 60.0  # s: longest plot window
+_WINDOW_FALLBACK = 10.0  # s: plot window when no nutation period is known
 
-# Arrow lengths saturate: length = 2.4 |v| / (|v| + half) (m).
-_ARROW_MAX = 2.4
-_ARROW_HALF = {"omega": 5.0, "momentum": 4.0, "torque": 1.0}
-_ARROW_COLORS = np.array([[230, 70, 60], [60, 110, 230], [40, 170, 80]], dtype=np.uint8)
+# Arrow lengths saturate: length = max |v| / (|v| + half) (m). omega's is
+# shorter than L's, so that their tips (and labels) stay apart for a fast top,
+# where both lie nearly along the rotor axis.
+_ARROW_MAX = (1.8, 2.4, 2.4)  # m: omega, L, torque
+_ARROW_HALF = (5.0, 4.0, 1.0)  # omega (rad/s), L (kg m^2/s), torque (N m)
+# Arrow and trail colours: none of them red, green or blue (the frame axes).
+_OMEGA_COLOR = (200, 30, 160)  # magenta
+_MOMENTUM_COLOR = (25, 25, 35)  # near black
+_TORQUE_COLOR = (245, 140, 0)  # orange
+_TRAIL_COLOR = (0, 160, 150)  # teal
+_ARROW_COLORS = np.array([_OMEGA_COLOR, _MOMENTUM_COLOR, _TORQUE_COLOR], dtype=np.uint8)
+_OUTER_COLOR = (176, 156, 122)  # muted, so the arrows stand out
+_INNER_COLOR = (128, 160, 192)
+_LABEL_SCALE = 1.3  # 3-D labels: about 16 px (presenter view: x 1.8)
+_ARROW_LABELS = ("ω", "L", "M")
+# Screen anchors of the arrow labels: omega's and L's tips are close for a
+# fast top (both nearly along the rotor axis), so their labels sit on
+# opposite sides of their tips.
+_ARROW_LABEL_ANCHORS = ("bottom-left", "top-right", "top-left")
+_AXES = tuple(np.array(a) for a in ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)))  # Z1, X2, Z3 in their parents
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,19 +122,33 @@ class Inputs:
     m_psi: float = 0.0
 
 
-_SLIDERS = (
-    # field, label, min, max, step, hint
-    ("theta0_deg", "θ0 (deg)", 0.0, 180.0, 0.1, "Initial nutation angle theta (deg)"),
-    ("theta_dot0", "θ̇0 (rad/s)", -5.0, 5.0, 0.01, "Initial nutation rate"),
-    ("phi_dot0", "φ̇0 (rad/s)", -5.0, 5.0, 0.001, "Initial precession rate"),
-    ("psi_dot0", "ψ̇0 spin (rad/s)", -100.0, 100.0, 0.01, "Initial spin rate psi_dot"),
-    ("I", "I (kg m²)", 0.1, 5.0, 0.01, "Transverse moment about the fixed point"),
-    ("I3", "I3 (kg m²)", 0.1, 5.0, 0.01, "Axial moment (must be <= 2 I)"),
-    ("mgl", "mgl (N m)", 0.0, 10.0, 0.01, "Gravity moment; 0 = balanced rotor"),
-    ("m_phi", "M_φ (N m)", -5.0, 5.0, 0.01, "Generalized torque on phi (outer gimbal motor)"),
-    ("m_theta", "M_θ (N m)", -5.0, 5.0, 0.001, "Generalized torque on theta (inner gimbal motor)"),
-    ("m_psi", "M_ψ (N m)", -5.0, 5.0, 0.01, "Generalized torque on psi (rotor motor)"),
+_DEFAULT = Inputs()
+
+#: The sliders, by folder: initial state, rotor, applied torques. Rates are
+#: written dθ/dt etc. (a combining dot over φ or ψ is lost in some browsers).
+SLIDERS: tuple[Slider, ...] = (
+    Slider("theta0_deg", "θ (deg)", min=0.0, max=180.0, step=0.1, default=_DEFAULT.theta0_deg,
+           hint="Nutation angle θ at t = 0 (deg)"),
+    Slider("theta_dot0", "dθ/dt (rad/s)", min=-5.0, max=5.0, step=0.01, default=_DEFAULT.theta_dot0,
+           hint="Nutation rate at t = 0"),
+    Slider("phi_dot0", "dφ/dt (rad/s)", min=-5.0, max=5.0, step=0.001, default=_DEFAULT.phi_dot0,
+           hint="Precession rate at t = 0"),
+    Slider("psi_dot0", "dψ/dt (rad/s)", min=-100.0, max=100.0, step=0.01, default=_DEFAULT.psi_dot0,
+           hint="Spin rate dψ/dt at t = 0"),
+    Slider("I", "I (kg m²)", min=0.1, max=5.0, step=0.01, default=_DEFAULT.I,
+           hint="Transverse moment of inertia about the fixed point"),
+    Slider("I3", "I3 (kg m²)", min=0.1, max=5.0, step=0.01, default=_DEFAULT.I3,
+           hint="Axial moment of inertia (at most 2 I)"),
+    Slider("mgl", "mgl (N m)", min=0.0, max=10.0, step=0.01, default=_DEFAULT.mgl,
+           hint="Gravity moment; 0 = balanced rotor"),
+    Slider("m_phi", "M_φ (N m)", min=-5.0, max=5.0, step=0.01, default=_DEFAULT.m_phi,
+           hint="Generalized torque on φ (outer gimbal motor)"),
+    Slider("m_theta", "M_θ (N m)", min=-5.0, max=5.0, step=0.001, default=_DEFAULT.m_theta,
+           hint="Generalized torque on θ (inner gimbal motor)"),
+    Slider("m_psi", "M_ψ (N m)", min=-5.0, max=5.0, step=0.01, default=_DEFAULT.m_psi,
+           hint="Generalized torque on ψ (rotor motor)"),
 )
+_MODEL_KEYS = frozenset(s.key for s in SLIDERS)
 
 #: Preset names in the order of their buttons.
 PRESETS = (
@@ -113,6 +158,12 @@ PRESETS = (
     "Cuspidal motion",
     "Sleeping top above critical",
     "Sleeping top below critical",
+)
+
+#: Header of the exported CSV (one line: column names with units).
+CSV_HEADER = (
+    "t (s),phi (rad),theta (rad),psi (rad),dphi/dt (rad/s),dtheta/dt (rad/s),dpsi/dt (rad/s),"
+    "d1 (kg m^2/s),d2 (kg m^2/s),E (J)"
 )
 
 
@@ -163,6 +214,157 @@ def drift_log10(drift: np.ndarray) -> np.ndarray:
         return np.maximum(np.log10(np.abs(drift)), DRIFT_FLOOR_LOG10)
 
 
+def _significant(x: float, digits: int = 4) -> str:
+    """``x`` with ``digits`` significant digits, plain notation where it reads well."""
+    if x == 0.0 or not math.isfinite(x):
+        return f"{x:g}"
+    if 1e-3 <= abs(x) < 1e5:
+        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
+        return f"{x:.{decimals}f}"
+    return f"{x:.{digits - 1}e}"
+
+
+def _drift_text(x: float) -> str:
+    """A drift with one significant digit (``0`` when exactly zero)."""
+    return "0" if x == 0.0 else f"{abs(x):.0e}"
+
+
+# -- the model: what one setting of the sliders asks the core for -------------
+@dataclasses.dataclass(frozen=True)
+class _Model:
+    """Rotor, initial state and applied torques of one setting of the sliders.
+
+    Built on the loop thread: :class:`RotorParams` checks the rotor (I3 <= 2 I
+    and the rest) once here; the jobs only read it.
+    """
+
+    inputs: Inputs
+    params: RotorParams
+    state0: tuple[float, float, float, float, float, float]  # (phi, theta, psi, phi_dot, theta_dot, psi_dot)
+    torques: tuple[float, float, float]  # (M_phi, M_theta, M_psi), N m
+
+    @classmethod
+    def from_inputs(cls, inputs: Inputs) -> _Model:
+        """Raises ValueError (naming the parameter) for a rotor :class:`RotorParams` refuses."""
+        params = RotorParams(I=inputs.I, I3=inputs.I3, mgl=inputs.mgl)
+        state0 = (0.0, math.radians(inputs.theta0_deg), 0.0, inputs.phi_dot0, inputs.theta_dot0, inputs.psi_dot0)
+        return cls(inputs, params, state0, (inputs.m_phi, inputs.m_theta, inputs.m_psi))
+
+    @property
+    def has_torque(self) -> bool:
+        return any(m != 0.0 for m in self.torques)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Analysis:
+    """Per-model constants, computed once per parameter set (on the executor)."""
+
+    motion: TopMotion | None  # the closed form's constants (None when torques act)
+    prediction: NutationResult | None  # closed-form nutation (None when torques act)
+    invariants0: np.ndarray  # (3,) d1, d2, E at t = 0
+    window: float  # s, plot window
+    readout: str  # the model's constants for the panel (Markdown)
+
+
+@functools.lru_cache(maxsize=32)
+def _analysis(model: _Model) -> _Analysis:
+    """Closed-form constants, nutation prediction, invariants at t = 0, plot window and
+    static readout of ``model`` (cached: once per parameter set)."""
+    p = model.params
+    state0 = np.array(model.state0)
+    motion = prediction = None
+    if not model.has_torque:
+        motion = top_motion(p, state0)
+        try:
+            prediction = nutation(p, state0)
+        except ValueError:
+            prediction = None
+    inv = invariants(p, state0)
+    invariants0 = np.array([float(inv.d1), float(inv.d2), float(inv.energy)])
+    invariants0.setflags(write=False)
+    period = float(prediction.period) if prediction is not None else math.nan
+    window = window_seconds(period, fallback=_WINDOW_FALLBACK, cap=_WINDOW_CAP)
+    spin = state0[5] + state0[3] * math.cos(state0[1])
+    lines = [
+        f"**Spin** ω3 = dψ/dt + dφ/dt cos θ = {_significant(spin, 3)} rad/s; "
+        f"sleeping top critical spin {_significant(sleeping_top_critical_spin(p), 3)} rad/s",
+    ]
+    if prediction is not None:
+        nu = prediction
+        theta_min, theta_max = math.degrees(float(nu.theta_min)), math.degrees(float(nu.theta_max))
+        if math.isinf(period):
+            lines.append(f"**Nutation** (Eq. 8.21): none, θ stays at {theta_min:.2f}°; "
+                         f"dφ/dt = {_significant(float(nu.mean_precession_rate), 3)} rad/s")
+        else:
+            lines.append(
+                f"**Nutation** (Eq. 8.21): θ from {theta_min:.2f}° to {theta_max:.2f}°, "
+                f"period {_significant(period, 3)} s; mean dφ/dt "
+                f"{_significant(float(nu.mean_precession_rate), 3)} rad/s"
+            )
+        lines.append(f"Plots show the last {window:.3g} s" + (
+            f" ({window / period:.1f} nutation periods)." if math.isfinite(period) else "."))
+    else:
+        lines.append("**Nutation**: applied torques act, no closed-form prediction "
+                     "(DOP853 on Eq. 8.16).")
+        lines.append(f"Plots show the last {window:.3g} s.")
+    return _Analysis(motion, prediction, invariants0, window, "  \n".join(lines))
+
+
+# Columns of _Chunk.samples: angles phi, theta, psi (rad); rates (rad/s); the
+# rotor-axis tip on the trail sphere (m); omega (rad/s), L (kg m^2/s) and the
+# torque (N m), all in the global frame.
+_ANGLES, _RATES, _TIP, _VECTORS = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 18)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Chunk:
+    """Samples of the motion over one chunk of simulated time (read-only arrays)."""
+
+    k: int
+    t0: float  # s, time of the first sample
+    h: float  # s, sample spacing
+    samples: np.ndarray  # (n, 18): what a frame draws, interpolated as one row (columns below)
+    invariants: np.ndarray  # (n, 3) d1, d2, E
+    table: Table  # t, angles, rates, invariants for the plots and the CSV
+    method: str  # "closed_form", "steady" or "numerical"
+    analysis: _Analysis
+
+
+def _compute_chunk(model: _Model, k: int, previous: _Chunk | None) -> _Chunk:
+    """Chunk ``k`` of ``model`` (runs on the executor; never on the loop thread).
+
+    Closed form (no applied torque): exact at absolute times from the initial
+    state. Torques: DOP853 from the end of chunk ``k - 1`` (``previous``).
+    """
+    analysis = _analysis(model)
+    t = np.linspace(k * _CHUNK_SIM_TIME, (k + 1) * _CHUNK_SIM_TIME, _CHUNK_SAMPLES)
+    if analysis.motion is not None:
+        traj = analysis.motion.at(t)  # the per-model constants are computed once
+    else:
+        if k == 0 or previous is None:
+            start = np.array(model.state0)
+        else:
+            start = np.array(previous.samples[-1, :6])
+        traj = simulate(model.params, start, t - t[0], torques=model.torques,
+                        rtol=_NUMERICAL_RTOL, atol=_NUMERICAL_ATOL)
+    states = np.concatenate([traj.angles, traj.rates], axis=1)
+    vec = rotor_vectors(model.params, states, model.torques)
+    inv = invariants(model.params, states)
+    inv_columns = np.stack([inv.d1, inv.d2, inv.energy], axis=1)
+    vectors = np.stack([vec.omega, vec.angular_momentum, vec.torque], axis=1)
+    tip = _TIP_RADIUS * vec.rotor_axis
+    for name, a in (("angles", traj.angles), ("rates", traj.rates), ("vectors", vectors), ("invariants", inv_columns)):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name}: the motion left the finite range near t = {t[0]:.3g} s")
+    samples = np.concatenate([traj.angles, traj.rates, tip, vectors.reshape(-1, 9)], axis=1)
+    inv_columns = np.array(inv_columns, dtype=float)
+    for a in (samples, inv_columns):
+        a.setflags(write=False)
+    table = Table.build(t, np.concatenate([traj.angles, traj.rates, inv_columns], axis=1))
+    return _Chunk(k, float(t[0]), float(t[1] - t[0]), samples, inv_columns, table, traj.method, analysis)
+
+
+# -- meshes ---------------------------------------------------------------------
 def _ring_mesh(radius: float) -> trimesh.Trimesh:
     """A ring in the frame's x-z plane (its axis along y)."""
     ring = trimesh.creation.torus(radius, _RING_TUBE, major_sections=72, minor_sections=12)
@@ -191,8 +393,9 @@ def _meshes() -> dict[str, trimesh.Trimesh]:
     ])
     rotor = trimesh.util.concatenate([
         trimesh.creation.cylinder(radius=_ROTOR_RADIUS, height=_ROTOR_THICKNESS, sections=64),
-        _cylinder_between([0, 0, -_INNER_RADIUS], [0, 0, _TIP_RADIUS], 0.03),
-        trimesh.creation.icosphere(subdivisions=2, radius=0.06).apply_translation([0, 0, _TIP_RADIUS]),
+        # a thin axle, so the arrows along it (omega and L of a fast top) show around it
+        _cylinder_between([0, 0, -_INNER_RADIUS], [0, 0, _TIP_RADIUS], 0.02),
+        trimesh.creation.icosphere(subdivisions=2, radius=0.05).apply_translation([0, 0, _TIP_RADIUS]),
     ])
     marker = trimesh.creation.box(extents=(0.18, 0.1, _ROTOR_THICKNESS * 1.08))
     marker.apply_translation([_ROTOR_RADIUS - 0.1, 0, 0])
@@ -200,29 +403,28 @@ def _meshes() -> dict[str, trimesh.Trimesh]:
     return {"base": base, "outer": outer, "inner": inner, "rotor": rotor, "marker": marker, "sphere": sphere}
 
 
+#: The 3-D labels on the bodies: (node under the scene root, text, position in
+#: that node's frame, screen anchor). Each sits on a point its own rotation
+#: leaves fixed, so none spins: the top of the outer ring (on Z1), the inner
+#: ring's pivot on -X2 (gravity's torque points along +X2) and the lower end
+#: of the rotor's axle (on Z3). Chosen by projecting them with the default
+#: camera along every preset's motion: they overlap each other rarely, and
+#: never at t = 0.
+BODY_LABELS = (
+    ("outer", "outer gimbal φ", (0.0, 0.0, _OUTER_RADIUS + _RING_TUBE), "bottom-center"),
+    ("outer/inner", "inner gimbal θ", (-_OUTER_RADIUS - _RING_TUBE, 0.0, 0.0), "top-right"),
+    ("outer/inner/rotor", "rotor ψ", (0.0, 0.0, -_INNER_RADIUS), "bottom-left"),
+)
+
+
 @dataclasses.dataclass
 class _Gui:
-    sliders: dict[str, Any]
-    play: Any
-    pause: Any
-    reset: Any
-    time_scale: Any
-    preset_buttons: dict[str, Any]
-    show_trail: Any
-    show_arrows: Any
-    readout: Any
+    readout: Any  # app.readout.Readout: the motion now (rewritten ~5 times a second)
+    info: Any  # app.readout.Readout: the model's constants (rewritten when they change)
+    legend: Legend
     plot_theta: Any
     plot_phi_dot: Any
     plot_drift: Any
-
-
-@dataclasses.dataclass(frozen=True)
-class _Model:
-    """What one setting of the sliders asks the core for."""
-
-    params: RotorParams
-    state0: np.ndarray  # (6,)
-    torques: tuple[float, float, float]
 
 
 class GyroscopeScene(Scene):
@@ -231,35 +433,55 @@ class GyroscopeScene(Scene):
     name: ClassVar[str] = "gyroscope"
     title: ClassVar[str] = "Gyroscope (cardan rotor)"
     order: ClassVar[int] = 40
+    help: ClassVar[str] = (
+        "A symmetric rotor turning about a fixed point O, the centre of a cardan suspension, "
+        "with intrinsic Z-X-Z Euler angles: the **outer gimbal** turns by the precession φ about "
+        "the base axis Z1, the **inner gimbal** by the nutation θ about the line of nodes X2, the "
+        "**rotor** by the spin ψ about its axis Z3. Gravity acts along −Z1 when mgl > 0.\n\n"
+        "- Motion without applied torques: the exact solution of the Lagrange equations "
+        "(Eq. 8.16) with the kinetic energy of Eq. 8.14: the momenta d1 = I3 ω3 and "
+        "d2 = I dφ/dt sin²θ + d1 cos θ (Eqs. 8.19-8.20) and the energy E are constant, and "
+        "u = cos θ moves between the roots of the cubic of Eq. 8.21 (Jacobi's sn).\n"
+        "- With the torques M_φ, M_θ, M_ψ: DOP853 on Eq. 8.16 (Euler parameters near "
+        "θ = 0 or π, Eqs. 8.51-8.54); d1, d2 and E then change.\n"
+        "- Steady precession presets: M_θ of Eq. 8.23, or the slow rate of Eq. 8.23 with "
+        "gravity alone; the sleeping top's critical spin is 2 √(mgl I) / I3.\n"
+        "- Arrows from O: ω = G (dφ/dt, dθ/dt, dψ/dt) (Eq. 8.8), the angular momentum L and "
+        "the torque M (gravity plus applied), lengths saturating at 1.8 m (ω) and 2.4 m.\n"
+        "- Plots: θ with the predicted bounds, dφ/dt, and log10 of the change of d1, d2, E "
+        "since t = 0 (round-off without torques); their window spans at least two nutation "
+        "periods. *Download CSV* exports the samples of the window."
+    )
     # A 3/4 view from above, the suspension left of centre beside the GUI panel.
     camera_position: ClassVar[tuple[float, float, float]] = (3.08, -2.58, 1.64)
     camera_look_at: ClassVar[tuple[float, float, float]] = (1.05, 1.25, -0.15)
 
-    def __init__(self, target: Any, notify: Any) -> None:
-        super().__init__(target, notify)
-        # Recorded by GUI callbacks (guarded by self.lock).
-        self._inputs = Inputs()
-        self._inputs_dirty = True
-        self.playback = Playback(PRESETS)  # play / pause / reset / time scale / presets
-        self._show_trail = True
-        self._show_arrows = True
+    def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
+        super().__init__(target, notify, context=context)
+        self.playback = Playback(PRESETS, controls=self.controls)
+        self.timeline = ChunkTimeline(self.executor, functools.partial(_compute_chunk, _Model.from_inputs(_DEFAULT)),
+                                      chunk_time=_CHUNK_SIM_TIME, sequential=False, capacity=_CHUNKS_KEPT)
+        self.history = History()
+        self._refresh = PlotRefresh(("readout", "theta", "phi_dot", "drift"), _REFRESH_PERIOD)
         # Owned by update() (the session loop thread).
         self.model: _Model | None = None
+        self.analysis: _Analysis | None = None
         self.sim_time = 0.0
+        self.waiting = False  # the clock holds: the chunk it needs is not ready
+        self.method = ""  # path of the chunk drawn: "closed_form", "steady" or "numerical"
         self.angles = np.zeros(3)  # (phi, theta, psi) as last drawn
         self.rates = np.zeros(3)
-        self._nearest_state = np.zeros(6)  # computed sample nearest sim_time
-        self._model_inputs = Inputs()  # slider values of the model in use
-        self._chunks: dict[int, GyroscopeTrajectory] = {}
+        self.current_invariants = np.zeros(3)  # d1, d2, E at the computed sample nearest the clock
+        self._label_shown = [True, True, True]
+        self._label_stale = [False, False, False]
+        self._label_next = 0  # the arrow label moved in the next frame (one per frame)
+        self._drawn: tuple[float, int, bool, bool] | None = None
+        self.arrow_points = np.zeros((3, 2, 3), dtype=np.float32)
         self._trail = np.zeros((0, 3))
-        self._history = np.zeros((0, 6))  # t, theta, phi_dot, dd1, dd2, dE
-        self._since_plot = _PLOT_PERIOD
-        self._since_trail = _TRAIL_PERIOD
         self._trail_changed = True
-        self._inv0 = None
-        self._predicted = None
-        self._readout_static = ""
-        self.chunks_computed = 0
+        self._since_trail = math.inf
+        self._refreshed_time = -1.0
+        self._error_reported = False
         self.gui: _Gui | None = None
 
     # -- build ----------------------------------------------------------------
@@ -276,84 +498,84 @@ class GyroscopeScene(Scene):
                               color=(200, 200, 220), opacity=0.08)
         self.outer_frame = scene.add_frame(f"{root}/outer", show_axes=False)
         scene.add_mesh_simple(f"{root}/outer/mesh", meshes["outer"].vertices, meshes["outer"].faces,
-                              color=(200, 140, 60))
+                              color=_OUTER_COLOR)
         self.inner_frame = scene.add_frame(f"{root}/outer/inner", show_axes=False)
         scene.add_mesh_simple(f"{root}/outer/inner/mesh", meshes["inner"].vertices, meshes["inner"].faces,
-                              color=(90, 160, 210))
+                              color=_INNER_COLOR)
         self.rotor_frame = scene.add_frame(f"{root}/outer/inner/rotor", axes_length=0.4, axes_radius=0.012)
         scene.add_mesh_simple(f"{root}/outer/inner/rotor/mesh", meshes["rotor"].vertices, meshes["rotor"].faces,
                               color=(170, 170, 180))
         scene.add_mesh_simple(f"{root}/outer/inner/rotor/marker", meshes["marker"].vertices,
                               meshes["marker"].faces, color=(220, 60, 60))
-        self.trail = scene.add_line_segments(
+        self.body_labels = [
+            self.add_label(f"{root}/{node}/label", text, position=position, anchor=anchor, scale=_LABEL_SCALE)
+            for node, text, position, anchor in BODY_LABELS
+        ]
+        self.trail = self.add_lines(
             f"{root}/trail", np.zeros((_TRAIL_CAPACITY, 2, 3), dtype=np.float32),
-            np.full((_TRAIL_CAPACITY, 2, 3), (250, 200, 40), dtype=np.uint8), thickness=3.0, thickness_units="screen",
+            np.full((_TRAIL_CAPACITY, 2, 3), _TRAIL_COLOR, dtype=np.uint8), thickness=3.0,
+            thickness_units="screen",
         )
-        self.arrows = scene.add_arrows(
-            f"{root}/arrows", np.zeros((3, 2, 3), dtype=np.float32), _ARROW_COLORS,
-            shaft_radius=0.02, head_radius=0.05, head_length=0.1,
+        self.vectors_frame = scene.add_frame(f"{root}/vectors", show_axes=False)
+        self.arrows = self.add_arrows(
+            f"{root}/vectors/arrows", np.zeros((3, 2, 3), dtype=np.float32), _ARROW_COLORS,
+            shaft_radius=0.04, head_radius=0.1, head_length=0.18,
         )
+        self.arrow_labels = [
+            self.add_label(f"{root}/vectors/label_{i}", text, anchor=anchor, scale=_LABEL_SCALE)
+            for i, (text, anchor) in enumerate(zip(_ARROW_LABELS, _ARROW_LABEL_ANCHORS, strict=True))
+        ]
         gui = self.target.gui
         with self.make_folder():
-            gui.add_markdown(
-                "Rotor in a cardan suspension, ZXZ angles: outer gimbal **φ** about Z1, "
-                "inner gimbal **θ** about X2, rotor **ψ** about Z3. Gravity along −Z1 when "
-                "mgl > 0. Arrows: **ω** red, **L** blue, **torque** green."
-            )
-            playback = self.playback.add_gui(gui)
-            preset_buttons = self.playback.add_preset_buttons(gui)
-            sliders = {}
-            groups = (("Initial state", _SLIDERS[:4]), ("Rotor", _SLIDERS[4:7]), ("Applied torques", _SLIDERS[7:]))
-            for title, rows in groups:
+            legend = Legend(gui, (
+                (_OMEGA_COLOR, "ω angular velocity"),
+                (_MOMENTUM_COLOR, "L angular momentum about O"),
+                (_TORQUE_COLOR, "M torque (gravity + applied)"),
+                (_TRAIL_COLOR, "trail of the rotor-axis tip"),
+            ), "Arrows from the fixed point O (rotor frame: red x, green y, blue z):", presenter=self.presenter)
+            self.playback.add_gui()
+            readout = self.add_readout("Computing the motion…")
+            info = self.add_readout("")
+            self.playback.add_preset_buttons()
+            groups = (("Initial state (t = 0)", SLIDERS[:4]), ("Rotor", SLIDERS[4:7]),
+                      ("Applied torques", SLIDERS[7:]))
+            for title, specs in groups:
                 with gui.add_folder(title):
-                    for field, label, lo, hi, step, hint in rows:
-                        sliders[field] = gui.add_slider(label, min=lo, max=hi, step=step,
-                                                        initial_value=getattr(self._inputs, field), hint=hint)
+                    for spec in specs:
+                        self.controls.add(spec)
             with gui.add_folder("Show"):
-                show_trail = gui.add_checkbox("Tip trail", True)
-                show_arrows = gui.add_checkbox("Arrows ω, L, torque", True)
-            readout = gui.add_markdown("")
-            empty = (np.zeros(2), np.zeros(2))
-            # x is simulated time in seconds, not a calendar date (uPlot's default)
-            x_scale = {"x": {"time": False}}
-            plot_theta = gui.add_uplot(
-                empty + (np.zeros(2), np.zeros(2)),
-                ({"label": "t (s)"}, {"label": "θ (deg)", "stroke": "#2266dd", "width": 2},
-                 {"label": "θ_min", "stroke": "#999999", "dash": [6, 4]},
-                 {"label": "θ_max", "stroke": "#999999", "dash": [6, 4]}),
-                title="θ(t) and predicted bounds", scales=x_scale, aspect=1.6,
-            )
-            plot_phi_dot = gui.add_uplot(
-                empty, ({"label": "t (s)"}, {"label": "φ̇ (rad/s)", "stroke": "#dd6622", "width": 2}),
-                title="φ̇(t)", scales=x_scale, aspect=1.6,
-            )
-            plot_drift = gui.add_uplot(
-                empty + (np.zeros(2), np.zeros(2)),
-                ({"label": "t (s)"}, {"label": "log10|Δd1|", "stroke": "#cc3333"},
-                 {"label": "log10|Δd2|", "stroke": "#3366cc"}, {"label": "log10|ΔE|", "stroke": "#33aa55"}),
-                title="log10 |drift| of d1, d2, E", scales=x_scale,
-                aspect=1.6,
-            )
-        self.gui = _Gui(sliders, playback.play, playback.pause, playback.reset, playback.time_scale, preset_buttons,
-                        show_trail, show_arrows, readout, plot_theta, plot_phi_dot, plot_drift)
-        for field, slider in sliders.items():
-            slider.on_update(lambda event, field=field: self._on_slider(field, event.target.value))
-        show_trail.on_update(lambda e: self._set_show("trail", bool(e.target.value)))
-        show_arrows.on_update(lambda e: self._set_show("arrows", bool(e.target.value)))
+                self.controls.add(Toggle("show_trail", "Tip trail", default=True))
+                self.controls.add(Toggle("show_arrows", "Arrows ω, L, M", default=True))
+            with gui.add_folder("Plots"):
+                empty = (np.zeros(2), np.zeros(2))
+                # x is simulated time in seconds, not a calendar date (uPlot's default)
+                x_scale = {"x": {"time": False}}
+                plot_theta = gui.add_uplot(
+                    empty + (np.zeros(2), np.zeros(2)),
+                    ({"label": "t (s)"}, {"label": "θ (deg)", "stroke": "#2266dd", "width": 2},
+                     {"label": "θ min", "stroke": "#888888", "dash": [6, 4]},
+                     {"label": "θ max", "stroke": "#888888", "dash": [6, 4]}),
+                    title="θ(t) and its predicted bounds", scales=x_scale, aspect=1.6,
+                )
+                plot_phi_dot = gui.add_uplot(
+                    empty, ({"label": "t (s)"}, {"label": "dφ/dt (rad/s)", "stroke": "#c2410c", "width": 2}),
+                    title="precession rate dφ/dt", scales=x_scale, aspect=1.6,
+                )
+                plot_drift = gui.add_uplot(
+                    empty + (np.zeros(2), np.zeros(2)),
+                    ({"label": "t (s)"}, {"label": "log10|Δd1|", "stroke": "#b91c1c"},
+                     {"label": "log10|Δd2|", "stroke": "#1d4ed8"}, {"label": "log10|ΔE|", "stroke": "#15803d"}),
+                    title="log10 |change since t = 0| of d1, d2, E", scales=x_scale, aspect=1.6,
+                )
+            self.add_download("download_csv", "Download CSV", "gyroscope.csv", self.csv_bytes,
+                              hint="t, φ, θ, ψ, their rates, d1, d2, E of the plotted window")
+        self.gui = _Gui(readout, info, legend, plot_theta, plot_phi_dot, plot_drift)
 
-    # -- GUI callbacks and requests: record only -----------------------------------
-    def _on_slider(self, field: str, value: Any) -> None:
-        with self.lock:
-            self._inputs = dataclasses.replace(self._inputs, **{field: float(value)})
-            self._inputs_dirty = True
+    def on_presenter(self, on: bool) -> None:
+        if self.gui is not None:
+            self.gui.legend.set_presenter(on)
 
-    def _set_show(self, what: str, value: bool) -> None:
-        with self.lock:
-            if what == "trail":
-                self._show_trail = value
-            else:
-                self._show_arrows = value
-
+    # -- requests (tests, notebooks) -----------------------------------------------
     def request_reset(self) -> None:
         """Restart the motion from the initial state (cached chunks are reused)."""
         self.playback.request_reset()
@@ -366,226 +588,217 @@ class GyroscopeScene(Scene):
     def playing(self) -> bool:
         return self.playback.playing
 
-    # -- computation ---------------------------------------------------------------
-    def _make_model(self, inputs: Inputs) -> _Model:
-        params = RotorParams(I=inputs.I, I3=inputs.I3, mgl=inputs.mgl)
-        state0 = np.array([0.0, math.radians(inputs.theta0_deg), 0.0,
-                           inputs.phi_dot0, inputs.theta_dot0, inputs.psi_dot0])
-        return _Model(params, state0, (inputs.m_phi, inputs.m_theta, inputs.m_psi))
+    @property
+    def chunks_computed(self) -> int:
+        """Chunks computed since the scene was built (all parameter sets)."""
+        return self.timeline.computed
 
-    def _has_torque(self) -> bool:
-        assert self.model is not None
-        return any(m != 0.0 for m in self.model.torques)
+    @property
+    def window(self) -> float:
+        """Length of the plot window (s) of the model in use."""
+        return self.analysis.window if self.analysis is not None else _WINDOW_FALLBACK
 
-    def _chunk(self, k: int) -> GyroscopeTrajectory:
-        """Trajectory over [k, k + 1] chunk lengths of simulated time (cached)."""
-        cached = self._chunks.get(k)
-        if cached is not None:
-            return cached
-        model = self.model
-        assert model is not None
-        t = np.linspace(k * _CHUNK_SIM_TIME, (k + 1) * _CHUNK_SIM_TIME, _CHUNK_SAMPLES)
-        if not self._has_torque():
-            # closed form: exact from the initial state at absolute times
-            traj = simulate(model.params, model.state0, t)
-        else:
-            # numerical: continue from the end of the previous chunk
-            if k == 0:
-                start = model.state0
-            else:
-                prev = self._chunk(k - 1)
-                start = np.concatenate([prev.angles[-1], prev.rates[-1]])
-            traj = simulate(model.params, start, t - t[0], torques=model.torques,
-                            rtol=_NUMERICAL_RTOL, atol=_NUMERICAL_ATOL)
-            traj = GyroscopeTrajectory(t=t, angles=traj.angles, rates=traj.rates, method=traj.method)
-        if len(self._chunks) >= _CACHE_CHUNKS:
-            # keep the most recent chunks (the numerical path needs k - 1)
-            for old in sorted(self._chunks)[: len(self._chunks) - _CACHE_CHUNKS + 1]:
-                del self._chunks[old]
-        self._chunks[k] = traj
-        self.chunks_computed += 1
-        return traj
+    # -- inputs --------------------------------------------------------------------
+    def _inputs_from_controls(self) -> Inputs:
+        values = self.controls.values()
+        return Inputs(**{key: float(values[key]) for key in _MODEL_KEYS})
 
-    def _sample(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        k = int(t // _CHUNK_SIM_TIME)
-        traj = self._chunk(k)
-        if t - k * _CHUNK_SIM_TIME > 0.5 * _CHUNK_SIM_TIME:
-            self._chunk(k + 1)  # compute ahead of the display clock
-        angles = np.array([np.interp(t, traj.t, traj.angles[:, i]) for i in range(3)])
-        rates = np.array([np.interp(t, traj.t, traj.rates[:, i]) for i in range(3)])
-        # The computed sample nearest t: the invariants are evaluated there,
-        # since linear interpolation between samples does not conserve them
-        # (it showed drifts of 1e-8..1e-5 where the solution has round-off).
-        j = min(int(round((t - traj.t[0]) / (traj.t[1] - traj.t[0]))), traj.t.size - 1)
-        self._nearest_state = np.concatenate([traj.angles[j], traj.rates[j]])
-        return angles, rates
+    def _apply_inputs(self, inputs: Inputs) -> None:
+        """Use ``inputs`` (restart), or refuse them with a notice and set the sliders back."""
+        try:
+            model = _Model.from_inputs(inputs)
+        except ValueError as exc:
+            kept = self.model.inputs if self.model is not None else _DEFAULT
+            self.notify("Invalid rotor parameters",
+                        f"{exc}. Keeping the previous values (the sliders are set back).", "warning")
+            self.controls.set_many(dataclasses.asdict(kept))
+            if self.model is not None:
+                return
+            model = _Model.from_inputs(kept)
+        self.model = model
+        self.analysis = None
+        self._error_reported = False
+        self.timeline.reset(functools.partial(_compute_chunk, model))
+        self.timeline.sequential = model.has_torque
+        self._restart()
 
     def _restart(self) -> None:
         self.sim_time = 0.0
         self._trail = np.zeros((0, 3))
-        self._history = np.zeros((0, 6))
-        self._since_plot = _PLOT_PERIOD
         self._trail_changed = True
-
-    def _set_model(self, inputs: Inputs) -> bool:
-        try:
-            model = self._make_model(inputs)
-        except ValueError as exc:
-            self.notify("Invalid rotor parameters",
-                        f"{exc}. Keeping the previous values (the sliders are set back).", "warning")
-            return False
-        self.model = model
-        self._model_inputs = inputs
-        self._chunks = {}
-        self._inv0 = invariants(model.params, model.state0)
-        try:
-            self._predicted = nutation(model.params, model.state0) if not self._has_torque() else None
-        except ValueError:
-            self._predicted = None
-        self._readout_static = self._static_readout()
-        self._restart()
-        return True
-
-    def _revert_sliders(self) -> None:
-        """Show the values in use again after rejected input (sliders and model agree)."""
-        assert self.gui is not None
-        kept = self._model_inputs
-        for field, slider in self.gui.sliders.items():
-            if slider.value != getattr(kept, field):
-                slider.value = getattr(kept, field)  # runs the callback (takes the lock)
-        with self.lock:
-            self._inputs = kept
-            self._inputs_dirty = False
+        self._since_trail = math.inf
+        self.history.clear()
+        self._drawn = None
+        self._refreshed_time = -1.0
+        self._refresh.force()
 
     # -- update ----------------------------------------------------------------------
     def update(self, dt: float) -> None:
         assert self.gui is not None
         preset = self.playback.take_preset()
+        changed = self.controls.take_changes()
         if preset is not None:
-            values = preset_inputs(preset)
-            # setting slider values runs their callbacks (which take the lock)
-            for field, slider in self.gui.sliders.items():
-                slider.value = getattr(values, field)
-            with self.lock:
-                self._inputs = values
-                self._inputs_dirty = True
+            self.controls.set_many(dataclasses.asdict(preset_inputs(preset)))
             self.playback.set_playing(True)
-        with self.lock:
-            dirty = self._inputs_dirty
-            self._inputs_dirty = False
-            inputs = self._inputs
-            show_trail, show_arrows = self._show_trail, self._show_arrows
+        if self.model is None or preset is not None or changed & _MODEL_KEYS:
+            self._apply_inputs(self._inputs_from_controls())
         tick = self.playback.tick(dt)
-        if dirty or self.model is None:
-            if not self._set_model(inputs):
-                if self.model is None:
-                    self._set_model(Inputs())
-                else:
-                    self._revert_sliders()
         if tick.reset:
             self._restart()
-        self.sim_time += tick.step
-        try:
-            angles, rates = self._sample(self.sim_time)
-        except ValueError as exc:
-            self.notify("Simulation stopped", f"{exc}", "warning")
-            self.playback.set_playing(False)
+        chunk = self._advance(tick.step)
+        show_trail = bool(self.controls.value("show_trail"))
+        show_arrows = bool(self.controls.value("show_arrows"))
+        if chunk is None:
+            with self.target.atomic():
+                self.trail.visible = show_trail
+                self.vectors_frame.visible = show_arrows
             return
-        if not (np.all(np.isfinite(angles)) and np.all(np.isfinite(rates))):
-            self.notify("Simulation stopped", "the motion left the finite range", "warning")
+        self._draw(chunk, dt, show_trail, show_arrows)
+
+    def _advance(self, step: float) -> _Chunk | None:
+        """Move the clock by ``step`` if the chunk it lands in is ready; the chunk to draw."""
+        self.sim_time, chunk, self.waiting = self.timeline.advance(self.sim_time, step)
+        if self.timeline.error is not None and not self._error_reported:
+            self._error_reported = True
             self.playback.set_playing(False)
+            self.notify("Simulation stopped",
+                        f"{self.timeline.error}. The motion stops at t = {self.sim_time:.2f} s; "
+                        "change a slider or press Reset.", "warning")
+        return chunk
+
+    def _draw(self, chunk: _Chunk, dt: float, show_trail: bool, show_arrows: bool) -> None:
+        key = (self.sim_time, chunk.k, show_trail, show_arrows)
+        if key == self._drawn and chunk.analysis is self.analysis:
+            # paused: the poses are on the page already; only a last refresh may be due
+            due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
+            if due is not None or any(self._label_stale):
+                with self.target.atomic():
+                    if show_arrows:
+                        for i in range(3):
+                            self._move_arrow_label(i)
+                    if due is not None:
+                        self._refresh_one(due)
             return
-        self.angles, self.rates = angles, rates
-        model = self.model
-        assert model is not None
-        state = np.concatenate([angles, rates])
-        axes = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-        wxyz = euler_parameters_from_axis_angle(axes, angles)
-        vectors = rotor_vectors(model.params, state, model.torques)
-        tip = _TIP_RADIUS * vectors.rotor_axis
+        self._drawn = key
+        if self.analysis is not chunk.analysis:
+            self.analysis = chunk.analysis
+            self.gui.info.content = chunk.analysis.readout
+        self.history.add(chunk.k, chunk.table)
+        # linear interpolation between the two samples around the clock
+        samples = chunk.samples
+        x = (self.sim_time - chunk.t0) / chunk.h
+        j = min(max(int(x), 0), samples.shape[0] - 2)
+        w = min(max(x - j, 0.0), 1.0)
+        row = samples[j] + w * (samples[j + 1] - samples[j])
+        angles, rates, tip = row[_ANGLES], row[_RATES], row[_TIP]
+        vectors = row[_VECTORS].reshape(3, 3)
+        # The invariants at the computed sample nearest the clock: linear
+        # interpolation between samples does not conserve them.
+        self.current_invariants = chunk.invariants[j + 1 if w >= 0.5 else j]
+        self.angles, self.rates, self.method = angles, rates, chunk.method
+        wxyz = [euler_parameters_from_axis_angle(axis, float(angle)) for axis, angle in zip(_AXES, angles)]
         self._trail, added = extend_trail(self._trail, tip, min_step=_TRAIL_MIN_STEP, capacity=_TRAIL_CAPACITY)
-        if added:
-            self._trail_changed = True
+        self._trail_changed |= added
         self._since_trail += dt
         send_trail = show_trail and self._trail_changed and self._since_trail >= _TRAIL_PERIOD
-        trail_points = trail_segments(self._trail, _TRAIL_CAPACITY) if send_trail else None
-        arrow_points = self._arrow_points(vectors)
-        inv = invariants(model.params, self._nearest_state)
-        row = np.array([[self.sim_time, math.degrees(angles[1]), rates[0],
-                         float(inv.d1 - self._inv0.d1), float(inv.d2 - self._inv0.d2),
-                         float(inv.energy - self._inv0.energy)]])
-        if self._history.shape[0] and self.sim_time <= self._history[-1, 0]:
-            pass  # paused: no new sample
-        else:
-            self._history = np.vstack([self._history, row])[-_HISTORY:]
-        self._since_plot += dt
-        refresh = self._since_plot >= _PLOT_PERIOD
+        arrows = _arrow_points(vectors)
+        finite = bool(np.all(np.isfinite(arrows)))  # never send a non-finite point
+        if finite:
+            self.arrow_points = arrows
+        due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
         with self.target.atomic():
-            self.outer_frame.wxyz = wxyz[0]
-            self.inner_frame.wxyz = wxyz[1]
-            self.rotor_frame.wxyz = wxyz[2]
+            set_pose(self.outer_frame, wxyz=wxyz[0])
+            set_pose(self.inner_frame, wxyz=wxyz[1])
+            set_pose(self.rotor_frame, wxyz=wxyz[2])
             self.trail.visible = show_trail
-            if trail_points is not None:
-                self.trail.points = trail_points
+            if send_trail:
+                set_array(self.trail, "points", trail_segments(self._trail, _TRAIL_CAPACITY))
                 self._since_trail = 0.0
                 self._trail_changed = False
-            self.arrows.visible = show_arrows
-            if show_arrows:
-                self.arrows.points = arrow_points
-            if refresh:
-                self._since_plot = 0.0
-                self._refresh_plots(inv)
+            self.vectors_frame.visible = show_arrows and finite
+            if show_arrows and finite:
+                set_array(self.arrows, "points", arrows)
+                # one label per frame follows its arrow tip (each at up to 20 Hz),
+                # but not in a frame that already sends the trail or a plot
+                self._label_stale = [True, True, True]
+                if due is None and not send_trail:
+                    self._move_arrow_label(self._label_next)
+                    self._label_next = (self._label_next + 1) % 3
+            if due is not None:
+                self._refresh_one(due)
 
-    @staticmethod
-    def _arrow_points(vectors: Any) -> np.ndarray:
-        out = np.zeros((3, 2, 3), dtype=np.float32)
-        for i, (key, v) in enumerate((("omega", vectors.omega), ("momentum", vectors.angular_momentum),
-                                      ("torque", vectors.torque))):
-            norm = float(np.linalg.norm(v))
-            if norm > 1e-12:
-                out[i, 1] = v / norm * _ARROW_MAX * norm / (norm + _ARROW_HALF[key])
-        return out
-
-    def _static_readout(self) -> str:
-        model = self.model
-        assert model is not None
-        p = model.params
-        lines = [f"**Critical spin** (sleeping top): {sleeping_top_critical_spin(p):.4g} rad/s"]
-        spin = model.state0[5] + model.state0[3] * math.cos(model.state0[1])
-        lines.append(f"- spin ω3 = ψ̇ + φ̇ cos θ = {spin:.4g} rad/s")
-        if self._predicted is not None:
-            nu = self._predicted
-            period = float(nu.period)
-            lines += [
-                f"**Nutation** (Eq. 8.21): θ in [{math.degrees(float(nu.theta_min)):.3f}°, "
-                f"{math.degrees(float(nu.theta_max)):.3f}°]",
-                f"- period {'∞ (θ constant)' if math.isinf(period) else f'{period:.4g} s'}",
-                f"- mean precession φ̇ = {float(nu.mean_precession_rate):.5g} rad/s",
-            ]
-        else:
-            lines.append("**Nutation**: applied torques act, no closed-form prediction.")
-        return "\n".join(lines)
-
-    def _refresh_plots(self, inv: Any) -> None:
-        assert self.gui is not None
-        h = self._history
-        lines = [
-            f"**t** = {self.sim_time:.2f} s, θ = {math.degrees(self.angles[1]):.3f}°, "
-            f"φ̇ = {self.rates[0]:.4g} rad/s",
-            f"**d1** = {float(inv.d1):.10g}, **d2** = {float(inv.d2):.10g}, **E** = {float(inv.energy):.10g}",
-            self._readout_static,
-        ]
-        self.gui.readout.content = "\n\n".join(lines)
-        if h.shape[0] < 2:
+    def _move_arrow_label(self, i: int) -> None:
+        """Put the label of arrow ``i`` (ω, L, M) at its tip; hide it for a zero arrow."""
+        if not self._label_stale[i]:
             return
-        t = h[:, 0]
-        if self._predicted is not None:
-            lo = np.full_like(t, math.degrees(float(self._predicted.theta_min)))
-            hi = np.full_like(t, math.degrees(float(self._predicted.theta_max)))
-        else:
-            # torques act: no prediction, the lines show the observed range
-            lo = np.full_like(t, h[:, 1].min())
-            hi = np.full_like(t, h[:, 1].max())
-        self.gui.plot_theta.data = (t, h[:, 1], lo, hi)
-        self.gui.plot_phi_dot.data = (t, h[:, 2])
-        self.gui.plot_drift.data = (t, *drift_log10(h[:, 3:6]).T)
+        self._label_stale[i] = False
+        tip = self.arrow_points[i, 1]
+        shown = bool(np.any(tip != 0.0))
+        label = self.arrow_labels[i]
+        if shown:
+            set_pose(label, position=tip)
+        if shown != self._label_shown[i]:
+            label.visible = shown
+            self._label_shown[i] = shown
+
+    # -- plots, readout, export --------------------------------------------------------
+    def _window_start(self) -> float:
+        return max(0.0, self.sim_time - self.window)
+
+    def _refresh_one(self, what: str) -> None:
+        assert self.gui is not None and self.analysis is not None
+        if what == "readout":
+            # the readout opens each refresh cycle: the plots of the cycle
+            # (the next frames) show the window as it is now
+            self._refreshed_time = self.sim_time
+            self.history.trim(self._window_start())
+            self._plot_window = self.history.window(self._window_start(), self.sim_time)
+            self.gui.readout.content = self._readout()
+            return
+        t, columns = self._plot_window
+        if t.size == 0:
+            return
+        if what == "theta":
+            theta = np.degrees(columns[:, 1])
+            prediction = self.analysis.prediction
+            if prediction is not None:
+                lo = np.full_like(t, math.degrees(float(prediction.theta_min)))
+                hi = np.full_like(t, math.degrees(float(prediction.theta_max)))
+            else:
+                # torques act: no prediction, the lines show the observed range
+                lo, hi = np.full_like(t, theta.min()), np.full_like(t, theta.max())
+            self.gui.plot_theta.data = (t, theta, lo, hi)
+        elif what == "phi_dot":
+            self.gui.plot_phi_dot.data = (t, columns[:, 3])
+        elif what == "drift":
+            self.gui.plot_drift.data = (t, *drift_log10(columns[:, 6:9] - self.analysis.invariants0).T)
+
+    def _readout(self) -> str:
+        assert self.analysis is not None
+        d1, d2, energy = (float(x) for x in self.current_invariants)
+        c1, c2, c3 = (float(x) for x in self.current_invariants - self.analysis.invariants0)
+        change = "change since t = 0 (torques act)" if self.model is not None and self.model.has_torque \
+            else "drift since t = 0 (round-off)"
+        lines = [
+            f"**t** = {self.sim_time:.2f} s · θ = {math.degrees(self.angles[1]):.2f}° · "
+            f"dφ/dt = {_significant(float(self.rates[0]), 3)} rad/s",
+            f"**d1** = {_significant(d1)} kg m²/s, **d2** = {_significant(d2)} kg m²/s, "
+            f"**E** = {_significant(energy)} J  \n{change}: {_drift_text(c1)}, {_drift_text(c2)}, {_drift_text(c3)}",
+        ]
+        if self.waiting and self.playing:
+            lines.insert(1, "*computing the next chunk…*")
+        return "\n\n".join(lines)
+
+    def csv_bytes(self) -> bytes:
+        """The CSV of the trajectory in the plot window, up to the displayed time."""
+        return self.history.csv(CSV_HEADER, self._window_start(), self.sim_time)
+
+
+def _arrow_points(vectors: np.ndarray) -> np.ndarray:
+    """Arrows (3, 2, 3) float32 from the fixed point along omega, L and the torque
+    (``vectors`` (3, 3), global frame), lengths ``max |v| / (|v| + half)`` m."""
+    tips = []
+    for (x, y, z), longest, half in zip(vectors.tolist(), _ARROW_MAX, _ARROW_HALF, strict=True):
+        k = longest / (math.sqrt(x * x + y * y + z * z) + half)
+        tips.append(((0.0, 0.0, 0.0), (x * k, y * k, z * k)))
+    return np.array(tips, dtype=np.float32)

@@ -31,6 +31,8 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
+from app.controls import Slider, Toggle
+from app.nodes import set_arrays, set_pose
 from app.scenes.base import Scene
 from core.manipulator import (
     DEFAULT_GEOMETRY,
@@ -45,13 +47,15 @@ from core.rotations import (
     matrix_from_euler_angles,
 )
 
-__all__ = ["ManipulatorScene", "joint_sweep", "wrap_deg"]
+__all__ = ["ManipulatorScene", "joint_sweep", "readout_markdown", "wrap_deg"]
 
 _LINK_COLORS = ((225, 125, 60), (70, 150, 225), (95, 190, 110))
 _END_COLOR = (235, 200, 60)
 _GHOST_COLOR = (170, 170, 255)
 _GHOST_OPACITY = 0.3
-_AXIS_COLORS = ((230, 60, 60), (60, 180, 60), (60, 90, 230))
+_FIXED_AXIS_COLOR = (70, 70, 80)  # the fixed joint axes a1-a3: dark grey, not an axis colour
+#: Anchors of the labels a1-a3 (screen-space offsets that keep them apart at the default view).
+_LABEL_ANCHORS = ("top-left", "bottom-right", "top-left")
 _LINK_RADIUS = 0.05
 _INITIAL_DEG = (30.0, 45.0, 60.0)
 _READOUT_PERIOD = 0.1  # s: shortest time between readout refreshes (poses go at the loop rate)
@@ -129,7 +133,7 @@ class _Gui:
     animate: Any
     show_procedure_b: Any
     steps: Any
-    readout: Any
+    readout: Any  # app.readout.Readout
 
 
 class ManipulatorScene(Scene):
@@ -137,7 +141,7 @@ class ManipulatorScene(Scene):
 
     Parameters
     ----------
-    target, notify
+    target, notify, context
         As for every scene (see :mod:`app.scenes.base`).
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default Z, X, Z joints.
@@ -148,6 +152,17 @@ class ManipulatorScene(Scene):
     name: ClassVar[str] = "manipulator"
     title: ClassVar[str] = "Manipulator (Fig. 8.3)"
     order: ClassVar[int] = 20
+    help: ClassVar[str] = (
+        "Three links (the chapter's bodies 2-4) turned by joints 1-3 about the axes a1, a2, a3.\n\n"
+        "- **Solid links** with their frames: successive relative rotations A = A21 A32 A43, "
+        "each about a joint axis fixed in the previous link (Eqs. 8.39-8.42).\n"
+        "- **Ghost frames** (long thin axes): Rodriguez rotations (Eq. 8.29) about the joint axes "
+        "fixed in the global frame (the dark lines a1, a2, a3), applied joint 3 first "
+        "(Eqs. 8.43-8.45). *Rodriguez steps* shows the construction after 0, 1 or 2 of them.\n"
+        "- The readout: the end-link matrix, the difference of the two procedures (round-off) and "
+        "the Euler-angle form of the result (Z-X-Z for these joints; gimbal lock at joint 2 = 0).\n\n"
+        "Frame axes: red x, green y, blue z."
+    )
     # The arm stands about 2 m tall on the origin: look at its middle.
     # 3/4 view from above; the look-at point sits right of the arm so the
     # arm appears left of centre, beside the GUI panel.
@@ -159,17 +174,12 @@ class ManipulatorScene(Scene):
         target: Any,
         notify: Any,
         *,
+        context: Any = None,
         geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
         readout_period: float = _READOUT_PERIOD,
     ) -> None:
-        super().__init__(target, notify)
+        super().__init__(target, notify, context=context)
         self.geometry = geometry
-        # State recorded by GUI callbacks (guarded by self.lock).
-        self._joint_deg = list(_INITIAL_DEG)
-        self._animate = False
-        self._show_global = True
-        self._steps = 3
-        self._dirty = True
         # State owned by update() (the session loop thread).
         self._time = 0.0
         self._sweep_start = np.radians(_INITIAL_DEG)
@@ -179,6 +189,8 @@ class ManipulatorScene(Scene):
         self._drawn: tuple[Any, ...] | None = None
         self._was_animating = False
         self._in_gimbal_lock = False
+        self._readout_job: Any = None
+        self._first = True
         self.joint_angles = np.radians(_INITIAL_DEG)  # (3,) radians, as last drawn
         self.difference = 0.0  # max |A_a - A_b| of the last drawn pose
         self.gui: _Gui | None = None
@@ -248,7 +260,8 @@ class ManipulatorScene(Scene):
         )
 
         # The joint axes fixed in the global frame used by procedure (b): lines
-        # through the joint centres of the zero configuration.
+        # through the joint centres of the zero configuration, in one dark
+        # colour so they never read as the red/green/blue axes of a frame.
         zero = link_frames_global_axis_rotations(np.zeros(3), geometry=geometry, steps=0)
         half = 0.8
         points = np.stack(
@@ -257,107 +270,63 @@ class ManipulatorScene(Scene):
                 for c, a in zip(zero.origins, geometry.joint_axes)
             ]
         ).astype(np.float32)
-        colors = np.repeat(np.array(_AXIS_COLORS, dtype=np.uint8)[:, None, :], 2, axis=1)
         self.global_axes = scene.add_frame(f"{root}/global_axes", show_axes=False)
-        scene.add_line_segments(
-            f"{root}/global_axes/lines", points, colors, thickness=0.006
-        )
+        self.add_lines(f"{root}/global_axes/lines", points, _FIXED_AXIS_COLOR, thickness=0.006)
         for k in range(3):
             # Joint 1's label goes to the lower end, clear of the arm.
             end = 0 if k == 0 else 1
-            scene.add_label(
+            self.add_label(
                 f"{root}/global_axes/a{k + 1}",
                 f"a{k + 1} (fixed)",
-                position=tuple(float(x) for x in points[k, end]),
+                position=points[k, end],
+                anchor=_LABEL_ANCHORS[k],
             )
 
         with self.make_folder():
-            self.target.gui.add_markdown(
-                "Joints turn links 1-3 (the chapter's bodies 2-4). **Solid**: successive "
-                "rotations A = A21 A32 A43 (Eqs. 8.39-8.42). **Ghost**: Rodriguez "
-                "rotations about the joint axes fixed in the global frame, joint 3 "
-                "first (Eqs. 8.43-8.45)."
+            self.add_readout(
+                "**Solid**: successive rotations A = A21 A32 A43 (Eqs. 8.39-8.42). "
+                "**Ghost**: Rodriguez rotations about the fixed joint axes a1-a3 (dark lines), "
+                "joint 3 first (Eqs. 8.43-8.45). Frame axes: red x, green y, blue z."
             )
             sliders = tuple(
-                self.target.gui.add_slider(
+                self.controls.add(Slider(
+                    f"theta{k + 1}",
                     f"θ{k + 1} (deg)",
                     min=-180.0,
                     max=180.0,
                     step=0.1,
-                    initial_value=_INITIAL_DEG[k],
-                    hint=f"Joint {k + 1} angle about axis {geometry.joint_axes[k].tolist()}",
-                )
+                    default=_INITIAL_DEG[k],
+                    hint=f"Joint {k + 1} angle about axis a{k + 1} = {geometry.joint_axes[k].tolist()}",
+                ))
                 for k in range(3)
             )
-            animate = self.target.gui.add_checkbox(
-                "Animate joints", False, hint="Sweep the three joints smoothly"
-            )
-            show_global = self.target.gui.add_checkbox(
-                "Show procedure (b)", True, hint="Ghost links, ghost frames and the fixed global joint axes"
-            )
-            steps = self.target.gui.add_slider(
-                "Rodriguez steps",
-                min=0,
-                max=3,
-                step=1,
-                initial_value=3,
+            animate = self.controls.add(Toggle("animate", "Animate joints", hint="Sweep the three joints smoothly"))
+            show_global = self.controls.add(Toggle(
+                "show_b", "Show procedure (b)", default=True,
+                hint="Ghost links, ghost frames and the fixed global joint axes",
+            ))
+            steps = self.controls.add(Slider(
+                "steps", "Rodriguez steps", min=0, max=3, step=1, default=3, integer=True,
                 hint="How many global-axis rotations of procedure (b) are applied (joint 3 first)",
-            )
-            readout = self.target.gui.add_markdown("")
+            ))
+            readout = self.add_readout("")
         self.gui = _Gui(sliders, animate, show_global, steps, readout)  # type: ignore[arg-type]
-        for k, slider in enumerate(sliders):
-            slider.on_update(lambda event, k=k: self._on_joint(k, event.target.value))
-        animate.on_update(self._on_animate)
-        show_global.on_update(self._on_show_global)
-        steps.on_update(self._on_steps)
-
-    # -- GUI callbacks: record only ----------------------------------------------
-    def _on_joint(self, k: int, value: Any) -> None:
-        try:
-            deg = float(value)
-        except (TypeError, ValueError):
-            deg = math.nan
-        if not math.isfinite(deg):
-            # Only a crafted client can send this (the slider cannot): keep the
-            # previous angle, say so, and never let NaN reach the core or viser.
-            self.notify(
-                "Invalid joint angle",
-                f"θ{k + 1} must be a finite number of degrees, got {value!r}; kept the previous value.",
-                "warning",
-            )
-            return
-        with self.lock:
-            self._joint_deg[k] = deg
-            self._dirty = True
-
-    def _on_animate(self, event: Any) -> None:
-        with self.lock:
-            self._animate = bool(event.target.value)
-            self._dirty = True
-
-    def _on_show_global(self, event: Any) -> None:
-        with self.lock:
-            self._show_global = bool(event.target.value)
-            self._dirty = True
-
-    def _on_steps(self, event: Any) -> None:
-        with self.lock:
-            self._steps = int(round(float(event.target.value)))
-            self._dirty = True
 
     # -- update ---------------------------------------------------------------
     def update(self, dt: float) -> None:
         now = time.monotonic()
-        with self.lock:
-            animate = self._animate
-            if not (self._dirty or animate):
-                if self._readout_due and now - self._readout_time >= self._readout_period:
-                    self._refresh_readout(now)
-                return
-            self._dirty = False
-            joint_deg = tuple(self._joint_deg)
-            show_global = self._show_global
-            steps = min(max(self._steps, 0), 3)
+        self._collect_readout()
+        changed = self.controls.take_changes()
+        values = self.controls.values()
+        animate = bool(values["animate"])
+        if not (changed or animate or self._first):
+            if self._readout_due and now - self._readout_time >= self._readout_period:
+                self._refresh_readout(now)
+            return
+        self._first = False
+        joint_deg = tuple(float(values[f"theta{k + 1}"]) for k in range(3))
+        show_global = bool(values["show_b"])
+        steps = int(values["steps"])
         assert self.gui is not None
 
         if animate:
@@ -373,11 +342,9 @@ class ManipulatorScene(Scene):
             if self._was_animating:
                 for slider in self.gui.joint_sliders:
                     slider.disabled = False
-                # Leave the arm where the sweep stopped: the sliders take over
-                # (their callbacks record the same angles).
+                # Leave the arm where the sweep stopped: the sliders take over.
                 stopped_deg = [round(wrap_deg(math.degrees(a)), 1) for a in self.joint_angles]
-                for slider, value in zip(self.gui.joint_sliders, stopped_deg):
-                    slider.value = value
+                self.controls.set_many({f"theta{k + 1}": v for k, v in enumerate(stopped_deg)})
                 joint_deg = tuple(stopped_deg)
             angles = np.radians(joint_deg)
         self._was_animating = animate
@@ -390,8 +357,9 @@ class ManipulatorScene(Scene):
             if steps == 3
             else link_frames_global_axis_rotations(angles, geometry=geometry, steps=steps)
         )
-        wxyz_a = euler_parameters_from_matrix(frames_a.orientations)
-        wxyz_ghost = euler_parameters_from_matrix(ghost.orientations)
+        # one-rotation calls take core.rotations' scalar path (cheaper than a batch of three)
+        wxyz_a = [euler_parameters_from_matrix(m) for m in frames_a.orientations]
+        wxyz_ghost = np.array([euler_parameters_from_matrix(m) for m in ghost.orientations])
         self.joint_angles = angles
         self.difference = float(
             np.max(np.abs(frames_a.orientations[2] - frames_b.orientations[2]))
@@ -401,77 +369,107 @@ class ManipulatorScene(Scene):
 
         with self.target.atomic():
             for k in range(3):
-                self.solid_frames[k].wxyz = wxyz_a[k]
-                self.solid_frames[k].position = frames_a.origins[k]
+                set_pose(self.solid_frames[k], wxyz=wxyz_a[k], position=frames_a.origins[k])
             self.ghost_root.visible = show_global
             self.global_axes.visible = show_global
             if show_global:
-                self.ghost_axes.batched_wxyzs = wxyz_ghost
-                self.ghost_axes.batched_positions = ghost.origins
+                set_arrays(self.ghost_axes, batched_wxyzs=wxyz_ghost, batched_positions=ghost.origins)
                 self.ghost_links.visible = steps < 3
                 if steps < 3:
                     for k in range(3):
-                        self.ghost_link_frames[k].wxyz = wxyz_ghost[k]
-                        self.ghost_link_frames[k].position = ghost.origins[k]
+                        set_pose(self.ghost_link_frames[k], wxyz=wxyz_ghost[k], position=ghost.origins[k])
             if now - self._readout_time >= self._readout_period:
                 self._refresh_readout(now)
 
     def _refresh_readout(self, now: float) -> None:
-        """Rewrite the readout for the last drawn pose (at most every readout period)."""
+        """Ask for the readout of the last drawn pose (at most every readout period).
+
+        The text is built by :func:`readout_markdown` on the background
+        executor, off the loop thread; :meth:`_collect_readout` shows it when
+        it is ready.
+        """
         assert self.gui is not None and self._drawn is not None
-        self.gui.readout.content = self._readout(*self._drawn)
+        if self._readout_job is not None:
+            return  # one at a time: the next one starts when this one is shown
+        angles, frames_a, frames_b, steps = self._drawn
+        self._readout_job = self.executor.submit(
+            readout_markdown, angles, frames_a, frames_b, steps, self.difference, self.geometry
+        )
         self._readout_time = now
         self._readout_due = False
 
-    def _readout(self, angles: np.ndarray, frames_a: Any, frames_b: Any, steps: int) -> str:
-        """Markdown readout: the matrix, the difference of the procedures, the Euler form."""
-        matrix = frames_a.orientations[2]
-        position_difference = max(
-            float(np.max(np.abs(frames_a.origins - frames_b.origins))),
-            float(np.max(np.abs(frames_a.end_point - frames_b.end_point))),
-        )
-        lines = [
-            f"**Joint angles**: {_format_deg(angles)}",
-            "",
-            "**End link** A = A21 A32 A43 (successive rotations, Eq. 8.42):",
-            "```",
-            _format_matrix(matrix),
-            "```",
-            "**Procedures (a) vs (b)** (all three Rodriguez steps):",
-            "",
-            f"- max |A_a − A_b| = {self.difference:.1e}",
-            f"- max |r_a − r_b| = {position_difference:.1e} m",
-        ]
-        if steps < 3:
-            lines.append(f"- Ghost shows (b) after {steps} of 3 steps (joint 3 first).")
-        try:
-            form = euler_form(angles, geometry=self.geometry)
-        except ValueError as exc:
-            lines += ["", f"**Euler-angle form**: none for these joint axes ({exc})."]
-            return "\n".join(lines)
-        euler_matrix = matrix_from_euler_angles(form.angles, form.seq)
-        lines += [
-            "",
-            f"**Euler-angle form** ({form.seq}, intrinsic):",
-            "",
-            f"- A = A_{form.seq}({_format_deg(form.angles)})",
-            f"- max |A − A_{form.seq}| = {float(np.max(np.abs(matrix - euler_matrix))):.1e}",
-        ]
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            recovered = euler_angles_from_matrix(matrix, form.seq)
-        singular = bool(caught)
-        lines.append(f"- Euler angles recovered from A: {_format_deg(recovered)}")
-        if singular:
-            lines.append(
-                "- **gimbal lock**: the first and third axes align, only the sum "
-                "(or difference) of their angles is determined."
-            )
+    def _collect_readout(self) -> None:
+        """Show a finished readout and say when the arm enters gimbal lock."""
+        job = self._readout_job
+        if job is None or not job.done():
+            return
+        self._readout_job = None
+        assert self.gui is not None
+        text, seq, singular = job.result()
+        self.gui.readout.content = text
         if singular and not self._in_gimbal_lock:
             self.notify(
                 "Gimbal lock",
-                f"Joints 1 and 3 are aligned: the {form.seq} angles of A are not unique.",
+                f"Joints 1 and 3 are aligned: the {seq} angles of A are not unique.",
                 "info",
             )
         self._in_gimbal_lock = singular
-        return "\n".join(lines)
+
+    @property
+    def readout_pending(self) -> bool:
+        """Whether a readout is being computed or waits for its period."""
+        return self._readout_job is not None or self._readout_due
+
+
+def readout_markdown(
+    angles: np.ndarray, frames_a: Any, frames_b: Any, steps: int, difference: float,
+    geometry: ManipulatorGeometry,
+) -> tuple[str, str, bool]:
+    """Markdown readout of one pose: the matrix, the difference of the procedures,
+    the Euler form; also the Euler sequence and whether it is at gimbal lock.
+
+    A pure function of picklable arguments: it runs on the app's executor.
+    """
+    matrix = frames_a.orientations[2]
+    position_difference = max(
+        float(np.max(np.abs(frames_a.origins - frames_b.origins))),
+        float(np.max(np.abs(frames_a.end_point - frames_b.end_point))),
+    )
+    lines = [
+        f"**Joint angles**: {_format_deg(angles)}",
+        "",
+        "**End link** A = A21 A32 A43 (successive rotations, Eq. 8.42):",
+        "```",
+        _format_matrix(matrix),
+        "```",
+        "**Procedures (a) vs (b)** (all three Rodriguez steps):",
+        "",
+        f"- max |A_a − A_b| = {difference:.1e}",
+        f"- max |r_a − r_b| = {position_difference:.1e} m",
+    ]
+    if steps < 3:
+        lines.append(f"- Ghost shows (b) after {steps} of 3 steps (joint 3 first).")
+    try:
+        form = euler_form(angles, geometry=geometry)
+    except ValueError as exc:
+        lines += ["", f"**Euler-angle form**: none for these joint axes ({exc})."]
+        return "\n".join(lines), "", False
+    euler_matrix = matrix_from_euler_angles(form.angles, form.seq)
+    lines += [
+        "",
+        f"**Euler-angle form** ({form.seq}, intrinsic):",
+        "",
+        f"- A = A_{form.seq}({_format_deg(form.angles)})",
+        f"- max |A − A_{form.seq}| = {float(np.max(np.abs(matrix - euler_matrix))):.1e}",
+    ]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        recovered = euler_angles_from_matrix(matrix, form.seq)
+    singular = bool(caught)
+    lines.append(f"- Euler angles recovered from A: {_format_deg(recovered)}")
+    if singular:
+        lines.append(
+            "- **gimbal lock**: the first and third axes align, only the sum "
+            "(or difference) of their angles is determined."
+        )
+    return "\n".join(lines), form.seq, singular

@@ -9,13 +9,16 @@ and update a scene themselves.
 
 from __future__ import annotations
 
+import concurrent.futures
+import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
 import viser
 
-from app.scenes.base import Scene
+from app.gate import Gate
+from app.scenes.base import Scene, SceneContext
 from app.server import RigidlabApp, create_app
 from app.wire import SUBPROTOCOL, camera_message, gui_value_message
 from tests.helpers import wait_until
@@ -170,3 +173,46 @@ def per_client_scenes(
         return app, pairs
 
     return start
+
+
+class GatedExecutor(concurrent.futures.Executor):
+    """Runs jobs on one thread, but only while ``open`` is set (tests that hold
+    a scene's background work back to see what the loop does meanwhile)."""
+
+    def __init__(self) -> None:
+        self.open = threading.Event()
+        self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=1)
+
+    def submit(self, fn, /, *args, **kwargs):  # type: ignore[no-untyped-def]
+        def gated():  # type: ignore[no-untyped-def]
+            self.open.wait()
+            return fn(*args, **kwargs)
+
+        return self._pool.submit(gated)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self.open.set()
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
+@pytest.fixture
+def make_bare_scene(server: viser.ViserServer) -> Iterator[Callable[..., tuple[Any, list[Any]]]]:
+    """Factory ``make_bare_scene(SceneClass, executor=None) -> (scene, notices)``: a
+    scene built and shown on the module's bare server, driven frame by frame by
+    the test (``scene.frame(dt)``), with its own executor (a thread by default)."""
+    made: list[Any] = []
+
+    def make(scene_class: type[Scene], executor: Any = None) -> tuple[Any, list[Any]]:
+        notices: list[Any] = []
+        executor = executor or concurrent.futures.ThreadPoolExecutor(max_workers=1)
+        context = SceneContext(gate=Gate.for_gui(server.gui), executor=executor,
+                               notify_client=lambda client, *n: notices.append(n), owns_executor=True)
+        scene = scene_class(server, lambda *n: notices.append(n), context=context)
+        scene.build()
+        scene.set_active(True)
+        made.append(scene)
+        return scene, notices
+
+    yield make
+    for scene in made:
+        scene.close()

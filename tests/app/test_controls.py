@@ -1,76 +1,143 @@
-"""Playback controls shared by the timed scenes (app/scenes/_controls.py).
+"""Control specs (app/controls.py): the gate checks and the app's text parser.
 
-The clock logic is checked directly; the GUI wiring on a bare
-``viser.ViserServer``, setting the handles' values as the page does.
+The references are hand-written: what a browser may send (JSON/msgpack
+types) and what each control must accept or refuse, with the message.
 """
 
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 
-from app.scenes._controls import Playback, Tick
-from tests.helpers import wait_until
+from app.controls import (
+    Button,
+    ButtonGroup,
+    Choice,
+    NumberText,
+    Refused,
+    Slider,
+    Text,
+    Toggle,
+    VectorText,
+    describe,
+    format_number,
+    format_vector,
+)
 
-PRESETS = ("first", "second")
-
-
-def test_clock_plays_pauses_scales_and_resets_once() -> None:
-    playback = Playback(PRESETS)
-    assert playback.playing and playback.time_scale == 1.0
-    assert playback.tick(0.02) == Tick(reset=False, step=0.02)
-    playback.set_time_scale(2.5)
-    # dt * scale in float64, as the scenes advanced their clocks before
-    assert playback.tick(0.02) == Tick(reset=False, step=0.02 * 2.5)
-    playback.set_playing(False)
-    assert playback.tick(0.02) == Tick(reset=False, step=0.0)
-    playback.request_reset()
-    assert playback.tick(0.02).reset is True
-    assert playback.tick(0.02).reset is False  # a request is consumed by one frame
-    playback.set_playing(True)
-    assert playback.tick(0.04).step == pytest.approx(0.1, rel=1e-15)
+SLIDER = Slider("s", "Time scale", min=0.05, max=4.0, step=0.05, default=1.0)
+STEPS = Slider("k", "Rodriguez steps", min=0, max=3, step=1, default=3, integer=True)
 
 
-def test_presets_are_validated_and_taken_once() -> None:
-    playback = Playback(PRESETS)
-    assert playback.take_preset() is None
-    playback.request_preset("second")
-    playback.request_preset("first")  # the latest request wins
-    assert playback.take_preset() == "first"
-    assert playback.take_preset() is None
-    with pytest.raises(ValueError, match=r"name: expected one of \['first', 'second'\], got 'third'"):
-        playback.request_preset("third")
-    assert playback.take_preset() is None
+@pytest.mark.parametrize("raw", [0.05, 1, 2.5, 4.0, 4.0 + 1e-12])
+def test_slider_accepts_numbers_in_range(raw: float) -> None:
+    value = SLIDER.check(raw)
+    assert isinstance(value, float) and 0.05 <= value <= 4.0
 
 
-@pytest.mark.parametrize("scale", [0.0, -1.0, math.nan, math.inf])
-def test_time_scale_must_be_finite_and_positive(scale: float) -> None:
-    playback = Playback()
-    with pytest.raises(ValueError, match=r"scale: expected a finite number > 0, got"):
-        playback.set_time_scale(scale)
-    assert playback.time_scale == 1.0
+@pytest.mark.parametrize(
+    "raw", [1e6, -1.0, 0.0, math.nan, math.inf, -math.inf, 1e308, "1", None, True, [1.0], 2**70]
+)
+def test_slider_refuses_everything_else_naming_range_and_value(raw: object) -> None:
+    with pytest.raises(Refused, match=r"expected a number from 0\.05 to 4, got "):
+        SLIDER.check(raw)
 
 
-def test_gui_controls_record_requests(server) -> None:
-    playback = Playback(PRESETS)
-    with server.gui.add_folder("Playback test") as folder:
-        gui = playback.add_gui(server.gui)
-        buttons = playback.add_preset_buttons(server.gui)
-    try:
-        assert [gui.play.label, gui.pause.label, gui.reset.label, gui.time_scale.label] == [
-            "Play", "Pause", "Reset", "Time scale"]
-        assert (gui.time_scale.min, gui.time_scale.max, gui.time_scale.value) == (0.05, 4.0, 1.0)
-        assert list(buttons) == list(PRESETS)
-        gui.pause.value = True  # a click, as the page sends it
-        wait_until(lambda: not playback.playing)
-        gui.play.value = True
-        wait_until(lambda: playback.playing)
-        gui.time_scale.value = 3.0
-        wait_until(lambda: playback.time_scale == 3.0)
-        gui.reset.value = True
-        wait_until(lambda: playback.tick(0.0).reset)
-        buttons["second"].value = True
-        wait_until(lambda: playback.take_preset() == "second")
-    finally:
-        folder.remove()
+@pytest.mark.parametrize(("raw", "message"), [
+    (1e308, "got 1e+308"), (2.5, "got 2.5"), (-1, "got -1"), (4, "got 4"), (math.nan, "got nan"),
+])
+def test_integer_slider_takes_integers_only(raw: float, message: str) -> None:
+    with pytest.raises(Refused, match="expected an integer from 0 to 3, " + re.escape(message)):
+        STEPS.check(raw)
+    assert STEPS.check(2.0) == 2 and isinstance(STEPS.check(2.0), int)
+
+
+def test_slider_declaration_is_checked() -> None:
+    with pytest.raises(ValueError, match="expected finite min < max"):
+        Slider("x", "x", min=1.0, max=0.0)
+    with pytest.raises(Refused):
+        Slider("x", "x", min=0.0, max=1.0, default=2.0)
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("1e-3", 1e-3), ("  2.5E+10 ", 2.5e10), ("-0.1", -0.1), (".5", 0.5), ("3.", 3.0),
+    ("0.123456789012345678", 0.123456789012345678), ("1e-300", 1e-300),
+])
+def test_number_text_parses_scientific_notation_at_full_precision(text: str, value: float) -> None:
+    spec = NumberText("x", "x", default=0.0)
+    assert spec.parse(text) == value
+
+
+@pytest.mark.parametrize("text", ["1e400", "-1e400", "nan", "inf", "-inf", "abc", "", "1e", "0x10", "1_000",
+                                  "1,5", "1 2", "1+2j", "--1"])
+def test_number_text_refuses_what_is_not_a_finite_number(text: str) -> None:
+    spec = NumberText("x", "x", default=0.0)
+    with pytest.raises(Refused, match=r"expected a finite number \(like 0\.25 or 2\.5e-3\), got '"):
+        spec.parse(text)
+
+
+def test_number_text_range_and_gate() -> None:
+    spec = NumberText("dt", "Step", default=0.01, min=1e-6, max=1.0)
+    with pytest.raises(Refused, match=r"expected a number from 1e-06 to 1, got '0'"):
+        spec.parse("0")
+    assert spec.check("anything short") == "anything short"  # text passes the gate as text
+    for raw in (1.0, None, ["1"], "9" * 1000):
+        with pytest.raises(Refused, match="expected text of at most 80 characters"):
+            spec.check(raw)
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("1, 0, 2.5e-3", (1.0, 0.0, 2.5e-3)), ("(1 2 3)", (1.0, 2.0, 3.0)), ("[0.1;0.2;0.3]", (0.1, 0.2, 0.3)),
+    ("0.57735026918962584, 0.57735026918962584, 0.57735026918962584", (0.57735026918962584,) * 3),
+])
+def test_vector_text_parses(text: str, value: tuple[float, ...]) -> None:
+    assert VectorText("v", "v").parse(text) == value
+
+
+@pytest.mark.parametrize("text", ["1, 2", "1, 2, 3, 4", "1, nan, 3", "a, b, c", "1e400, 0, 0", ""])
+def test_vector_text_refuses(text: str) -> None:
+    with pytest.raises(Refused, match=r"expected 3 numbers like 1, 0, 2\.5e-3, got "):
+        VectorText("v", "v").parse(text)
+
+
+def test_vector_text_nonzero_and_range() -> None:
+    spec = VectorText("axis", "Axis", default=(0.0, 0.0, 1.0), nonzero=True, min=-10.0, max=10.0)
+    with pytest.raises(Refused, match="expected 3 numbers not all zero, got '0 0 0'"):
+        spec.parse("0 0 0")
+    with pytest.raises(Refused, match="each from -10 to 10"):
+        spec.parse("11, 0, 0")
+    with pytest.raises(ValueError, match="expected a default of 3 numbers"):
+        VectorText("v", "v", default=(1.0, 2.0))
+
+
+def test_choice_toggle_buttons_text() -> None:
+    choice = Choice("c", "Method", options=("rk4", "splitting"), default="rk4")
+    assert choice.check("splitting") == "splitting"
+    with pytest.raises(Refused, match=r"expected one of \['rk4', 'splitting'\], got 'euler'"):
+        choice.check("euler")
+    with pytest.raises(Refused, match="got 1"):
+        choice.check(1)
+    with pytest.raises(ValueError, match="expected a default in"):
+        Choice("c", "c", options=("a",), default="b")
+    assert Toggle("t", "t").check(True) is True
+    with pytest.raises(Refused, match="expected true or false, got 1"):
+        Toggle("t", "t").check(1)
+    assert Button("b", "b").check(True) is True
+    group = ButtonGroup("p", "Playback", options=("Play", "Pause"))
+    with pytest.raises(Refused, match=r"expected one of \['Play', 'Pause'\], got 'Stop'"):
+        group.check("Stop")
+    text = Text("t", "State", max_length=10)
+    with pytest.raises(Refused, match="expected text of at most 10 characters"):
+        text.check("x" * 11)
+    with pytest.raises(Refused, match="this field is read-only"):
+        Text("t", "t", disabled=True).check("x")
+    assert not Button("b", "b").in_state and not text.in_state and choice.in_state
+
+
+def test_formatting_round_trips() -> None:
+    for x in (1e-3, 0.1, 1.0 / 3.0, 12345.678, -2.5e-300, 3.0, 1e17):
+        assert float(format_number(x)) == x
+    assert format_number(3.0) == "3" and format_number(1e-5) == "1e-05"
+    assert format_vector((1.0, 0.5, -2e-9)) == "1, 0.5, -2e-09"
+    assert describe("x" * 100).endswith("...'") and describe(math.nan) == "nan"

@@ -1,14 +1,19 @@
 """Gyroscope scene (app/scenes/gyroscope.py) on a running rigidlab app.
 
-The session loop drives the scene at about 60 Hz; tests act as a user would
-(presets, sliders, play/pause/reset through the server-side handles) and
-check what the scene streams: the three nested gimbal poses against scipy's
-ZXZ rotation, presets against core.gyroscope's predictions, notices for bad
-input, and the chunk cache.
+The session loop drives the scene at about 60 Hz; tests act as a browser
+does (values and clicks through the gate with ``send_value`` / ``click``)
+and check what the scene streams: the three nested gimbal poses against
+scipy's ZXZ rotation, presets against core.gyroscope's predictions, notices
+and restored sliders for refused input, the chunk cache, the CSV export, the
+shareable state and the labels at the default view. A few tests build the
+scene on a bare server and drive ``frame`` themselves (the bounded time step,
+the clock holding while a chunk is computed).
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 import time
 
@@ -16,14 +21,32 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.scenes.gyroscope import PRESETS, GyroscopeScene, Inputs, preset_inputs
-from core.gyroscope import RotorParams, nutation, steady_precession_rates
-from tests.helpers import wait_until
+from app.scenes._playback import MAX_SIM_STEP
+from app.scenes.gyroscope import (
+    BODY_LABELS,
+    CSV_HEADER,
+    PRESETS,
+    SLIDERS,
+    GyroscopeScene,
+    Inputs,
+    _ARROW_LABEL_ANCHORS,
+    _ARROW_LABELS,
+    _LABEL_SCALE,
+    preset_inputs,
+)
+from core.gyroscope import RotorParams, invariants, nutation, simulate, steady_precession_rates
+from tests.app._views import Camera, label_box, overlapping_pairs
+from tests.app.conftest import GatedExecutor
+from tests.helpers import click, send_value, wait_until
 
 
 @pytest.fixture
 def gyro(running_scene):
     return running_scene(GyroscopeScene)
+
+
+def notices_with(app, text):
+    return [n for n in app.session_for().notices if text in n[0] or text in n[1]]
 
 
 def test_scene_is_registered_after_the_others():
@@ -53,15 +76,15 @@ def test_nested_frames_compose_to_the_zxz_orientation(gyro):
 
 def test_presets_drive_the_expected_motion(gyro):
     app, scene = gyro
-    for name in PRESETS:
-        scene.apply_preset(name)
+    for i, name in enumerate(PRESETS):
+        click(scene, f"preset_{i}")  # the preset's button, as the page sends a click
         want = preset_inputs(name)
-        wait_until(lambda: scene.model is not None and scene.model.params.mgl == want.mgl
-                   and math.isclose(scene.model.state0[5], want.psi_dot0) and 0.2 < scene.sim_time)
-        for field, slider in scene.gui.sliders.items():
-            # the page's sliders show the preset (they round to their step)
-            assert slider.value == pytest.approx(getattr(want, field), abs=slider.step)
-        params, state0 = scene.model.params, scene.model.state0
+        wait_until(lambda: scene.model is not None and scene.model.inputs == want and 0.2 < scene.sim_time)
+        for spec in SLIDERS:
+            # the page's sliders show the preset
+            assert scene.controls.value(spec.key) == getattr(want, spec.key)
+            assert scene.controls.handles[spec.key].value == pytest.approx(getattr(want, spec.key), abs=1e-12)
+        params, state0 = scene.model.params, np.array(scene.model.state0)
         thetas = []
         t_end = time.monotonic() + 1.0
         while time.monotonic() < t_end:
@@ -89,66 +112,133 @@ def test_presets_drive_the_expected_motion(gyro):
 
 def test_sleeping_top_below_critical_falls(gyro):
     app, scene = gyro
-    scene.gui.time_scale.value = 4.0
+    assert send_value(scene, "time_scale", 4.0)
     scene.apply_preset("Sleeping top below critical")
     wait_until(lambda: scene.model.state0[1] == pytest.approx(math.radians(3.0)) and scene.sim_time > 0.0)
-    nu = nutation(scene.model.params, scene.model.state0)
+    nu = nutation(scene.model.params, np.array(scene.model.state0))
     assert float(nu.theta_max) > math.radians(30)
     wait_until(lambda: scene.angles[1] > math.radians(20), timeout=20.0)
+    # a 10 s nutation period: the plot window holds at least two of them
+    assert float(nu.period) > 9.0
+    assert scene.window >= 2 * float(nu.period)
 
 
-def test_invalid_parameters_give_a_notice_and_keep_running(gyro):
+def test_cross_field_rule_gives_a_notice_and_sets_the_slider_back(gyro):
     app, scene = gyro
     params_before = scene.model.params
-    scene.gui.sliders["I3"].value = 3.0  # > 2 I with I = 1
-    session = app.session_for()
-    wait_until(lambda: any("Invalid rotor parameters" in n[0] for n in session.notices))
-    assert any("I3: expected I3 <= 2*I" in n[1] for n in session.notices)
+    assert send_value(scene, "I3", 3.0)  # in the slider's range, but > 2 I with I = 1
+    wait_until(lambda: notices_with(app, "Invalid rotor parameters"))
+    assert notices_with(app, "I3: expected I3 <= 2*I")
+    assert notices_with(app, "the sliders are set back")
     assert scene.model.params == params_before
     t0 = scene.sim_time
-    wait_until(lambda: scene.sim_time > t0 + 0.1)
-    # The slider shows the value in use again, and the motion was not restarted.
-    wait_until(lambda: scene.gui.sliders["I3"].value == params_before.I3)
-    assert scene.sim_time > t0
-    assert any("the sliders are set back" in n[1] for n in session.notices)
+    wait_until(lambda: scene.sim_time > t0 + 0.1)  # the motion was not restarted
+    # The slider shows the value in use again (on the page and in the panel).
+    wait_until(lambda: scene.controls.handles["I3"].value == params_before.I3)
+    assert scene.controls.value("I3") == params_before.I3
     # A valid change afterwards is taken as usual.
-    scene.gui.sliders["I3"].value = 1.5
+    assert send_value(scene, "I3", 1.5)
     wait_until(lambda: scene.model.params.I3 == 1.5)
-    assert scene.gui.sliders["I3"].value == 1.5
+    assert scene.controls.handles["I3"].value == 1.5
+
+
+@pytest.mark.parametrize(("key", "raw"), [("theta0_deg", 1e308), ("psi_dot0", math.nan), ("I", -1.0),
+                                          ("time_scale", 1e6), ("m_theta", "abc")])
+def test_refused_values_never_reach_the_scene(gyro, key, raw):
+    app, scene = gyro
+    before = scene.controls.value(key)
+    model = scene.model
+    assert not send_value(scene, key, raw)
+    assert scene.controls.value(key) == before
+    assert scene.controls.handles[key].value == before
+    assert scene.model is model
+    label = scene.controls.specs[key].label
+    wait_until(lambda: notices_with(app, f"Refused: {label}"))
+    t0 = scene.sim_time
+    wait_until(lambda: scene.sim_time > t0 + 0.05)
+    assert scene.paused_error is None
 
 
 def test_pause_reset_and_chunk_cache(gyro):
     app, scene = gyro
-    scene.gui.pause.value = True  # a click, as the page sends it
+    click(scene, "playback", "Pause")
     wait_until(lambda: not scene.playing)
     time.sleep(0.1)
     t_paused = scene.sim_time
     time.sleep(0.3)
     assert scene.sim_time == t_paused
-    scene.gui.play.value = True
+    click(scene, "playback", "Play")
     wait_until(lambda: scene.playing)
-    scene.gui.time_scale.value = 4.0
+    assert send_value(scene, "time_scale", 4.0)
     wait_until(lambda: scene.sim_time > 5.0, timeout=20.0)
     computed = scene.chunks_computed
-    scene.gui.reset.value = True
+    click(scene, "playback", "Reset")
     wait_until(lambda: scene.sim_time < 1.0)
     wait_until(lambda: scene.sim_time > 3.0)
     # parameters unchanged: the replay reads the cached chunks
     assert scene.chunks_computed <= computed + 1
     # a slider change drops the cache and restarts
-    scene.gui.sliders["psi_dot0"].value = 20.0
+    assert send_value(scene, "psi_dot0", 20.0)
     wait_until(lambda: scene.model.state0[5] == 20.0)
     assert scene.sim_time < 2.0
 
 
 def test_torque_sliders_use_the_numerical_path(gyro):
     app, scene = gyro
-    scene.gui.sliders["m_psi"].value = 1.0
+    assert send_value(scene, "m_psi", 1.0)
     wait_until(lambda: scene.model.torques[2] == 1.0 and scene.sim_time > 1.0)
-    traj = scene._chunks[0]
-    assert traj.method == "numerical"
+    assert scene.method == "numerical"
+    assert scene.timeline.sequential  # each chunk continues from the previous one
     # M_psi spins the rotor up: psi_dot grows at M_psi / I3 (Eq. 8.16, d1' = M_psi)
     assert scene.rates[2] > scene.model.state0[5]
+
+
+def test_torque_at_the_fastest_time_scale_runs_without_recursion(gyro):
+    """Issue 9: a torque and Time scale = 1e6 gave a RecursionError every frame.
+    The gate refuses 1e6; at the largest accepted scale the clock advances at
+    most MAX_SIM_STEP per frame and chunks are computed one at a time, in order."""
+    app, scene = gyro
+    assert not send_value(scene, "time_scale", 1e6)
+    assert send_value(scene, "m_theta", 1.0)
+    assert send_value(scene, "time_scale", 4.0)
+    wait_until(lambda: scene.model.torques[1] == 1.0 and scene.sim_time > 12.0, timeout=30.0)
+    assert scene.paused_error is None
+    assert not notices_with(app, "Recursion")
+    assert not notices_with(app, "paused")
+    # asking for a chunk far ahead submits only the first missing one (no recursion)
+    with app.session_for().run_lock:
+        assert scene.timeline.chunk_at(1e6) is None
+
+
+def test_a_failing_torque_run_stops_the_clock_with_a_notice_and_finite_arrows(gyro):
+    # At theta = 0 constant M_phi != +-M_psi needs an unbounded torque: core refuses.
+    app, scene = gyro
+    assert send_value(scene, "theta0_deg", 0.0)
+    assert send_value(scene, "m_phi", 5.0)
+    wait_until(lambda: notices_with(app, "Simulation stopped"))
+    assert notices_with(app, "sin(theta) = 0")
+    assert scene.paused_error is None and not scene.playing
+    with app.session_for().run_lock:
+        assert np.all(np.isfinite(np.asarray(scene.arrows.points)))
+    # another value runs again
+    assert send_value(scene, "m_phi", 0.0)
+    click(scene, "playback", "Play")
+    wait_until(lambda: scene.model.torques == (0.0, 0.0, 0.0) and scene.sim_time > 0.2)
+
+
+def test_arrow_points_stay_finite(gyro):
+    app, scene = gyro
+    assert send_value(scene, "time_scale", 4.0)
+    for i in range(len(PRESETS)):
+        click(scene, f"preset_{i}")
+        t_end = time.monotonic() + 0.4
+        while time.monotonic() < t_end:
+            with app.session_for().run_lock:
+                points = np.asarray(scene.arrows.points)
+                label_positions = [np.asarray(label.position) for label in scene.arrow_labels]
+            assert np.all(np.isfinite(points))
+            assert all(np.all(np.isfinite(p)) for p in label_positions)
+            time.sleep(0.03)
 
 
 def test_preset_inputs_rejects_unknown_names():
@@ -174,27 +264,15 @@ def test_framing_shows_the_suspension_large_and_left_of_the_gui_panel():
     """
     from app.scenes import gyroscope as g
 
-    eye = np.array(GyroscopeScene.camera_position, dtype=float)
-    target = np.array(GyroscopeScene.camera_look_at, dtype=float)
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    tan_half = math.tan(math.radians(75.0) / 2)  # viser's default vertical fov
-    aspect = 1200 / 750
-
-    def ndc(point):
-        rel = np.asarray(point, dtype=float) - eye
-        depth = rel @ forward
-        return rel @ right / (depth * tan_half * aspect), rel @ up / (depth * tan_half)
-
+    camera = Camera(GyroscopeScene.camera_position, GyroscopeScene.camera_look_at)
     centre = np.array([0.0, 0.0, 0.5 * (g._BASE_Z + g._TIP_RADIUS)])
-    x, y = ndc(centre)
+    x, y = camera.ndc(centre)
     assert -0.9 < x < 1 / 3 - 0.25  # centred in the free part, clear of the panel
     assert abs(y) < 0.5
-    top = ndc([0.0, 0.0, g._TIP_RADIUS])[1]
-    bottom = ndc([0.0, 0.0, g._BASE_Z])[1]
+    top = camera.ndc([0.0, 0.0, g._TIP_RADIUS])[1]
+    bottom = camera.ndc([0.0, 0.0, g._BASE_Z])[1]
     assert 0.8 < top - bottom < 1.9  # 40-95 % of the page height
+    eye = camera.eye
     assert eye[2] > centre[2] + 1.0  # seen from above
     assert abs(eye[0]) > 0.5 and abs(eye[1]) > 0.5  # 3/4 view, not head-on
 
@@ -202,33 +280,197 @@ def test_framing_shows_the_suspension_large_and_left_of_the_gui_panel():
 @pytest.mark.parametrize("name", PRESETS)
 def test_preset_values_fit_their_sliders(name: str) -> None:
     # A preset the page cannot show (outside a slider's range) would jump as
-    # soon as someone touches that slider; every value must lie in its range.
-    from app.scenes.gyroscope import _SLIDERS
-
+    # soon as someone touches that slider; every value must pass its slider's check.
     values = preset_inputs(name)
-    for field, label, lo, hi, _step, _hint in _SLIDERS:
-        value = getattr(values, field)
-        assert lo <= value <= hi, f"{name}: {label} = {value} outside [{lo}, {hi}]"
+    for spec in SLIDERS:
+        assert spec.check(getattr(values, spec.key)) == pytest.approx(getattr(values, spec.key))
 
 
-def test_plots_use_seconds_and_a_readable_log_drift(gyro):
+def test_rates_are_written_without_combining_dots():
+    # "φ̇0" renders as "φ0" in Chromium: the dot is a combining character.
+    labels = [spec.label for spec in SLIDERS]
+    assert "dθ/dt (rad/s)" in labels and "dφ/dt (rad/s)" in labels and "dψ/dt (rad/s)" in labels
+    texts = labels + [GyroscopeScene.help] + [text for _, text, _, _ in BODY_LABELS]
+    assert not any(0x300 <= ord(ch) <= 0x36F for text in texts for ch in text)
+    # "What you see" names the equations behind the scene
+    for eq in ("Eq. 8.14", "Eq. 8.16", "Eqs. 8.19-8.20", "Eq. 8.21", "Eq. 8.23", "Eq. 8.8"):
+        assert eq in GyroscopeScene.help
+
+
+def test_plots_use_seconds_a_readable_log_drift_and_a_window_of_two_periods(gyro):
     """The plots' x axis is simulated time in seconds (uPlot would show
-    calendar dates by default) and the drift plot is log10 |drift|: round-off
-    drifts ~1e-15 printed as '0' on a linear axis."""
+    calendar dates by default), the drift plot is log10 |drift| (round-off
+    drifts ~1e-15 printed as '0' on a linear axis), and the window spans at
+    least two nutation periods."""
     from app.scenes.gyroscope import DRIFT_FLOOR_LOG10, drift_log10
 
     app, scene = gyro
-    for plot in (scene.gui.plot_theta, scene.gui.plot_phi_dot, scene.gui.plot_drift):
+    gui = scene.gui
+    for plot in (gui.plot_theta, gui.plot_phi_dot, gui.plot_drift):
         assert plot.scales["x"]["time"] is False
-    wait_until(lambda: scene.sim_time > 1.0)
-    wait_until(lambda: scene.gui.plot_drift.data[0].size > 5)
-    t, *drift = scene.gui.plot_drift.data
+    assert send_value(scene, "time_scale", 4.0)
+    wait_until(lambda: scene.sim_time > 8.0, timeout=20.0)
+    wait_until(lambda: gui.plot_drift.data[0].size > 5)
+    with app.session_for().run_lock:
+        t, *drift = gui.plot_drift.data
+        t_theta = np.asarray(gui.plot_theta.data[0])
+        sim_time, window = scene.sim_time, scene.window
     drift = np.array(drift)
     assert np.all(np.isfinite(drift))
     assert np.all(drift >= DRIFT_FLOOR_LOG10)
     # Closed-form motion without torques: drifts are round-off of O(1) invariants.
     assert np.all(drift < -10.0)
+    # the window: at least two nutation periods, a few hundred points, ending near the clock
+    period = float(nutation(scene.model.params, np.array(scene.model.state0)).period)
+    assert window >= 2 * period and window == pytest.approx(6.0)  # 0.67 s period: the 6 s minimum
+    assert t_theta.size <= 401
+    # refreshed every 0.2 s of wall time: at scale 4, up to ~1 s of simulated time old
+    assert t_theta[0] >= sim_time - window - 1.2 and t_theta[-1] <= sim_time
+    assert t_theta[-1] - t_theta[0] > 0.8 * window
     # The transform itself: exact zeros floor, others are log10 |x|.
     np.testing.assert_array_equal(
         drift_log10(np.array([0.0, -1e-15, 2.0, 1e-30])), [DRIFT_FLOOR_LOG10, -15.0, math.log10(2.0), DRIFT_FLOOR_LOG10]
     )
+
+
+def test_readout_shows_meaningful_digits(gyro):
+    app, scene = gyro
+    wait_until(lambda: "drift since t = 0" in scene.gui.readout.content)
+    text = scene.gui.readout.content
+    assert "**d1** = 9.600 kg m²/s" in text  # I3 psi_dot0 = 0.8 * 12, four digits
+    assert "**E** = 58.60 J" in text
+    # the drift is shown as the drift (round-off), not as ten digits of d1
+    drift_line = next(line for line in text.splitlines() if line.startswith("drift since t = 0"))
+    for value in drift_line.split(":")[1].split(","):
+        assert float(value) < 1e-12
+    # the model's constants, in their own readout (sent when they change)
+    assert "θ from 60.00° to 62.22°, period 0.668 s" in scene.gui.info.content
+
+
+def test_csv_export_is_the_trajectory_shown(gyro):
+    app, scene = gyro
+    assert send_value(scene, "time_scale", 4.0)
+    wait_until(lambda: scene.sim_time > 3.0)
+    click(scene, "download_csv")  # served by the loop (sent to the browser that clicked)
+    with app.session_for().run_lock:
+        content = scene.csv_bytes()
+        sim_time, window = scene.sim_time, scene.window
+        params, state0 = scene.model.params, np.array(scene.model.state0)
+    rows = list(csv.reader(io.StringIO(content.decode())))
+    assert ",".join(rows[0]) == CSV_HEADER
+    assert rows[0][4] == "dphi/dt (rad/s)" and rows[0][-1] == "E (J)"
+    data = np.array(rows[1:], dtype=float)
+    t = data[:, 0]
+    assert np.all(np.diff(t) > 0)  # each sample once, in order
+    assert t[0] == pytest.approx(max(0.0, sim_time - window), abs=0.01)
+    assert sim_time - 0.01 <= t[-1] <= sim_time
+    np.testing.assert_allclose(np.diff(t), 2.0 / 480, rtol=1e-6)  # 240 samples per second
+    # the columns are core's motion and invariants at those times (15 digits)
+    traj = simulate(params, state0, t)
+    np.testing.assert_allclose(data[:, 1:4], traj.angles, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(data[:, 4:7], traj.rates, rtol=1e-12, atol=1e-11)
+    inv = invariants(params, np.concatenate([traj.angles, traj.rates], axis=1))
+    np.testing.assert_allclose(data[:, 7:10], np.stack([inv.d1, inv.d2, inv.energy], axis=1), rtol=1e-12)
+
+
+def test_state_round_trip_reproduces_the_motion(running_app):
+    first = running_app(scene="gyroscope")
+    scene = first.scene_for()
+    scene.apply_preset("Cuspidal motion")
+    wait_until(lambda: scene.model is not None and scene.model.inputs == preset_inputs("Cuspidal motion"))
+    assert send_value(scene, "time_scale", 2.5)
+    assert send_value(scene, "show_trail", False)
+    state = scene.state()
+    assert state["scene"] == "gyroscope" and state["values"]["psi_dot0"] == 8.0
+    assert state["values"]["time_scale"] == 2.5 and state["values"]["show_trail"] is False
+
+    second = running_app(scene="gyroscope")
+    other = second.scene_for()
+    wait_until(lambda: other.sim_time > 1.0)
+    second.session_for().request_state(state)
+    wait_until(lambda: other.model.inputs == scene.model.inputs)
+    assert other.sim_time < 1.0  # the motion restarts
+    assert other.playback.time_scale == 2.5 and not other.trail.visible
+    # the same inputs give the same motion, sample for sample
+    assert other.model == scene.model
+    wait_until(lambda: other.sim_time > 0.5)
+    with first.session_for().run_lock:
+        rows_first = scene.csv_bytes().decode().splitlines()
+    with second.session_for().run_lock:
+        rows_second = other.csv_bytes().decode().splitlines()
+    n = min(len(rows_first), len(rows_second))
+    assert n > 50
+    assert rows_first[:n] == rows_second[:n]
+    # a state with an invalid combination is refused like a browser value
+    bad = dict(state, values=dict(state["values"], I3=4.0))
+    second.session_for().request_state(bad)
+    wait_until(lambda: notices_with(second, "Invalid rotor parameters"))
+    assert other.model.inputs == scene.model.inputs
+
+
+# -- a scene on a bare server, driven frame by frame ----------------------------
+@pytest.fixture
+def bare_scene(make_bare_scene):
+    """``bare_scene(executor=None) -> (scene, notices)``: a GyroscopeScene on a bare server."""
+    return lambda executor=None: make_bare_scene(GyroscopeScene, executor)
+
+
+def test_time_step_per_frame_is_bounded(bare_scene):
+    scene, _ = bare_scene()
+    scene.playback.set_time_scale(4.0)
+    scene.frame(1 / 60)
+    wait_until(lambda: scene.timeline.ready(0))
+    scene.frame(0.0)
+    for _ in range(5):
+        before = scene.sim_time
+        scene.frame(10.0)  # a stalled loop: 10 s of wall time at scale 4
+        assert 0.0 <= scene.sim_time - before <= MAX_SIM_STEP + 1e-12
+    assert scene.paused_error is None
+
+
+def test_the_clock_holds_until_its_chunk_is_ready_and_nothing_runs_on_the_loop(bare_scene):
+    executor = GatedExecutor()
+    scene, _ = bare_scene(executor)
+    for _ in range(20):
+        scene.frame(1 / 60)
+    # no chunk yet: nothing was computed on the loop thread, the clock holds
+    assert scene.sim_time == 0.0 and scene.waiting and scene.timeline.computed == 0
+    executor.open.set()
+    wait_until(lambda: scene.timeline.ready(0))
+    for _ in range(10):
+        scene.frame(1 / 60)
+    assert scene.sim_time == pytest.approx(10 / 60) and not scene.waiting
+
+
+def test_labels_do_not_overlap_at_the_default_view(bare_scene):
+    """Project every label anchor with the scene's default camera (1200 x 750)
+    and check that no two label boxes overlap and all lie left of the GUI panel,
+    for the default inputs and every preset at t = 0."""
+    scene, _ = bare_scene()
+    camera = Camera(GyroscopeScene.camera_position, GyroscopeScene.camera_look_at)
+    for preset in (None, *PRESETS):
+        scene.playback.set_playing(False)
+        if preset is not None:
+            scene.apply_preset(preset)
+        scene.frame(1 / 60)
+        scene.playback.set_playing(False)
+        wait_until(lambda: scene.timeline.ready(0))
+        scene.frame(1 / 60)
+        assert scene.sim_time == 0.0
+        frames = [Rotation.from_quat(np.array(f.wxyz), scalar_first=True)
+                  for f in (scene.outer_frame, scene.inner_frame, scene.rotor_frame)]
+        boxes = {}
+        for depth, (node, text, position, anchor) in enumerate(BODY_LABELS):
+            rotation = frames[0]
+            for f in frames[1:depth + 1]:
+                rotation = rotation * f
+            x, y = camera.pixels(rotation.apply(position))
+            boxes[text] = label_box(x, y, text, anchor, _LABEL_SCALE)
+        for i, (text, anchor) in enumerate(zip(_ARROW_LABELS, _ARROW_LABEL_ANCHORS, strict=True)):
+            tip = scene.arrow_points[i, 1]
+            if np.any(tip != 0.0):
+                x, y = camera.pixels(tip)
+                boxes[text] = label_box(x, y, text, anchor, _LABEL_SCALE)
+        assert overlapping_pairs(boxes) == [], (preset, boxes)
+        for text, (left, top, right, bottom) in boxes.items():
+            assert 0 <= left and right <= 1200 - 400 and 0 <= top and bottom <= 750, (preset, text)

@@ -21,7 +21,7 @@ from scipy.spatial.transform import Rotation
 
 from app.scenes.manipulator import ManipulatorScene, joint_sweep, wrap_deg
 from core.manipulator import ManipulatorGeometry
-from tests.helpers import wait_until
+from tests.helpers import send_value, wait_until
 
 DT = 1.0 / 60.0
 # Poses travel as float64 wxyz / positions built from rotation matrices;
@@ -83,7 +83,20 @@ def make_scene(server: viser.ViserServer) -> Iterator[Callable[..., tuple[Manipu
         scene.close()
 
 
+def settle(scene: ManipulatorScene, timeout: float = 10.0) -> str:
+    """Run frames until the readout of the last drawn pose is shown (it is built on
+    the scene's background executor, off the loop) and return its text."""
+    deadline = time.monotonic() + timeout
+    scene.update(DT)
+    while scene.readout_pending:
+        assert time.monotonic() < deadline, "the readout never arrived"
+        time.sleep(0.002)
+        scene.update(DT)
+    return scene.gui.readout.content
+
+
 def difference_in_readout(scene: ManipulatorScene) -> float:
+    settle(scene)
     match = re.search(r"max \|A_a − A_b\| = ([0-9.e+-]+)", scene.gui.readout.content)
     assert match is not None, scene.gui.readout.content
     return float(match.group(1))
@@ -111,8 +124,7 @@ def test_initial_pose_matches_zxz_oracle_and_both_procedures_agree(make_scene) -
 
 def test_readout_shows_matrix_and_euler_angle_form(make_scene) -> None:
     scene, notices = make_scene()
-    scene.update(DT)
-    text = scene.gui.readout.content
+    text = settle(scene)
     matrix = Rotation.from_euler("ZXZ", [30, 45, 60], degrees=True).as_matrix()
     first_row = " ".join(f"{x:+.4f}" for x in matrix[0])
     assert first_row in text
@@ -127,8 +139,8 @@ def test_joint_slider_changes_pose(make_scene) -> None:
     scene, _ = make_scene()
     scene.update(DT)
     before = scene.solid_frames[2].wxyz.copy()
-    scene.gui.joint_sliders[0].value = -120.0
-    scene.gui.joint_sliders[2].value = 10.0
+    send_value(scene, "theta1", -120.0)
+    send_value(scene, "theta3", 10.0)
     scene.update(DT)
     expected = expected_wxyz((-120.0, 45.0, 10.0))
     for k in range(3):
@@ -139,21 +151,18 @@ def test_joint_slider_changes_pose(make_scene) -> None:
 
 def test_update_without_changes_sends_nothing_new(make_scene) -> None:
     scene, _ = make_scene()
-    scene.update(DT)
-    content = scene.gui.readout.content
+    content = settle(scene)
     scene.gui.readout.content = "sentinel"
-    scene.update(DT)  # nothing dirty, not animating: no recomputation
-    assert scene.gui.readout.content == "sentinel"
-    scene.gui.joint_sliders[1].value = 46.0
-    scene.update(DT)
-    assert scene.gui.readout.content not in ("sentinel", content)
+    assert settle(scene) == "sentinel"  # nothing dirty, not animating: no recomputation
+    send_value(scene, "theta2", 46.0)
+    assert settle(scene) not in ("sentinel", content)
 
 
 def test_rodriguez_steps_show_the_construction_of_procedure_b(make_scene) -> None:
     scene, _ = make_scene()
     scene.update(DT)
     assert not scene.ghost_links.visible  # all three steps: ghost links would coincide
-    scene.gui.steps.value = 0
+    send_value(scene, "steps", 0)
     scene.update(DT)
     assert scene.ghost_links.visible
     for k in range(3):
@@ -161,16 +170,16 @@ def test_rodriguez_steps_show_the_construction_of_procedure_b(make_scene) -> Non
         assert same_rotation(scene.ghost_link_frames[k].wxyz, np.array([1.0, 0, 0, 0]))
     np.testing.assert_allclose(ghost_position(scene, 2), [0, 0, 1.4], atol=GHOST_TOL)
     np.testing.assert_allclose(scene.ghost_link_frames[2].position, [0, 0, 1.4], atol=POSE_TOL)
-    scene.gui.steps.value = 1  # only joint 3 (global Z through (0, 0, 1.4)) applied
+    send_value(scene, "steps", 1)  # only joint 3 (global Z through (0, 0, 1.4)) applied
     scene.update(DT)
     spin = Rotation.from_euler("Z", 60, degrees=True).as_quat(scalar_first=True)
     assert same_rotation(scene.ghost_link_frames[2].wxyz, spin)
     assert same_rotation(ghost_wxyz(scene, 2), spin, atol=GHOST_TOL)
     assert same_rotation(scene.ghost_link_frames[1].wxyz, np.array([1.0, 0, 0, 0]))
-    assert "Ghost shows (b) after 1 of 3 steps" in scene.gui.readout.content
+    assert "Ghost shows (b) after 1 of 3 steps" in settle(scene)
     # The difference readout always compares the full procedures.
     assert difference_in_readout(scene) < 1e-14
-    scene.gui.steps.value = 3
+    send_value(scene, "steps", 3)
     scene.update(DT)
     assert not scene.ghost_links.visible
     for k in range(3):
@@ -181,10 +190,10 @@ def test_hiding_procedure_b_hides_ghosts_and_global_axes(make_scene) -> None:
     scene, _ = make_scene()
     scene.update(DT)
     assert scene.ghost_root.visible and scene.global_axes.visible
-    scene.gui.show_procedure_b.value = False
+    send_value(scene, "show_b", False)
     scene.update(DT)
     assert not scene.ghost_root.visible and not scene.global_axes.visible
-    scene.gui.show_procedure_b.value = True
+    send_value(scene, "show_b", True)
     scene.update(DT)
     assert scene.ghost_root.visible
 
@@ -192,7 +201,7 @@ def test_hiding_procedure_b_hides_ghosts_and_global_axes(make_scene) -> None:
 def test_animation_sweeps_then_hands_back_to_the_sliders(make_scene) -> None:
     scene, _ = make_scene()
     scene.update(DT)
-    scene.gui.animate.value = True
+    send_value(scene, "animate", True)
     poses = []
     for _ in range(30):
         scene.update(DT)
@@ -204,7 +213,7 @@ def test_animation_sweeps_then_hands_back_to_the_sliders(make_scene) -> None:
     # Smooth: consecutive frames differ, but by small rotations (q ~ -q).
     steps = [min(np.linalg.norm(b - a), np.linalg.norm(b + a)) for a, b in zip(poses, poses[1:])]
     assert min(steps) > 0 and max(steps) < 0.05
-    scene.gui.animate.value = False
+    send_value(scene, "animate", False)
     scene.update(DT)
     assert not any(slider.disabled for slider in scene.gui.joint_sliders)
     values = [slider.value for slider in scene.gui.joint_sliders]
@@ -215,44 +224,61 @@ def test_animation_sweeps_then_hands_back_to_the_sliders(make_scene) -> None:
 
 def test_gimbal_lock_gives_a_notice_and_no_nan(make_scene) -> None:
     scene, notices = make_scene()
-    scene.gui.joint_sliders[1].value = 0.0
-    scene.update(DT)
+    send_value(scene, "theta2", 0.0)
+    text = settle(scene)
     assert [n[0] for n in notices.items] == ["Gimbal lock"]
-    assert "gimbal lock" in scene.gui.readout.content
+    assert "gimbal lock" in text
     for frame in scene.solid_frames:
         assert np.isfinite(frame.wxyz).all() and np.isfinite(frame.position).all()
     assert np.isfinite(scene.ghost_axes.batched_wxyzs).all()
     # The Euler form itself is still exact at the singularity.
     assert "A = A_ZXZ(30.0°, 0.0°, 60.0°)" in scene.gui.readout.content
-    scene.gui.joint_sliders[2].value = 61.0
-    scene.update(DT)
+    send_value(scene, "theta3", 61.0)
+    settle(scene)
     assert len(notices.items) == 1  # once per entry into the singular state
 
 
-def test_non_finite_joint_angle_gives_a_notice_and_keeps_the_pose(make_scene) -> None:
+def test_non_finite_joint_angle_is_refused_at_the_gate_and_keeps_the_pose(make_scene) -> None:
     scene, notices = make_scene()
     scene.update(DT)
     before = [frame.wxyz.copy() for frame in scene.solid_frames]
-    scene.gui.joint_sliders[1].value = float("nan")
+    for raw in (float("nan"), float("inf"), 1e308, "45", None):
+        assert send_value(scene, "theta2", raw) is False
     scene.update(DT)
-    assert notices.items and notices.items[-1][0] == "Invalid joint angle"
-    assert "θ2 must be a finite number of degrees, got nan" in notices.items[-1][1]
-    assert notices.items[-1][2] == "warning"
+    assert scene.gui.joint_sliders[1].value == 45.0 and scene.controls.value("theta2") == 45.0
     for frame, wxyz in zip(scene.solid_frames, before):
         np.testing.assert_array_equal(frame.wxyz, wxyz)
     np.testing.assert_allclose(np.degrees(scene.joint_angles), [30.0, 45.0, 60.0])
     # The next valid value is taken as usual.
-    scene.gui.joint_sliders[1].value = 50.0
+    send_value(scene, "theta2", 50.0)
     scene.update(DT)
     assert same_rotation(scene.solid_frames[1].wxyz, expected_wxyz((30.0, 50.0, 60.0))[1])
+
+
+def test_state_round_trip_reproduces_the_arm(make_scene) -> None:
+    scene, _ = make_scene()
+    send_value(scene, "theta1", -75.5)
+    send_value(scene, "steps", 1)
+    scene.update(DT)
+    state = scene.state()
+    assert state["values"]["theta1"] == -75.5 and state["values"]["steps"] == 1
+    pose = [frame.wxyz.copy() for frame in scene.solid_frames]
+    send_value(scene, "theta1", 10.0)
+    send_value(scene, "steps", 3)
+    scene.update(DT)
+    assert not same_rotation(scene.solid_frames[0].wxyz, pose[0], atol=1e-3)
+    assert scene.load_state(state) == []
+    scene.update(DT)
+    for frame, wxyz in zip(scene.solid_frames, pose):
+        np.testing.assert_allclose(frame.wxyz, wxyz, atol=POSE_TOL)
+    assert scene.gui.steps.value == 1 and scene.gui.joint_sliders[0].value == -75.5
 
 
 def test_general_joint_axes_have_no_euler_form_but_procedures_agree(make_scene) -> None:
     s = np.sqrt(0.5)
     geometry = ManipulatorGeometry(joint_axes=[[0, 0, 1], [s, s, 0], [0, s, s]])
     scene, _ = make_scene(geometry=geometry)
-    scene.update(DT)
-    assert "none for these joint axes" in scene.gui.readout.content
+    assert "none for these joint axes" in settle(scene)
     assert scene.difference < 1e-14
     for k in range(3):
         assert same_rotation(ghost_wxyz(scene, k), scene.solid_frames[k].wxyz, atol=GHOST_TOL)
@@ -260,15 +286,16 @@ def test_general_joint_axes_have_no_euler_form_but_procedures_agree(make_scene) 
 
 def test_readout_is_throttled_but_always_catches_up(make_scene) -> None:
     scene, _ = make_scene(readout_period=0.2)
-    scene.update(DT)
-    assert "30.0°, 45.0°, 60.0°" in scene.gui.readout.content
-    scene.gui.joint_sliders[0].value = 31.0
+    assert "30.0°, 45.0°, 60.0°" in settle(scene)
+    send_value(scene, "theta1", 31.0)
     scene.update(DT)  # pose follows at once, the readout waits for its period
     assert same_rotation(scene.solid_frames[0].wxyz, expected_wxyz((31.0, 45.0, 60.0))[0])
+    time.sleep(0.05)
+    scene.update(DT)
     assert "**Joint angles**: 30.0°, 45.0°, 60.0°" in scene.gui.readout.content
     time.sleep(0.25)
-    scene.update(DT)  # nothing new to draw, but the pending readout is written
-    assert "**Joint angles**: 31.0°, 45.0°, 60.0°" in scene.gui.readout.content
+    # nothing new to draw, but the pending readout is computed and written
+    assert "**Joint angles**: 31.0°, 45.0°, 60.0°" in settle(scene)
 
 
 def test_hidden_scene_and_close(make_scene, server) -> None:
@@ -308,7 +335,7 @@ def test_per_client_mode_gives_each_browser_its_own_arm(per_client_scenes) -> No
 def test_switching_away_stops_updates_and_back_resumes(running_app) -> None:
     app = running_app(scene="manipulator")
     scene = app.scene_for()
-    scene.gui.animate.value = True
+    send_value(scene, "animate", True)
     session = app.session_for()
     wait_until(lambda: session.update_counts["manipulator"] > 5)
     app.switch_scene("sandbox")
@@ -322,3 +349,21 @@ def test_switching_away_stops_updates_and_back_resumes(running_app) -> None:
     app.switch_scene("manipulator")
     assert scene.root_frame.visible
     wait_until(lambda: not np.allclose(scene.solid_frames[2].wxyz, frozen))
+
+
+@pytest.mark.parametrize("presenter", [False, True])
+def test_labels_do_not_overlap_at_the_default_view(make_scene, presenter: bool) -> None:
+    from tests.app._views import Camera, label_box, overlapping_pairs
+
+    scene, _ = make_scene()
+    scene.update(DT)
+    scene.set_presenter(presenter)
+    camera = Camera(ManipulatorScene.camera_position, ManipulatorScene.camera_look_at)
+    boxes = {}
+    for handle, _ in scene._labels:  # the fixed axes' labels: parents are identity frames
+        x, y = camera.pixels(handle.position)
+        box = label_box(x, y, handle.text, handle.anchor, handle.font_screen_scale)
+        assert 0 <= box[0] and box[2] <= 800 and 0 <= box[1] and box[3] <= 750, (handle.text, box)
+        boxes[handle.text] = box
+    assert len(boxes) == 3
+    assert overlapping_pairs(boxes) == [], boxes

@@ -1,9 +1,10 @@
 """Rotation sandbox on a real ViserServer, checked against scipy's Rotation.
 
-Most tests build the scene on a server without the app loop and call
-``update`` themselves, so each step is deterministic; GUI values are set on
-the server-side handles (viser runs the same callbacks as for a browser
-edit). The last tests go through the full app with plain websocket clients.
+Most tests build the scene on a bare server (``server`` fixture) and drive
+``scene.frame`` themselves, so each step is deterministic; GUI values are
+delivered exactly as a browser sends them, through the gate
+(:func:`tests.helpers.send_value`, :func:`tests.helpers.click`). The last
+tests go through the full app with plain websocket clients.
 
 Tolerances: every quantity is computed in float64 by a few closed-form
 operations, so results agree with scipy to ~1e-12; 1e-9 leaves margin and
@@ -16,25 +17,26 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import time
 from typing import Any
 
 import numpy as np
 import pytest
-import viser
 from scipy.spatial.transform import Rotation
 
-from app.scenes.sandbox import (
-    INPUTS,
-    PANELS,
-    SEQUENCES,
-    SandboxScene,
-    export_document,
-    orientation_views,
-)
+from app.controls import format_vector
+from app.panels import SEQUENCES, export_document, gimbal_conditioning, gimbal_layout, orientation_views
+from app.panels.angular_velocity import OMEGA_FRAMES
+from app.panels.gimbal import COND_LOCK, COND_WARN, gauge_fill, lock_state
+from app.panels.orientation import INPUTS
+from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
+from app.scenes.sandbox import PANELS, SandboxScene
+from tests.helpers import click, send_value, wait_until
 
 TOL = 1e-9
 FD_TOL = 1e-6
+DT = 1.0 / 60.0
 
 
 def quat_equal(p: Any, q: Any, atol: float = TOL) -> bool:
@@ -55,52 +57,78 @@ class Notices(list):
         return [t for t, _, _ in self]
 
 
-@pytest.fixture(scope="module")
-def server() -> Any:
-    srv = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    yield srv
-    srv.stop()
+def make_sandbox(server: Any, **kwargs: Any) -> SandboxScene:
+    notices = Notices()
+    kwargs.setdefault("readout_period", 0.0)  # deterministic: text follows every change
+    scene = SandboxScene(server, notices, **kwargs)
+    scene.build()
+    scene.set_active(True)
+    scene.notices = notices
+    settle(scene)
+    return scene
 
 
 @pytest.fixture
 def sandbox(server: Any) -> Any:
-    notices = Notices()
-    scene = SandboxScene(server, notices)
-    scene.build()
-    scene.set_active(True)
-    scene.update(1 / 60)
-    scene.notices = notices
+    scene = make_sandbox(server)
     yield scene
     scene.close()
 
 
-def settle(scene: Any, dt: float = 1 / 60) -> None:
-    """Run the update twice, past the readout throttle, as the loop would."""
-    scene.update(dt)
-    scene._last_readout = 0.0
-    scene.update(0.0)
+def settle(scene: Any, dt: float = DT) -> None:
+    """One frame of ``dt``, then frames of 0 s until every readout is written
+    (the text work of a change is spread over a few frames) and the export
+    preview, computed in the background, is in."""
+    scene.frame(dt)
+    for _ in range(200):
+        if not scene.text_pending and not scene.export_panel.busy:
+            return
+        if scene.export_panel.busy:
+            time.sleep(0.005)
+        scene.frame(0.0)
+    raise AssertionError("the sandbox's readouts did not settle")
+
+
+def send(scene: Any, key: str, raw: Any) -> None:
+    """A browser value through the gate, then the frames that show it.
+
+    A value equal to the one the control holds is not sent: it changes
+    nothing, and the gate's test path (``Gate.submit``) would still run the
+    control's callback later, which could let the next ``send_value``
+    return before its own value has arrived.
+    """
+    spec, handle = scene.controls.specs[key], scene.controls.handles[key]
+    try:
+        unchanged = spec.check(raw) == handle.value
+    except Exception:
+        unchanged = False
+    if not unchanged:
+        assert send_value(scene, key, raw), f"the gate refused {raw!r} for {key}"
+    settle(scene)
 
 
 def choose(scene: Any, *, panel: str | None = None, input: str | None = None, seq: str | None = None) -> None:
     if panel is not None:
-        scene.panel_dropdown.value = panel
+        send(scene, "panel", panel)
     if input is not None:
-        scene.input_dropdown.value = input
+        send(scene, "input", input)
     if seq is not None:
-        scene.seq_dropdown.value = next(o for o in scene.seq_dropdown.options if o.split()[0] == seq)
-    settle(scene)
+        send(scene, "seq", next(o for o in scene.controls.specs["seq"].options if o.split()[0] == seq))
 
 
 def set_euler(scene: Any, degrees: Any) -> None:
-    for slider, value in zip(scene.euler_sliders, degrees):
-        slider.value = float(value)
-    settle(scene)
+    for k, value in enumerate(degrees):
+        send(scene, f"euler{k + 1}", float(value))
+
+
+def body_wxyz(scene: Any) -> np.ndarray:
+    return np.asarray(scene.body.frame.wxyz, dtype=float)
 
 
 def ring_global_rotations(scene: Any) -> list[Rotation]:
     """Global orientation of each ring frame, composed with scipy (independent)."""
     out, acc = [], Rotation.identity()
-    for frame in scene.ring_frames:
+    for frame in scene.gimbal.ring_frames:
         acc = acc * R(frame.wxyz)
         out.append(acc)
     return out
@@ -108,38 +136,50 @@ def ring_global_rotations(scene: Any) -> list[Rotation]:
 
 def ring_normals(scene: Any) -> np.ndarray:
     """Global normal (+z of the mount) of each ring's plane."""
-    return np.array(
-        [(rk * R(m.wxyz)).apply([0.0, 0.0, 1.0]) for rk, m in zip(ring_global_rotations(scene), scene.ring_mounts)]
-    )
+    return np.array([
+        (rk * R(m.wxyz)).apply([0.0, 0.0, 1.0])
+        for rk, m in zip(ring_global_rotations(scene), scene.gimbal.ring_mounts)
+    ])
 
 
+def run_out_text_restore(scene: Any) -> None:
+    """Let the panel's 1.5 s pause after unparseable text pass, without waiting."""
+    scene.controls.poll(time.monotonic() + 2.0)
+    settle(scene)
+
+
+# -- every input kind -------------------------------------------------------------
 @pytest.mark.parametrize("seq", SEQUENCES)
 def test_euler_sliders_drive_body_and_gimbal(sandbox: Any, seq: str) -> None:
     choose(sandbox, input="Euler angles", seq=seq)
     degrees = np.array([37.5, -62.0, 115.5])
     set_euler(sandbox, degrees)
     expected = Rotation.from_euler(seq, degrees, degrees=True)
-    assert quat_equal(sandbox.body_frame.wxyz, expected.as_quat(scalar_first=True))
+    assert quat_equal(body_wxyz(sandbox), expected.as_quat(scalar_first=True))
     # The rings ARE the angles: each turns by one slider angle about its axle,
     # and the three ring rotations compose to the body's orientation.
     rings = ring_global_rotations(sandbox)
     assert np.allclose(rings[-1].as_matrix(), expected.as_matrix(), atol=TOL)
-    for k, frame in enumerate(sandbox.ring_frames):
+    index = gimbal_layout(seq).angle_index
+    for k, frame in enumerate(sandbox.gimbal.ring_frames):
         rotvec = R(frame.wxyz).as_rotvec()
-        j = sandbox.gimbal.angle_index[k]
-        assert math.isclose(np.linalg.norm(rotvec), abs(math.radians(degrees[j])), abs_tol=TOL)
+        assert math.isclose(np.linalg.norm(rotvec), abs(math.radians(degrees[index[k]])), abs_tol=TOL)
     # Slider labels name the axes: primes (turned axes) only for intrinsic sequences.
-    assert ("\u2032" in sandbox.euler_sliders[1].label) == seq.isupper()
-    assert sandbox.euler_sliders[0].label.split()[-1 if seq.isupper() else -2].startswith(seq[0])
+    labels = [sandbox.controls.handles[f"euler{k + 1}"].label for k in range(3)]
+    assert ("\u2032" in labels[1]) == seq.isupper()
+    assert labels[0].split()[-1 if seq.isupper() else -2].startswith(seq[0])
 
 
 @pytest.mark.parametrize("seq, middle", [("ZXZ", 0.5), ("ZYX", 89.5), ("xyx", 179.5), ("yxz", -89.5)])
-def test_gimbal_lock_rings_align_and_gauge_warns(sandbox: Any, seq: str, middle: float) -> None:
+def test_gimbal_lock_rings_align_and_gauge_is_unmistakable(sandbox: Any, seq: str, middle: float) -> None:
     choose(sandbox, input="Euler angles", seq=seq)
     set_euler(sandbox, [20.0, 45.0, 30.0])
     normals = ring_normals(sandbox)
     assert abs(normals[0] @ normals[1]) < 0.9  # far from lock: rings 0 and 1 at an angle
-    assert sandbox.gauge.color == "green" and "Far from gimbal lock" in sandbox.gauge_text.content
+    gimbal = sandbox.gimbal
+    assert gimbal.gauge_color == "green" and gimbal.gauge_fill < 50.0
+    assert "Far from gimbal lock" in sandbox.gimbal.gauge_text.content
+    assert not sandbox.gimbal.lock_label.visible
     set_euler(sandbox, [20.0, middle, 30.0])
     normals = ring_normals(sandbox)
     # Half a degree from the singularity the outer and middle rings are
@@ -147,131 +187,317 @@ def test_gimbal_lock_rings_align_and_gauge_warns(sandbox: Any, seq: str, middle:
     assert abs(normals[0] @ normals[1]) > 0.9999
     # Independent measure: smallest singular value of G = |sin| or |cos| of
     # the middle angle (0.5 deg away) up to a factor of order 1.
-    s = sandbox.gimbal.singular_values
-    assert s[-1] < 0.02 and sandbox.gimbal.condition > 40
-    assert sandbox.gauge.color == "red" and "Gimbal lock" in sandbox.gauge_text.content
-    assert sandbox.gauge.value < 2.0
+    c = sandbox.conditioning
+    assert c.singular_values[-1] < 0.02 and c.condition > COND_LOCK
+    # At lock: a full red bar, a bold GIMBAL LOCK state, and a 3-D label at the gimbal.
+    assert gimbal.gauge_color == "red" and gimbal.gauge_fill == 100.0
+    assert "GIMBAL LOCK" in gimbal.gauge.content and "width:100%" in gimbal.gauge.content
+    assert "**GIMBAL LOCK**" in sandbox.gimbal.gauge_text.content
+    assert sandbox.gimbal.lock_label.visible and sandbox.gimbal.lock_label.text == "GIMBAL LOCK"
+
+
+def test_gauge_scale_far_near_and_at_lock() -> None:
+    assert gauge_fill(1.0) == 0.0 and gauge_fill(COND_LOCK) == 100.0 and gauge_fill(math.inf) == 100.0
+    assert 0.0 < gauge_fill(2.75) < gauge_fill(COND_WARN + 1) < 100.0  # grows with cond(G)
+    assert lock_state(2.75) == "far" and lock_state(COND_WARN + 1) == "near" and lock_state(math.inf) == "lock"
+
+
+def test_near_lock_is_orange(sandbox: Any) -> None:
+    choose(sandbox, input="Euler angles", seq="ZXZ")
+    set_euler(sandbox, [20.0, 6.0, 30.0])
+    condition = gimbal_conditioning(np.radians([20.0, 6.0, 30.0]), "ZXZ").condition
+    assert COND_WARN < condition < COND_LOCK  # the test's premise
+    assert sandbox.gimbal.gauge_color == "orange"
+    assert "Near gimbal lock" in sandbox.gimbal.gauge_text.content
+    assert not sandbox.gimbal.lock_label.visible
 
 
 def test_sequence_change_keeps_orientation(sandbox: Any) -> None:
     choose(sandbox, input="Euler angles", seq="ZXZ")
     set_euler(sandbox, [10.0, 50.0, -70.0])
-    before = np.array(sandbox.body_frame.wxyz)
+    before = body_wxyz(sandbox)
+    p_before = sandbox.p.copy()
     choose(sandbox, seq="zyx")
-    assert quat_equal(sandbox.body_frame.wxyz, before)
-    shown = [s.value for s in sandbox.euler_sliders]  # re-synced, rounded to the 0.5 deg step
+    assert quat_equal(body_wxyz(sandbox), before)
+    assert np.array_equal(sandbox.p, p_before)  # the orientation itself is untouched
+    shown = [sandbox.controls.value(f"euler{k + 1}") for k in range(3)]  # re-synced, 0.1 deg
     assert np.allclose(
-        Rotation.from_euler("zyx", shown, degrees=True).as_matrix(), R(before).as_matrix(), atol=0.02
+        Rotation.from_euler("zyx", shown, degrees=True).as_matrix(), R(before).as_matrix(), atol=2e-3
     )
+    # The gimbal shows the new sequence's exact angles.
+    assert np.allclose(ring_global_rotations(sandbox)[-1].as_matrix(), R(before).as_matrix(), atol=TOL)
+    assert sandbox.controls.handles["euler1"].label == "\u03b1\u2081 about z (fixed)"
 
 
 def test_axis_angle_rodriguez_and_rotation_vector_inputs(sandbox: Any) -> None:
     choose(sandbox, input="Axis and angle")
-    sandbox.axis_input.value = (1.0, 2.0, 2.0)  # not unit: normalized
-    sandbox.angle_slider.value = 250.0
-    settle(sandbox)
+    send(sandbox, "axis", "1, 2, 2")  # not unit: normalized
+    send(sandbox, "angle", 250.0)
     expected = Rotation.from_rotvec(np.radians(250.0) * np.array([1.0, 2.0, 2.0]) / 3.0)
-    assert quat_equal(sandbox.body_frame.wxyz, expected.as_quat(scalar_first=True))
+    assert quat_equal(body_wxyz(sandbox), expected.as_quat(scalar_first=True))
 
     choose(sandbox, input="Rodriguez parameters")
     gamma = np.array([0.3, -1.2, 2.0])
-    sandbox.gamma_input.value = tuple(gamma)
-    settle(sandbox)
+    send(sandbox, "gamma", "0.3, -1.2, 2")
     angle = 2 * math.atan(np.linalg.norm(gamma))  # gamma = axis tan(angle / 2)
     expected = Rotation.from_rotvec(angle * gamma / np.linalg.norm(gamma))
-    assert quat_equal(sandbox.body_frame.wxyz, expected.as_quat(scalar_first=True))
+    assert quat_equal(body_wxyz(sandbox), expected.as_quat(scalar_first=True))
     # huge gamma (gamma . gamma overflows float64) is a half turn about it
-    sandbox.gamma_input.value = (1e200, 0.0, 0.0)
-    settle(sandbox)
-    assert quat_equal(sandbox.body_frame.wxyz, np.array([0.0, 1.0, 0.0, 0.0]))
+    send(sandbox, "gamma", "1e200, 0, 0")
+    assert quat_equal(body_wxyz(sandbox), np.array([0.0, 1.0, 0.0, 0.0]))
 
     choose(sandbox, input="Rotation vector")
-    sandbox.rotvec_input.value = (0.5, -2.5, 1.0)  # |r| = 2.74 rad
-    settle(sandbox)
+    send(sandbox, "rotvec", "[0.5, -2.5, 1.0]")  # |r| = 2.74 rad; brackets allowed
     expected = Rotation.from_rotvec([0.5, -2.5, 1.0])
-    assert quat_equal(sandbox.body_frame.wxyz, expected.as_quat(scalar_first=True))
+    assert quat_equal(body_wxyz(sandbox), expected.as_quat(scalar_first=True))
     assert not sandbox.notices
 
 
-def test_euler_parameters_input_normalizes_with_notice(sandbox: Any) -> None:
+def test_switching_input_fills_its_fields_from_the_orientation(sandbox: Any) -> None:
+    set_euler(sandbox, [30.0, 40.0, 20.0])
+    expected = Rotation.from_euler("ZXZ", [30.0, 40.0, 20.0], degrees=True)
+    p = expected.as_quat(scalar_first=True)
     choose(sandbox, input="Euler parameters")
-    for number, value in zip(sandbox.ep_inputs, (1.0, 1.0, 0.0, 1.0)):
-        number.value = value
+    shown = [sandbox.controls.value(f"ep{k}") for k in range(4)]
+    assert quat_equal(shown, p, atol=1e-6)  # 6 decimals
+    assert sandbox.controls.handles["ep0"].value == format_vector([round(abs(p[0]), 6)])
+    choose(sandbox, input="Rotation vector")
+    assert np.allclose(sandbox.controls.value("rotvec"), expected.as_rotvec(), atol=1e-6)
+    choose(sandbox, input="Axis and angle")
+    rotvec = np.radians(sandbox.controls.value("angle")) * np.asarray(sandbox.controls.value("axis"))
+    assert np.allclose(rotvec, expected.as_rotvec(), atol=1e-4)
+    # The body did not move: filling fields is not an edit.
+    assert quat_equal(body_wxyz(sandbox), p)
+
+
+def test_euler_parameters_normalize_with_a_status_at_once_and_no_notice(server: Any) -> None:
+    # A readout period of an hour: the status must not wait for the readouts.
+    scene = make_sandbox(server, readout_period=3600.0)
+    try:
+        choose(scene, input="Euler parameters")
+        for k, value in enumerate(("1", "1", "0", "1")):
+            send(scene, f"ep{k}", value)
+        expected = np.array([1.0, 1.0, 0.0, 1.0]) / math.sqrt(3.0)
+        assert quat_equal(body_wxyz(scene), expected)
+        status = scene.input_panel.ep_status.content
+        assert "**Normalized:**" in status and "|p| = 1.732" in status
+        # The fields keep what was typed: nothing is rewritten.
+        assert [scene.controls.handles[f"ep{k}"].value for k in range(4)] == ["1", "1", "0", "1"]
+        # A second edit that makes p unit: the status follows at once, never stale.
+        send(scene, "ep0", "0")
+        send(scene, "ep2", "1")
+        send(scene, "ep3", "0")
+        send(scene, "ep1", "0")
+        assert scene.input_panel.ep_status.content.startswith("|p| = 1")
+        assert quat_equal(body_wxyz(scene), [0.0, 0.0, 1.0, 0.0])
+        assert not scene.notices  # a status, never a (delayed) notice
+    finally:
+        scene.close()
+
+
+def test_all_zero_euler_parameters_keep_the_orientation(sandbox: Any) -> None:
+    choose(sandbox, input="Euler parameters")
+    before = body_wxyz(sandbox)
+    for k in range(4):
+        send(sandbox, f"ep{k}", "0")
+    assert "**Not a rotation:**" in sandbox.input_panel.ep_status.content
+    assert np.allclose(body_wxyz(sandbox), before)
+    send(sandbox, "ep0", "1")
+    assert quat_equal(body_wxyz(sandbox), [1.0, 0.0, 0.0, 0.0])
+    assert "|p| = 1" in sandbox.input_panel.ep_status.content
+
+
+# -- typed numbers: parsed by the app, never rewritten ------------------------------
+def test_text_entry_takes_scientific_notation_and_full_precision(sandbox: Any) -> None:
+    choose(sandbox, input="Axis and angle")
+    send(sandbox, "angle", 90.0)
+    send(sandbox, "axis", "0, 1e-3, 1")  # 1e-3 stays 1e-3 (viser's number box made it -13)
+    assert sandbox.controls.value("axis") == (0.0, 1e-3, 1.0)
+    expected = Rotation.from_rotvec(math.pi / 2 * np.array([0.0, 1e-3, 1.0]) / math.hypot(1e-3, 1.0))
+    assert quat_equal(body_wxyz(sandbox), expected.as_quat(scalar_first=True))
+    # Full precision: 17 significant digits reach the core unchanged.
+    text = "0.12345678901234568, 0.9876543210987654, -0.3333333333333333"
+    send(sandbox, "axis", text)
+    axis = np.array([0.12345678901234568, 0.9876543210987654, -0.3333333333333333])
+    assert sandbox.controls.value("axis") == tuple(axis)
+    assert sandbox.controls.handles["axis"].value == text  # the field shows what was typed
+    expected = Rotation.from_rotvec(math.pi / 2 * axis / np.linalg.norm(axis))
+    assert quat_equal(sandbox.p, expected.as_quat(scalar_first=True), atol=1e-15)
+    choose(sandbox, input="Euler parameters")
+    send(sandbox, "ep1", "2.5E-3")
+    assert sandbox.controls.value("ep1") == 2.5e-3
+
+
+@pytest.mark.parametrize("key, raw", [
+    ("ep1", "1e400"), ("ep1", "nan"), ("ep1", "abc"), ("ep1", "inf"),
+    ("axis", "0, 0, 0"), ("axis", "nan, 0, 1"), ("axis", "1e400, 0, 1"), ("axis", "1, 2"),
+    ("gamma", "inf, 0, 1"), ("rotvec", "nan, 0, 1"), ("omega", "1e200, 0, 0"),
+])
+def test_unparseable_text_is_refused_with_a_notice_and_restored(sandbox: Any, key: str, raw: str) -> None:
+    input_of = {"ep1": "Euler parameters", "axis": "Axis and angle", "gamma": "Rodriguez parameters",
+                "rotvec": "Rotation vector"}
+    if key in input_of:
+        choose(sandbox, input=input_of[key])
+    else:
+        choose(sandbox, panel="Angular velocity")
+    before = sandbox.p.copy()
+    in_use = sandbox.controls.value(key)
+    shown = sandbox.controls.handles[key].value
+    assert send_value(sandbox, key, raw)  # text passes the gate: it may be on its way to a number
     settle(sandbox)
-    expected = np.array([1.0, 1.0, 0.0, 1.0]) / math.sqrt(3.0)
-    assert quat_equal(sandbox.body_frame.wxyz, expected)
+    assert sandbox.controls.value(key) == in_use  # never reaches the scene
+    assert np.array_equal(sandbox.p, before)
+    run_out_text_restore(sandbox)
     title, body, level = sandbox.notices[-1]
-    assert title == "Euler parameters normalized" and level == "warning"
-    assert "|p| = 1.7321" in body
-    assert "Normalized" in sandbox.ep_status.content
-
-
-@pytest.mark.parametrize(
-    "input_name, setter, title",
-    [
-        ("Euler parameters", lambda s: [setattr(n, "value", 0.0) for n in s.ep_inputs], "Euler parameters"),
-        ("Axis and angle", lambda s: setattr(s, "_x", setattr(s.axis_input, "value", (0.0, 0.0, 0.0))), "Axis and angle"),
-        ("Rotation vector", lambda s: setattr(s.rotvec_input, "value", (math.nan, 0.0, 1.0)), "Rotation vector"),
-        ("Rodriguez parameters", lambda s: setattr(s.gamma_input, "value", (math.inf, 0.0, 1.0)), "Rodriguez parameters"),
-        ("Euler parameters", lambda s: [setattr(n, "value", 1e308) for n in s.ep_inputs], "Euler parameters"),
-    ],
-)
-def test_invalid_input_gives_notice_and_keeps_orientation(
-    sandbox: Any, input_name: str, setter: Any, title: str
-) -> None:
-    choose(sandbox, input=input_name)
-    before = np.array(sandbox.body_frame.wxyz)
-    setter(sandbox)
-    settle(sandbox)
-    assert title in sandbox.notices.titles()
-    after = np.array(sandbox.body_frame.wxyz)
-    assert np.all(np.isfinite(after)) and np.allclose(after, before)
-    for handle in (*sandbox.ring_frames, *sandbox.ring_mounts, sandbox.axis_frame):
+    label = sandbox.controls.specs[key].label
+    assert title == f"Refused: {label}" and level == "warning"
+    assert repr(raw)[:20] in body or raw[:20] in body
+    assert sandbox.controls.handles[key].value == shown  # the field shows the value in use again
+    for handle in (sandbox.body.frame, *sandbox.gimbal.ring_frames, sandbox.rotation_axis.frame):
         assert np.all(np.isfinite(handle.wxyz))
+    assert sandbox.paused_error is None
 
 
-def test_readouts_show_every_representation(sandbox: Any) -> None:
+@pytest.mark.parametrize("raw", [1e6, -181.0, math.nan, math.inf, 10**30, "30", None, True])
+def test_refused_slider_value_keeps_the_value_in_use(sandbox: Any, raw: Any) -> None:
+    set_euler(sandbox, [30.0, 40.0, 20.0])
+    gate = sandbox.controls.gate
+    refused = gate.refused_count
+    before = sandbox.p.copy()
+    assert not send_value(sandbox, "euler1", raw)
+    settle(sandbox)
+    assert gate.refused_count == refused + 1
+    assert sandbox.controls.handles["euler1"].value == 30.0  # never stored
+    assert sandbox.controls.value("euler1") == 30.0
+    assert np.array_equal(sandbox.p, before)
+
+
+def test_every_input_goes_through_the_gate(sandbox: Any) -> None:
+    gate = sandbox.controls.gate
+    ours = {h._impl.uuid for h in sandbox.controls.handles.values()}
+    assert ours <= gate.registered()
+    unregistered = gate.input_uuids() - gate.registered()
+    assert not unregistered, [sandbox.target.gui._gui_input_handle_from_uuid[u].label for u in unregistered]
+
+
+# -- readouts ------------------------------------------------------------------------
+def test_readouts_show_every_representation_with_meaningful_digits(sandbox: Any) -> None:
     choose(sandbox, input="Euler angles", seq="ZXZ")
     set_euler(sandbox, [30.0, 40.0, 20.0])
     expected = Rotation.from_euler("ZXZ", [30.0, 40.0, 20.0], degrees=True)
-    v = sandbox.views
+    v = sandbox.current_views()
     assert np.allclose(v.A, expected.as_matrix(), atol=TOL)
     assert np.allclose(v.rotation_vector, expected.as_rotvec(), atol=TOL)
     assert np.allclose(v.axis * math.tan(v.angle / 2), v.gamma, atol=TOL)
-    text = sandbox.readout_text.content
-    for piece in ("\u03c6 = 30.00", "\u03b8 = 40.00", "\u03c8 = 20.00", f"{v.p[0]:.4f}", f"{v.A[0, 0]:.4f}"):
+    text = sandbox.readout_text
+    for piece in ("\u03c6 = 30.0\u00b0", "\u03b8 = 40.0\u00b0", "\u03c8 = 20.0\u00b0", f"{v.p[0]:.4f}",
+                  f"{v.A[0, 0]:.3f}", f"{math.degrees(v.angle):.1f}\u00b0"):
         assert piece in text
+    # Digits that mean something: never more than 4 decimals.
+    assert not re.search(r"\d\.\d{5,}", text)
+    assert not re.search(r"\d\.\d{5,}", sandbox.gimbal.gauge_text.content)
     # At 180 degrees Rodriguez parameters are infinite: said, not printed as inf/nan.
     half_turn = orientation_views(np.array([0.0, 0.0, 1.0, 0.0]), "ZXZ")
     assert half_turn.gamma is None
     choose(sandbox, input="Axis and angle")
-    sandbox.axis_input.value = (0.0, 1.0, 0.0)
-    sandbox.angle_slider.value = 180.0
-    settle(sandbox)
-    assert "infinite" in sandbox.readout_text.content
-    assert "nan" not in sandbox.readout_text.content.lower()
+    send(sandbox, "axis", "0, 1, 0")
+    send(sandbox, "angle", 180.0)
+    assert "infinite" in sandbox.readout_text
+    assert "nan" not in sandbox.readout_text.lower()
 
 
+def test_labels_follow_the_orientation_at_the_readout_rate(sandbox: Any) -> None:
+    set_euler(sandbox, [30.0, 40.0, 20.0])
+    angle = math.degrees(sandbox.current_views().angle)
+    assert sandbox.rotation_axis.label.text == f"rotation axis\n{angle:.1f}\u00b0"
+    assert sandbox.gimbal.caption.text.startswith("ZXZ gimbal\ncond G = 2.7")
+    assert [label.text for label in sandbox.gimbal.ring_labels] == ["\u03c6 (Z)", "\u03b8 (X)", "\u03c8 (Z)"]
+
+
+def test_idle_frames_do_no_work(server: Any) -> None:
+    scene = make_sandbox(server, readout_period=0.0)
+    try:
+        scene.readout.content = "sentinel"
+        for _ in range(5):
+            scene.frame(DT)  # nothing changed, not animating: nothing is recomputed or sent
+        assert scene.readout.content == "sentinel"
+        send(scene, "euler2", 41.0)
+        assert scene.readout.content != "sentinel"
+    finally:
+        scene.close()
+
+
+def test_text_work_is_spread_over_frames_and_rate_limited(server: Any) -> None:
+    scene = make_sandbox(server, readout_period=3600.0)
+    try:
+        text = scene.readout.content
+        send_value(scene, "euler1", 50.0)
+        scene.frame(DT)
+        assert quat_equal(body_wxyz(scene), Rotation.from_euler("ZXZ", [50, 40, 20], degrees=True)
+                          .as_quat(scalar_first=True))  # the pose at once
+        for _ in range(10):
+            scene.frame(0.0)
+        assert scene.readout.content == text  # the text waits for the readout period
+    finally:
+        scene.close()
+
+
+# -- compose ---------------------------------------------------------------------------
 def test_compose_ghosts_do_not_commute(sandbox: Any) -> None:
     choose(sandbox, panel="Compose q1, q2")
-    assert sandbox.ghosts[0][0].visible and not sandbox.body_frame.visible
+    ghosts = sandbox.compose_panel.ghosts
+    assert ghosts[0].visible and not sandbox.body.visible and not sandbox.gimbal.visible
     q1 = Rotation.from_rotvec([math.pi / 2, 0, 0])  # defaults: 90 deg about x, then z
     q2 = Rotation.from_rotvec([0, 0, math.pi / 2])
-    assert quat_equal(sandbox.ghosts[0][1].wxyz, (q1 * q2).as_quat(scalar_first=True))
-    assert quat_equal(sandbox.ghosts[1][1].wxyz, (q2 * q1).as_quat(scalar_first=True))
-    c = sandbox.compose
+    assert quat_equal(ghosts[0].wxyz, (q1 * q2).as_quat(scalar_first=True))
+    assert quat_equal(ghosts[1].wxyz, (q2 * q1).as_quat(scalar_first=True))
+    c = sandbox.compose_panel.views
     relative = (q1 * q2).inv() * (q2 * q1)  # A_i.T A_j (Eq. 8.82)
     assert quat_equal(c.relative, relative.as_quat(scalar_first=True))
     assert math.isclose(c.relative_angle, relative.magnitude(), abs_tol=TOL)
     assert math.isclose(c.difference, np.linalg.norm((q1 * q2).as_matrix() - (q2 * q1).as_matrix()), abs_tol=TOL)
-    assert "do not commute" in sandbox.compose_text.content
-    sandbox.q_axes[0].value = (0.0, 0.0, 2.0)  # same axis as q2: they commute
-    settle(sandbox)
-    assert sandbox.compose.difference < TOL and "commute" in sandbox.compose_text.content
+    assert "do not commute" in sandbox.compose_panel.readout.content
+    send(sandbox, "q1_axis", "0, 0, 2")  # same axis as q2: they commute
+    assert sandbox.compose_panel.views.difference < TOL
+    assert "these rotations commute" in sandbox.compose_panel.readout.content
     choose(sandbox, panel="Orientation")
-    assert not sandbox.ghosts[0][0].visible and sandbox.body_frame.visible
+    assert not ghosts[0].visible and sandbox.body.visible
 
 
+def test_compose_q1_from_current_body(sandbox: Any) -> None:
+    choose(sandbox, input="Euler angles", seq="ZXZ")
+    set_euler(sandbox, [30.0, 40.0, 20.0])
+    body = R(body_wxyz(sandbox))
+    choose(sandbox, panel="Compose q1, q2")
+    click(sandbox, "q1_from_body")
+    settle(sandbox)
+    # q1 is shown as axis (6 decimals) and angle (3 decimals of a degree):
+    # it reproduces the body to ~1e-5.
+    assert quat_equal(sandbox.compose_panel.views.q1, body.as_quat(scalar_first=True), atol=1e-4)
+    q2 = Rotation.from_rotvec([0, 0, math.pi / 2])
+    assert quat_equal(sandbox.compose_panel.ghosts[0].wxyz,
+                      (R(sandbox.compose_panel.views.q1) * q2).as_quat(scalar_first=True))
+
+
+@pytest.mark.parametrize("scale", ["1e200", "1e-12", "1e-200"])
+def test_huge_and_tiny_axes_keep_their_direction(sandbox: Any, scale: str) -> None:
+    """Any non-zero finite axis is normalized, also where its squares overflow or underflow."""
+    direction = np.array([0.0, 3.0, 4.0]) / 5.0
+    typed = f"0, 3{scale[1:]}, 4{scale[1:]}"  # e.g. "0, 3e200, 4e200"
+    choose(sandbox, input="Axis and angle")
+    send(sandbox, "axis", typed)
+    send(sandbox, "angle", 90.0)
+    expected = Rotation.from_rotvec(direction * math.pi / 2).as_quat(scalar_first=True)
+    assert quat_equal(body_wxyz(sandbox), expected)
+    assert "Axis and angle" not in sandbox.notices.titles()
+    choose(sandbox, panel="Compose q1, q2")
+    send(sandbox, "q1_axis", typed)
+    q1 = Rotation.from_rotvec(direction * math.pi / 2)  # q1 angle slider default: 90 deg
+    assert quat_equal(sandbox.compose_panel.views.q1, q1.as_quat(scalar_first=True))
+    assert sandbox.paused_error is None and not sandbox.notices
+
+
+# -- angular velocity ------------------------------------------------------------------
 def _fd_omega(matrix_of_t: Any, h: float = 1e-6) -> np.ndarray:
     """Global angular velocity from skew(omega) = A_dot A.T by central differences."""
     A0 = matrix_of_t(0.0)
@@ -285,9 +511,8 @@ def test_angular_velocity_rates_reproduce_omega(sandbox: Any, body_frame: bool) 
     choose(sandbox, input="Euler angles", seq="ZYX", panel="Angular velocity")
     set_euler(sandbox, [25.0, -35.0, 60.0])
     omega_in = np.array([0.4, -1.1, 0.7])
-    sandbox.omega_input.value = tuple(omega_in)
-    sandbox.omega_frame_dropdown.value = sandbox.omega_frame_dropdown.options[int(body_frame)]
-    settle(sandbox)
+    send(sandbox, "omega", "0.4, -1.1, 0.7")
+    send(sandbox, "omega_frame", OMEGA_FRAMES[int(body_frame)])
     r = sandbox.rates
     A = Rotation.from_euler("ZYX", [25.0, -35.0, 60.0], degrees=True).as_matrix()
     omega = A @ omega_in if body_frame else omega_in
@@ -309,52 +534,66 @@ def test_angular_velocity_rates_reproduce_omega(sandbox: Any, body_frame: bool) 
     assert np.allclose(r.p_dot, p_dot * np.sign(p_of(0.0) @ sandbox.p), atol=FD_TOL)
     gamma_dot = (p_of(h)[1:] / p_of(h)[0] - p_of(-h)[1:] / p_of(-h)[0]) / (2 * h)
     assert np.allclose(r.gamma_dot, gamma_dot, atol=FD_TOL)
-    assert "\u03c6\u0307" not in sandbox.rates_text.content  # not ZXZ: alpha names
-    assert "Euler parameter rates" in sandbox.rates_text.content
-    assert sandbox.omega_frame.visible
+    text = sandbox.omega_panel.readout.content
+    # Rates written as d.../dt (a combining dot is lost over phi and psi in Chromium).
+    assert "d\u03b1\u2081/dt" in text and "\u0307" not in text
+    assert "Euler parameter rates" in text and not re.search(r"\d\.\d{5,}", text)
+    assert sandbox.omega_panel.frame.visible
+    # The omega arrow points along omega (global frame).
+    arrow_dir = R(sandbox.omega_panel.frame.wxyz).apply([0.0, 0.0, 1.0])
+    assert np.allclose(arrow_dir, omega / np.linalg.norm(omega), atol=TOL)
+
+
+def test_angular_velocity_zxz_rates_are_named_dphi_dt(sandbox: Any) -> None:
+    choose(sandbox, seq="ZXZ", panel="Angular velocity")
+    text = sandbox.omega_panel.readout.content
+    assert "d\u03c6/dt = " in text and "d\u03b8/dt = " in text and "d\u03c8/dt = " in text
 
 
 def test_angular_velocity_singular_cases_are_explained(sandbox: Any) -> None:
     choose(sandbox, input="Euler angles", seq="ZXZ", panel="Angular velocity")
     set_euler(sandbox, [30.0, 0.0, 20.0])  # theta = 0: G singular
     assert sandbox.rates.euler_rates is None
-    assert "singular" in sandbox.rates_text.content
+    assert "singular" in sandbox.omega_panel.readout.content
     assert sandbox.rates.p_dot is not None and np.all(np.isfinite(sandbox.rates.p_dot))
-    choose(sandbox, input="Axis and angle")
-    sandbox.axis_input.value = (1.0, 0.0, 0.0)
-    sandbox.angle_slider.value = 180.0
-    settle(sandbox)
-    assert sandbox.rates.gamma_dot is None and "undefined" in sandbox.rates_text.content
+    choose(sandbox, panel="Orientation", input="Axis and angle")
+    send(sandbox, "axis", "1, 0, 0")
+    send(sandbox, "angle", 180.0)
+    choose(sandbox, panel="Angular velocity")
+    assert sandbox.rates.gamma_dot is None and "undefined" in sandbox.omega_panel.readout.content
 
 
 @pytest.mark.parametrize("body_frame", [False, True])
 def test_animation_under_constant_omega(sandbox: Any, body_frame: bool) -> None:
     choose(sandbox, input="Euler angles", seq="ZXZ", panel="Angular velocity")
-    start = R(sandbox.body_frame.wxyz)
+    start = R(sandbox.p)
     omega = np.array([0.3, -0.2, 1.0])
-    sandbox.omega_input.value = tuple(omega)
-    sandbox.omega_frame_dropdown.value = sandbox.omega_frame_dropdown.options[int(body_frame)]
-    sandbox.animate_checkbox.value = True
-    sandbox.update(0.0)
+    send(sandbox, "omega", "0.3, -0.2, 1")
+    send(sandbox, "omega_frame", OMEGA_FRAMES[int(body_frame)])
+    assert send_value(sandbox, "animate", True)
+    sandbox.frame(0.0)
     for _ in range(20):
-        sandbox.update(0.05)  # 1 s in total
+        sandbox.frame(0.05)  # 1 s in total
     step = Rotation.from_rotvec(omega * 1.0)
     expected = start * step if body_frame else step * start
-    assert quat_equal(sandbox.body_frame.wxyz, expected.as_quat(scalar_first=True), atol=1e-9)
-    sandbox.animate_checkbox.value = False
-    sandbox.update(0.05)
-    frozen = np.array(sandbox.body_frame.wxyz)
-    sandbox.update(0.05)
-    assert np.allclose(sandbox.body_frame.wxyz, frozen)
-    # The sliders were re-synced to the final pose.
-    shown = [s.value for s in sandbox.euler_sliders]
-    assert np.allclose(Rotation.from_euler("ZXZ", shown, degrees=True).as_matrix(), expected.as_matrix(), atol=0.02)
+    assert quat_equal(sandbox.p, expected.as_quat(scalar_first=True), atol=1e-9)
+    assert quat_equal(body_wxyz(sandbox), expected.as_quat(scalar_first=True), atol=1e-9)
+    send(sandbox, "animate", False)
+    frozen = sandbox.p.copy()
+    sandbox.frame(0.05)
+    assert np.array_equal(sandbox.p, frozen)
+    # The sliders were re-synced to the final pose (0.1 deg).
+    shown = [sandbox.controls.value(f"euler{k + 1}") for k in range(3)]
+    assert np.allclose(Rotation.from_euler("ZXZ", shown, degrees=True).as_matrix(), expected.as_matrix(), atol=2e-3)
 
 
+# -- export --------------------------------------------------------------------------
 def test_export_json_in_every_representation(sandbox: Any, monkeypatch: Any) -> None:
     choose(sandbox, input="Euler angles", seq="XYZ", panel="Export")
     set_euler(sandbox, [15.0, 25.0, 35.0])
-    doc = json.loads(sandbox.export_text.value)
+    content = sandbox.export_panel.readout.content
+    assert content.startswith("```\n") and content.endswith("\n```")
+    doc = json.loads(content[4:-4])
     expected = Rotation.from_euler("XYZ", [15.0, 25.0, 35.0], degrees=True)
     assert np.allclose(doc["matrix_body_to_global"], expected.as_matrix(), atol=TOL)
     assert quat_equal(doc["euler_parameters"], expected.as_quat(scalar_first=True))
@@ -368,54 +607,253 @@ def test_export_json_in_every_representation(sandbox: Any, monkeypatch: Any) -> 
     assert "scalar_first=True" in notes["scipy"] and "wxyz" in notes["viser"] and "eulerseq" in notes["mujoco"]
     # The button sends the same document as a file download.
     sent: list[tuple[str, bytes]] = []
-    monkeypatch.setattr(sandbox.target, "send_file_download", lambda name, content, *a, **k: sent.append((name, content)))
-    sandbox.download_button.value = True  # what a click does on the server
-    sandbox.update(0.0)
+    monkeypatch.setattr(sandbox.target, "send_file_download",
+                        lambda name, data, *a, **k: sent.append((name, data)))
+    click(sandbox, "download")
+    sandbox.frame(0.0)
     assert sent and sent[0][0] == "orientation.json"
-    assert json.loads(sent[0][1]) == export_document(sandbox.views)
+    assert json.loads(sent[0][1]) == export_document(sandbox.current_views())
 
 
 def test_hidden_then_shown_keeps_state(sandbox: Any) -> None:
     set_euler(sandbox, [5.0, 60.0, 5.0])
-    pose = np.array(sandbox.body_frame.wxyz)
+    pose = body_wxyz(sandbox)
     sandbox.set_active(False)
     assert sandbox.root_frame.visible is False and sandbox._gui_folder.visible is False
     sandbox.set_active(True)
-    assert np.allclose(sandbox.body_frame.wxyz, pose)
+    settle(sandbox)
+    assert np.allclose(body_wxyz(sandbox), pose)
     assert set(INPUTS) and set(PANELS)
 
 
-# -- through the app, with plain websocket clients as browsers ---------------
-def wait_until(predicate: Any, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return bool(predicate())
+# -- shareable state -------------------------------------------------------------------
+def _round_trip(server: Any, scene: Any) -> Any:
+    """Load ``scene.state()`` (through JSON) into a fresh sandbox; returns it."""
+    state = json.loads(json.dumps(scene.state()))
+    scene.close()
+    other = make_sandbox(server)
+    assert other.load_state(state) == []
+    settle(other, 0.0)
+    return other, state
 
 
+@pytest.mark.parametrize("input_name, entries", [
+    ("Euler angles", [("seq", "yxz (extrinsic, fixed axes)"), ("euler1", 12.3), ("euler2", -45.6),
+                      ("euler3", 178.9)]),
+    ("Axis and angle", [("axis", "0.1, 1e-3, -2.5"), ("angle", -123.4)]),
+    ("Euler parameters", [("ep0", "0.3"), ("ep1", "-0.2"), ("ep2", "1.5e-1"), ("ep3", "0.9")]),
+    ("Rodriguez parameters", [("gamma", "0.3, -1.2, 2")]),
+    ("Rotation vector", [("rotvec", "0.5, -2.5, 1.0")]),
+])
+def test_state_round_trip_reproduces_the_pose_exactly(server: Any, input_name: str, entries: Any) -> None:
+    scene = make_sandbox(server)
+    choose(scene, input=input_name)
+    for key, value in entries:
+        send(scene, key, value)
+    p, angles, seq = scene.p.copy(), scene.angles.copy(), scene.seq
+    other, state = _round_trip(server, scene)
+    try:
+        assert state["scene"] == "sandbox" and state["values"]["input"] == input_name
+        assert np.array_equal(other.p, p)  # bit for bit
+        assert np.array_equal(other.angles, angles) and other.seq == seq and other.input == input_name
+        assert quat_equal(body_wxyz(other), p)
+        for key, value in entries:
+            assert other.controls.value(key) == scene.controls.value(key)
+    finally:
+        other.close()
+
+
+def test_state_round_trip_after_animation_and_while_animating(server: Any) -> None:
+    scene = make_sandbox(server)
+    choose(scene, panel="Angular velocity")
+    send(scene, "omega", "0.7, -0.3, 1.1")
+    send(scene, "animate", True)
+    for _ in range(37):
+        scene.frame(1 / 60)
+    # While animating: the pose reached is in the state (the sliders show it rounded).
+    p = scene.p.copy()
+    other, state = _round_trip(server, scene)
+    assert state["values"]["animate"] is True
+    assert np.array_equal(other.p, p)
+    send(other, "animate", False)  # stops where it is...
+    stopped = other.p.copy()
+    third, _ = _round_trip(server, other)  # ...and that pose survives a round trip too
+    try:
+        assert np.array_equal(third.p, stopped)
+    finally:
+        third.close()
+
+
+def test_state_refuses_bad_entries_and_names_them(sandbox: Any) -> None:
+    state = sandbox.state()
+    before = sandbox.p.copy()
+    state["values"]["euler1"] = 1e6
+    state["pose"] = {"p": [1.0, 1.0, 0.0, 0.0], "angles": [0.0, 0.0, 0.0]}
+    state["extra"] = 1
+    refused = sandbox.load_state(state)
+    settle(sandbox, 0.0)
+    assert any(r.startswith("\u03c6 about Z") for r in refused)
+    assert any(r.startswith("pose: expected unit Euler parameters") for r in refused)
+    assert any(r.startswith("'extra'") for r in refused)
+    assert np.allclose(sandbox.p, before)
+    with pytest.raises(ValueError, match="expected a state of scene 'sandbox'"):
+        sandbox.load_state({"scene": "gyroscope", "values": {}})
+
+
+# -- presenter view and readability ------------------------------------------------------
+def test_presenter_view_enlarges_labels_arrows_and_readouts(sandbox: Any) -> None:
+    labels = _label_handles(sandbox)
+    normal = {id(h): h.font_screen_scale for h in labels}
+    arrow = sandbox.rotation_axis.arrow
+    shaft = arrow.shaft_radius
+    sandbox.set_presenter(True)
+    for h in labels:
+        assert math.isclose(h.font_screen_scale, PRESENTER_LABEL_SCALE * normal[id(h)])
+    assert math.isclose(arrow.shaft_radius, PRESENTER_ARROW_SCALE * shaft)
+    assert "font-size:1.45em" in sandbox.readout.html()
+    sandbox.set_presenter(False)
+    assert all(math.isclose(h.font_screen_scale, normal[id(h)]) for h in labels)
+    assert min(normal.values()) >= 1.2  # readable without presenter view too (> 12 px)
+
+
+def test_arrow_colours_are_not_axis_colours_and_the_legend_names_them(sandbox: Any) -> None:
+    from app.panels.angular_velocity import OMEGA_COLOR
+    from app.panels.body import ROTATION_AXIS_COLOR
+
+    axis_colours = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255]])
+    for colour in (ROTATION_AXIS_COLOR, OMEGA_COLOR):
+        # far from pure red, green and blue (and from each other)
+        assert np.min(np.linalg.norm(axis_colours - np.array(colour), axis=1)) > 150
+    assert np.linalg.norm(np.subtract(ROTATION_AXIS_COLOR, OMEGA_COLOR)) > 150
+    legend = sandbox.legend.content
+    assert "gold = rotation axis" in legend and "magenta = \u03c9" in legend
+    assert all(eq in SandboxScene.help for eq in (
+        "8.7-8.9", "8.29", "8.46", "8.51-8.54", "8.58-8.60", "8.61-8.64", "8.69-8.72", "8.82"))
+
+
+# Labels by projection with the scene's default camera, as viser draws them:
+# a perspective camera with viser's default vertical field of view (75 deg,
+# the value a Chromium page reports for client.camera.fov), a 1200 x 750
+# page, screen-space labels of 12 * font_screen_scale px per 800 px of page
+# height. A label's box is estimated generously (0.56 em per character, 1.25
+# em per line plus padding) and placed by its anchor.
+VIEWPORT = (1200, 750)
+FOV_DEG = 75.0
+GUI_PANEL_LEFT = 800  # the control panel covers the page right of this (px)
+MIN_GAP_PX = 4.0
+
+
+def _label_handles(scene: Any) -> list[Any]:
+    return [
+        *scene.global_axes.label_handles, *scene.body.label_handles, scene.rotation_axis.label,
+        *scene.gimbal.ring_labels, scene.gimbal.caption, scene.gimbal.lock_label, scene.omega_panel.label,
+        *scene.compose_panel.ghost_labels,
+    ]
+
+
+def _world_poses(scene: Any) -> dict[str, Any]:
+    """Node name -> handle of every frame a label may hang from."""
+    handles = [scene.root_frame, scene.body.frame, scene.rotation_axis.frame, scene.gimbal.root,
+               scene.gimbal.stator, *scene.gimbal.ring_frames, *scene.gimbal.ring_mounts, scene.omega_panel.frame]
+    for ghost in scene.compose_panel.ghosts:
+        handles.append(ghost.frame)
+    return {h.name: h for h in handles}
+
+
+def _label_boxes(scene: Any) -> list[tuple[str, tuple[float, float, float, float]]]:
+    """Screen boxes (x0, y0, x1, y1) in px of the visible labels at the default camera."""
+    width, height = VIEWPORT
+    eye = np.array(scene.camera_position, dtype=float)
+    forward = np.array(scene.camera_look_at, dtype=float) - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    tan_half = math.tan(math.radians(FOV_DEG) / 2)
+    frames = _world_poses(scene)
+    out = []
+    for label in _label_handles(scene):
+        parts = label.name.split("/")
+        rotation, origin, visible = Rotation.identity(), np.zeros(3), bool(label.visible)
+        for k in range(2, len(parts)):
+            frame = frames.get("/".join(parts[:k]))
+            if frame is None:
+                continue
+            visible = visible and bool(frame.visible)
+            origin = origin + rotation.apply(frame.position)
+            rotation = rotation * R(frame.wxyz)
+        if not visible:
+            continue
+        rel = origin + rotation.apply(label.position) - eye
+        depth = rel @ forward
+        assert depth > 0.5, f"label {label.text!r} is behind or at the camera"
+        x = (1 + rel @ right / (depth * tan_half * width / height)) / 2 * width
+        y = (1 - rel @ up / (depth * tan_half)) / 2 * height
+        em = 12.0 * label.font_screen_scale * height / 800.0
+        lines = label.text.split("\n")
+        w = 0.56 * em * max(len(line) for line in lines) + 6.0
+        h = 1.25 * em * len(lines) + 4.0
+        vertical, horizontal = label.anchor.split("-")
+        x0 = {"left": x, "center": x - w / 2, "right": x - w}[horizontal]
+        y0 = {"top": y, "center": y - h / 2, "bottom": y - h}[vertical]
+        out.append((label.text, (x0, y0, x0 + w, y0 + h)))
+    return out
+
+
+def _gap(a: Any, b: Any) -> float:
+    """Screen distance between two boxes (negative: they overlap)."""
+    return max(max(a[0], b[0]) - min(a[2], b[2]), max(a[1], b[1]) - min(a[3], b[3]))
+
+
+@pytest.mark.parametrize("presenter", [False, True])
+@pytest.mark.parametrize("state", ["default", "gimbal lock", "compose"])
+def test_labels_never_overlap_at_the_default_view(sandbox: Any, presenter: bool, state: str) -> None:
+    if state == "gimbal lock":
+        send(sandbox, "euler2", 0.0)
+    elif state == "compose":
+        choose(sandbox, panel="Compose q1, q2")
+    sandbox.set_presenter(presenter)
+    boxes = _label_boxes(sandbox)
+    assert len(boxes) >= (11 if state != "compose" else 5)
+    texts = [t for t, _ in boxes]
+    if state == "gimbal lock":
+        assert "GIMBAL LOCK" in texts
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            gap = _gap(boxes[i][1], boxes[j][1])
+            assert gap >= MIN_GAP_PX, f"labels {boxes[i][0]!r} and {boxes[j][0]!r} overlap ({gap:.0f} px)"
+    for text, (x0, y0, x1, y1) in boxes:
+        # on the page and clear of the control panel
+        assert 0 <= x0 and x1 <= GUI_PANEL_LEFT and 0 <= y0 and y1 <= VIEWPORT[1], (text, x0, y0, x1, y1)
+
+
+# -- through the app, with plain websocket clients as browsers ---------------------------
 def test_app_slider_from_client_moves_body_and_bad_input_keeps_serving(running_app: Any, ws_client: Any) -> None:
     app = running_app(scene="sandbox", mode="shared")
     client, _ = ws_client(app)
+    observer, _ = ws_client(app)
     scene = app.scene_for()
-    client.set_gui_value(scene.euler_sliders[2], 75.0)
+    client.set_gui_value(scene.controls.handles["euler3"], 75.0)
     expected = Rotation.from_euler("ZXZ", [30.0, 40.0, 75.0], degrees=True).as_quat(scalar_first=True)
-    assert wait_until(lambda: quat_equal(scene.body_frame.wxyz, expected))
-    client.set_gui_value(scene.input_dropdown, "Euler parameters")
-    # Switching the input re-fills its fields from the current orientation;
-    # wait for that before typing, as a person would.
-    assert wait_until(lambda: scene.input == "Euler parameters" and not scene._dirty)
-    time.sleep(0.05)
-    for number in scene.ep_inputs:
-        client.set_gui_value(number, 0.0)
+    assert wait_until(lambda: quat_equal(scene.body.frame.wxyz, expected))
+    # Refused values (out of range, NaN, 1e308, text) change nothing; the sender gets a notice.
     session = app.session_for()
-    assert wait_until(lambda: any(t == "Euler parameters" and lvl == "error" for t, _, lvl in session.notices))
-    assert np.all(np.isfinite(scene.body_frame.wxyz))
+    for bad in (1e308, -1e308, 500.0, "abc", None):
+        client.set_gui_value(scene.controls.handles["euler1"], bad)
+    assert wait_until(lambda: any(t == "Refused: \u03c6 about Z" for t, _, _ in session.notices))
+    client.set_gui_value(scene.controls.handles["input"], "Euler parameters")
+    assert wait_until(lambda: scene.input == "Euler parameters")
+    for k in range(4):  # each edit is applied as it arrives; the last one leaves no rotation
+        client.set_gui_value(scene.controls.handles[f"ep{k}"], "0")
+    assert wait_until(lambda: "Not a rotation" in scene.input_panel.ep_status.content)
+    assert np.all(np.isfinite(scene.body.frame.wxyz)) and np.all(np.isfinite(scene.p))
     ticks = app._ticks
     assert wait_until(lambda: app._ticks > ticks + 3)  # still serving
-    client.set_gui_value(scene.ep_inputs[0], 1.0)
-    assert wait_until(lambda: quat_equal(scene.body_frame.wxyz, (1.0, 0.0, 0.0, 0.0)))
+    client.set_gui_value(scene.controls.handles["ep0"], "1")
+    assert wait_until(lambda: quat_equal(scene.body.frame.wxyz, (1.0, 0.0, 0.0, 0.0)))
+    frames = observer.frames
+    assert wait_until(lambda: observer.frames > frames)  # the observer is still connected
+    assert scene.paused_error is None
 
 
 def test_app_per_client_sandboxes_are_isolated(running_app: Any, ws_client: Any) -> None:
@@ -423,71 +861,29 @@ def test_app_per_client_sandboxes_are_isolated(running_app: Any, ws_client: Any)
     client_a, id_a = ws_client(app)
     client_b, id_b = ws_client(app)
     scene_a, scene_b = app.scene_for(id_a), app.scene_for(id_b)
-    before_b = np.array(scene_b.body_frame.wxyz)
-    client_a.set_gui_value(scene_a.euler_sliders[0], -120.0)
+    before_b = np.array(scene_b.body.frame.wxyz)
+    client_a.set_gui_value(scene_a.controls.handles["euler1"], -120.0)
     expected = Rotation.from_euler("ZXZ", [-120.0, 40.0, 20.0], degrees=True).as_quat(scalar_first=True)
-    assert wait_until(lambda: quat_equal(scene_a.body_frame.wxyz, expected))
+    assert wait_until(lambda: quat_equal(scene_a.body.frame.wxyz, expected))
     time.sleep(0.1)
-    assert np.allclose(scene_b.body_frame.wxyz, before_b)
-    assert scene_b.euler_sliders[0].value == 30.0
+    assert np.allclose(scene_b.body.frame.wxyz, before_b)
+    assert scene_b.controls.value("euler1") == 30.0
 
 
-def test_compose_q1_from_current_body(sandbox: Any) -> None:
-    choose(sandbox, input="Euler angles", seq="ZXZ")
-    set_euler(sandbox, [30.0, 40.0, 20.0])
-    body = R(sandbox.body_frame.wxyz)
-    choose(sandbox, panel="Compose q1, q2")
-    sandbox.q1_from_body_button.value = True  # what a click does on the server
-    settle(sandbox)
-    # q1 is shown as axis (6 decimals) and angle (3 decimals of a degree):
-    # it reproduces the body to ~1e-5.
-    assert quat_equal(sandbox.compose.q1, body.as_quat(scalar_first=True), atol=1e-4)
-    q2 = Rotation.from_rotvec([0, 0, math.pi / 2])
-    assert quat_equal(sandbox.ghosts[0][1].wxyz, (R(sandbox.compose.q1) * q2).as_quat(scalar_first=True))
-
-
-@pytest.mark.parametrize("scale", [1e200, 1e-12, 1e-200])
-def test_huge_and_tiny_axes_keep_their_direction(sandbox: Any, scale: float) -> None:
-    """Any non-zero finite axis is normalized: the squares of these overflow
-    or underflow, which used to give a confusing 'unit vector, got norm 0.0'
-    notice (axis and angle), a rejection of a non-zero axis, or an uncaught
-    error in the session loop (compose)."""
-    direction = np.array([0.0, 3.0, 4.0]) / 5.0
-    choose(sandbox, input="Axis and angle")
-    sandbox.axis_input.value = tuple(direction * scale)
-    sandbox.angle_slider.value = 90.0
-    settle(sandbox)
-    expected = Rotation.from_rotvec(direction * math.pi / 2).as_quat(scalar_first=True)
-    assert quat_equal(sandbox.body_frame.wxyz, expected)
-    assert "Axis and angle" not in sandbox.notices.titles()
-    choose(sandbox, panel="Compose q1, q2")
-    sandbox.q_axes[0].value = tuple(direction * scale)
-    settle(sandbox)
-    q1 = Rotation.from_rotvec(direction * math.pi / 2)  # q1 angle slider default: 90 deg
-    assert quat_equal(sandbox.compose.q1, q1.as_quat(scalar_first=True))
-    assert "Compose" not in sandbox.notices.titles()
-    choose(sandbox, panel="Orientation")
-
-
-def test_huge_omega_gives_a_notice_and_no_unreadable_rates(sandbox: Any) -> None:
-    """omega = 1e200 rad/s used to print 200-digit rates and animate with
-    overflow warnings; it is now refused with a notice."""
-    choose(sandbox, panel="Angular velocity")
-    before = np.array(sandbox.body_frame.wxyz)
-    sandbox.omega_input.value = (1e200, 0.0, 0.0)
-    sandbox.animate_checkbox.value = True
-    settle(sandbox)
-    sandbox.update(0.1)
-    settle(sandbox)
-    title, body, level = [n for n in sandbox.notices if n[0] == "Angular velocity"][-1]
-    assert "within \u00b11e+06 rad/s, got (1e+200, 0, 0)" in body and level == "warning"
-    assert np.allclose(sandbox.body_frame.wxyz, before)  # not animated
-    assert max(len(word) for word in sandbox.rates_text.content.split()) < 40
-    # nothing of the previous, valid omega stays on screen
-    assert "No valid" in sandbox.rates_text.content
-    assert sandbox.omega_arrow.visible is False and sandbox.omega_label.visible is False
-    for handle in (sandbox.body_frame, *sandbox.ring_frames, sandbox.axis_frame):
-        assert np.all(np.isfinite(handle.wxyz))
-    sandbox.animate_checkbox.value = False
-    sandbox.omega_input.value = (0.0, 0.0, 1.0)
-    choose(sandbox, panel="Orientation")
+def test_app_load_state_reproduces_a_pose(running_app: Any, ws_client: Any) -> None:
+    app = running_app(scene="sandbox", mode="shared")
+    scene = app.scene_for()
+    client, _ = ws_client(app)
+    client.set_gui_value(scene.controls.handles["input"], "Axis and angle")
+    assert wait_until(lambda: scene.input == "Axis and angle")
+    client.set_gui_value(scene.controls.handles["axis"], "1, 2, 3")
+    client.set_gui_value(scene.controls.handles["angle"], 77.7)
+    expected = Rotation.from_rotvec(math.radians(77.7) * np.array([1, 2, 3]) / math.sqrt(14))
+    assert wait_until(lambda: quat_equal(scene.p, expected.as_quat(scalar_first=True)))
+    state = scene.state()
+    p = scene.p.copy()
+    client.set_gui_value(scene.controls.handles["input"], "Euler angles")
+    client.set_gui_value(scene.controls.handles["euler1"], -10.0)
+    assert wait_until(lambda: not quat_equal(scene.p, p))
+    app.session_for().request_state(state, source="a test")
+    assert wait_until(lambda: np.array_equal(scene.p, p) and scene.input == "Axis and angle")

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from app import cli
+from app.controls import Slider
 from app.scenes import discover_scenes, get_scene_class
 from app.scenes.base import Scene
 from app.server import create_app
@@ -32,20 +33,16 @@ class CountingScene(Scene):
         self.angle = 0.0
         self.make_root()
         self.body = self.target.scene.add_frame(f"{self.root}/body")
+        self.label = self.add_label(f"{self.root}/body/label", "body", scale=1.0)
+        self.arrows = self.add_arrows(f"{self.root}/arrows", [[[0, 0, 0], [0, 0, 1]]], (200, 0, 160),
+                                      shaft_radius=0.02, head_radius=0.05, head_length=0.1)
         with self.make_folder():
-            self.slider = self.target.gui.add_slider(
-                "angle", min=-3.0, max=3.0, step=0.01, initial_value=0.0
-            )
-
-        @self.slider.on_update
-        def _(event: Any) -> None:
-            with self.lock:
-                self.angle = float(event.target.value)
+            self.slider = self.controls.add(Slider("angle", "angle", min=-3.0, max=3.0, step=0.01, default=0.0))
+            self.readout = self.add_readout("**angle** = 0")
 
     def update(self, dt: float) -> None:
         self.updates += 1
-        with self.lock:
-            angle = self.angle
+        angle = self.angle = float(self.controls.value("angle"))
         with self.target.atomic():
             self.body.wxyz = (np.cos(angle / 2), 0.0, 0.0, np.sin(angle / 2))
 
@@ -86,9 +83,11 @@ class BrokenBuildScene(CountingScene):
 FAKES = {cls.name: cls for cls in (CountingScene, OtherScene, FailingScene, BrokenBuildScene)}
 
 
-def fake_app(mode: str = "shared", scene: str = "alpha", run_unwatched: bool = True) -> Any:
+def fake_app(mode: str = "shared", scene: str | None = "alpha", run_unwatched: bool = True, **kwargs: Any) -> Any:
+    if kwargs.get("state") is not None:
+        scene = None
     return create_app(
-        port=0, mode=mode, scene=scene, scene_classes=FAKES, run_unwatched=run_unwatched
+        port=0, mode=mode, scene=scene, scene_classes=FAKES, run_unwatched=run_unwatched, **kwargs
     )
 
 
@@ -96,8 +95,8 @@ def fake_app(mode: str = "shared", scene: str = "alpha", run_unwatched: bool = T
 def fake_apps() -> Any:
     apps: list[Any] = []
 
-    def start(mode: str = "shared", scene: str = "alpha", run_unwatched: bool = True) -> Any:
-        app = fake_app(mode, scene, run_unwatched)
+    def start(mode: str = "shared", scene: str = "alpha", run_unwatched: bool = True, **kwargs: Any) -> Any:
+        app = fake_app(mode, scene, run_unwatched, **kwargs)
         apps.append(app)
         return app
 
@@ -206,7 +205,9 @@ def test_per_client_sessions_are_isolated(fake_apps: Any, ws_client: Any) -> Non
     assert app.scene_for(id_b).name == "beta"
 
 
-def test_scene_exception_gives_notice_and_server_keeps_serving(fake_apps: Any, ws_client: Any) -> None:
+def test_scene_exception_pauses_the_scene_once_and_resumes_on_change(
+    fake_apps: Any, ws_client: Any, caplog: Any
+) -> None:
     app = fake_apps(scene="failing")
     client, _ = ws_client(app)
     session = app.session_for()
@@ -215,15 +216,25 @@ def test_scene_exception_gives_notice_and_server_keeps_serving(fake_apps: Any, w
     client.set_gui_value(scene.slider, -1.0)
     assert wait_until(lambda: any("angle went negative" in body for _, body, _ in session.notices))
     title, body, level = session.notices[-1]
-    assert title == "Error in scene 'failing'" and level == "error"
-    # Rate limited: the same error every frame is shown once, not 60 times a second.
+    assert title == "Failing paused" and level == "error"
+    assert "change a control" in body
+    # Paused: no more update calls, one notice and one logged traceback, not 60 a second.
+    assert wait_until(lambda: scene.paused_error is not None)
+    updates = scene.updates
     time.sleep(0.5)
+    assert scene.updates == updates
     assert sum("angle went negative" in b for _, b, _ in session.notices) == 1
-    # Still serving: the loop ticks, HTTP answers, the client gets frames, switching works.
+    assert sum("paused after an error" in r.getMessage() for r in caplog.records) == 1
+    # Still serving: the loop ticks, HTTP answers, the client gets frames.
     ticks = app._ticks
     assert wait_until(lambda: app._ticks > ticks + 5)
     with urllib.request.urlopen(app.url, timeout=10) as response:
         assert response.status == 200
+    # A change resumes the scene.
+    client.set_gui_value(scene.slider, 1.0)
+    assert wait_until(lambda: scene.updates > updates + 5)
+    assert scene.paused_error is None
+    assert any(t == "Failing resumed" for t, _, _ in session.notices)
     client.set_gui_value(session._chooser, "Alpha")
     assert wait_until(lambda: session.active_name == "alpha")
     assert wait_until(lambda: client.frames > frames_before)
@@ -240,24 +251,74 @@ def test_scene_that_fails_to_build_is_refused(fake_apps: Any) -> None:
 
 def test_cli_parses_serve_and_lists_benchmarks(capsys: Any) -> None:
     args = cli.build_parser().parse_args(["serve"])
-    assert (args.host, args.port, args.scene, args.mode) == ("127.0.0.1", 8080, None, "shared")
+    assert (args.host, args.port, args.scene, args.mode, args.present, args.state) == (
+        "127.0.0.1", 8080, None, "shared", False, None)
     args = cli.build_parser().parse_args(
-        ["serve", "--host", "0.0.0.0", "--port", "9000", "--scene", "sandbox", "--mode", "per-client"]
+        ["serve", "--host", "0.0.0.0", "--port", "9000", "--scene", "sandbox", "--mode", "per-client",
+         "--present", "--state", "demo.json"]
     )
-    assert (args.host, args.port, args.scene, args.mode) == ("0.0.0.0", 9000, "sandbox", "per-client")
-    with pytest.raises(SystemExit):
-        cli.build_parser().parse_args(["serve", "--mode", "solo"])
+    assert (args.host, args.port, args.scene, args.mode, args.present, args.state) == (
+        "0.0.0.0", 9000, "sandbox", "per-client", True, "demo.json")
     assert cli.main(["bench"]) == 0
     out = capsys.readouterr().out
     names = cli.available_benchmarks()
     assert all(name in out for name in names)
     assert cli.main(["bench", "no_such_bench"]) == 2
     assert "NAME: expected one of" in capsys.readouterr().err
-    assert cli.main(["serve", "--scene", "nope", "--port", "0"]) == 2
-    assert "scene: expected one of" in capsys.readouterr().err
 
 
-def test_rigidlab_serve_prints_url_and_stops_on_ctrl_c() -> None:
+def test_cli_help_lists_the_scenes(capsys: Any) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["serve", "--help"])
+    assert exit_info.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    for name in discover_scenes():
+        assert name in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["serve", "--port", "99999"], "argument --port: expected an integer from 0 to 65535, got 99999"),
+        (["serve", "--port", "-1"], "argument --port: expected an integer from 0 to 65535, got -1"),
+        (["serve", "--port", "http"], "argument --port: expected an integer from 0 to 65535, got 'http'"),
+        (["serve", "--scene", "nope"], "argument --scene: invalid choice: 'nope' (choose from"),
+        (["serve", "--mode", "solo"], "argument --mode: invalid choice: 'solo'"),
+    ],
+)
+def test_cli_bad_arguments_give_one_line_and_status_2(argv: list[str], message: str, capsys: Any) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err  # one line, no usage block
+    assert message in err and err.startswith("rigidlab serve: error:")
+
+
+def test_cli_busy_port_and_bad_state_file_give_one_line_and_status_2(tmp_path: Any, capsys: Any) -> None:
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert cli.main(["serve", "--port", str(port)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"rigidlab serve: port {port} on 127.0.0.1 is in use; choose another with --port" in err
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    assert cli.main(["serve", "--port", "0", "--state", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "rigidlab serve: --state: state: expected JSON" in err
+    assert cli.main(["serve", "--port", "0", "--state", str(tmp_path / "missing.json")]) == 2
+    assert "cannot read" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("host", "warned"), [("127.0.0.1", False), ("0.0.0.0", True)], ids=["loopback", "all-interfaces"]
+)
+def test_rigidlab_serve_prints_url_warns_off_loopback_and_stops_on_ctrl_c(host: str, warned: bool) -> None:
     import os
     import signal
     import subprocess
@@ -265,21 +326,27 @@ def test_rigidlab_serve_prints_url_and_stops_on_ctrl_c() -> None:
 
     process = subprocess.Popen(
         [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())",
-         "serve", "--port", "0", "--scene", "sandbox"],
+         "serve", "--port", "0", "--scene", "sandbox", "--host", host],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
     try:
         url = None
         deadline = time.monotonic() + 60
         lines = []
-        while time.monotonic() < deadline and url is None:
+        while time.monotonic() < deadline:
             line = process.stdout.readline()  # type: ignore[union-attr]
             if not line:
                 break
             lines.append(line)
             if line.startswith("rigidlab: open http://127.0.0.1:"):
                 url = line.split()[-1]
-        assert url is not None, "".join(lines)
+            if line.startswith("rigidlab: press Ctrl-C"):
+                break
+        output = "".join(lines)
+        assert url is not None, output
+        assert ("warning: serving on 0.0.0.0" in output) is warned, output
+        if warned:
+            assert "no password" in output and "--mode per-client" in output
         with urllib.request.urlopen(url, timeout=10) as response:
             assert response.status == 200
         process.send_signal(signal.SIGINT)
@@ -308,3 +375,155 @@ def test_registry_skips_a_module_that_fails_to_import(monkeypatch: Any) -> None:
     assert "simulated broken scene" in registry.discovery_errors()["app.scenes.sandbox"]
     monkeypatch.undo()
     assert "sandbox" in discover_scenes() and "app.scenes.sandbox" not in registry.discovery_errors()
+
+
+# -- the session shell: presenter view, share state, refused values --------------------
+def _notifications_to(client_handle: Any) -> list[Any]:
+    """Record the notifications queued for one browser."""
+    from viser import _messages
+
+    seen: list[Any] = []
+    connection = client_handle._websock_connection
+    original = connection.queue_message
+
+    def queue_message(message: Any) -> None:
+        if isinstance(message, _messages.NotificationShowMessage):
+            seen.append(message)
+        original(message)
+
+    connection.queue_message = queue_message
+    return seen
+
+
+def test_refused_value_notice_goes_to_the_sender_only(fake_apps: Any, ws_client: Any) -> None:
+    app = fake_apps()
+    sender, sender_id = ws_client(app)
+    observer, observer_id = ws_client(app)
+    clients = app.server.get_clients()
+    to_sender, to_observer = _notifications_to(clients[sender_id]), _notifications_to(clients[observer_id])
+    scene = app.scene_for()
+    sender.set_gui_value(scene.slider, 1e308)
+    assert wait_until(lambda: to_sender)
+    assert to_sender[0].props.title == "Refused: angle"
+    assert "expected a number from -3 to 3, got 1e+308. Keeping 0.0." == to_sender[0].props.body
+    time.sleep(0.3)
+    assert not to_observer
+    assert scene.slider.value == 0.0 and scene.controls.value("angle") == 0.0
+
+
+def test_presenter_view_enlarges_labels_arrows_and_readouts(fake_apps: Any, ws_client: Any) -> None:
+    app = fake_apps(presenter=False)
+    client, _ = ws_client(app)
+    session = app.session_for()
+    scene = app.scene_for()
+    small = (scene.label.font_screen_scale, scene.arrows.shaft_radius, scene.readout.html())
+    client.set_gui_value(session.controls.handles["presenter"], True)
+    assert wait_until(lambda: scene.presenter)
+    assert scene.label.font_screen_scale >= 1.5 * small[0]
+    assert scene.arrows.shaft_radius >= 1.5 * small[1]
+    assert "font-size:1.45em" in scene.readout.html() and "font-size:1.45em" not in small[2]
+    # A scene built later starts in presenter view too.
+    app.switch_scene("beta")
+    assert app.scene_for().presenter and app.scene_for().label.font_screen_scale >= 1.5
+    client.set_gui_value(session.controls.handles["presenter"], False)
+    assert wait_until(lambda: not app.scene_for().presenter)
+    assert not scene.presenter  # every built scene follows
+
+
+def test_create_app_present_and_state(fake_apps: Any) -> None:
+    app = fake_apps(presenter=True, state={"scene": "beta", "values": {"angle": 1.25}})
+    assert app.scene_for().name == "beta"
+    assert wait_until(lambda: app.scene_for().controls.value("angle") == 1.25)
+    assert app.scene_for().presenter
+    with pytest.raises(ValueError, match=r"state: expected a scene of \['alpha', 'beta', 'failing', 'broken'\], got 'x'"):
+        fake_app(state={"scene": "x", "values": {}})
+
+
+def test_copy_and_load_state_through_the_share_panel(fake_apps: Any, ws_client: Any) -> None:
+    from app import state as codec
+
+    app = fake_apps()
+    client, client_id = ws_client(app)
+    session = app.session_for()
+    scene = app.scene_for()
+    handles = session.controls.handles
+    client.set_gui_value(scene.slider, 0.75)
+    assert wait_until(lambda: scene.controls.value("angle") == 0.75)
+    client.set_gui_value(handles["copy_state"], True)
+    assert wait_until(lambda: handles["state_out"].value.startswith("rl1."))
+    string = handles["state_out"].value
+    assert codec.decode(string) == {"format": codec.FORMAT, "scene": "alpha", "values": {"angle": 0.75}}
+    assert "Copy link" in session._share_html.content and "websocket=ws%3A%2F%2F127.0.0.1" in session._share_html.content
+    # Change things, then load the copied state: same values, same scene.
+    client.set_gui_value(scene.slider, -2.0)
+    client.set_gui_value(session._chooser, "Beta")
+    assert wait_until(lambda: session.active_name == "beta")
+    client.set_gui_value(handles["state_in"], string)
+    assert wait_until(lambda: session.controls.value("state_in") == string)
+    client.set_gui_value(handles["load_state"], True)
+    assert wait_until(lambda: session.active_name == "alpha" and scene.controls.value("angle") == 0.75)
+    assert scene.slider.value == 0.75
+    assert wait_until(lambda: np.allclose(scene.body.wxyz, (np.cos(0.375), 0, 0, np.sin(0.375))))
+    assert session.notices[-1][:1] == ("State loaded",)
+    # A damaged or hostile state is refused with a reason; nothing changes.
+    client.set_gui_value(handles["state_in"], '{"scene": "alpha", "values": {"angle": 99, "zz": 1}}')
+    assert wait_until(lambda: session.controls.value("state_in").startswith("{"))
+    client.set_gui_value(handles["load_state"], True)
+    assert wait_until(lambda: session.notices[-1][0] == "State loaded in part")
+    assert "angle: expected a number from -3 to 3, got 99" in session.notices[-1][1]
+    assert "'zz': not a control of this scene" in session.notices[-1][1]
+    assert scene.controls.value("angle") == 0.75
+    client.set_gui_value(handles["state_in"], "rl1.garbage!")
+    assert wait_until(lambda: session.controls.value("state_in") == "rl1.garbage!")
+    client.set_gui_value(handles["load_state"], True)
+    assert wait_until(lambda: session.notices[-1][0] == "Load state")
+    assert "damaged" in session.notices[-1][1]
+
+
+def test_download_state_sends_json_to_the_clicking_browser(fake_apps: Any, ws_client: Any) -> None:
+    app = fake_apps()
+    client, client_id = ws_client(app)
+    handle = app.server.get_clients()[client_id]
+    sent: list[tuple[str, bytes]] = []
+    handle.send_file_download = lambda name, content, **kw: sent.append((name, content))  # type: ignore[method-assign]
+    client.set_gui_value(app.session_for().controls.handles["download_state"], True)
+    assert wait_until(lambda: sent)
+    name, content = sent[0]
+    assert name == "alpha_state.json"
+    import json
+
+    assert json.loads(content)["values"] == {"angle": 0.0}
+
+
+def test_a_state_link_opens_its_values_in_a_per_client_session(fake_apps: Any) -> None:
+    from app import state as codec
+    from tests.app.conftest import WsClient
+
+    app = fake_apps(mode="per-client")
+    string = codec.encode({"scene": "beta", "values": {"angle": -1.5}})
+    client = WsClient(app.url + "/state/" + string)
+    try:
+        client_id = app.wait_for_client(set())
+        assert wait_until(lambda: app.scene_for(client_id).name == "beta")
+        assert wait_until(lambda: app.scene_for(client_id).controls.value("angle") == -1.5)
+        plain = WsClient(app.url)
+        other = app.wait_for_client({client_id})
+        assert app.scene_for(other).name == "alpha"
+        plain.close()
+    finally:
+        client.close()
+
+
+def test_a_state_link_does_not_change_a_shared_session(fake_apps: Any) -> None:
+    from app import state as codec
+    from tests.app.conftest import WsClient
+
+    app = fake_apps()
+    string = codec.encode({"scene": "beta", "values": {"angle": -1.5}})
+    client = WsClient(app.url + "/state/" + string)
+    try:
+        app.wait_for_client(set())
+        time.sleep(0.3)
+        assert app.scene_for().name == "alpha" and app.scene_for().controls.value("angle") == 0.0
+    finally:
+        client.close()

@@ -34,3 +34,11 @@ def choose_scene(page: Any, title: str) -> None:
     """Pick ``title`` in the scene chooser (a Mantine Select) as a user would."""
     page.locator("input.mantine-Select-input:visible").first.click()
     page.get_by_role("option", name=title, exact=True).click()
+
+
+def field(page: Any, label: str) -> Any:
+    """The text input (or textarea) in the GUI row labelled ``label``."""
+    row = page.locator(f"label:text-is('{label}')").first.locator(
+        "xpath=ancestor::div[contains(@class,'mantine-Flex-root')][1]"
+    )
+    return row.locator("input:not([type='hidden']), textarea").first

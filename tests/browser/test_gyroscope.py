@@ -3,22 +3,36 @@
 Switch to the gyroscope with the page's scene chooser, click every preset
 button in the page, and check that the server applied it (the model's
 initial state is the preset's), that the gimbal poses move, and that the
-rendered canvas is not blank.
+rendered canvas is not blank; then download the CSV from the page and read
+it back.
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 
 import numpy as np
+import pytest
 
-from app.scenes.gyroscope import PRESETS, GyroscopeScene, preset_inputs
-from tests.browser._page import drawn_fraction
+from app.scenes.gyroscope import CSV_HEADER, PRESETS, GyroscopeScene, preset_inputs
+from tests.browser._page import choose_scene, drawn_fraction
 from tests.helpers import wait_until
 
 
-def test_gyroscope_presets_from_the_page(scene_page) -> None:
-    _, page, scene = scene_page(GyroscopeScene)
+@pytest.fixture
+def gyro_page(running_app, open_page):
+    """The page of an app started on another scene, switched to the gyroscope in the chooser."""
+    app = running_app(scene="manipulator")
+    page = open_page(app)
+    choose_scene(page, GyroscopeScene.title)
+    wait_until(lambda: app.scene_for().name == GyroscopeScene.name)
+    return app, page, app.scene_for()
+
+
+def test_gyroscope_presets_from_the_page(gyro_page) -> None:
+    _, page, scene = gyro_page
     wait_until(lambda: scene.sim_time > 0.2)
 
     for name in PRESETS:
@@ -43,3 +57,23 @@ def test_gyroscope_presets_from_the_page(scene_page) -> None:
     # the rings, rotor, base and sphere cover well over 1 % of the view; a
     # blank canvas has ~0
     assert fraction > 0.01, f"only {fraction:.2%} of the canvas is drawn"
+
+
+def test_download_csv_from_the_page(gyro_page) -> None:
+    _, page, scene = gyro_page
+    wait_until(lambda: scene.sim_time > 1.0)
+    button = page.get_by_role("button", name="Download CSV", exact=True)
+    button.scroll_into_view_if_needed()
+    # one click saves the file (the layer sends downloads with save_immediately)
+    with page.expect_download(timeout=20_000) as info:
+        button.click()
+    download = info.value
+    assert download.suggested_filename == "gyroscope.csv"
+    rows = list(csv.reader(io.StringIO(open(download.path(), encoding="utf-8").read())))
+    assert ",".join(rows[0]) == CSV_HEADER
+    data = np.array(rows[1:], dtype=float)
+    assert data.shape[1] == 10 and data.shape[0] > 100
+    assert np.all(np.diff(data[:, 0]) > 0)
+    assert data[0, 0] >= 0.0 and data[-1, 0] - data[0, 0] <= scene.window + 1e-9  # the plotted window
+    # d1 = I3 * 12 rad/s for the default rotor, conserved
+    np.testing.assert_allclose(data[:, 7], 0.8 * 12.0, rtol=1e-12)

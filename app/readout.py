@@ -1,0 +1,131 @@
+"""Readouts: text panels that are sent only when they change and grow in presenter view.
+
+A readout is written in a small subset of Markdown (``**bold**``,
+```` `code` ````, fenced code blocks, ``- `` lists, blank lines between
+paragraphs, a line ending in two spaces or ``\\`` for a line break) and shown
+as HTML (viser's ``add_html``), so presenter view can scale its font; viser's
+Markdown element is MDX, where ``{`` and ``<`` in a number readout would be
+read as code. Everything is HTML-escaped before the markup is applied.
+"""
+
+from __future__ import annotations
+
+import functools
+import html
+import re
+from typing import Any
+
+__all__ = ["Readout", "markdown_to_html", "PRESENTER_FONT_SCALE"]
+
+#: Font size of readouts in presenter view, relative to the panel's.
+PRESENTER_FONT_SCALE = 1.45
+
+_BOLD = re.compile(r"\*\*(.+?)\*\*")
+_CODE = re.compile(r"`([^`]+)`")
+_ITALIC = re.compile(r"(?<![\w*])\*([^*\s][^*]*?)\*(?![\w*])")
+_SUB = re.compile(r"&lt;sub&gt;(.+?)&lt;/sub&gt;")
+
+
+@functools.lru_cache(maxsize=4096)
+def _inline(text: str) -> str:
+    text = html.escape(text, quote=False)
+    text = _CODE.sub(r"<code>\1</code>", text)
+    text = _BOLD.sub(r"<b>\1</b>", text)
+    text = _ITALIC.sub(r"<i>\1</i>", text)
+    text = _SUB.sub(r"<sub>\1</sub>", text)
+    return text
+
+
+def markdown_to_html(text: str) -> str:
+    """HTML of the readout Markdown subset (see the module docstring)."""
+    out: list[str] = []
+    paragraph: list[str] = []
+    items: list[str] = []
+    lines = text.split("\n")
+    i = 0
+
+    def flush() -> None:
+        if paragraph:
+            out.append("<p style='margin:0 0 0.45em 0'>" + "".join(paragraph) + "</p>")
+            paragraph.clear()
+        if items:
+            out.append("<ul style='margin:0 0 0.45em 0;padding-left:1.2em'>"
+                       + "".join(f"<li>{x}</li>" for x in items) + "</ul>")
+            items.clear()
+
+    while i < len(lines):
+        line = lines[i]
+        if line.startswith("```"):
+            flush()
+            block = []
+            i += 1
+            while i < len(lines) and not lines[i].startswith("```"):
+                block.append(html.escape(lines[i], quote=False))
+                i += 1
+            out.append("<pre style='margin:0 0 0.45em 0;padding:0.3em 0.5em;background:#f3f4f6;"
+                       "border-radius:4px;font-size:0.92em;overflow-x:auto'>" + "\n".join(block) + "</pre>")
+        elif not line.strip():
+            flush()
+        elif line.lstrip().startswith("- "):
+            if paragraph:
+                flush()
+            items.append(_inline(line.lstrip()[2:]))
+        else:
+            if items:
+                flush()
+            hard = line.endswith("  ") or line.endswith("\\")
+            content = _inline(line.rstrip().rstrip("\\"))
+            paragraph.append(content + ("<br/>" if hard else " "))
+        i += 1
+    flush()
+    return "".join(out)
+
+
+class Readout:
+    """A text panel of a scene (create with :meth:`app.scenes.base.Scene.add_readout`).
+
+    Assigning :attr:`content` sends the text only if it changed, so a
+    readout rewritten every frame with the same numbers costs nothing.
+    """
+
+    def __init__(self, handle: Any, *, presenter: bool = False) -> None:
+        self.handle = handle
+        self._text = ""
+        self._presenter = presenter
+        self._sent: str | None = None
+
+    @property
+    def content(self) -> str:
+        return self._text
+
+    @content.setter
+    def content(self, text: str) -> None:
+        text = str(text)
+        if text == self._text and self._sent is not None:
+            return  # unchanged: no rendering, nothing sent
+        self._text = text
+        self._send()
+
+    @property
+    def visible(self) -> bool:
+        return bool(self.handle.visible)
+
+    @visible.setter
+    def visible(self, visible: bool) -> None:
+        self.handle.visible = visible
+
+    def set_presenter(self, on: bool) -> None:
+        self._presenter = bool(on)
+        self._send()
+
+    def html(self) -> str:
+        """The HTML sent for the current text."""
+        size = f"{PRESENTER_FONT_SCALE:.2f}em" if self._presenter else "0.875em"
+        return (f"<div class='rigidlab-readout' style='font-size:{size};line-height:1.4;"
+                f"padding:0 0.75em 0.4em 0.75em'>{markdown_to_html(self._text)}</div>")
+
+    def _send(self) -> None:
+        out = self.html()
+        if out != self._sent:
+            self._sent = out
+            self.handle.content = out

@@ -1,0 +1,238 @@
+"""Histories, plot windows, CSV export and legends shared by the timed scenes.
+
+The gyroscope and free-body scenes compute their motion in chunks of
+simulated time on the app's executor (:class:`app.worker.ChunkTimeline`).
+Besides what a scene draws, every chunk carries a :class:`Table`: its sample
+times ``t`` (n,), the exported columns (n, m) and the same rows already
+formatted as CSV text, all built on the executor. :class:`History` keeps the
+tables of the chunks the display clock has reached, and serves from them the
+window of the plots (decimated to a few hundred points) and the CSV of the
+trajectory shown, so the loop thread only slices arrays.
+
+:func:`window_seconds` sizes a plot window to the motion (at least two of its
+periods, within a cap); :class:`Legend` is the panel's colour key of a
+scene's arrows and curves (an HTML panel that grows in presenter view, as
+readouts do); :class:`PlotRefresh` spreads the refresh of several plots over
+consecutive frames at a rate a reader can follow.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import html
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from app.readout import PRESENTER_FONT_SCALE
+
+__all__ = [
+    "History",
+    "Legend",
+    "PlotRefresh",
+    "Table",
+    "format_rows",
+    "hex_color",
+    "window_seconds",
+]
+
+#: Most points sent per plotted series.
+PLOT_POINTS = 400
+
+
+@dataclasses.dataclass(frozen=True)
+class Table:
+    """Samples of one chunk of a motion (read-only arrays).
+
+    Attributes
+    ----------
+    t : (n,) sample times (s), increasing.
+    columns : (n, m) the exported columns at those times (the scene's units).
+    csv : n rows ``t, columns...`` formatted as CSV text (no line ends).
+    """
+
+    t: np.ndarray  # (n,)
+    columns: np.ndarray  # (n, m)
+    csv: tuple[str, ...]
+
+    @classmethod
+    def build(cls, t: np.ndarray, columns: np.ndarray) -> Table:
+        """A table of ``t`` (n,) and ``columns`` (n, m), with its CSV rows (run on the executor)."""
+        t = np.array(t, dtype=float)
+        columns = np.array(columns, dtype=float).reshape(t.shape[0], -1)
+        for a in (t, columns):
+            a.setflags(write=False)
+        return cls(t, columns, format_rows(t, columns))
+
+
+def format_rows(t: np.ndarray, columns: np.ndarray) -> tuple[str, ...]:
+    """CSV rows ``t, c0, c1, ...`` (15 significant digits; empty fields for NaN)."""
+    data = np.column_stack([t, columns])
+    template = ",".join(["%.15g"] * data.shape[1])
+    if np.all(np.isfinite(data)):
+        return tuple(template % tuple(row) for row in data.tolist())
+    rows = []
+    for row in data.tolist():
+        rows.append(",".join("" if not math.isfinite(x) else "%.15g" % x for x in row))
+    return tuple(rows)
+
+
+def window_seconds(period: float, *, periods: float = 2.2, minimum: float = 6.0, fallback: float = 10.0,
+                   cap: float = 60.0) -> float:
+    """Length (s) of a plot window that shows ``periods`` periods of a motion.
+
+    ``period`` (s) is the motion's period; ``inf``, 0 or NaN (no periodic
+    motion, or not known) give ``fallback``. The window is at least
+    ``minimum`` and at most ``cap``.
+    """
+    if not (math.isfinite(period) and period > 0.0):
+        return float(min(max(fallback, minimum), cap))
+    return float(min(max(periods * period, minimum), cap))
+
+
+class History:
+    """Tables of the chunks the display clock has reached, by chunk index.
+
+    The loop thread adds the table of every chunk it draws from; the plots and
+    the export read the samples between two times from here. Tables older
+    than the window are dropped (:meth:`trim`).
+    """
+
+    def __init__(self) -> None:
+        self._tables: dict[int, Table] = {}
+
+    def clear(self) -> None:
+        self._tables = {}
+
+    def __len__(self) -> int:
+        return len(self._tables)
+
+    def add(self, k: int, table: Table) -> None:
+        if k not in self._tables:
+            self._tables[k] = table
+
+    def trim(self, t_start: float) -> None:
+        """Forget tables that end before ``t_start``."""
+        for k in [k for k, tab in self._tables.items() if tab.t[-1] < t_start]:
+            del self._tables[k]
+
+    def _slices(self, t_start: float, t_end: float) -> list[tuple[Table, int, int]]:
+        """``(table, i0, i1)``: samples ``t_start <= t <= t_end``, each time once."""
+        out = []
+        last = -math.inf
+        for k in sorted(self._tables):
+            tab = self._tables[k]
+            lo = max(t_start, np.nextafter(last, math.inf)) if math.isfinite(last) else t_start
+            i0 = int(np.searchsorted(tab.t, lo, side="left"))
+            i1 = int(np.searchsorted(tab.t, t_end, side="right"))
+            if i1 > i0:
+                out.append((tab, i0, i1))
+                last = float(tab.t[i1 - 1])
+        return out
+
+    def window(self, t_start: float, t_end: float, *, max_points: int = PLOT_POINTS) -> tuple[np.ndarray, np.ndarray]:
+        """Samples with ``t_start <= t <= t_end``: times (n,) and columns (n, m),
+        every ``s``-th sample so that ``n <= max_points`` (the latest always kept)."""
+        parts = self._slices(t_start, t_end)
+        if not parts:
+            return np.zeros(0), np.zeros((0, 0))
+        total = sum(i1 - i0 for _, i0, i1 in parts)
+        stride = max(1, math.ceil(total / max_points))
+        ts, cs = [], []
+        offset = 0  # index of the first sample of this part in the whole window
+        for tab, i0, i1 in parts:
+            first = i0 + (-offset) % stride
+            ts.append(tab.t[first:i1:stride])
+            cs.append(tab.columns[first:i1:stride])
+            offset += i1 - i0
+        t = np.concatenate(ts)
+        columns = np.concatenate(cs)
+        tab, _, i1 = parts[-1]
+        if t.size == 0 or t[-1] != tab.t[i1 - 1]:  # keep the newest sample
+            t = np.append(t, tab.t[i1 - 1])
+            columns = np.vstack([columns, tab.columns[i1 - 1]])
+        return t, columns
+
+    def csv(self, header: str, t_start: float, t_end: float) -> bytes:
+        """The CSV document of the samples ``t_start <= t <= t_end``: ``header`` then the rows."""
+        lines = [header]
+        for tab, i0, i1 in self._slices(t_start, t_end):
+            lines.extend(tab.csv[i0:i1])
+        return ("\n".join(lines) + "\n").encode()
+
+
+def hex_color(rgb: Sequence[int]) -> str:
+    """``"#rrggbb"`` of an RGB triple in 0..255."""
+    r, g, b = (int(c) for c in rgb)
+    return f"#{r:02x}{g:02x}{b:02x}"
+
+
+class Legend:
+    """The colour key of a scene's arrows and curves: an HTML panel in the current folder.
+
+    Parameters
+    ----------
+    gui : viser.GuiApi
+        Where the panel is created.
+    items : sequence of (rgb, text)
+        A swatch colour (0..255) and what it stands for.
+    title : str
+        Text before the items.
+    presenter : bool, keyword-only
+        Start in presenter view (larger font).
+    """
+
+    def __init__(self, gui: Any, items: Sequence[tuple[Sequence[int], str]], title: str = "", *,
+                 presenter: bool = False) -> None:
+        self.items = tuple((tuple(int(c) for c in rgb), str(text)) for rgb, text in items)
+        self.title = title
+        self._presenter = bool(presenter)
+        self.handle = gui.add_html(self.html())
+
+    def html(self) -> str:
+        size = f"{PRESENTER_FONT_SCALE:.2f}em" if self._presenter else "0.875em"
+        swatch = ("display:inline-block;width:1.6em;height:0.55em;border-radius:2px;"
+                  "vertical-align:0.12em;margin-right:0.4em;background:")
+        rows = "".join(
+            f"<div style='padding-left:2em;text-indent:-2em'><span style='{swatch}{hex_color(rgb)}'></span>"
+            f"{html.escape(text)}</div>"
+            for rgb, text in self.items
+        )
+        title = f"<div style='margin-bottom:0.15em'>{html.escape(self.title)}</div>" if self.title else ""
+        return (f"<div class='rigidlab-legend' style='font-size:{size};line-height:1.45;"
+                f"padding:0 0.75em 0.4em 0.75em'>{title}{rows}</div>")
+
+    def set_presenter(self, on: bool) -> None:
+        self._presenter = bool(on)
+        self.handle.content = self.html()
+
+
+class PlotRefresh:
+    """When to refresh which plot: every ``period`` seconds of wall time, one plot per frame.
+
+    Sending all plots in one frame makes that frame the slowest of its second;
+    spreading them over consecutive frames keeps every frame small.
+    """
+
+    def __init__(self, names: Sequence[str], period: float) -> None:
+        self.names = tuple(names)
+        self.period = float(period)
+        self._since = math.inf
+        self._queue: list[str] = []
+
+    def force(self) -> None:
+        """Refresh every plot as soon as possible (new parameters, restart)."""
+        self._since = math.inf
+        self._queue = []
+
+    def due(self, dt: float, *, moving: bool) -> str | None:
+        """The plot to refresh in this frame, if any (``moving``: the data changed)."""
+        self._since += dt
+        if not self._queue and moving and self._since >= self.period:
+            self._queue = list(self.names)
+            self._since = 0.0
+        return self._queue.pop(0) if self._queue else None
+
+

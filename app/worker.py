@@ -1,0 +1,211 @@
+"""Long work off the 60 Hz loop: a background executor and a chunked timeline.
+
+A scene's frame on the loop thread must stay within its budget (p99 2 ms,
+max 8 ms; see ``bench/frames.py``), but an integrator may need tens of
+milliseconds for two seconds of motion. Such work runs on a background
+executor shared by the app's sessions: the loop submits it, keeps drawing
+what it has, and swaps the result in when it is ready.
+
+The app's executor is a pool of worker *processes* (:func:`make_executor`
+with ``processes=True``; one per core but the loop's): a pure-Python
+integrator in a thread would hold the interpreter lock and stretch every
+frame of the loop thread (measured: a 1.5 ms frame took up to 7 ms beside
+an rk4 job), while a process runs beside it on the other core. So a job is
+a module-level function of picklable arguments (``functools.partial`` of
+one, with frozen dataclasses), and it returns picklable results; a scene
+used on its own (tests, notebooks) gets a thread instead, with the same
+jobs.
+
+:class:`ChunkTimeline` does this for a trajectory computed in chunks of
+simulated time ahead of the display clock: ``chunk_at(t)`` returns the chunk
+that covers ``t`` if it is ready (else None, and the scene holds its clock),
+asks for it and for the next one, and never computes on the calling thread.
+Chunks that depend on the previous one (an integrator continuing from the
+last state) are computed in order, one job at a time, never recursively.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import logging
+import math
+import multiprocessing
+import os
+from collections.abc import Callable, Iterable
+from typing import Any
+
+__all__ = ["ChunkTimeline", "make_executor"]
+
+_log = logging.getLogger(__name__)
+
+
+def _worker_ready() -> int:
+    """A no-op job: returns the worker's pid once its imports are done."""
+    return os.getpid()
+
+
+def make_executor(
+    *, processes: bool = False, preload: Iterable[str] = (), name: str = "rigidlab-worker"
+) -> concurrent.futures.Executor:
+    """The background executor of an app (``processes=True``) or of a lone scene.
+
+    Parameters
+    ----------
+    processes : bool, keyword-only
+        A pool of worker processes (one per core beyond the first, at least
+        one), started by a fork server that has imported ``preload`` (module
+        names: the scenes' modules, whose job functions the workers run), and
+        warmed up at once. Otherwise one thread.
+    preload : iterable of str, keyword-only
+        Modules the fork server imports before it forks workers.
+    name : str, keyword-only
+        Thread name prefix (threads only).
+    """
+    if not processes:
+        return concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix=name)
+    # The workers' numerical kernels run one BLAS thread each: the cores are
+    # shared with the loop. The fork server, started at the first submit,
+    # inherits this environment before it imports numpy.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    context = multiprocessing.get_context("forkserver")
+    modules = ["numpy", "scipy.special", "scipy.integrate", "app.worker"]
+    modules += [m for m in dict.fromkeys(preload) if m not in modules]
+    context.set_forkserver_preload(modules)
+    workers = max(1, (os.cpu_count() or 2) - 1)
+    executor = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    executor.submit(_worker_ready)  # start the workers now, not at the first chunk
+    return executor
+
+
+class ChunkTimeline:
+    """Chunks ``k`` covering ``[k T, (k + 1) T]`` of simulated time, computed in the background.
+
+    Parameters
+    ----------
+    executor : concurrent.futures.Executor
+        Where chunks are computed.
+    compute : callable
+        ``compute(k, previous) -> chunk``; ``previous`` is chunk ``k - 1``
+        when ``sequential`` (None for ``k = 0``), else None. Runs on the
+        executor's thread, so it must only read what it is given.
+    chunk_time : float, keyword-only
+        ``T``, simulated seconds per chunk (> 0).
+    sequential : bool, keyword-only
+        Whether chunk ``k`` needs chunk ``k - 1``.
+    capacity : int, keyword-only
+        Chunks kept (the oldest are dropped first).
+
+    Notes
+    -----
+    All methods are for the loop thread. ``error`` holds the exception of a
+    chunk that failed (no more chunks are asked for until :meth:`reset`).
+    """
+
+    def __init__(
+        self,
+        executor: concurrent.futures.Executor,
+        compute: Callable[[int, Any], Any],
+        *,
+        chunk_time: float,
+        sequential: bool,
+        capacity: int = 64,
+    ) -> None:
+        if not (math.isfinite(chunk_time) and chunk_time > 0):
+            raise ValueError(f"chunk_time: expected a finite number > 0, got {chunk_time!r}")
+        self._executor = executor
+        self._compute = compute
+        self.chunk_time = float(chunk_time)
+        self.sequential = bool(sequential)
+        self.capacity = int(capacity)
+        self._chunks: dict[int, Any] = {}
+        self._jobs: dict[int, concurrent.futures.Future] = {}
+        self.error: BaseException | None = None
+        self.computed = 0
+
+    def reset(self, compute: Callable[[int, Any], Any] | None = None) -> None:
+        """Forget every chunk (new parameters); jobs in flight are dropped."""
+        for future in self._jobs.values():
+            future.cancel()
+        self._jobs = {}
+        self._chunks = {}
+        self.error = None
+        if compute is not None:
+            self._compute = compute
+
+    def index(self, t: float) -> int:
+        """The chunk that covers simulated time ``t``."""
+        return max(0, int(t // self.chunk_time))
+
+    def chunk_at(self, t: float, *, ahead: float = 0.5) -> Any | None:
+        """The chunk covering ``t`` if computed, else None; asks for what is missing.
+
+        Once ``t`` is past ``ahead`` of its chunk, the next chunk is asked for
+        too, so it is ready when the clock gets there.
+        """
+        self._collect()
+        k = self.index(t)
+        if self.error is None:
+            self._request(k)
+            if t - k * self.chunk_time >= ahead * self.chunk_time:
+                self._request(k + 1)
+        return self._chunks.get(k)
+
+    def advance(self, t: float, step: float) -> tuple[float, Any | None, bool]:
+        """Move a display clock at ``t`` by ``step`` if the chunk it lands in is ready.
+
+        Returns ``(time, chunk, waiting)``: the new clock time, the chunk to
+        draw at it (None if none is computed yet) and whether the clock held
+        because the chunk at ``t + step`` is not ready (it then stays at
+        ``t``, drawn from the chunk covering ``t`` if there is one).
+        """
+        target = t + step
+        chunk = self.chunk_at(target)
+        if chunk is not None:
+            return target, chunk, False
+        return t, (self.chunk_at(t) if step > 0.0 else None), True
+
+    def ready(self, k: int) -> bool:
+        self._collect()
+        return k in self._chunks
+
+    @property
+    def busy(self) -> bool:
+        """Whether a job is queued or running."""
+        return any(not f.done() for f in self._jobs.values())
+
+    def _collect(self) -> None:
+        for k, future in list(self._jobs.items()):
+            if not future.done():
+                continue
+            del self._jobs[k]
+            if future.cancelled():
+                continue
+            exc = future.exception()
+            if exc is not None:
+                self.error = exc
+                continue
+            self._store(k, future.result())
+
+    def _store(self, k: int, chunk: Any) -> None:
+        self._chunks[k] = chunk
+        self.computed += 1
+        if len(self._chunks) > self.capacity:
+            # drop the chunks farthest behind the newest one
+            for old in sorted(self._chunks)[: len(self._chunks) - self.capacity]:
+                del self._chunks[old]
+
+    def _request(self, k: int) -> None:
+        if k in self._chunks or k in self._jobs:
+            return
+        if not self.sequential:
+            self._jobs[k] = self._executor.submit(self._compute, k, None)
+            return
+        # In order: the first missing chunk at or before k (never recursive).
+        j = k
+        while j > 0 and (j - 1) not in self._chunks:
+            j -= 1
+        if any(i <= k for i in self._jobs):
+            return  # an earlier chunk is on its way; ask again when it is in
+        previous = self._chunks.get(j - 1) if j > 0 else None
+        self._jobs[j] = self._executor.submit(self._compute, j, previous)

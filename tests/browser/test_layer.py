@@ -1,0 +1,77 @@
+"""The scene layer in headless Chromium: presenter view, Load state, refused values.
+
+Driven from the page as a user would, on the manipulator scene (a registry
+scene that renders fast in software WebGL).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from app import state as codec
+from tests.browser._page import field
+from tests.helpers import wait_until
+
+
+def _font_px(page: Any) -> float:
+    return float(page.locator(".rigidlab-readout:visible").first.evaluate(
+        "e => parseFloat(getComputedStyle(e).fontSize)"))
+
+
+def test_presenter_toggle_enlarges_labels_arrows_and_readouts(running_app: Any, open_page: Any) -> None:
+    app = running_app(scene="manipulator", run_unwatched=False)
+    page = open_page(app)
+    scene = app.scene_for()
+    page.locator(".rigidlab-readout:visible").first.wait_for(state="visible")
+    small_px = _font_px(page)
+    small_scale = [h.font_screen_scale for h, _ in scene._labels]
+    box = page.get_by_label("Presenter view").first
+    box.check()
+    assert wait_until(lambda: scene.presenter, 30.0)
+    # Labels (drawn in WebGL) grow on the server's nodes; readouts grow in the page's DOM.
+    assert all(h.font_screen_scale >= 1.5 * s for (h, _), s in zip(scene._labels, small_scale))
+    assert wait_until(lambda: _font_px(page) >= 1.4 * small_px, 30.0)
+    box.uncheck()
+    assert wait_until(lambda: not scene.presenter, 30.0)
+    assert wait_until(lambda: abs(_font_px(page) - small_px) < 0.5, 30.0)
+
+
+def test_load_state_from_the_page_reproduces_a_pose(running_app: Any, open_page: Any) -> None:
+    app = running_app(scene="manipulator", run_unwatched=False)
+    page = open_page(app)
+    scene = app.scene_for()
+    wait_until(lambda: np.allclose(np.degrees(scene.joint_angles), [30.0, 45.0, 60.0]))
+    string = codec.encode({"scene": "manipulator", "values": {"theta1": -100.0, "theta2": 20.5, "theta3": 7.0}})
+    page.get_by_text("Share", exact=True).first.click()  # open the folder
+    box = field(page, "State to load")
+    box.wait_for(state="visible")
+    box.fill(string)
+    page.get_by_role("button", name="Load state", exact=True).click()
+    assert wait_until(lambda: np.allclose(np.degrees(scene.joint_angles), [-100.0, 20.5, 7.0]), 15.0)
+    # The page's sliders show the loaded values and a notice confirms.
+    thumb = page.get_by_role("slider").first
+    assert wait_until(lambda: thumb.get_attribute("aria-valuenow") == "-100", 15.0)
+    page.get_by_text("State loaded").first.wait_for(state="visible", timeout=15000)
+    # Copy state gives back a string that decodes to the same values.
+    page.get_by_role("button", name="Copy state", exact=True).click()
+    out = field(page, "State")
+    assert wait_until(lambda: out.input_value().startswith("rl1."), 15.0)
+    assert codec.decode(out.input_value())["values"]["theta1"] == -100.0
+
+
+def test_a_refused_value_shows_a_notice_and_the_control_shows_the_value_in_use(
+    running_app: Any, open_page: Any
+) -> None:
+    app = running_app(scene="manipulator", run_unwatched=False)
+    page = open_page(app)
+    scene = app.scene_for()
+    # The number box beside joint 1's slider: type a value beyond its range.
+    box = field(page, "θ1 (deg)")
+    box.click()
+    box.fill("500")
+    box.press("Enter")
+    page.get_by_text("Refused: θ1 (deg)").first.wait_for(state="visible", timeout=15000)
+    assert scene.controls.value("theta1") == 30.0
+    assert wait_until(lambda: box.input_value() == "30", 15.0)
