@@ -359,6 +359,8 @@ def euler_angles_from_euler_parameters(p, seq="ZXZ"):
     """
     parse_seq(seq)
     p = check_euler_parameters(p, "p")
+    if p.shape == (4,):  # one rotation: the float path, same formulas
+        return _angles_from_p_single(p.tolist(), seq)
     return _angles_from_p(p, seq)
 
 

@@ -7,6 +7,7 @@ was given. Conventions are stated once in ``docs/conventions.md``.
 
 from __future__ import annotations
 
+import math
 from types import MappingProxyType
 
 import numpy as np
@@ -199,6 +200,12 @@ def check_euler_parameters(p, name="p", tol=UNIT_NORM_TOL):
         deviates from 1 by more than ``tol``.
     """
     arr = as_float_array(p, name)
+    if arr.shape == (4,):  # one rotation: the same test on floats (invalid input falls through)
+        p0, p1, p2, p3 = arr.tolist()
+        n2 = p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3
+        if abs(n2 - 1.0) <= 2.0 * tol + tol * tol:
+            scale = 1.0 / math.sqrt(n2)
+            return np.array((p0 * scale, p1 * scale, p2 * scale, p3 * scale))
     if arr.ndim < 1 or arr.shape[-1] != 4:
         raise ValueError(
             f"Expected `{name}` to have shape (..., 4), got shape {arr.shape}"
