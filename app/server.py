@@ -622,6 +622,9 @@ class RigidlabApp:
                 except Exception:  # step guards scenes; this is a last resort
                     _log.error("session step failed:\n%s", traceback.format_exc())
             self._ticks += 1
+            flush = getattr(self.executor, "flush", None)
+            if flush is not None:
+                flush()  # jobs the frames asked for go to the workers while the loop sleeps
             next_tick += _PERIOD
             delay = next_tick - time.perf_counter()
             if delay < -_PERIOD:  # fell behind: do not try to catch up

@@ -26,11 +26,15 @@ last state) are computed in order, one job at a time, never recursively.
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
+import concurrent.futures.process
 import logging
 import math
 import multiprocessing
 import os
+import queue
+import threading
 from collections.abc import Callable, Iterable
 from typing import Any
 
@@ -73,9 +77,108 @@ def make_executor(
     modules += [m for m in dict.fromkeys(preload) if m not in modules]
     context.set_forkserver_preload(modules)
     workers = max(1, (os.cpu_count() or 2) - 1)
-    executor = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context)
-    executor.submit(_worker_ready)  # start the workers now, not at the first chunk
-    return executor
+
+    def pool() -> concurrent.futures.ProcessPoolExecutor:
+        executor = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context)
+        executor.submit(_worker_ready)  # start the workers now, not at the first chunk
+        return executor
+
+    return _Dispatcher(pool, name=f"{name}-dispatch")
+
+
+class _Dispatcher(concurrent.futures.Executor):
+    """Hands jobs to a process pool from its own thread; the caller never waits.
+
+    ``ProcessPoolExecutor.submit`` writes to a wake-up pipe and wakes the
+    pool's threads, which then pickle the job holding the interpreter lock:
+    a submit from the loop thread stretched its frame by 2-6 ms (measured
+    with a slider moving in the free-body scene). Here ``submit`` only
+    appends the job to a list and returns a future at once. The app's loop
+    calls :meth:`flush` at the end of its tick, after the frame's poses are
+    sent, and a dispatcher thread forwards the held jobs while the loop
+    sleeps; without a flush (a notebook) the dispatcher still looks every
+    20 ms. The future stays pending until the pool's result is in, so
+    :meth:`Future.cancel` still drops a job that has not started. A pool
+    broken by a worker that died (killed, out of memory) fails the jobs it
+    had and is replaced, so the next job runs again.
+    """
+
+    def __init__(self, make_pool: Callable[[], concurrent.futures.Executor], *, name: str) -> None:
+        self._make_pool = make_pool
+        self._pool = make_pool()
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._held: collections.deque = collections.deque()
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> concurrent.futures.Future:
+        if self._closed:
+            raise RuntimeError("cannot schedule new jobs after shutdown")
+        outer: concurrent.futures.Future = concurrent.futures.Future()
+        self._held.append((outer, fn, args, kwargs))  # no wake-up: see flush
+        return outer
+
+    def flush(self) -> None:
+        """Hand the held jobs to the dispatcher thread now (end of a loop tick)."""
+        if self._held:
+            self._queue.put(True)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._closed = True
+        self._queue.put(None)
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+    def _run(self) -> None:
+        while True:
+            try:
+                if self._queue.get(timeout=0.02) is None:
+                    return
+            except queue.Empty:
+                pass
+            while self._held:
+                self._forward(*self._held.popleft())
+
+    def _forward(self, outer: concurrent.futures.Future, fn: Callable[..., Any], args: Any, kwargs: Any) -> None:
+        if outer.cancelled():
+            return
+        try:
+            inner = self._pool.submit(fn, *args, **kwargs)
+        except concurrent.futures.process.BrokenProcessPool as exc:
+            self._replace_pool()
+            _finish(outer, None, exc)
+            return
+        except BaseException as exc:  # shut down, or the job could not be queued
+            _finish(outer, None, exc)
+            return
+        outer.add_done_callback(lambda o, inner=inner: inner.cancel() if o.cancelled() else None)
+        inner.add_done_callback(lambda f, outer=outer: self._done(f, outer))
+
+    def _done(self, inner: concurrent.futures.Future, outer: concurrent.futures.Future) -> None:
+        if inner.cancelled():
+            outer.cancel()
+            return
+        exc = inner.exception()
+        if isinstance(exc, concurrent.futures.process.BrokenProcessPool):
+            self._replace_pool()
+        _finish(outer, None if exc is not None else inner.result(), exc)
+
+    def _replace_pool(self) -> None:
+        if self._closed:
+            return
+        broken, self._pool = self._pool, self._make_pool()
+        _log.error("the worker pool broke (a worker process died); a new pool takes over")
+        broken.shutdown(wait=False, cancel_futures=True)
+
+
+def _finish(future: concurrent.futures.Future, result: Any, exc: BaseException | None) -> None:
+    """Complete a pending ``future`` unless it was cancelled meanwhile."""
+    if not future.set_running_or_notify_cancel():
+        return
+    if exc is not None:
+        future.set_exception(exc)
+    else:
+        future.set_result(result)
 
 
 class ChunkTimeline:
