@@ -5,12 +5,19 @@ initial state (and, where a scene needs more, a small frozen dataclass with
 the body and joint handles). Global +z is up; SI units.
 """
 
+from ._cam import CAM_LAWS, FOLLOWER_KINDS, CamCurve, CamFollower, CamKinematics, CamProfile
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
 from ._pendulum import ROD_RADIUS_RATIO, pendulum_chain
 from ._top import HeavyTop, heavy_top
 
 __all__ = [
+    "CAM_LAWS",
+    "FOLLOWER_KINDS",
     "ROD_RADIUS_RATIO",
+    "CamCurve",
+    "CamFollower",
+    "CamKinematics",
+    "CamProfile",
     "HeavyTop",
     "SliderCrank",
     "SpatialDoublePendulum",

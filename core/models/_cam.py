@@ -1,0 +1,829 @@
+"""Disk cams with translating flat-faced and roller followers: profiles, kinematics, contact force, jump speed.
+
+Conventions (cam profile plane, the cam's body frame seen along its shaft):
+
+* The cam turns about its shaft (the plane's normal, right hand) by the cam
+  angle ``theta`` (rad), at a constant speed ``omega = theta_dot`` in the
+  simulations. Cam angle 0 is the lowest lift.
+* The follower translates along the plane's +y direction (the follower
+  axis, pointing away from the shaft), on the line ``x = offset``. Seen
+  from the cam (kinematic inversion) the follower axis at cam angle
+  ``theta`` is ``n(theta) = (sin theta, cos theta)`` and the direction
+  across it ``t(theta) = dn/dtheta = (cos theta, -sin theta)``.
+* Lift ``s(theta) >= 0`` (m) is the follower's displacement along its axis
+  from its lowest position; ``s' = ds/dtheta``, ``s'' = d2s/dtheta2``.
+* Contact force ``N`` (N): the normal force between cam and follower along
+  their common normal, positive while pressing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, NamedTuple
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from core._validation import float_array, real_number, short_repr
+
+__all__ = ["CAM_LAWS", "FOLLOWER_KINDS", "CamCurve", "CamFollower", "CamKinematics", "CamProfile"]
+
+#: Displacement laws of :meth:`CamProfile.rise_dwell_return`.
+CAM_LAWS = ("cycloidal", "harmonic", "345")
+#: Follower kinds of :class:`CamFollower`.
+FOLLOWER_KINDS = ("flat", "roller")
+
+_TWO_PI = 2.0 * math.pi
+# derivative order of the lift stacks: the cam curve's third derivative needs s''''
+_ORDER = 4
+# samples per segment for the profile checks and the jump-speed search
+_SAMPLES = 1025
+_BINOMIAL = [[math.comb(n, k) for k in range(n + 1)] for n in range(_ORDER + 1)]
+
+
+# ------------------------------------------------------------------ derivative stacks
+# A stack ``D`` of shape (K + 1, ...) holds a function and its first K
+# derivatives with respect to one parameter: D[k] = d^k f / du^k.
+def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Leibniz rule: the stack of ``a b``."""
+    K = min(a.shape[0], b.shape[0]) - 1
+    out = np.zeros(np.broadcast_shapes(a[: K + 1].shape, b[: K + 1].shape))
+    for n in range(K + 1):
+        for k in range(n + 1):
+            out[n] += _BINOMIAL[n][k] * a[k] * b[n - k]
+    return out
+
+
+def _sqrt(a: np.ndarray) -> np.ndarray:
+    """The stack of ``sqrt(a)`` (``a > 0``), from ``g^2 = a``."""
+    g = np.zeros_like(a)
+    g[0] = np.sqrt(a[0])
+    for n in range(1, a.shape[0]):
+        acc = a[n].copy()
+        for k in range(1, n):
+            acc -= _BINOMIAL[n][k] * g[k] * g[n - k]
+        g[n] = acc / (2.0 * g[0])
+    return g
+
+
+def _reciprocal(a: np.ndarray) -> np.ndarray:
+    """The stack of ``1 / a`` (``a != 0``), from ``a g = 1``."""
+    g = np.zeros_like(a)
+    g[0] = 1.0 / a[0]
+    for n in range(1, a.shape[0]):
+        acc = np.zeros_like(a[0])
+        for k in range(1, n + 1):
+            acc += _BINOMIAL[n][k] * a[k] * g[n - k]
+        g[n] = -acc / a[0]
+    return g
+
+
+def _trig_stack(theta: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Stacks of ``n(theta) = (sin, cos)`` and ``t(theta) = (cos, -sin)``, shape (order + 1, ..., 2)."""
+    n = np.stack([np.sin(theta), np.cos(theta)], axis=-1)
+    t = np.stack([np.cos(theta), -np.sin(theta)], axis=-1)
+    cycle_n = (n, t, -n, -t)
+    cycle_t = (t, -n, -t, n)
+    return np.stack([cycle_n[k % 4] for k in range(order + 1)]), np.stack([cycle_t[k % 4] for k in range(order + 1)])
+
+
+# ------------------------------------------------------------------ displacement laws
+def _law_stack(law: str, x: np.ndarray) -> np.ndarray:
+    """Normalized rise ``f(x)``, ``f(0) = 0``, ``f(1) = 1``, and its derivatives to order 4 in x."""
+    if law == "cycloidal":
+        w = _TWO_PI
+        s, c = np.sin(w * x), np.cos(w * x)
+        return np.stack([x - s / w, 1.0 - c, w * s, w * w * c, -(w**3) * s])
+    if law == "harmonic":
+        w = math.pi
+        s, c = np.sin(w * x), np.cos(w * x)
+        return np.stack([0.5 * (1.0 - c), 0.5 * w * s, 0.5 * w * w * c, -0.5 * w**3 * s, -0.5 * w**4 * c])
+    x2 = x * x
+    return np.stack([
+        x2 * x * (10.0 - 15.0 * x + 6.0 * x2),
+        x2 * (30.0 - 60.0 * x + 30.0 * x2),
+        x * (60.0 - 180.0 * x + 120.0 * x2),
+        60.0 - 360.0 * x + 360.0 * x2,
+        -360.0 + 720.0 * x,
+    ])
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """One smooth piece ``[start, stop]`` of a lift law; ``stack(theta)`` is its analytic derivative stack."""
+
+    start: float
+    stop: float
+    stack: Callable[[np.ndarray], np.ndarray]
+
+
+# ------------------------------------------------------------------ results
+class CamKinematics(NamedTuple):
+    """Follower lift and its derivatives with respect to the cam angle (arrays of the shape of ``theta``).
+
+    Attributes
+    ----------
+    lift : ndarray
+        ``s(theta)`` (m), >= 0, 0 at cam angle 0.
+    dlift : ndarray
+        ``s' = ds/dtheta`` (m/rad); the follower velocity is ``omega s'``.
+    d2lift : ndarray
+        ``s'' = d2s/dtheta2`` (m/rad^2); at constant cam speed the follower
+        acceleration is ``omega^2 s''``.
+    """
+
+    lift: np.ndarray
+    dlift: np.ndarray
+    d2lift: np.ndarray
+
+
+@dataclass(frozen=True)
+class CamCurve:
+    """Points of a plane curve and their derivatives with respect to the curve parameter ``u``.
+
+    Coordinates are in the cam profile plane (the cam's body frame; see the
+    module conventions). The parameter ``u`` is the cam angle (rad) at which
+    the point is the contact point (for the pitch curve: the roller centre),
+    so the curve has period 2 pi in ``u``.
+
+    Attributes
+    ----------
+    point : (..., 2) ndarray
+        Points (m).
+    d1, d2, d3 : (..., 2) ndarray
+        First, second and third derivatives with respect to ``u`` (m/rad^k).
+    """
+
+    point: np.ndarray  # (..., 2)
+    d1: np.ndarray  # (..., 2)
+    d2: np.ndarray  # (..., 2)
+    d3: np.ndarray  # (..., 2)
+
+
+# ------------------------------------------------------------------ validation helpers
+def _positive(x: Any, name: str, unit: str) -> float:
+    v = real_number(x, name, expected=f"a finite number > 0 ({unit})")
+    if not v > 0:
+        raise ValueError(f"{name}: expected a finite number > 0 ({unit}), got {v!r}")
+    return v
+
+
+def _non_negative(x: Any, name: str, unit: str) -> float:
+    v = real_number(x, name, expected=f"a finite number >= 0 ({unit})")
+    if not v >= 0:
+        raise ValueError(f"{name}: expected a finite number >= 0 ({unit}), got {v!r}")
+    return v
+
+
+def _angles(theta: Any, name: str = "theta") -> np.ndarray:
+    arr = float_array(theta, name, expected="cam angles (rad)")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite cam angles (rad), got {short_repr(theta)}")
+    return arr
+
+
+# ------------------------------------------------------------------ profile
+@dataclass(frozen=True)
+class CamProfile:
+    """A disk cam: an eccentric circle, or a rise-dwell-return follower motion law.
+
+    Build one with :meth:`eccentric` or :meth:`rise_dwell_return`. The
+    eccentric cam is a *shape* (its lift depends on the follower); a
+    rise-dwell-return profile is a *motion law* ``s(theta)`` (the cam's
+    shape depends on the follower: the envelope of the flat face's
+    positions, or the inner offset of the roller centre's pitch curve).
+    :class:`CamFollower` binds a profile to a follower.
+
+    Attributes
+    ----------
+    kind : str
+        ``"eccentric"`` or ``"rise_dwell_return"``.
+    base_radius : float
+        Radius of the cam's base circle, the smallest circle about the shaft
+        that touches the cam (m): ``radius - eccentricity`` for the
+        eccentric cam.
+    radius, eccentricity : float or None
+        Eccentric cam: circle radius R and distance e of its centre from the
+        shaft (m).
+    lift, rise, dwell, fall : float or None
+        Rise-dwell-return: total lift L (m) and the cam angles of rise, upper
+        dwell and fall (rad); the lower dwell fills the rest of the turn.
+    law : str or None
+        Rise-dwell-return: ``"cycloidal"``, ``"harmonic"`` or ``"345"``.
+    """
+
+    kind: str
+    base_radius: float
+    radius: float | None = None
+    eccentricity: float | None = None
+    lift: float | None = None
+    rise: float | None = None
+    dwell: float | None = None
+    fall: float | None = None
+    law: str | None = None
+
+    @classmethod
+    def eccentric(cls, radius: float = 0.04, eccentricity: float = 0.01) -> CamProfile:
+        """A circular cam of radius ``R`` whose centre is ``e`` from the shaft.
+
+        With a flat-faced follower the lift is ``s = e (1 - cos theta)``;
+        with a roller of radius ``r_f`` on a follower line offset ``e_o``
+        from the shaft it is the slider-crank's
+        ``s = sqrt((R + r_f)^2 - (e_o - e sin b)^2) - e cos b - s_0``,
+        ``b = theta + b_0`` (see :meth:`CamFollower.kinematics`).
+
+        Parameters
+        ----------
+        radius : float
+            R (m), > 0.
+        eccentricity : float
+            e (m), ``0 < e < R``.
+
+        Returns
+        -------
+        CamProfile
+        """
+        R = _positive(radius, "radius", "m")
+        e = _positive(eccentricity, "eccentricity", "m")
+        if not e < R:
+            raise ValueError(f"eccentricity: expected less than radius={R!r} (the shaft inside the cam), got {e!r}")
+        return cls("eccentric", R - e, radius=R, eccentricity=e)
+
+    @classmethod
+    def rise_dwell_return(
+        cls,
+        base_radius: float = 0.04,
+        lift: float = 0.02,
+        rise: float = math.pi / 2,
+        dwell: float = math.pi / 6,
+        fall: float = math.pi / 2,
+        law: str = "cycloidal",
+    ) -> CamProfile:
+        """A rise-dwell-return-dwell motion law.
+
+        The follower rises by ``lift`` over the cam angles ``[0, rise]``,
+        dwells at the top for ``dwell``, falls back over ``fall`` and dwells
+        at the bottom for the rest of the turn. With ``x`` the fraction of
+        a rise (``theta / rise``), the rise is ``s = L f(x)`` and a fall
+        ``s = L (1 - f(x))``:
+
+        * ``"cycloidal"``: ``f = x - sin(2 pi x) / (2 pi)``; s, s', s''
+          continuous (s'' = 0 at both ends).
+        * ``"harmonic"``: ``f = (1 - cos(pi x)) / 2``; s' continuous, s''
+          jumps at the ends (finite acceleration jumps).
+        * ``"345"``: ``f = 10 x^3 - 15 x^4 + 6 x^5``; s, s', s'' continuous.
+
+        Derivatives are analytic per segment: ``s^(k) = L f^(k)(x) /
+        rise^k``.
+
+        Parameters
+        ----------
+        base_radius : float
+            Radius of the base circle (m), > 0: the distance from the shaft
+            to the flat face, or to the cam under the roller, at zero lift.
+        lift : float
+            L (m), > 0.
+        rise, fall : float
+            Cam angles of the rise and the fall (rad), > 0.
+        dwell : float
+            Cam angle of the upper dwell (rad), >= 0; ``rise + dwell +
+            fall <= 2 pi`` (the lower dwell is the rest).
+        law : str
+            ``"cycloidal"``, ``"harmonic"`` or ``"345"``.
+
+        Returns
+        -------
+        CamProfile
+        """
+        Rb = _positive(base_radius, "base_radius", "m")
+        L = _positive(lift, "lift", "m")
+        b1 = _positive(rise, "rise", "rad")
+        b2 = _non_negative(dwell, "dwell", "rad")
+        b3 = _positive(fall, "fall", "rad")
+        if not isinstance(law, str) or law not in CAM_LAWS:
+            raise ValueError(f"law: expected one of {list(CAM_LAWS)}, got {short_repr(law)}")
+        total = b1 + b2 + b3
+        if total > _TWO_PI * (1.0 + 1e-12):
+            raise ValueError(
+                f"rise, dwell, fall: expected rise + dwell + fall <= 2 pi (one turn), got {total!r} rad"
+            )
+        return cls("rise_dwell_return", Rb, lift=L, rise=b1, dwell=b2, fall=b3, law=law)
+
+    # ------------------------------------------------------------ motion law
+    def _law_segments(self) -> tuple[_Segment, ...]:
+        """Segments of the rise-dwell-return law ``s(theta)`` (the follower motion, any follower)."""
+        L, b1, b2, b3, law = self.lift, self.rise, self.dwell, self.fall, self.law
+        assert L is not None and b1 is not None and b2 is not None and b3 is not None and law is not None
+        scale = np.array([1.0, 1.0 / b1, 1.0 / b1**2, 1.0 / b1**3, 1.0 / b1**4])
+        fscale = np.array([1.0, 1.0 / b3, 1.0 / b3**2, 1.0 / b3**3, 1.0 / b3**4])
+        a2, a3 = b1 + b2, b1 + b2 + b3
+
+        def rise_stack(theta: np.ndarray) -> np.ndarray:
+            f = _law_stack(law, theta / b1)
+            return L * f * scale.reshape((-1,) + (1,) * theta.ndim)
+
+        def fall_stack(theta: np.ndarray) -> np.ndarray:
+            f = _law_stack(law, (theta - a2) / b3)
+            out = -L * f * fscale.reshape((-1,) + (1,) * theta.ndim)
+            out[0] += L
+            return out
+
+        def constant(value: float) -> Callable[[np.ndarray], np.ndarray]:
+            def stack(theta: np.ndarray) -> np.ndarray:
+                out = np.zeros((_ORDER + 1,) + theta.shape)
+                out[0] = value
+                return out
+
+            return stack
+
+        segments = [_Segment(0.0, b1, rise_stack)]
+        if b2 > 0:
+            segments.append(_Segment(b1, a2, constant(L)))
+        segments.append(_Segment(a2, a3, fall_stack))
+        if a3 < _TWO_PI:
+            segments.append(_Segment(a3, _TWO_PI, constant(0.0)))
+        return tuple(segments)
+
+    def motion_law(self, theta: Any) -> CamKinematics:
+        """The rise-dwell-return law ``s(theta)`` with its first and second derivatives.
+
+        For these profiles this is the lift of every follower (the cam is
+        built from it); for the eccentric cam the lift depends on the
+        follower (use :meth:`CamFollower.kinematics`).
+
+        Parameters
+        ----------
+        theta : array_like
+            Cam angles (rad), any shape; taken modulo 2 pi.
+
+        Returns
+        -------
+        CamKinematics
+            ``lift``, ``dlift``, ``d2lift`` of the shape of ``theta`` (m,
+            m/rad, m/rad^2).
+        """
+        if self.kind != "rise_dwell_return":
+            raise ValueError(
+                "kind: the eccentric cam has no motion law of its own (its lift depends on the follower); "
+                "use CamFollower(profile, ...).kinematics(theta)"
+            )
+        D = _evaluate_segments(self._law_segments(), _angles(theta))
+        return CamKinematics(D[0], D[1], D[2])
+
+
+def _evaluate_segments(segments: tuple[_Segment, ...], theta: np.ndarray) -> np.ndarray:
+    """Stack (order + 1, *theta.shape) of a piecewise law at ``theta`` modulo 2 pi (segments closed on the left)."""
+    wrapped = np.mod(theta, _TWO_PI)
+    out = np.empty((_ORDER + 1,) + theta.shape)
+    starts = np.array([seg.start for seg in segments])
+    index = np.clip(np.searchsorted(starts, wrapped, side="right") - 1, 0, len(segments) - 1)
+    for k, seg in enumerate(segments):
+        mask = index == k
+        if np.any(mask):
+            out[:, mask] = seg.stack(wrapped[mask])
+    return out
+
+
+# ------------------------------------------------------------------ follower
+@dataclass(frozen=True)
+class CamFollower:
+    """A disk cam driving a spring-loaded translating follower, flat-faced or roller.
+
+    Geometry and signs follow the module conventions: the cam turns by the
+    cam angle ``theta`` about its shaft; the follower slides along its axis
+    (lift ``s`` away from the shaft) on a line ``offset`` from the shaft;
+    cam angle 0 is the lowest lift. The follower's equation of motion
+    along its axis, at constant cam speed ``omega`` (``s_ddot = omega^2
+    s''``), gives the contact force
+
+    .. math::
+
+        N \\cos\\varphi = m \\omega^2 s'' + k s + F_0 + m g
+
+    (``N > 0`` pressing; the spring force ``k s + F_0``, the preload ``F_0``
+    at zero lift, and gravity ``m g`` all push the follower towards the
+    cam; ``varphi`` the pressure angle, 0 for a flat face whose face is
+    normal to its axis; the guide takes the force across the axis).
+
+    Parameters
+    ----------
+    profile : CamProfile
+    follower : str
+        ``"flat"`` (a flat face normal to the follower axis) or
+        ``"roller"`` (a roller of radius ``roller_radius`` whose centre is
+        on the follower axis; frictionless, so it need not turn).
+    roller_radius : float
+        r_f (m): > 0 for a roller, 0 for a flat face.
+    mass : float
+        Follower mass m (kg), > 0.
+    stiffness : float
+        Spring rate k (N/m), >= 0.
+    preload : float
+        Spring force at zero lift F_0 (N), >= 0.
+    gravity : float
+        Component g of gravity along the follower axis towards the cam
+        (m/s^2); negative when gravity pulls the follower away from the cam.
+        ``preload + mass * gravity > 0`` (the follower presses on the cam at
+        rest).
+    offset : float
+        e_o (m): distance of the follower axis from the shaft, along the
+        plane's +x (the direction ``t`` at cam angle 0). It does not change
+        a flat face's lift; for a roller ``|e_o| < R_b + r_f`` (the
+        eccentric cam: ``|e_o| < R + r_f - e``).
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: a wrong type, kind or range; a flat face on a
+        rise-dwell-return law whose cam would not be convex (radius of
+        curvature ``R_b + s + s'' <= 0``; names the base radius needed); a
+        roller larger than the pitch curve's smallest convex radius of
+        curvature (an undercut cam).
+    """
+
+    profile: CamProfile
+    follower: str = "flat"
+    roller_radius: float = 0.0
+    mass: float = 0.5
+    stiffness: float = 2000.0
+    preload: float = 20.0
+    gravity: float = 9.81
+    offset: float = 0.0
+    _segments: tuple[_Segment, ...] = field(init=False, repr=False, compare=False)
+    _pitch_height: float = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.profile, CamProfile):
+            raise ValueError(f"profile: expected a CamProfile, got {type(self.profile).__name__}")
+        if not isinstance(self.follower, str) or self.follower not in FOLLOWER_KINDS:
+            raise ValueError(f"follower: expected one of {list(FOLLOWER_KINDS)}, got {short_repr(self.follower)}")
+        rf = _non_negative(self.roller_radius, "roller_radius", "m")
+        if self.follower == "flat" and rf != 0.0:
+            raise ValueError(f"roller_radius: a flat-faced follower has no roller, expected 0.0, got {rf!r}")
+        if self.follower == "roller" and not rf > 0:
+            raise ValueError(f"roller_radius: expected a roller radius > 0 (m) for follower='roller', got {rf!r}")
+        m = _positive(self.mass, "mass", "kg")
+        k = _non_negative(self.stiffness, "stiffness", "N/m")
+        F0 = _non_negative(self.preload, "preload", "N")
+        g = real_number(self.gravity, "gravity", expected="a finite acceleration (m/s^2)")
+        eo = real_number(self.offset, "offset", expected="a finite distance (m)")
+        if not F0 + m * g > 0:
+            raise ValueError(
+                f"preload: expected preload + mass * gravity > 0 (the follower must press on the cam at rest), "
+                f"got {F0!r} + {m!r} * {g!r} = {F0 + m * g!r} N"
+            )
+        for name, value in (("roller_radius", rf), ("mass", m), ("stiffness", k), ("preload", F0), ("gravity", g),
+                            ("offset", eo)):
+            object.__setattr__(self, name, value)
+        prof = self.profile
+        Rp = prof.base_radius + rf
+        if self.follower == "roller":
+            if not abs(eo) < Rp:
+                what = "radius - eccentricity + roller_radius" if prof.kind == "eccentric" else "base_radius + roller_radius"
+                raise ValueError(
+                    f"offset: expected |offset| < {what} = {Rp!r} m (the follower axis must cross the roller "
+                    f"centre's lowest circle), got {eo!r}"
+                )
+            pitch_height = math.sqrt(Rp * Rp - eo * eo)
+        else:
+            pitch_height = prof.base_radius
+        object.__setattr__(self, "_pitch_height", pitch_height)
+        object.__setattr__(self, "_segments", self._build_segments())
+        self._check_shape()
+
+    # ------------------------------------------------------------ lift
+    def _build_segments(self) -> tuple[_Segment, ...]:
+        prof = self.profile
+        if prof.kind == "rise_dwell_return":
+            return prof._law_segments()
+        R, e = prof.radius, prof.eccentricity
+        assert R is not None and e is not None
+        if self.follower == "flat":
+            def flat_stack(theta: np.ndarray) -> np.ndarray:
+                s, c = np.sin(theta), np.cos(theta)
+                return np.stack([e * (1.0 - c), e * s, e * c, -e * s, -e * c])
+
+            return (_Segment(0.0, _TWO_PI, flat_stack),)
+        Rr, eo, y0 = R + self.roller_radius, self.offset, self._pitch_height
+        b0 = math.asin(-eo / (Rr - e))
+
+        def roller_stack(theta: np.ndarray) -> np.ndarray:
+            b = theta + b0
+            S = np.stack([np.sin(b), np.cos(b), -np.sin(b), -np.cos(b), np.sin(b)])
+            C = np.stack([np.cos(b), -np.sin(b), -np.cos(b), np.sin(b), np.cos(b)])
+            w = -e * S
+            w[0] += eo
+            q2 = -_mul(w, w)
+            q2[0] += Rr * Rr
+            y = _sqrt(q2) - e * C
+            y[0] -= y0
+            return y
+
+        return (_Segment(0.0, _TWO_PI, roller_stack),)
+
+    @property
+    def phase(self) -> float:
+        """Angle ``b_0`` (rad) of the eccentric cam's centre at cam angle 0, measured from the direction
+        opposite the follower (0 unless an offset roller rides on an eccentric cam:
+        ``sin b_0 = -e_o / (R + r_f - e)``)."""
+        prof = self.profile
+        if prof.kind != "eccentric" or self.follower == "flat":
+            return 0.0
+        assert prof.radius is not None and prof.eccentricity is not None
+        return math.asin(-self.offset / (prof.radius + self.roller_radius - prof.eccentricity))
+
+    def _stack(self, theta: np.ndarray) -> np.ndarray:
+        return _evaluate_segments(self._segments, theta)
+
+    def kinematics(self, theta: Any) -> CamKinematics:
+        """Lift ``s`` and its derivatives ``s'``, ``s''`` with respect to the cam angle.
+
+        Closed forms (eccentric cam of radius R, eccentricity e):
+
+        * flat face: ``s = e (1 - cos theta)``, ``s' = e sin theta``,
+          ``s'' = e cos theta``;
+        * roller of radius r_f on the axis offset e_o (the slider-crank with
+          crank e and rod ``R + r_f``): with ``b = theta + b_0`` (see
+          :attr:`phase`), ``w = e_o - e sin b``, ``q = sqrt((R + r_f)^2 -
+          w^2)``: ``s = q - e cos b - s_0``, ``s_0 = sqrt((R + r_f - e)^2 -
+          e_o^2)``, ``s' = e sin b + e w cos b / q``, ``s'' = e cos b - e (e
+          cos^2 b + w sin b) / q - (e w cos b)^2 / q^3``;
+        * rise-dwell-return: the motion law (:meth:`CamProfile.motion_law`).
+
+        Parameters
+        ----------
+        theta : array_like
+            Cam angles (rad), any shape; periodic with period 2 pi.
+
+        Returns
+        -------
+        CamKinematics
+            ``(lift, dlift, d2lift)``, each of the shape of ``theta`` (m,
+            m/rad, m/rad^2).
+        """
+        D = self._stack(_angles(theta))
+        return CamKinematics(D[0], D[1], D[2])
+
+    def pressure_angle(self, theta: Any) -> np.ndarray:
+        """Pressure angle ``varphi`` (rad) between the follower axis and the common normal.
+
+        0 for a flat face; for a roller ``tan varphi = (s' - e_o) / (s_0 +
+        s)``, ``s_0 = sqrt((R_b + r_f)^2 - e_o^2)`` (positive: the normal
+        leans towards -t, against the cam's motion under the follower).
+
+        Parameters
+        ----------
+        theta : array_like
+            Cam angles (rad), any shape.
+
+        Returns
+        -------
+        ndarray of the shape of ``theta`` (rad), in (-pi/2, pi/2).
+        """
+        th = _angles(theta)
+        if self.follower == "flat":
+            return np.zeros(th.shape)
+        D = self._stack(th)
+        return np.arctan2(D[1] - self.offset, self._pitch_height + D[0])
+
+    def contact_force(self, theta: Any, speed: float) -> np.ndarray:
+        """Contact force ``N`` (N) at cam angles ``theta`` with the cam turning at constant ``speed``.
+
+        ``N = (m omega^2 s'' + k s + F_0 + m g) / cos varphi`` (see the class
+        docstring for the signs); negative values mean the follower would
+        need a pull to stay on the cam: it leaves it.
+
+        Parameters
+        ----------
+        theta : array_like
+            Cam angles (rad), any shape.
+        speed : float
+            omega (rad/s); its sign does not matter.
+
+        Returns
+        -------
+        ndarray of the shape of ``theta`` (N).
+        """
+        th = _angles(theta)
+        w = real_number(speed, "speed", expected="a finite cam speed (rad/s)")
+        D = self._stack(th)
+        axial = self.mass * w * w * D[2] + self.stiffness * D[0] + self.preload + self.mass * self.gravity
+        if self.follower == "flat":
+            return axial
+        y = self._pitch_height + D[0]
+        return axial * np.hypot(y, D[1] - self.offset) / y
+
+    def jump_speed(self) -> float:
+        """Lowest constant cam speed (rad/s) at which the contact force reaches zero in a revolution.
+
+        ``N`` vanishes where ``m omega^2 s'' + k s + F_0 + m g = 0`` (the
+        pressure angle does not enter), which needs ``s'' < 0``:
+        ``omega_jump^2 = min over s'' < 0 of (k s + F_0 + m g) / (-m s'')``.
+        Closed form for the flat-faced follower on the eccentric cam (the
+        minimum is at theta = pi): ``omega_jump = sqrt((2 k e + F_0 + m g)
+        / (m e))``. Otherwise the maximum of ``-m s'' / (k s + F_0 + m g)``
+        is searched per smooth segment (samples, then Brent's method to
+        ``1e-12`` rad, one-sided values at the segment ends where ``s''``
+        jumps).
+
+        Returns
+        -------
+        float
+            omega_jump (rad/s); below it the follower stays on the cam at
+            every angle.
+        """
+        m, k, F = self.mass, self.stiffness, self.preload + self.mass * self.gravity
+        prof = self.profile
+        if prof.kind == "eccentric" and self.follower == "flat":
+            e = prof.eccentricity
+            assert e is not None
+            return math.sqrt((2.0 * k * e + F) / (m * e))
+        return math.sqrt(1.0 / self._max_ratio()[0])
+
+    def _max_ratio(self) -> tuple[float, float]:
+        """``max over theta of -m s'' / (k s + F_0 + m g)`` and its angle."""
+        m, k, F = self.mass, self.stiffness, self.preload + self.mass * self.gravity
+        best, where = -math.inf, 0.0
+        for seg in self._segments:
+            u = np.linspace(seg.start, seg.stop, _SAMPLES)
+            D = seg.stack(u)
+            q = -m * D[2] / (k * D[0] + F)
+            i = int(np.argmax(q))
+            if q[i] > best:
+                best, where = float(q[i]), float(u[i])
+            if np.ptp(D[2]) == 0.0:
+                continue
+
+            def negative(x: float, seg: _Segment = seg) -> float:
+                Dx = seg.stack(np.array([x]))
+                return float(m * Dx[2, 0] / (k * Dx[0, 0] + F))
+
+            lo, hi = u[max(i - 1, 0)], u[min(i + 1, u.size - 1)]
+            res = minimize_scalar(negative, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
+            if -res.fun > best:
+                best, where = float(-res.fun), float(res.x)
+        return best, where
+
+    # ------------------------------------------------------------ geometry
+    def pitch_curve(self, u: Any) -> CamCurve:
+        """Path of the roller centre (flat face: of the point of the face on its axis) in the cam frame.
+
+        ``c(u) = e_o t(u) + (s_0 + s(u)) n(u)`` with ``s_0 = sqrt((R_b +
+        r_f)^2 - e_o^2)`` (roller) or ``R_b`` (flat face), derivatives by
+        the product rule from the analytic derivatives of ``s`` (the first
+        three derivatives need ``s`` to order 3).
+
+        Parameters
+        ----------
+        u : array_like
+            Cam angles (rad), any shape.
+
+        Returns
+        -------
+        CamCurve
+            ``point``, ``d1``, ``d2``, ``d3`` of shape ``u.shape + (2,)`` (m).
+        """
+        th = _angles(u, "u")
+        c = self._pitch_stack(th, 3)
+        return CamCurve(c[0], c[1], c[2], c[3])
+
+    def _pitch_stack(self, theta: np.ndarray, order: int) -> np.ndarray:
+        s = self._stack(theta)
+        y = s.copy()
+        y[0] += self._pitch_height
+        n, t = _trig_stack(theta, order)
+        c = self.offset * t
+        for kk in range(order + 1):
+            for j in range(kk + 1):
+                c[kk] = c[kk] + _BINOMIAL[kk][j] * y[j][..., None] * n[kk - j]
+        return c
+
+    def cam_curve(self, u: Any) -> CamCurve:
+        """The cam's contour in its body plane, with the derivatives the contact constraints need.
+
+        The parameter ``u`` is the cam angle at which the point is in
+        contact, so ``cam_curve(theta).point`` is the contact point on the
+        cam (cam frame) at cam angle ``theta``.
+
+        * Flat face: the envelope of the face's positions ``{p : p . n(u) =
+          h(u)}``, ``h = R_b + s`` (the support function of the cam):
+          ``p = h n + h' t``, ``p' = rho t``, ``p'' = rho' t - rho n``,
+          ``p''' = (rho'' - rho) t - 2 rho' n`` with the radius of curvature
+          ``rho = R_b + s + s''`` (> 0: the cam is convex).
+        * Roller: the inner offset of the pitch curve, ``p = c - r_f nu``,
+          ``nu = rot90(c') / |c'|`` the outward unit normal of the pitch
+          curve (rot90 turns by +90 degrees in the plane).
+
+        Parameters
+        ----------
+        u : array_like
+            Cam angles (rad), any shape.
+
+        Returns
+        -------
+        CamCurve
+            ``point``, ``d1``, ``d2``, ``d3`` of shape ``u.shape + (2,)`` (m,
+            m/rad^k).
+        """
+        th = _angles(u, "u")
+        if self.follower == "flat":
+            h = self._stack(th)
+            h[0] += self.profile.base_radius
+            n, t = _trig_stack(th, 0)
+            n, t = n[0], t[0]
+            rho, rho1, rho2 = (h[0] + h[2])[..., None], (h[1] + h[3])[..., None], (h[2] + h[4])[..., None]
+            return CamCurve(h[0][..., None] * n + h[1][..., None] * t, rho * t, rho1 * t - rho * n,
+                            (rho2 - rho) * t - 2.0 * rho1 * n)
+        nu = self._normal_stack(th)
+        c = self._pitch_stack(th, 3)
+        p = c - self.roller_radius * nu
+        return CamCurve(p[0], p[1], p[2], p[3])
+
+    def _normal_stack(self, theta: np.ndarray) -> np.ndarray:
+        """Stack (4, ..., 2) of the pitch curve's outward unit normal ``nu = rot90(c') / |c'|``."""
+        c = self._pitch_stack(theta, 4)
+        d = c[1:]
+        norm2 = _mul(d[..., 0], d[..., 0]) + _mul(d[..., 1], d[..., 1])
+        inv = _reciprocal(_sqrt(norm2))
+        rot = np.stack([-d[..., 1], d[..., 0]], axis=-1)
+        return _mul(rot, inv[..., None])
+
+    def contact_normal(self, theta: Any) -> np.ndarray:
+        """Common normal at cam angle ``theta``, in the cam frame, pointing from the cam to the follower.
+
+        ``n(theta)`` for a flat face; the pitch curve's outward normal for a
+        roller.
+
+        Returns
+        -------
+        ndarray, shape ``theta.shape + (2,)``.
+        """
+        th = _angles(theta)
+        if self.follower == "flat":
+            return _trig_stack(th, 0)[0][0]
+        return self._normal_stack(th)[0]
+
+    def radius_of_curvature(self, u: Any) -> np.ndarray:
+        """Signed radius of curvature of the cam contour (m), positive where the cam is convex.
+
+        Flat face: ``rho = R_b + s + s''``. Roller: ``rho_pitch - r_f``,
+        ``rho_pitch = -|c'|^3 / (c' x c'')`` the pitch curve's (the contour
+        is traversed clockwise as u grows); where the pitch curve is
+        concave the cam is concave with radius ``|rho_pitch| + r_f``.
+
+        Parameters
+        ----------
+        u : array_like
+            Cam angles (rad), any shape.
+
+        Returns
+        -------
+        ndarray of the shape of ``u`` (m).
+        """
+        th = _angles(u, "u")
+        if self.follower == "flat":
+            D = self._stack(th)
+            return self.profile.base_radius + D[0] + D[2]
+        return self._pitch_radius(th) - self.roller_radius
+
+    def _pitch_radius(self, theta: np.ndarray) -> np.ndarray:
+        c = self._pitch_stack(theta, 2)
+        d1, d2 = c[1], c[2]
+        cross = d1[..., 0] * d2[..., 1] - d1[..., 1] * d2[..., 0]
+        with np.errstate(divide="ignore"):
+            return -np.linalg.norm(d1, axis=-1) ** 3 / cross
+
+    def _check_shape(self) -> None:
+        """Refuse a flat face on a non-convex cam and an undercut roller cam."""
+        prof = self.profile
+        if prof.kind == "eccentric":
+            return  # a circle: rho = R (flat face) and a pitch circle of radius R + r_f > r_f (roller)
+        if self.follower == "flat":
+            worst, where = math.inf, 0.0
+            for seg in self._segments:
+                u = np.linspace(seg.start, seg.stop, _SAMPLES)
+                D = seg.stack(u)
+                need = -(D[0] + D[2])
+                i = int(np.argmax(need))
+                if prof.base_radius - need[i] < worst:
+                    worst, where = float(prof.base_radius - need[i]), float(u[i])
+            if not worst > 0:
+                needed = prof.base_radius - worst
+                raise ValueError(
+                    f"base_radius: a flat-faced follower needs a convex cam, radius of curvature R_b + s + s'' > 0, "
+                    f"but it is {worst:.6g} m at cam angle {where:.6g} rad; use base_radius > {needed:.6g} m, "
+                    f"longer rise/fall angles or a smaller lift, or a roller follower"
+                )
+            return
+        for seg in self._segments:
+            u = np.linspace(seg.start, seg.stop, _SAMPLES)
+            rho = self._pitch_radius(u)
+            convex = rho > 0
+            if np.any(convex) and np.min(rho[convex]) <= self.roller_radius:
+                i = int(np.argmin(np.where(convex, rho, np.inf)))
+                raise ValueError(
+                    f"roller_radius: expected less than the pitch curve's smallest convex radius of curvature "
+                    f"{rho[i]:.6g} m (at cam angle {u[i]:.6g} rad), got {self.roller_radius!r}: the cam would be "
+                    f"undercut; use a smaller roller or a larger base_radius"
+                )

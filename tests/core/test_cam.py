@@ -1,0 +1,506 @@
+"""Cam-follower model of core.models against independent oracles.
+
+* Eccentric cam, flat-faced and roller followers: lift against closed
+  forms written out here and against brute-force geometry (the support
+  function of a densely sampled cam contour; the lowest roller position
+  clear of the sampled contour); derivatives against finite differences of
+  the lift; the contact force against the follower's equation of motion
+  with finite-difference accelerations and the geometric normal.
+* Rise-dwell-return laws: boundary values, continuity of s, s' (and s''
+  for cycloidal and 3-4-5), the known peak velocities and accelerations.
+* Cam contours: derivatives against finite differences, the contact point
+  on the contour, convexity and undercut refusals.
+* Jump speed: N(theta) at the jump speed touches zero and is positive
+  below it; the eccentric closed forms.
+* Argument checks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.models import CAM_LAWS, CamCurve, CamFollower, CamKinematics, CamProfile
+
+TWO_PI = 2.0 * math.pi
+
+
+def n_of(theta):
+    """Follower axis seen from the cam (module conventions)."""
+    return np.stack([np.sin(theta), np.cos(theta)], axis=-1)
+
+
+def t_of(theta):
+    return np.stack([np.cos(theta), -np.sin(theta)], axis=-1)
+
+
+def rotate(points, angle):
+    """Points of the cam frame in the fixed frame at cam angle ``angle`` (rotation by +angle)."""
+    c, s = math.cos(angle), math.sin(angle)
+    return points @ np.array([[c, s], [-s, c]])
+
+
+# ------------------------------------------------------------------ eccentric cam
+ECCENTRIC_CASES = [
+    # (radius, eccentricity, follower, roller_radius, offset)
+    (0.04, 0.01, "flat", 0.0, 0.0),
+    (0.04, 0.01, "flat", 0.0, 0.012),
+    (0.05, 0.02, "roller", 0.01, 0.0),
+    (0.05, 0.02, "roller", 0.015, 0.01),
+    (0.03, 0.012, "roller", 0.02, -0.02),
+]
+
+
+def eccentric_lift_closed_form(R, e, follower, rf, eo, theta):
+    """s, s', s'' written out independently of core.models."""
+    if follower == "flat":
+        return e * (1 - np.cos(theta)), e * np.sin(theta), e * np.cos(theta)
+    Rr = R + rf
+    b0 = math.asin(-eo / (Rr - e))
+    b = theta + b0
+    S, C = np.sin(b), np.cos(b)
+    w = eo - e * S
+    q = np.sqrt(Rr**2 - w**2)
+    s0 = math.sqrt((Rr - e) ** 2 - eo**2)
+    s = q - e * C - s0
+    ds = e * S + e * w * C / q
+    dds = e * C - e * (e * C**2 + w * S) / q - (e * w * C) ** 2 / q**3
+    return s, ds, dds
+
+
+@pytest.mark.parametrize("R, e, follower, rf, eo", ECCENTRIC_CASES)
+def test_eccentric_lift_closed_form_and_finite_differences(R, e, follower, rf, eo):
+    cam = CamFollower(CamProfile.eccentric(R, e), follower=follower, roller_radius=rf, offset=eo)
+    theta = np.linspace(-1.0, 7.5, 173)
+    k = cam.kinematics(theta)
+    assert isinstance(k, CamKinematics)
+    s, ds, dds = eccentric_lift_closed_form(R, e, follower, rf, eo, theta)
+    np.testing.assert_allclose(k.lift, s, rtol=0, atol=1e-16)
+    np.testing.assert_allclose(k.dlift, ds, rtol=0, atol=1e-16)
+    np.testing.assert_allclose(k.d2lift, dds, rtol=0, atol=2e-16)
+    h = 1e-5
+    kp, km = cam.kinematics(theta + h), cam.kinematics(theta - h)
+    np.testing.assert_allclose((kp.lift - km.lift) / (2 * h), k.dlift, rtol=0, atol=1e-11)
+    np.testing.assert_allclose((kp.dlift - km.dlift) / (2 * h), k.d2lift, rtol=0, atol=1e-11)
+    np.testing.assert_allclose((kp.lift - 2 * k.lift + km.lift) / h**2, k.d2lift, rtol=0, atol=2e-6)
+    # lowest lift at cam angle 0, zero there; periodic
+    fine = np.linspace(0, TWO_PI, 20001)
+    assert cam.kinematics(0.0).lift == pytest.approx(0.0, abs=1e-17)
+    assert cam.kinematics(fine).lift.min() >= -1e-17
+    np.testing.assert_allclose(cam.kinematics(theta + TWO_PI).lift, k.lift, atol=1e-16)
+
+
+@pytest.mark.parametrize("R, e, follower, rf, eo", ECCENTRIC_CASES)
+def test_eccentric_lift_against_brute_force_geometry(R, e, follower, rf, eo):
+    """The follower's position found from a dense sampling of the cam circle, turned by theta."""
+    cam = CamFollower(CamProfile.eccentric(R, e), follower=follower, roller_radius=rf, offset=eo)
+    u = np.linspace(0, TWO_PI, 200001)
+    b0 = cam.phase
+    centre = e * np.array([math.sin(b0), -math.cos(b0)])  # eccentric centre in the cam frame
+    contour = centre + R * np.stack([np.cos(u), np.sin(u)], axis=-1)
+    theta = np.linspace(0, TWO_PI, 13)
+    heights = []
+    for th in theta:
+        pts = rotate(contour, th)
+        if follower == "flat":
+            heights.append(pts[:, 1].max())  # support function along the follower axis
+        else:
+            dx = pts[:, 0] - eo
+            near = np.abs(dx) <= rf
+            heights.append(np.max(pts[near, 1] + np.sqrt(rf**2 - dx[near] ** 2)))  # lowest roller clear of the cam
+    heights = np.array(heights)
+    s = cam.kinematics(theta).lift
+    # sampled contour: chord error R (du / 2)^2 / 2 ~ 1e-11 m
+    np.testing.assert_allclose(s, heights - heights[0], rtol=0, atol=1e-10)
+    base = R - e if follower == "flat" else math.sqrt((R + rf - e) ** 2 - eo**2)
+    assert heights[0] == pytest.approx(base, abs=1e-10)
+
+
+@pytest.mark.parametrize("R, e, follower, rf, eo", ECCENTRIC_CASES)
+def test_eccentric_contact_force_from_the_equation_of_motion(R, e, follower, rf, eo):
+    m, k, F0, g = 0.4, 1500.0, 12.0, 9.81
+    cam = CamFollower(CamProfile.eccentric(R, e), follower=follower, roller_radius=rf, mass=m, stiffness=k,
+                      preload=F0, gravity=g, offset=eo)
+    omega = 37.0
+    theta = np.linspace(0, TWO_PI, 61)
+    h = 1e-4
+    # follower position y(t) along its axis; acceleration by finite differences in time
+    dt = h / omega
+    lift = lambda th: cam.kinematics(th).lift
+    accel = (lift(theta + h) - 2 * lift(theta) + lift(theta - h)) / dt**2
+    axial = m * accel + k * lift(theta) + F0 + m * g
+    if follower == "flat":
+        normal_axial = np.ones_like(theta)
+    else:
+        # common normal: from the eccentric centre to the roller centre (fixed frame)
+        b = theta + cam.phase
+        centre = np.stack([e * np.sin(b), -e * np.cos(b)], axis=-1)
+        y0 = math.sqrt((R + rf - e) ** 2 - eo**2)
+        roller = np.stack([np.full_like(theta, eo), y0 + lift(theta)], axis=-1)
+        nu = (roller - centre) / (R + rf)
+        np.testing.assert_allclose(np.linalg.norm(roller - centre, axis=-1), R + rf, rtol=1e-13)
+        normal_axial = nu[:, 1]
+        np.testing.assert_allclose(np.cos(cam.pressure_angle(theta)), normal_axial, rtol=1e-13)
+        # the contact normal of the model, turned to the fixed frame
+        n_cam = cam.contact_normal(theta)
+        n_fixed = np.stack([rotate(n_cam[i], theta[i]) for i in range(theta.size)])
+        np.testing.assert_allclose(n_fixed, nu, atol=1e-14)
+    N = cam.contact_force(theta, omega)
+    np.testing.assert_allclose(N, axial / normal_axial, rtol=2e-6)
+    # exact second derivative: agreement to round-off
+    s, _, dds = eccentric_lift_closed_form(R, e, follower, rf, eo, theta)
+    np.testing.assert_allclose(N, (m * omega**2 * dds + k * s + F0 + m * g) / normal_axial, rtol=1e-13)
+    # the speed's sign does not matter
+    np.testing.assert_allclose(cam.contact_force(theta, -omega), N, rtol=0, atol=0)
+
+
+def test_flat_eccentric_jump_speed_closed_form():
+    m, k, F0, g, e = 0.5, 2000.0, 20.0, 9.81, 0.01
+    cam = CamFollower(CamProfile.eccentric(0.04, e), mass=m, stiffness=k, preload=F0, gravity=g)
+    w = cam.jump_speed()
+    assert w == pytest.approx(math.sqrt((2 * k * e + F0 + m * g) / (m * e)), rel=1e-15)
+    assert w == pytest.approx(113.93419153177855, rel=1e-14)
+    theta = np.linspace(0, TWO_PI, 100001)
+    N = cam.contact_force(theta, w)
+    assert abs(N.min()) < 1e-12 * (F0 + m * g)
+    assert theta[np.argmin(N)] == pytest.approx(math.pi, abs=1e-4)
+    assert cam.contact_force(theta, 0.999 * w).min() > 0
+    assert cam.contact_force(theta, 1.001 * w).min() < 0
+
+
+def test_roller_eccentric_jump_speed_at_the_top():
+    """Zero offset: the contact force first vanishes at theta = pi, where s'' = -e (1 + e / (R + r_f))."""
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        R = rng.uniform(0.01, 0.1)
+        e = rng.uniform(0.02, 0.95) * R
+        rf = rng.uniform(0.001, 0.1)
+        m, k, F0 = rng.uniform(0.05, 5.0), 10 ** rng.uniform(-1, 5), rng.uniform(0, 100)
+        cam = CamFollower(CamProfile.eccentric(R, e), follower="roller", roller_radius=rf, mass=m, stiffness=k,
+                          preload=F0)
+        expected = math.sqrt((2 * k * e + F0 + m * 9.81) / (m * e * (1 + e / (R + rf))))
+        assert cam.jump_speed() == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("follower, rf, eo", [("flat", 0.0, 0.0), ("roller", 0.01, 0.0), ("roller", 0.012, 0.008)])
+@pytest.mark.parametrize("law", CAM_LAWS)
+def test_jump_speed_contact_force_touches_zero(law, follower, rf, eo):
+    profile = CamProfile.rise_dwell_return(0.04, 0.02, math.pi / 2, math.pi / 6, math.pi / 2, law=law)
+    cam = CamFollower(profile, follower=follower, roller_radius=rf, offset=eo)
+    w = cam.jump_speed()
+    theta = np.concatenate([np.linspace(0, TWO_PI, 400001), [math.pi / 2, 2 * math.pi / 3, 7 * math.pi / 6]])
+    scale = cam.preload + cam.mass * cam.gravity
+    N = cam.contact_force(theta, w)
+    assert N.min() > -1e-12 * scale
+    assert N.min() < 1e-8 * scale
+    assert cam.contact_force(theta, 0.9999 * w).min() > 0
+    assert cam.contact_force(theta, 1.0001 * w).min() < 0
+    # independent of the follower: the pressure angle does not enter
+    flat = CamFollower(profile)
+    assert w == pytest.approx(flat.jump_speed(), rel=1e-12)
+
+
+def test_default_jump_speeds():
+    """The numbers quoted in docs/models.md."""
+    ecc = CamProfile.eccentric()
+    assert CamFollower(ecc).jump_speed() == pytest.approx(113.934, abs=1e-3)
+    assert CamFollower(ecc, follower="roller", roller_radius=0.01).jump_speed() == pytest.approx(104.007, abs=1e-3)
+    for law, w in (("cycloidal", 48.903), ("harmonic", 56.967), ("345", 51.451)):
+        cam = CamFollower(CamProfile.rise_dwell_return(law=law))
+        assert cam.jump_speed() == pytest.approx(w, abs=1e-3)
+
+
+def test_jump_speed_grows_with_stiffness_and_preload():
+    profile = CamProfile.rise_dwell_return(law="345")
+    speeds = [CamFollower(profile, stiffness=k, preload=F0).jump_speed()
+              for k, F0 in ((0.0, 5.0), (500.0, 5.0), (500.0, 50.0))]
+    assert speeds[0] < speeds[1] < speeds[2]
+    # with no spring rate the bound is min over s'' < 0 of F / (-m s''): the peak deceleration
+    cam = CamFollower(profile, stiffness=0.0, preload=5.0, mass=0.5)
+    peak = 2 * math.pi * 0.02 / (math.pi / 2) ** 2 * 10 / (math.sqrt(3) * 2 * math.pi)  # 345: 10 L / (sqrt 3 b^2)
+    assert cam.jump_speed() == pytest.approx(math.sqrt((5.0 + 0.5 * 9.81) / (0.5 * peak)), rel=1e-9)
+
+
+# ------------------------------------------------------------------ rise-dwell-return laws
+LAW_PEAKS = {
+    # peak s' * beta / L and peak |s''| * beta^2 / L
+    "cycloidal": (2.0, 2 * math.pi),
+    "harmonic": (math.pi / 2, math.pi**2 / 2),
+    "345": (15 / 8, 10 / math.sqrt(3)),
+}
+
+
+@pytest.mark.parametrize("law", CAM_LAWS)
+def test_rise_dwell_return_boundaries_and_continuity(law):
+    L, b1, b2, b3 = 0.015, 1.3, 0.4, 1.9
+    profile = CamProfile.rise_dwell_return(0.05, L, b1, b2, b3, law=law)
+    boundaries = [0.0, b1, b1 + b2, b1 + b2 + b3, TWO_PI]
+    values = [0.0, L, L, 0.0, 0.0]
+    eps = 1e-9
+    for a, v in zip(boundaries, values):
+        left = profile.motion_law(a - eps)
+        right = profile.motion_law(a + eps)
+        at = profile.motion_law(a)
+        assert at.lift == pytest.approx(v, abs=1e-15)
+        assert left.lift == pytest.approx(v, abs=1e-12) and right.lift == pytest.approx(v, abs=1e-12)
+        assert at.dlift == pytest.approx(0.0, abs=1e-15)
+        assert left.dlift == pytest.approx(0.0, abs=1e-10) and right.dlift == pytest.approx(0.0, abs=1e-10)
+        if law != "harmonic":
+            assert at.d2lift == pytest.approx(0.0, abs=1e-13)
+            assert left.d2lift == pytest.approx(0.0, abs=1e-8) and right.d2lift == pytest.approx(0.0, abs=1e-8)
+    # harmonic: the acceleration jumps by L pi^2 / (2 beta^2) at the ends of a rise and a fall
+    if law == "harmonic":
+        jump = profile.motion_law(eps).d2lift - profile.motion_law(-eps).d2lift
+        assert jump == pytest.approx(L * math.pi**2 / (2 * b1**2), rel=1e-8)
+        jump = profile.motion_law(b1 + b2 + eps).d2lift - profile.motion_law(b1 + b2 - eps).d2lift
+        assert jump == pytest.approx(-L * math.pi**2 / (2 * b3**2), rel=1e-8)
+    # dwells are flat
+    dwell = profile.motion_law(np.linspace(b1, b1 + b2, 11))
+    np.testing.assert_allclose(dwell.lift, L, atol=1e-16)
+    low = profile.motion_law(np.linspace(b1 + b2 + b3, TWO_PI, 11))
+    np.testing.assert_allclose(low.lift, 0.0, atol=1e-16)
+    # peaks
+    v_peak, a_peak = LAW_PEAKS[law]
+    rise = profile.motion_law(np.linspace(0, b1, 200001))
+    assert rise.dlift.max() == pytest.approx(v_peak * L / b1, rel=1e-9)
+    assert np.abs(rise.d2lift).max() == pytest.approx(a_peak * L / b1**2, rel=1e-8)
+    fall = profile.motion_law(np.linspace(b1 + b2, b1 + b2 + b3, 200001))
+    assert fall.dlift.min() == pytest.approx(-v_peak * L / b3, rel=1e-9)
+    # monotone rise and fall
+    assert np.all(np.diff(rise.lift) >= 0) and np.all(np.diff(fall.lift) <= 0)
+
+
+@pytest.mark.parametrize("law", CAM_LAWS)
+def test_rise_dwell_return_derivatives_by_finite_differences(law):
+    profile = CamProfile.rise_dwell_return(0.05, 0.015, 1.3, 0.4, 1.9, law=law)
+    # away from the segment ends (where s'' or s''' jump)
+    theta = np.concatenate([np.linspace(0.05, 1.25, 20), np.linspace(1.75, 3.55, 20), np.linspace(3.7, 6.2, 7)])
+    h = 1e-5
+    k, kp, km = profile.motion_law(theta), profile.motion_law(theta + h), profile.motion_law(theta - h)
+    np.testing.assert_allclose((kp.lift - km.lift) / (2 * h), k.dlift, rtol=0, atol=1e-11)
+    np.testing.assert_allclose((kp.dlift - km.dlift) / (2 * h), k.d2lift, rtol=0, atol=1e-10)
+    # every follower sees the motion law as its lift
+    for cam in (CamFollower(profile), CamFollower(profile, follower="roller", roller_radius=0.01, offset=0.01)):
+        got = cam.kinematics(theta)
+        np.testing.assert_array_equal(got.lift, k.lift)
+        np.testing.assert_array_equal(got.d2lift, k.d2lift)
+
+
+def test_rise_without_dwells():
+    profile = CamProfile.rise_dwell_return(0.04, 0.01, math.pi, 0.0, math.pi, law="cycloidal")
+    theta = np.linspace(0, TWO_PI, 9)
+    s = profile.motion_law(theta).lift
+    expected = np.where(theta <= math.pi, 0.01 * (theta / math.pi - np.sin(2 * theta) / TWO_PI),
+                        0.01 * (1 - ((theta - math.pi) / math.pi - np.sin(2 * (theta - math.pi)) / TWO_PI)))
+    np.testing.assert_allclose(s, expected, atol=1e-17)
+
+
+def test_motion_law_of_an_eccentric_cam_is_refused():
+    with pytest.raises(ValueError, match="kind: the eccentric cam has no motion law"):
+        CamProfile.eccentric().motion_law(0.0)
+
+
+# ------------------------------------------------------------------ cam contours
+CONTOUR_CASES = [
+    (CamProfile.eccentric(0.04, 0.01), "flat", 0.0, 0.0),
+    (CamProfile.eccentric(0.04, 0.01), "roller", 0.01, 0.004),
+    (CamProfile.rise_dwell_return(0.04, 0.02, 1.6, 0.5, 1.6, law="cycloidal"), "flat", 0.0, 0.0),
+    (CamProfile.rise_dwell_return(0.04, 0.02, 1.6, 0.5, 1.6, law="345"), "roller", 0.012, 0.006),
+    (CamProfile.rise_dwell_return(0.04, 0.02, 1.6, 0.5, 1.6, law="harmonic"), "roller", 0.01, 0.0),
+]
+
+
+@pytest.mark.parametrize("profile, follower, rf, eo", CONTOUR_CASES)
+def test_cam_curve_derivatives_by_finite_differences(profile, follower, rf, eo):
+    cam = CamFollower(profile, follower=follower, roller_radius=rf, offset=eo)
+    # away from segment ends, where the third derivative jumps
+    u = np.array([0.3, 0.9, 1.4, 1.9, 2.5, 3.0, 3.5, 4.5, 5.5, 6.0])
+    h = 1e-5
+    for curve_of in (cam.cam_curve, cam.pitch_curve):
+        c, cp, cm = curve_of(u), curve_of(u + h), curve_of(u - h)
+        assert isinstance(c, CamCurve) and c.point.shape == (10, 2)
+        scale = np.abs(c.d3).max() + np.abs(c.d2).max()
+        np.testing.assert_allclose((cp.point - cm.point) / (2 * h), c.d1, rtol=0, atol=1e-9 * scale)
+        np.testing.assert_allclose((cp.d1 - cm.d1) / (2 * h), c.d2, rtol=0, atol=1e-9 * scale)
+        np.testing.assert_allclose((cp.d2 - cm.d2) / (2 * h), c.d3, rtol=0, atol=1e-8 * scale)
+
+
+@pytest.mark.parametrize("profile, follower, rf, eo", CONTOUR_CASES)
+def test_cam_curve_point_is_the_contact_point(profile, follower, rf, eo):
+    cam = CamFollower(profile, follower=follower, roller_radius=rf, offset=eo)
+    theta = np.linspace(0, TWO_PI, 41)
+    contour = cam.cam_curve(np.linspace(0, TWO_PI, 20001)).point
+    p = cam.cam_curve(theta).point
+    s = cam.kinematics(theta).lift
+    n, t = n_of(theta), t_of(theta)
+    if follower == "flat":
+        # on the face, and the face supports the whole cam
+        np.testing.assert_allclose(np.sum(p * n, -1), profile.base_radius + s, atol=1e-15)
+        support = (contour @ n.T).max(axis=0)
+        np.testing.assert_allclose(support, profile.base_radius + s, atol=1e-9)
+    else:
+        y0 = math.sqrt((profile.base_radius + rf) ** 2 - eo**2)
+        centre = eo * t + (y0 + s)[:, None] * n
+        np.testing.assert_allclose(cam.pitch_curve(theta).point, centre, atol=1e-16)
+        np.testing.assert_allclose(np.linalg.norm(p - centre, axis=-1), rf, rtol=1e-13)
+        # the roller clears the cam everywhere: no contour point inside it
+        d = np.linalg.norm(contour[:, None, :] - centre[None], axis=-1)
+        assert d.min() > rf - 1e-9
+        # the normal is along the line from the contact point to the centre
+        np.testing.assert_allclose(cam.contact_normal(theta), (centre - p) / rf, atol=1e-12)
+    # the contour is tangent to the follower at the contact point
+    d1 = cam.cam_curve(theta).d1
+    normal = cam.contact_normal(theta)
+    np.testing.assert_allclose(np.sum(d1 * normal, -1), 0.0, atol=1e-15)
+
+
+def test_eccentric_contour_is_the_circle():
+    for follower, rf, eo in (("flat", 0.0, 0.01), ("roller", 0.01, 0.0), ("roller", 0.01, -0.02)):
+        cam = CamFollower(CamProfile.eccentric(0.04, 0.01), follower=follower, roller_radius=rf, offset=eo)
+        centre = 0.01 * np.array([math.sin(cam.phase), -math.cos(cam.phase)])
+        p = cam.cam_curve(np.linspace(0, TWO_PI, 101)).point
+        np.testing.assert_allclose(np.linalg.norm(p - centre, axis=-1), 0.04, rtol=1e-14)
+        np.testing.assert_allclose(cam.radius_of_curvature(np.linspace(0, 6, 7)), 0.04, rtol=1e-12)
+
+
+@pytest.mark.parametrize("profile, follower, rf, eo", CONTOUR_CASES)
+def test_radius_of_curvature_against_the_contour(profile, follower, rf, eo):
+    cam = CamFollower(profile, follower=follower, roller_radius=rf, offset=eo)
+    u = np.array([0.3, 0.9, 1.4, 1.9, 2.5, 3.0, 3.5, 4.5, 5.5, 6.0])
+    h = 1e-4
+    pts = [cam.cam_curve(u + k * h).point for k in (-1, 0, 1)]
+    d1 = (pts[2] - pts[0]) / (2 * h)
+    d2 = (pts[2] - 2 * pts[1] + pts[0]) / h**2
+    cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    rho_fd = -np.linalg.norm(d1, axis=-1) ** 3 / cross  # clockwise: convex parts have cross < 0
+    np.testing.assert_allclose(cam.radius_of_curvature(u), rho_fd, rtol=1e-5)
+
+
+def test_flat_face_needs_a_convex_cam():
+    profile = CamProfile.rise_dwell_return(0.01, 0.03, math.pi / 4, 0.2, math.pi / 4)
+    with pytest.raises(ValueError, match=r"base_radius: a flat-faced follower needs a convex cam.*use base_radius > 0\.27"):
+        CamFollower(profile)
+    # the base radius it names is enough
+    needed = 0.27834
+    CamFollower(CamProfile.rise_dwell_return(needed + 1e-4, 0.03, math.pi / 4, 0.2, math.pi / 4))
+    with pytest.raises(ValueError, match="base_radius"):
+        CamFollower(CamProfile.rise_dwell_return(needed - 1e-4, 0.03, math.pi / 4, 0.2, math.pi / 4))
+    # a roller follower can ride the same motion law
+    CamFollower(profile, follower="roller", roller_radius=0.005)
+
+
+def test_undercut_roller_is_refused():
+    profile = CamProfile.rise_dwell_return(0.01, 0.03, math.pi / 4, 0.2, math.pi / 4)
+    with pytest.raises(ValueError, match="roller_radius: expected less than the pitch curve's smallest convex radius"):
+        CamFollower(profile, follower="roller", roller_radius=0.02)
+
+
+# ------------------------------------------------------------------ shapes and arguments
+@pytest.mark.parametrize("shape", [(), (1,), (3, 1, 2, 1)])
+def test_batch_shapes(shape):
+    rng = np.random.default_rng(3)
+    theta = rng.uniform(-7, 7, shape)
+    for cam in (CamFollower(CamProfile.eccentric(), follower="roller", roller_radius=0.01, offset=0.005),
+                CamFollower(CamProfile.rise_dwell_return(law="345"))):
+        k = cam.kinematics(theta)
+        assert k.lift.shape == shape and k.dlift.shape == shape and k.d2lift.shape == shape
+        assert cam.contact_force(theta, 30.0).shape == shape
+        assert cam.pressure_angle(theta).shape == shape
+        assert cam.radius_of_curvature(theta).shape == shape
+        assert cam.contact_normal(theta).shape == shape + (2,)
+        for c in (cam.cam_curve(theta), cam.pitch_curve(theta)):
+            assert c.point.shape == c.d1.shape == c.d2.shape == c.d3.shape == shape + (2,)
+        flat = np.ravel(theta)
+        np.testing.assert_array_equal(np.ravel(k.lift), cam.kinematics(flat).lift)
+
+
+def test_pressure_angle_is_zero_for_a_flat_face():
+    cam = CamFollower(CamProfile.eccentric(), offset=0.01)
+    np.testing.assert_array_equal(cam.pressure_angle(np.linspace(0, 6, 7)), 0.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(radius=0.0), "radius: expected a finite number > 0"),
+        (dict(radius=-1.0), "radius: expected a finite number > 0"),
+        (dict(radius=float("nan")), "radius: expected a finite number > 0"),
+        (dict(eccentricity=0.0), "eccentricity: expected a finite number > 0"),
+        (dict(radius=0.02, eccentricity=0.02), "eccentricity: expected less than radius"),
+        (dict(eccentricity=1j), "eccentricity: expected real numbers, got complex"),
+        (dict(radius="big"), "radius: expected a finite number > 0"),
+    ],
+)
+def test_eccentric_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        CamProfile.eccentric(**kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(base_radius=0.0), "base_radius: expected a finite number > 0"),
+        (dict(lift=-0.01), "lift: expected a finite number > 0"),
+        (dict(rise=0.0), "rise: expected a finite number > 0"),
+        (dict(fall=float("inf")), "fall: expected a finite number > 0"),
+        (dict(dwell=-0.1), "dwell: expected a finite number >= 0"),
+        (dict(rise=3.0, dwell=1.0, fall=3.0), r"rise, dwell, fall: expected rise \+ dwell \+ fall <= 2 pi"),
+        (dict(law="parabolic"), "law: expected one of"),
+        (dict(law=None), "law: expected one of"),
+    ],
+)
+def test_rise_dwell_return_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        CamProfile.rise_dwell_return(**kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(follower="knife"), "follower: expected one of"),
+        (dict(roller_radius=0.01), "roller_radius: a flat-faced follower has no roller"),
+        (dict(follower="roller"), "roller_radius: expected a roller radius > 0"),
+        (dict(follower="roller", roller_radius=-0.01), "roller_radius: expected a finite number >= 0"),
+        (dict(mass=0.0), "mass: expected a finite number > 0"),
+        (dict(mass=True), "mass: expected a finite number > 0"),
+        (dict(stiffness=-1.0), "stiffness: expected a finite number >= 0"),
+        (dict(preload=-1.0), "preload: expected a finite number >= 0"),
+        (dict(preload=0.0, gravity=0.0), r"preload: expected preload \+ mass \* gravity > 0"),
+        (dict(preload=1.0, gravity=-9.81, mass=0.5), r"preload: expected preload \+ mass \* gravity > 0"),
+        (dict(gravity=float("nan")), "gravity: expected a finite acceleration"),
+        (dict(offset=float("inf")), "offset: expected a finite distance"),
+        (dict(follower="roller", roller_radius=0.01, offset=0.04), r"offset: expected \|offset\| < radius - eccentricity \+ roller_radius"),
+    ],
+)
+def test_follower_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        CamFollower(CamProfile.eccentric(0.04, 0.01), **kwargs)
+
+
+def test_follower_argument_types_and_calls():
+    with pytest.raises(ValueError, match="profile: expected a CamProfile"):
+        CamFollower("eccentric")
+    profile = CamProfile.rise_dwell_return()
+    with pytest.raises(ValueError, match=r"offset: expected \|offset\| < base_radius \+ roller_radius"):
+        CamFollower(profile, follower="roller", roller_radius=0.01, offset=-0.06)
+    cam = CamFollower(profile)
+    with pytest.raises(ValueError, match="theta: expected finite cam angles"):
+        cam.kinematics([0.0, float("nan")])
+    with pytest.raises(ValueError, match="theta: expected real numbers, got complex"):
+        cam.kinematics(1j)
+    with pytest.raises(ValueError, match="speed: expected a finite cam speed"):
+        cam.contact_force(0.0, float("inf"))
+    with pytest.raises(ValueError, match="u: expected finite cam angles"):
+        cam.cam_curve(float("nan"))
+    # a negative gravity component is allowed while the preload holds the follower on the cam
+    held = CamFollower(profile, gravity=-9.81, preload=10.0)
+    assert held.jump_speed() < cam.jump_speed()
+
+
+def test_follower_is_frozen_and_values_are_floats():
+    cam = CamFollower(CamProfile.eccentric(), mass=1, stiffness=100, preload=5, offset=0)
+    assert isinstance(cam.mass, float) and isinstance(cam.stiffness, float) and isinstance(cam.offset, float)
+    with pytest.raises(AttributeError):
+        cam.mass = 2.0  # type: ignore[misc]
