@@ -8,10 +8,12 @@ the body and joint handles). Global +z is up; SI units.
 from ._cam import CAM_LAWS, FOLLOWER_KINDS, CamCurve, CamFollower, CamKinematics, CamProfile
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
 from ._pendulum import ROD_RADIUS_RATIO, pendulum_chain
+from ._rolling_disk import FLAT_LEAN, RollingDiskMotion, rolling_disk_critical_spin, rolling_disk_reference
 from ._top import HeavyTop, heavy_top
 
 __all__ = [
     "CAM_LAWS",
+    "FLAT_LEAN",
     "FOLLOWER_KINDS",
     "ROD_RADIUS_RATIO",
     "CamCurve",
@@ -19,10 +21,13 @@ __all__ = [
     "CamKinematics",
     "CamProfile",
     "HeavyTop",
+    "RollingDiskMotion",
     "SliderCrank",
     "SpatialDoublePendulum",
     "heavy_top",
     "pendulum_chain",
+    "rolling_disk_critical_spin",
+    "rolling_disk_reference",
     "slider_crank",
     "spatial_double_pendulum",
 ]

@@ -1,0 +1,312 @@
+"""A thin uniform disk on the ground: rolling without slip or sliding without friction.
+
+Conventions: global +z is up and the ground is the plane z = 0. The disk's
+symmetry axis is its body y axis; at the identity orientation the disk
+stands upright in the global x-z plane and a positive spin about +y rolls
+it along global +x. Its attitude is described by the intrinsic ``"ZXY"``
+Euler angles ``(psi, theta, phi)``: heading ``psi`` about +z, lean
+``theta`` about the rolling direction ``f1 = (cos psi, sin psi, 0)``
+(positive lean tips the top of the disk towards ``-f2``, the symmetry axis
+``f2`` rising), spin angle ``phi`` about the symmetry axis, so
+``A = Rz(psi) Rx(theta) Ry(phi)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from core._validation import float_array, real_number
+from core.rotations import euler_parameters_from_euler_angles
+
+__all__ = [
+    "FLAT_LEAN",
+    "RollingDiskMotion",
+    "rolling_disk_critical_spin",
+    "rolling_disk_reference",
+]
+
+#: Lean (rad) at which :func:`rolling_disk_reference` stops: the disk has
+#: fallen (the heading equation is singular at pi / 2, the disk flat).
+FLAT_LEAN = 1.5
+
+
+def _positive(x: Any, name: str, unit: str) -> float:
+    v = real_number(x, name, expected=f"a finite number > 0 ({unit})")
+    if not v > 0:
+        raise ValueError(f"{name}: expected a finite number > 0 ({unit}), got {v!r}")
+    return v
+
+
+def _disk_arguments(radius: Any, mass: Any, lean: Any, spin: Any, rolling: Any, heading_rate: Any, gravity: Any):
+    R = _positive(radius, "radius", "m")
+    m = _positive(mass, "mass", "kg")
+    lean = real_number(lean, "lean", expected="a finite lean angle (rad)")
+    if not abs(lean) < FLAT_LEAN:
+        raise ValueError(f"lean: expected |lean| < {FLAT_LEAN} rad (the disk standing on its rim), got {lean!r}")
+    spin = real_number(spin, "spin", expected="a finite spin rate (rad/s)")
+    if not isinstance(rolling, (bool, np.bool_)):
+        raise ValueError(f"rolling: expected True (rolling without slip) or False (frictionless sliding), got {rolling!r}")
+    heading_rate = real_number(heading_rate, "heading_rate", expected="a finite heading rate (rad/s)")
+    g = real_number(gravity, "gravity", expected="a finite g >= 0 (m/s^2)")
+    if g < 0:
+        raise ValueError(f"gravity: expected a finite g >= 0 (m/s^2), got {g!r}")
+    return R, m, lean, spin, bool(rolling), heading_rate, g
+
+
+def rolling_disk_critical_spin(radius: float = 0.1, *, rolling: bool = True, gravity: float = 9.81) -> float:
+    """Spin (rad/s) above which the upright disk is stable: ``sqrt(g / (3 R))`` rolling, ``sqrt(g / R)`` sliding.
+
+    Linearizing the reduced equations (see :func:`rolling_disk_reference`)
+    about upright motion (``theta = 0``, ``psi_dot = 0``, spin ``Omega``)
+    gives, with ``A = m R^2 / 4`` and ``C = m R^2 / 2`` the thin disk's
+    moments about a diameter and the axis:
+
+    * rolling: ``A psi_ddot = -C Omega theta_dot`` and ``(A + m R^2)
+      theta_ddot = (C + m R^2) Omega psi_dot + m g R theta``, so
+      ``theta_ddot = [m g R - C (C + m R^2) Omega^2 / A] theta / (A + m
+      R^2)``: stable (a wobble of angular frequency ``sqrt((4 / 5) (3
+      Omega^2 - g / R))``) when ``Omega^2 > m g R A / (C (C + m R^2)) = g /
+      (3 R)``, i.e. when the rolling speed ``v = Omega R`` has ``v^2 > g R /
+      3`` (Routh's classic result for the rolling disk; see e.g. O. M.
+      O'Reilly, "The dynamics of rolling disks and sliding disks",
+      Nonlinear Dynamics 10, 1996);
+    * frictionless sliding: ``A theta_ddot = C Omega psi_dot + m g R
+      theta``, ``A psi_ddot = -C Omega theta_dot``: stable when ``Omega^2 >
+      m g R A / C^2 = g / R``.
+
+    At the critical spin itself the linearization has a double zero
+    eigenvalue (neutral, not asymptotically stable).
+
+    Parameters
+    ----------
+    radius : float
+        R (m), > 0.
+    rolling : bool, keyword-only
+        True: rolling without slip; False: sliding without friction.
+    gravity : float, keyword-only
+        g (m/s^2), >= 0.
+
+    Returns
+    -------
+    float
+        Omega_critical (rad/s); independent of the mass.
+    """
+    R, _, _, _, rolling, _, g = _disk_arguments(radius, 1.0, 0.0, 0.0, rolling, 0.0, gravity)
+    return math.sqrt(g / (3.0 * R)) if rolling else math.sqrt(g / R)
+
+
+@dataclass(frozen=True)
+class RollingDiskMotion:
+    """Motion of the thin disk from its reduced equations (see :func:`rolling_disk_reference`).
+
+    Attributes
+    ----------
+    t : (n,) ndarray
+        Times (s).
+    lean, heading, spin_angle : (n,) ndarray
+        ``theta``, ``psi``, ``phi`` (rad), the ``"ZXY"`` angles of the
+        module conventions.
+    lean_rate, heading_rate : (n,) ndarray
+        ``theta_dot``, ``psi_dot`` (rad/s).
+    spin : (n,) ndarray
+        ``omega_2 = psi_dot sin theta + phi_dot`` (rad/s): the angular
+        velocity component along the symmetry axis (body y).
+    orientation : (n, 4) ndarray
+        Euler parameters (theta0, theta1, theta2, theta3), scalar first,
+        of ``A = Rz(psi) Rx(theta) Ry(phi)``.
+    centre : (n, 3) ndarray
+        Centre of mass, global (m).
+    velocity : (n, 3) ndarray
+        Velocity of the centre, global (m/s).
+    omega : (n, 3) ndarray
+        Angular velocity, global (rad/s).
+    contact_point : (n, 3) ndarray
+        Lowest point of the rim, global (m); on the ground (z = 0).
+    normal_force : (n,) ndarray
+        Vertical (normal) component of the ground's force on the disk,
+        ``m (g + z_ddot)`` (N); the equations assume it stays > 0.
+    energy : (n,) ndarray
+        Kinetic plus gravitational energy (J), gravity's zero at z = 0.
+    """
+
+    t: np.ndarray  # (n,)
+    lean: np.ndarray  # (n,)
+    heading: np.ndarray  # (n,)
+    spin_angle: np.ndarray  # (n,)
+    lean_rate: np.ndarray  # (n,)
+    heading_rate: np.ndarray  # (n,)
+    spin: np.ndarray  # (n,)
+    orientation: np.ndarray  # (n, 4)
+    centre: np.ndarray  # (n, 3)
+    velocity: np.ndarray  # (n, 3)
+    omega: np.ndarray  # (n, 3)
+    contact_point: np.ndarray  # (n, 3)
+    normal_force: np.ndarray  # (n,)
+    energy: np.ndarray  # (n,)
+
+
+def rolling_disk_reference(
+    t: Any,
+    radius: float = 0.1,
+    mass: float = 1.0,
+    lean: float = 0.0,
+    spin: float = 20.0,
+    rolling: bool = True,
+    *,
+    heading_rate: float = 0.0,
+    lean_rate: float = 0.0,
+    gravity: float = 9.81,
+    rtol: float = 1e-13,
+    atol: float = 1e-13,
+) -> RollingDiskMotion:
+    """The thin uniform disk from its reduced equations in lean, heading and spin (DOP853).
+
+    An independent formulation of :func:`rolling_disk` (minimal
+    coordinates, no constraints): the reference that tests and benchmarks
+    compare the System's contact with. With ``A = m R^2 / 4``, ``C = m R^2
+    / 2``, ``s = sin theta``, ``c = cos theta`` and ``omega_2 = psi_dot s +
+    phi_dot`` (spin about the symmetry axis), the angular momentum about the
+    centre in the lean frame ``(f1, f2, f3)`` (rolling direction, symmetry
+    axis, centre above the contact point) is ``(A theta_dot, C omega_2, A
+    psi_dot c)``, and the moment equations about the centre with the
+    contact force ``F = m a + m g e_z`` acting at ``-R f3`` give
+
+    * rolling without slip (``v = R omega_2 f1 - R theta_dot f2``):
+
+      .. math::
+
+          (A + m R^2) \\ddot\\theta &= -A \\dot\\psi^2 s c + (C + m R^2) \\dot\\psi c \\omega_2 + m g R s \\\\
+          (C + m R^2) \\dot\\omega_2 &= -m R^2 \\dot\\psi \\dot\\theta c \\\\
+          A c \\ddot\\psi &= 2 A \\dot\\psi \\dot\\theta s - C \\dot\\theta \\omega_2
+
+    * sliding without friction (the horizontal velocity of the centre is
+      constant, ``z = R c``):
+
+      .. math::
+
+          (A + m R^2 s^2) \\ddot\\theta &= -A \\dot\\psi^2 s c + C \\dot\\psi c \\omega_2 + m R s (g - R c \\dot\\theta^2) \\\\
+          \\dot\\omega_2 &= 0, \\qquad A c \\ddot\\psi = 2 A \\dot\\psi \\dot\\theta s - C \\dot\\theta \\omega_2
+
+    with ``phi_dot = omega_2 - psi_dot s``. These are the classic rolling
+    (and sliding) coin equations written in this module's angles.
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Non-decreasing output times (s), at least one; the state below is
+        the state at ``t[0]``.
+    radius, mass : float
+        R (m) and m (kg), > 0.
+    lean : float
+        Initial lean theta (rad), ``|lean| < FLAT_LEAN``.
+    spin : float
+        Initial omega_2 (rad/s); positive rolls towards +x at heading 0.
+    rolling : bool
+        True: rolling without slip; False: sliding without friction.
+    heading_rate, lean_rate : float, keyword-only
+        Initial psi_dot and theta_dot (rad/s).
+    gravity : float, keyword-only
+        g (m/s^2) along -z, >= 0.
+    rtol, atol : float, keyword-only
+        DOP853's tolerances, > 0.
+
+    The disk starts with heading 0 and spin angle 0, its contact point at
+    the origin and the centre's velocity that of rolling without slip
+    (also when sliding, which then keeps its horizontal part).
+
+    Returns
+    -------
+    RollingDiskMotion
+
+    Raises
+    ------
+    ValueError
+        For bad arguments.
+    RuntimeError
+        When the disk falls (``|lean|`` reaches ``FLAT_LEAN``) or DOP853
+        fails.
+    """
+    R, m, lean, spin, rolling, heading_rate, g = _disk_arguments(radius, mass, lean, spin, rolling, heading_rate,
+                                                                 gravity)
+    lean_rate = real_number(lean_rate, "lean_rate", expected="a finite lean rate (rad/s)")
+    times = float_array(t, "t", expected="non-decreasing output times (s)")
+    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
+        raise ValueError(f"t: expected a non-empty 1-d array of finite non-decreasing times (s), got shape "
+                         f"{times.shape}")
+    tolerances = []
+    for name, value in (("rtol", rtol), ("atol", atol)):
+        tolerances.append(_positive(value, name, "tolerance"))
+    A, C, mR2 = 0.25 * m * R * R, 0.5 * m * R * R, m * R * R
+
+    def accelerations(th: float, thd: float, psd: float, w2: float) -> tuple[float, float, float]:
+        s, c = math.sin(th), math.cos(th)
+        if rolling:
+            thdd = (-A * psd * psd * s * c + (C + mR2) * psd * c * w2 + m * g * R * s) / (A + mR2)
+            w2d = -mR2 * psd * thd * c / (C + mR2)
+        else:
+            thdd = (-A * psd * psd * s * c + C * psd * c * w2 + m * R * s * (g - R * c * thd * thd)) / (A + mR2 * s * s)
+            w2d = 0.0
+        psdd = (2.0 * A * psd * thd * s - C * thd * w2) / (A * c)
+        return thdd, psdd, w2d
+
+    # centre velocity at t[0]: rolling without slip, v = R w2 f1 - R theta_dot f2 (heading 0)
+    s0, c0 = math.sin(lean), math.cos(lean)
+    v0 = np.array([R * spin, -R * lean_rate * c0, -R * lean_rate * s0])
+
+    def rhs(_t: float, y: np.ndarray) -> np.ndarray:
+        th, ps, _ph, thd, psd, w2, _x, _y = y
+        thdd, psdd, w2d = accelerations(th, thd, psd, w2)
+        s, c = math.sin(th), math.cos(th)
+        if rolling:
+            cp, sp = math.cos(ps), math.sin(ps)
+            xd = R * w2 * cp + R * thd * c * sp
+            yd = R * w2 * sp - R * thd * c * cp
+        else:
+            xd, yd = v0[0], v0[1]
+        return np.array([thd, psd, w2 - psd * s, thdd, psdd, w2d, xd, yd])
+
+    def fallen(_t: float, y: np.ndarray) -> float:
+        return FLAT_LEAN - abs(y[0])
+
+    fallen.terminal = True  # type: ignore[attr-defined]
+    y0 = np.array([lean, 0.0, 0.0, lean_rate, heading_rate, spin, 0.0, -R * s0])
+    if times[-1] > times[0]:
+        sol = solve_ivp(rhs, (times[0], times[-1]), y0, method="DOP853", rtol=tolerances[0], atol=tolerances[1],
+                        t_eval=times, events=fallen)
+        if sol.status == 1:
+            raise RuntimeError(
+                f"rolling_disk_reference: the disk fell (|lean| reached FLAT_LEAN = {FLAT_LEAN} rad) at "
+                f"t = {sol.t_events[0][0]:.6g} s; ask for earlier times"
+            )
+        if not sol.success:
+            raise RuntimeError(f"rolling_disk_reference: DOP853 failed: {sol.message}")
+        y = sol.y.T
+    else:
+        y = np.tile(y0, (times.size, 1))
+    th, ps, ph, thd, psd, w2 = (y[:, k].copy() for k in range(6))
+    s, c = np.sin(th), np.cos(th)
+    sp, cp = np.sin(ps), np.cos(ps)
+    f1 = np.stack([cp, sp, np.zeros_like(cp)], axis=-1)
+    f2 = np.stack([-sp * c, cp * c, s], axis=-1)
+    f3 = np.stack([sp * s, -cp * s, c], axis=-1)
+    centre = np.stack([y[:, 6], y[:, 7], R * c], axis=-1)
+    if rolling:
+        velocity = R * w2[:, None] * f1 - R * thd[:, None] * f2
+    else:
+        velocity = np.stack([np.full_like(th, v0[0]), np.full_like(th, v0[1]), -R * s * thd], axis=-1)
+    omega = thd[:, None] * f1 + w2[:, None] * f2 + (psd * c)[:, None] * f3
+    thdd = np.array([accelerations(*v)[0] for v in zip(th, thd, psd, w2)])
+    normal = m * (g - R * (c * thd * thd + s * thdd))
+    kinetic = 0.5 * m * np.einsum("ij,ij->i", velocity, velocity) + 0.5 * (A * thd**2 + C * w2**2 + A * (psd * c) ** 2)
+    energy = kinetic + m * g * R * c
+    orientation = euler_parameters_from_euler_angles(np.stack([ps, th, ph], axis=-1), "ZXY")
+    return RollingDiskMotion(
+        t=times.copy(), lean=th, heading=ps, spin_angle=ph, lean_rate=thd, heading_rate=psd, spin=w2,
+        orientation=orientation, centre=centre, velocity=velocity, omega=omega, contact_point=centre - R * f3,
+        normal_force=normal, energy=energy,
+    )
