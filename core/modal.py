@@ -1,0 +1,1101 @@
+r"""Stability and eigenvalue analysis of constrained multibody systems (Eqs. 8.110-8.131).
+
+Three steps, each a function of data (MuJoCo's model/data split: nothing
+here changes a System):
+
+* :func:`linearize` (Eqs. 8.110-8.112): the equations of motion of a
+  :class:`core.multibody.System` linearized about its current state (an
+  equilibrium or a steady motion) and embedded in the degrees of freedom
+  through an orthonormal basis of the null space of the constraint
+  Jacobian: ``M u_ddot + (C + G) u_dot + K u = 0``. ``K`` holds the
+  stiffness of the applied forces *and* the geometric stiffness of the
+  constraint forces (the derivative of ``C_q^T lambda``).
+* :meth:`LinearModel.modes` (Eqs. 8.113-8.131): the undamped generalized
+  symmetric eigenproblem ``K phi = omega^2 M phi`` when there is no
+  velocity coupling, else the state-space problem ``A x = s x``; real mode
+  shapes from conjugate pairs, ``omega_n = abs(s)`` and ``xi = -Re(s) /
+  abs(s)``, stability from the real parts.
+* :func:`sweep`: the modes over a parameter (Campbell diagrams, root
+  loci) on any :class:`concurrent.futures.Executor`, modes tracked by shape
+  correlation, stability boundaries by root finding.
+
+Conventions: SI units, global +Z up; in the tangent coordinates of a
+linearization a body's perturbation is ``(dR, dtheta)``, a translation of
+its centre of mass and a small rotation, both global (``A = exp(skew(dtheta))
+A0``); :meth:`Modes.body_shapes` returns them in the layout of
+:meth:`core.multibody.State.displaced` (rotations in the body frame). The
+formulation is explained in ``docs/modal.md``.
+
+Example::
+
+    from core.models import pendulum_chain
+    from core.modal import linearize
+    modes = linearize(pendulum_chain(3, kind="point")).modes()
+    modes.frequency_hz[::2]        # one entry per conjugate pair
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import csv
+import io
+import json
+import math
+import os
+import pickle
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+from scipy.optimize import brentq, linear_sum_assignment
+
+from core._validation import float_array, real_number, short_repr
+
+__all__ = [
+    "RIGID_TOL",
+    "STABILITY_TOL",
+    "Embedding",
+    "LinearModel",
+    "ModeMotion",
+    "Modes",
+    "SweepResult",
+    "linearize",
+    "sweep",
+]
+
+#: Relative tolerance of the real parts: a mode with ``Re(s) <= STABILITY_TOL *
+#: scale`` is stable and one with ``abs(Re(s)) <= STABILITY_TOL * scale`` is
+#: critical (undamped), ``scale`` the largest ``abs(s)`` of the model.
+STABILITY_TOL = 1e-8
+#: Relative tolerance of a rigid-body (zero) mode: ``abs(s) <= RIGID_TOL *
+#: scale`` (a double zero eigenvalue moves by the square root of the
+#: round-off in ``K``, so this is looser than ``STABILITY_TOL``).
+RIGID_TOL = 1e-6
+#: Relative asymmetry of ``K`` up to which the undamped problem is solved as
+#: the symmetric ``K phi = omega^2 M phi`` (Eqs. 8.113-8.116).
+SYMMETRY_TOL = 1e-9
+#: Finite-difference step of the positions: ``STEP * l`` (m) for a body with
+#: length scale ``l`` and ``STEP`` rad for rotations; Richardson-extrapolated.
+STEP = 1e-3
+
+
+# ------------------------------------------------------------------ validation
+def _matrix(x: Any, name: str, shape: tuple[int, int] | None = None) -> np.ndarray:
+    a = float_array(x, name, expected="a 2-d array of real numbers", copy=True)
+    if a.ndim != 2 or (shape is not None and a.shape != shape):
+        want = f"shape {shape}" if shape is not None else "a 2-d array"
+        raise ValueError(f"{name}: expected {want}, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected finite values")
+    a.setflags(write=False)
+    return a
+
+
+def _ro(a: np.ndarray) -> np.ndarray:
+    a = np.array(a)
+    a.setflags(write=False)
+    return a
+
+
+# ------------------------------------------------------------------ embedding
+@dataclass(frozen=True)
+class Embedding:
+    """How the degrees of freedom of a :func:`linearize` model map to the bodies.
+
+    ``n`` bodies; tangent coordinates ``z = [dR (3n) | dtheta (3n)]``
+    (translations of the centres of mass and small rotations, both global at
+    time ``t``, measured in the observer frame turning at ``frame_omega``).
+
+    Attributes
+    ----------
+    basis : (6n, f) ndarray
+        Orthonormal basis of the position perturbations the constraints
+        allow: ``z = basis @ u`` (Eq. 8.111).
+    velocity_basis : (6n, f_v) ndarray
+        The same for the velocities (equal to ``basis`` without rolling
+        constraints): ``z_dot = velocity_basis @ s``.
+    t : float
+        Time of the reference state (s).
+    q0 : (7n,) ndarray
+        Reference configuration ``[R, p]`` (m; Euler parameters, scalar first).
+    v0 : (6n,) ndarray
+        Reference velocities ``[R_dot, omega_body]`` (m/s; rad/s, body frame).
+    frame_omega : (3,) ndarray
+        Angular velocity of the observer frame (global, rad/s).
+    body_names : tuple of str
+    n_rows : int
+        Constraint rows of the System (a check that ``body_shapes`` gets the
+        same System).
+    """
+
+    basis: np.ndarray = field(repr=False)  # (6n, f)
+    velocity_basis: np.ndarray = field(repr=False)  # (6n, f_v)
+    t: float
+    q0: np.ndarray = field(repr=False)  # (7n,)
+    v0: np.ndarray = field(repr=False)  # (6n,)
+    frame_omega: np.ndarray  # (3,)
+    body_names: tuple[str, ...]
+    n_rows: int
+
+    @property
+    def n_bodies(self) -> int:
+        """Number of bodies."""
+        return len(self.body_names)
+
+    def check(self, system: Any) -> None:
+        """Raise ValueError unless ``system`` has the bodies and rows this embedding was made for."""
+        from core.multibody import System
+
+        if not isinstance(system, System):
+            raise ValueError(f"system: expected a core.multibody.System, got {short_repr(system)}")
+        names = tuple(b.name for b in system.bodies)
+        rows = system._engine().m
+        if names != self.body_names or rows != self.n_rows:
+            raise ValueError(
+                f"system: expected the System that was linearized ({self.n_bodies} bodies, {self.n_rows} constraint "
+                f"rows), got one with {len(names)} bodies and {rows} rows"
+            )
+
+    def body_coordinates(self, z: np.ndarray) -> np.ndarray:
+        """Tangent vectors ``z`` (..., 6n) in the layout of ``State.displaced``: ``[dR (3n) | dpi_body (3n)]``."""
+        n = self.n_bodies
+        from core.multibody._engine import matrices
+
+        A = matrices(self.q0[3 * n :].reshape(n, 4))
+        out = np.array(z, copy=True)
+        th = out[..., 3 * n :].reshape(out.shape[:-1] + (n, 3))
+        out[..., 3 * n :] = np.einsum("bji,...bj->...bi", A, th).reshape(out.shape[:-1] + (3 * n,))
+        return out
+
+
+# ------------------------------------------------------------------ linear model
+class LinearModel:
+    r"""A linear(ized) mechanical system ``M u_ddot + (C + G) u_dot + K u = 0`` (Eq. 8.112).
+
+    Parameters
+    ----------
+    M : (f_v, f_v) array_like
+        Mass matrix, symmetric positive definite.
+    K : (f_v, f) array_like
+        Stiffness (square unless ``velocity_map`` is given); not
+        symmetrized (a skew part is a circulatory force).
+    C : (f_v, f_v) array_like or None
+        Damping (symmetric for viscous damping; any matrix is accepted).
+    G : (f_v, f_v) array_like or None
+        Gyroscopic matrix, skew-symmetric (relative tolerance 1e-9).
+    velocity_map : (f, f_v) array_like or None, keyword-only
+        Rolling (nonholonomic) systems only: ``u_dot = velocity_map @ s``
+        with ``s`` the ``f_v < f`` independent velocities; then the
+        equations are ``M s_dot + (C + G) s + K u = 0``. Default: the
+        identity (``s = u_dot``).
+    embedding : Embedding or None, keyword-only
+        Set by :func:`linearize`: how ``u`` maps to the bodies.
+    derivative_error : float, keyword-only
+        Estimated relative error of the finite-difference derivatives
+        (set by :func:`linearize`; 0 for exact matrices).
+
+    Raises
+    ------
+    ValueError
+        Naming the matrix: wrong shape, not finite, ``M`` not symmetric
+        positive definite, ``G`` not skew-symmetric, complex entries.
+    """
+
+    def __init__(self, M: Any, K: Any, C: Any = None, G: Any = None, *, velocity_map: Any = None,
+                 embedding: Embedding | None = None, derivative_error: float = 0.0):
+        M = _matrix(M, "M")
+        if M.shape[0] != M.shape[1] or M.shape[0] == 0:
+            raise ValueError(f"M: expected a non-empty square matrix, got shape {M.shape}")
+        fv = M.shape[0]
+        scale = max(float(np.max(np.abs(M))), 1e-300)
+        if np.max(np.abs(M - M.T)) > 1e-9 * scale:
+            raise ValueError("M: expected a symmetric matrix")
+        try:
+            np.linalg.cholesky(0.5 * (M + M.T))
+        except np.linalg.LinAlgError:
+            raise ValueError("M: expected a positive definite mass matrix") from None
+        if velocity_map is None:
+            T = None
+            f = fv
+        else:
+            T = _matrix(velocity_map, "velocity_map")
+            if T.shape[1] != fv or T.shape[0] < fv:
+                raise ValueError(f"velocity_map: expected shape (f, {fv}) with f >= {fv}, got {T.shape}")
+            f = T.shape[0]
+        K = _matrix(K, "K", (fv, f))
+        C = None if C is None else _matrix(C, "C", (fv, fv))
+        G = None if G is None else _matrix(G, "G", (fv, fv))
+        if G is not None:
+            gs = max(float(np.max(np.abs(G))), 1e-300)
+            if np.max(np.abs(G + G.T)) > 1e-9 * gs:
+                raise ValueError("G: expected a skew-symmetric gyroscopic matrix (G^T = -G)")
+        if embedding is not None and not isinstance(embedding, Embedding):
+            raise ValueError(f"embedding: expected an Embedding or None, got {short_repr(embedding)}")
+        self.M, self.K, self.C, self.G = M, K, C, G
+        self.velocity_map = T
+        self.embedding = embedding
+        self.derivative_error = float(derivative_error)
+
+    def __repr__(self) -> str:
+        parts = [f"{self.n_dof} degrees of freedom"]
+        if self.velocity_map is not None:
+            parts.append(f"{self.M.shape[0]} independent velocities")
+        parts.append("damped" if self.C is not None and np.any(self.C) else "undamped")
+        if self.G is not None and np.any(self.G):
+            parts.append("gyroscopic")
+        return f"LinearModel({', '.join(parts)})"
+
+    def __getstate__(self) -> dict:
+        return dict(self.__dict__)
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of position coordinates ``f``."""
+        return self.K.shape[1]
+
+    @property
+    def velocity_matrix(self) -> np.ndarray:
+        """(f_v, f_v) ``C + G``: damping and gyroscopic coupling together (never symmetrized)."""
+        out = np.zeros_like(self.M)
+        if self.C is not None:
+            out = out + self.C
+        if self.G is not None:
+            out = out + self.G
+        return out
+
+    def state_matrix(self) -> np.ndarray:
+        r"""The first-order system matrix (Eqs. 8.117-8.120).
+
+        ``x = [u, u_dot]`` (or ``[u, s]``):
+
+        .. math:: \dot x = \begin{bmatrix} 0 & T \\ -M^{-1} K & -M^{-1}(C + G) \end{bmatrix} x
+
+        Returns
+        -------
+        (f + f_v, f + f_v) ndarray
+        """
+        f, fv = self.n_dof, self.M.shape[0]
+        T = np.eye(f) if self.velocity_map is None else self.velocity_map
+        cho = scipy.linalg.cho_factor(0.5 * (self.M + self.M.T))
+        A = np.zeros((f + fv, f + fv))
+        A[:f, f:] = T
+        A[f:, :f] = -scipy.linalg.cho_solve(cho, self.K)
+        A[f:, f:] = -scipy.linalg.cho_solve(cho, self.velocity_matrix)
+        return A
+
+    def _undamped_symmetric(self) -> bool:
+        if self.velocity_map is not None:
+            return False
+        if (self.C is not None and np.any(self.C)) or (self.G is not None and np.any(self.G)):
+            return False
+        ks = max(float(np.max(np.abs(self.K))), 1e-300)
+        return bool(np.max(np.abs(self.K - self.K.T)) <= SYMMETRY_TOL * ks)
+
+    def modes(self) -> Modes:
+        """Eigenvalues, natural frequencies, damping ratios and mode shapes (Eqs. 8.113-8.131).
+
+        Without damping, gyroscopic coupling or a skew part of ``K``: the
+        generalized symmetric problem ``K phi = omega^2 M phi``
+        (``scipy.linalg.eigh``, Eqs. 8.113-8.116), ``s = +-i omega`` (``+-
+        sqrt(-omega^2)`` for a negative stiffness). Otherwise the state-space
+        problem of :meth:`state_matrix` (``scipy.linalg.eig``, Eqs.
+        8.117-8.124).
+
+        Returns
+        -------
+        Modes
+        """
+        f = self.n_dof
+        if self._undamped_symmetric():
+            Ks = 0.5 * (self.K + self.K.T)
+            lam, phi = scipy.linalg.eigh(Ks, 0.5 * (self.M + self.M.T))
+            big = max(float(np.max(np.abs(lam))), 1e-300)
+            s_list: list[complex] = []
+            shapes: list[np.ndarray] = []
+            for k in range(f):
+                v = phi[:, k].astype(complex)
+                if lam[k] > RIGID_TOL**2 * big:
+                    w = math.sqrt(lam[k])
+                    s_list += [1j * w, -1j * w]
+                elif lam[k] < -(RIGID_TOL**2) * big:
+                    sg = math.sqrt(-lam[k])
+                    s_list += [-sg + 0j, sg + 0j]
+                else:
+                    s_list += [0j, 0j]
+                shapes += [v, v]
+            s = np.array(s_list)
+            X = np.array(shapes)
+            method = "symmetric"
+        else:
+            A = self.state_matrix()
+            s, V = scipy.linalg.eig(A)
+            X = V[:f].T.copy()
+            method = "state-space"
+        return _modes(s, X, method=method, embedding=self.embedding)
+
+
+# ------------------------------------------------------------------ modes
+@dataclass(frozen=True)
+class ModeMotion:
+    """A mode shape animated on a System (see :meth:`Modes.animate`).
+
+    Attributes
+    ----------
+    t : (n_times,) ndarray
+        Times (s).
+    positions : (n_times, n_bodies, 3) ndarray
+        Centres of mass, global (m).
+    orientations : (n_times, n_bodies, 4) ndarray
+        Euler parameters (theta0, theta1, theta2, theta3), scalar first (viser's wxyz).
+    residual_position : (n_times,) ndarray
+        ``max abs(C)`` after the projection onto the constraints.
+    """
+
+    t: np.ndarray  # (n_times,)
+    positions: np.ndarray  # (n_times, n_bodies, 3)
+    orientations: np.ndarray  # (n_times, n_bodies, 4)
+    residual_position: np.ndarray  # (n_times,)
+
+
+@dataclass(frozen=True)
+class Modes:
+    """The eigen solution of a :class:`LinearModel` (``k`` eigenvalues, ``f`` coordinates).
+
+    Attributes
+    ----------
+    eigenvalues : (k,) complex ndarray
+        ``s`` sorted by ``abs(Im s)``, then ``Re s``; a conjugate pair is
+        adjacent, ``Im s > 0`` first (Eqs. 8.116, 8.121).
+    complex_shapes : (k, f) complex ndarray
+        Position part of the eigenvectors, turned so that their real part is
+        the real mode shape (below) and scaled with it; a motion of the
+        linear model is ``u(t) = a Re(complex_shapes[j] e^(s_j t))``.
+    shapes : (k, f) ndarray
+        Real mode shapes (Eqs. 8.125-8.129): ``Re(e^(i alpha) phi)`` with the
+        phase ``alpha`` that makes it largest; largest component +1. Both
+        members of a conjugate pair have the same real shape. Exact normal
+        modes for undamped and proportionally damped models.
+    omega_n : (k,) ndarray
+        Natural frequency ``abs(s)`` (rad/s, Eq. 8.130).
+    damping_ratio : (k,) ndarray
+        ``xi = -Re(s) / abs(s)`` (Eq. 8.131); NaN for rigid-body modes.
+    frequency_hz : (k,) ndarray
+        Damped frequency of oscillation ``abs(Im s) / (2 pi)`` (Hz).
+    stable : (k,) bool ndarray
+        ``Re(s) <= STABILITY_TOL * scale`` (rigid-body modes count as stable).
+    critical : (k,) bool ndarray
+        ``abs(Re(s)) <= STABILITY_TOL * scale`` and not rigid: undamped
+        oscillations, on the stability boundary.
+    rigid : (k,) bool ndarray
+        ``abs(s) <= RIGID_TOL * scale``: rigid-body (zero) modes.
+    scale : float
+        Largest ``abs(s)`` (1/s), the reference of the tolerances.
+    method : str
+        ``"symmetric"`` (Eqs. 8.113-8.116) or ``"state-space"`` (8.117-8.124).
+    embedding : Embedding or None
+        From :func:`linearize`; None for a model built from matrices.
+    """
+
+    eigenvalues: np.ndarray = field(repr=False)
+    complex_shapes: np.ndarray = field(repr=False)
+    shapes: np.ndarray = field(repr=False)
+    omega_n: np.ndarray = field(repr=False)
+    damping_ratio: np.ndarray = field(repr=False)
+    frequency_hz: np.ndarray = field(repr=False)
+    stable: np.ndarray = field(repr=False)
+    critical: np.ndarray = field(repr=False)
+    rigid: np.ndarray = field(repr=False)
+    scale: float
+    method: str
+    embedding: Embedding | None = field(default=None, repr=False)
+
+    @property
+    def is_stable(self) -> bool:
+        """True when no mode has ``Re(s) > STABILITY_TOL * scale``."""
+        return bool(np.all(self.stable))
+
+    def _embedding(self, system: Any) -> Embedding:
+        if self.embedding is None:
+            raise ValueError("system: these modes come from a LinearModel built from matrices; body shapes need "
+                             "a model from core.modal.linearize(system)")
+        self.embedding.check(system)
+        return self.embedding
+
+    def _index(self, index: Any) -> int:
+        k = self.eigenvalues.shape[0]
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not -k <= int(index) < k:
+            raise ValueError(f"index: expected an integer mode index in [0, {k}), got {short_repr(index)}")
+        return int(index) % k
+
+    def body_shapes(self, system: Any) -> np.ndarray:
+        """Real mode shapes of the bodies, in the layout of ``State.displaced(dq=...)``.
+
+        Parameters
+        ----------
+        system : System
+            The System that was linearized.
+
+        Returns
+        -------
+        (k, 6n) ndarray
+            ``[dR (3n) global, m | dpi_body (3n) body frame, rad]`` per mode,
+            scaled so that the largest entry is +1: ``system.state.displaced(dq=a
+            * shapes[j])`` displaces the largest coordinate by ``a`` (m or rad).
+        """
+        emb = self._embedding(system)
+        z = self.shapes @ emb.basis.T
+        z = emb.body_coordinates(z)
+        return _unit_largest(z)
+
+    def animate(self, system: Any, index: Any, t: Any, *, amplitude: float) -> ModeMotion:
+        """Mode ``index`` animated about the reference: ``q0 + a Re(S e^(s t))``, on the constraints.
+
+        Each body is moved from its reference motion (at rest for an
+        equilibrium; the steady motion otherwise) by ``a Re(S_b e^(s t))``
+        (the complex body shape, largest real entry 1 as in
+        :meth:`body_shapes`) and the configuration is projected back onto
+        ``C(q, t) = 0`` by Newton's method (least change in the mass
+        metric), so that the joints stay closed at large amplitude.
+
+        Parameters
+        ----------
+        system : System
+            The System that was linearized.
+        index : int
+            Mode index into :attr:`eigenvalues`.
+        t : (n_times,) array_like
+            Times after the reference time (s).
+        amplitude : float, keyword-only
+            ``a``: the largest translation (m) or rotation (rad) of the shape at t = 0.
+
+        Returns
+        -------
+        ModeMotion
+
+        Raises
+        ------
+        ValueError
+            For another System, a bad index, times or amplitude;
+            ``AssemblyError`` when the amplitude is so large that the
+            constraints cannot be met.
+        """
+        from core.multibody._engine import matrices
+        from core.multibody._linearization import project_positions
+        from core.multibody._system import exp_parameters, quaternion_products
+
+        emb = self._embedding(system)
+        j = self._index(index)
+        a = real_number(amplitude, "amplitude", expected="a finite amplitude (m or rad)")
+        times = float_array(t, "t", expected="times (s)").reshape(-1)
+        if not np.all(np.isfinite(times)):
+            raise ValueError("t: expected finite times (s)")
+        n = emb.n_bodies
+        zc = emb.basis @ self.complex_shapes[j]
+        zr = np.real(zc)
+        norm = _largest_entry(emb.body_coordinates(zr))
+        zc = zc / norm
+        s = complex(self.eigenvalues[j])
+        W = emb.frame_omega
+        R0 = emb.q0[: 3 * n].reshape(n, 3)
+        P0 = emb.q0[3 * n :].reshape(n, 4)
+        A0 = matrices(P0)
+        v_obs = emb.v0[: 3 * n].reshape(n, 3) - np.cross(W[None, :], R0)
+        w_obs = np.einsum("nij,nj->ni", A0, emb.v0[3 * n :].reshape(n, 3)) - W[None, :]
+        positions = np.empty((times.size, n, 3))
+        orientations = np.empty((times.size, n, 4))
+        residual = np.empty(times.size)
+        v_zero = np.zeros(6 * n)
+        for i, ti in enumerate(times):
+            z = a * np.real(zc * np.exp(s * ti))
+            rot = exp_parameters((W * ti)[None, :])
+            Rot = matrices(rot)[0]
+            R = (R0 + v_obs * ti + z[: 3 * n].reshape(n, 3)) @ Rot.T
+            P = quaternion_products(exp_parameters(w_obs * ti), P0)
+            P = quaternion_products(exp_parameters(z[3 * n :].reshape(n, 3)), P)
+            P = quaternion_products(np.repeat(rot, n, axis=0), P)
+            y = np.concatenate([R.ravel(), P.ravel(), v_zero])
+            y, res = project_positions(system, emb.t + ti, y)
+            positions[i] = y[: 3 * n].reshape(n, 3)
+            Pn = y[3 * n : 7 * n].reshape(n, 4)
+            orientations[i] = Pn / np.linalg.norm(Pn, axis=1)[:, None]
+            residual[i] = res
+        return ModeMotion(_ro(times), _ro(positions), _ro(orientations), _ro(residual))
+
+    # ---------------------------------------------------------- export
+    def to_records(self) -> list[dict]:
+        """One dict per mode: eigenvalue, omega_n, frequency, damping ratio, flags and real shape."""
+        out = []
+        for k in range(self.eigenvalues.shape[0]):
+            s = complex(self.eigenvalues[k])
+            out.append({
+                "index": k,
+                "eigenvalue_real": s.real,
+                "eigenvalue_imag": s.imag,
+                "omega_n_rad_s": float(self.omega_n[k]),
+                "frequency_hz": float(self.frequency_hz[k]),
+                "damping_ratio": _json_float(self.damping_ratio[k]),
+                "stable": bool(self.stable[k]),
+                "critical": bool(self.critical[k]),
+                "rigid": bool(self.rigid[k]),
+                "shape": [float(x) for x in self.shapes[k]],
+                "complex_shape": [[float(x.real), float(x.imag)] for x in self.complex_shapes[k]],
+            })
+        return out
+
+    def to_json(self) -> str:
+        """The modes as a JSON document (``{"method", "scale", "modes": [...]}``, NaN written as null)."""
+        doc = {"method": self.method, "scale": self.scale, "modes": self.to_records()}
+        if self.embedding is not None:
+            doc["bodies"] = list(self.embedding.body_names)
+        return json.dumps(doc, allow_nan=False)
+
+    def to_csv(self) -> str:
+        """The modes as CSV text: one row per mode, the real shape in columns ``shape_0 ... shape_{f-1}``."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        f = self.shapes.shape[1]
+        w.writerow(["index", "eigenvalue_real", "eigenvalue_imag", "omega_n_rad_s", "frequency_hz", "damping_ratio",
+                    "stable", "critical", "rigid"] + [f"shape_{i}" for i in range(f)])
+        for r in self.to_records():
+            w.writerow([r["index"], repr(r["eigenvalue_real"]), repr(r["eigenvalue_imag"]), repr(r["omega_n_rad_s"]),
+                        repr(r["frequency_hz"]), "" if r["damping_ratio"] is None else repr(r["damping_ratio"]),
+                        int(r["stable"]), int(r["critical"]), int(r["rigid"])] + [repr(x) for x in r["shape"]])
+        return buf.getvalue()
+
+
+def _json_float(x: float) -> float | None:
+    x = float(x)
+    return None if math.isnan(x) else x
+
+
+def _largest_entry(z: np.ndarray) -> float:
+    k = int(np.argmax(np.abs(z)))
+    v = float(z.flat[k])
+    return v if v != 0.0 else 1.0
+
+
+def _unit_largest(Z: np.ndarray) -> np.ndarray:
+    out = np.array(Z, dtype=float, copy=True)
+    for k in range(out.shape[0]):
+        out[k] /= _largest_entry(out[k])
+    return out
+
+
+def _real_shape(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(complex shape, real shape)``: phase turned to the largest real part, largest real entry +1."""
+    ss = complex(np.sum(v * v))
+    alpha = -0.5 * math.atan2(ss.imag, ss.real) if abs(ss) > 0 else 0.0
+    w = v * complex(math.cos(alpha), math.sin(alpha))
+    r = np.real(w)
+    if not np.any(r):
+        w = w * -1j
+        r = np.real(w)
+    c = _largest_entry(r)
+    return w / c, r / c
+
+
+def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | None) -> Modes:
+    """Sort eigenvalues (pairs adjacent, +Im first), normalize shapes and flag modes."""
+    k = s.shape[0]
+    scale = float(np.max(np.abs(s))) if k else 0.0
+    scale = scale if scale > 0 else 1.0
+    tiny = STABILITY_TOL * scale
+    # groups: a conjugate pair (Im > tiny) or a single real eigenvalue
+    upper = np.flatnonzero(s.imag > tiny)
+    lower = np.flatnonzero(s.imag < -tiny)
+    groups: list[list[int]] = []
+    paired: set[int] = set()
+    if upper.size and lower.size:
+        cost = np.abs(s[upper][:, None] - np.conj(s[lower])[None, :])
+        ri, ci = linear_sum_assignment(cost)
+        for i, j in zip(ri, ci):
+            if cost[i, j] <= 1e-6 * scale:
+                groups.append([int(upper[i]), int(lower[j])])
+                paired.update((int(upper[i]), int(lower[j])))
+    groups += [[i] for i in range(k) if i not in paired]
+    groups.sort(key=lambda g: (abs(s[g[0]].imag) if len(g) == 2 else 0.0, s[g[0]].real))
+    order = [i for g in groups for i in g]
+    ev = np.empty(k, dtype=complex)
+    cs = np.empty_like(X, dtype=complex)
+    rs = np.empty(X.shape, dtype=float)
+    pos = 0
+    for g in groups:
+        if len(g) == 2:
+            i, j = g
+            sp = complex(s[i].real, abs(s[i].imag))
+            w, r = _real_shape(X[i] if s[i].imag > 0 else np.conj(X[i]))
+            ev[pos], ev[pos + 1] = sp, sp.conjugate()
+            cs[pos], cs[pos + 1] = w, np.conj(w)
+            rs[pos], rs[pos + 1] = r, r
+            pos += 2
+        else:
+            i = g[0]
+            ev[pos] = complex(s[i].real, 0.0) if abs(s[i].imag) <= tiny else s[i]
+            w, r = _real_shape(X[i])
+            cs[pos], rs[pos] = w, r
+            pos += 1
+    assert pos == k == len(order)
+    mag = np.abs(ev)
+    rigid = mag <= RIGID_TOL * scale
+    with np.errstate(invalid="ignore", divide="ignore"):
+        xi = np.where(rigid, np.nan, -ev.real / np.where(mag > 0, mag, 1.0))
+    stable = (ev.real <= tiny) | rigid
+    critical = (np.abs(ev.real) <= tiny) & ~rigid
+    return Modes(_ro(ev), _ro(cs), _ro(rs), _ro(mag), _ro(xi), _ro(np.abs(ev.imag) / (2.0 * math.pi)),
+                 _ro(stable), _ro(critical), _ro(rigid), scale, method, embedding)
+
+
+# ------------------------------------------------------------------ linearize
+def linearize(system: Any, *, frame_omega: Any = None, steady_tol: float = 1e-6) -> LinearModel:
+    r"""Linearize a System about its current state (Eqs. 8.110-8.112).
+
+    The current state must be an equilibrium (velocities zero, e.g. after
+    :meth:`System.equilibrium`) or a steady motion: seen from an observer
+    frame that turns at ``frame_omega`` (constant, global), the velocities
+    of every centre of mass and every angular velocity are constant (a rotor
+    spinning about its axis of symmetry with ``frame_omega = 0``, a top in
+    steady precession with ``frame_omega`` its precession). The linear model
+    is then time invariant when every body's inertia and every force look
+    the same from that frame at all times (symmetric rotors); otherwise it
+    is the model frozen at the current time.
+
+    Tangent coordinates ``z = [dR, dtheta]`` (global translation and small
+    rotation of each body) are embedded as ``z = N u`` with ``N`` an
+    orthonormal basis of the null space of the constraint Jacobian of the
+    independent rows (Eq. 8.111; rolling rows restrict only the velocities,
+    ``z_dot = N_v s``). With the multipliers ``lambda0`` of the reference,
+    the dynamic residual of the bodies ``F = M a - Q + D^T lambda0`` gives
+
+    .. math::
+
+        M = N_v^T \frac{\partial F}{\partial \ddot z} N_v, \quad
+        C + G = N_v^T \frac{\partial F}{\partial \dot z} N_v, \quad
+        K = N_v^T \frac{\partial F}{\partial z} N
+
+    (Eq. 8.112; ``dF/dz_ddot`` exact, the others by central differences,
+    Richardson-extrapolated, over groups of bodies that share no row). ``K``
+    contains the stiffness of the applied forces and the geometric stiffness
+    ``d(C_q^T lambda)/dq`` of the constraint forces; the change of the
+    multipliers is orthogonal to ``N`` and drops out. The velocity matrix is
+    split into its symmetric part ``C`` (damping) and skew part ``G``
+    (gyroscopic); neither is dropped.
+
+    Parameters
+    ----------
+    system : System
+        Assembled; its current state is the reference (not changed).
+    frame_omega : (3,) array_like or None, keyword-only
+        Angular velocity of the observer frame (global, rad/s); default zero.
+    steady_tol : float, keyword-only
+        Largest accepted acceleration of the reference as seen from the
+        observer frame, relative to the accelerations of the problem
+        (gravity, centripetal).
+
+    Returns
+    -------
+    LinearModel
+        With :attr:`LinearModel.embedding` set.
+
+    Raises
+    ------
+    ValueError
+        For a state that is neither an equilibrium nor a steady motion
+        (the message gives the largest acceleration and the body), a System
+        without degrees of freedom, bad arguments.
+    SingularSystemError
+        When the constrained mass matrix is singular.
+    """
+    return _linearize(system, frame_omega=frame_omega, steady_tol=steady_tol, constraint_stiffness="analytic")
+
+
+def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_stiffness: str) -> LinearModel:
+    """:func:`linearize`; ``constraint_stiffness="differences"`` takes the geometric stiffness by differences too."""
+    from core.multibody import System
+    from core.multibody import _linearization as lin
+    from core.multibody._system import _make_state
+
+    if not isinstance(system, System):
+        raise ValueError(f"system: expected a core.multibody.System, got {short_repr(system)}")
+    n = len(system.bodies)
+    if n == 0:
+        raise ValueError("system: expected at least one body, got none")
+    W = np.zeros(3) if frame_omega is None else float_array(frame_omega, "frame_omega", copy=True)
+    if W.shape != (3,) or not np.all(np.isfinite(W)):
+        raise ValueError(f"frame_omega: expected a finite (3,) angular velocity (rad/s), got {short_repr(frame_omega)}")
+    tol = real_number(steady_tol, "steady_tol", expected="a finite tolerance > 0")
+    if not tol > 0:
+        raise ValueError(f"steady_tol: expected a finite tolerance > 0, got {tol!r}")
+    t = system._t
+    eng, ref = lin.reference(system, t, W)
+    ell = lin.body_length_scales(eng)
+    _check_steady(eng, ref, system, ell, tol)
+
+    # embedding: null spaces of the position rows and of all rows (Eq. 8.111)
+    Dk = ref.D[ref.keep]
+    Dz = np.empty_like(Dk)
+    Dz[:, : 3 * n] = Dk[:, : 3 * n]
+    # rotation columns: body-frame small rotations dpi = A^T dtheta
+    Dz[:, 3 * n :] = np.matmul(Dk[:, 3 * n :].reshape(-1, n, 1, 3), np.transpose(ref.A, (0, 2, 1))[None]).reshape(
+        -1, 3 * n)
+    velocity_only = np.isin(ref.keep, lin.nonholonomic_rows(eng))
+    N_v = _null_space(Dz)
+    N = _null_space(Dz[~velocity_only]) if np.any(velocity_only) else N_v
+    if N_v.shape[1] == 0:
+        raise ValueError("system: the constraints leave no degree of freedom to linearize")
+
+    def state_factory(tt: float, yy: np.ndarray):
+        return _make_state(system, tt, yy)
+
+    M_full = lin.mass_matrix(eng, ref)
+    moving = bool(np.any(ref.y[7 * n :])) or bool(np.any(W))
+    users = bool(eng.user_forces or eng.user_torques)
+    if constraint_stiffness == "analytic":
+        K_full = lin.constraint_stiffness(eng, ref)
+        coupling = lin.body_coupling(eng, constraints=False)
+        with_rows = False
+        needs_position = moving or users or bool(eng.springs) or bool(eng.rot_springs)
+    else:
+        K_full = np.zeros((6 * n, 6 * n))
+        coupling = lin.body_coupling(eng)
+        with_rows = True
+        needs_position = True
+    groups = lin.distance2_colors(coupling)
+    err_k = 0.0
+    if needs_position:
+        K_diff, err_k = _jacobian(eng, ref, coupling, groups, ell, state_factory, "z", richardson=True,
+                                  constraints=with_rows)
+        K_full = K_full + K_diff
+    needs_velocity = (moving or users or any(sp.damping > 0 for sp in eng.springs)
+                      or any(rs.damping > 0 for rs in eng.rot_springs))
+    if needs_velocity:
+        coupling_v = lin.body_coupling(eng, constraints=False)
+        groups_v = lin.distance2_colors(coupling_v)
+        rate = max(1.0, float(np.max(np.abs(ref.omega))), float(np.linalg.norm(W)))
+        V_full, err_c = _jacobian(eng, ref, coupling_v, groups_v, ell * rate, state_factory, "zd",
+                                  richardson=users, rot_step=rate, constraints=False)
+    else:
+        V_full, err_c = None, 0.0
+    M = N_v.T @ _block_diagonal_apply(M_full, N_v, n)
+    M = 0.5 * (M + M.T)
+    K = N_v.T @ K_full @ N
+    C = G = None
+    if V_full is not None:
+        V = N_v.T @ V_full @ N_v
+        C = 0.5 * (V + V.T)
+        G = 0.5 * (V - V.T)
+        vs = max(float(np.max(np.abs(V))), 1e-300)
+        cs = max(float(np.max(np.abs(M))), float(np.max(np.abs(K))), 1e-300)
+        if vs <= 1e-13 * cs:
+            C = G = None
+    T = None if N_v.shape[1] == N.shape[1] else N.T @ N_v
+    err = max(err_k, err_c)
+    if err > 1e-3:
+        warnings.warn(f"linearize: the finite-difference derivatives may be inaccurate (estimated relative error "
+                      f"{err:.1e}); the reference may sit near a singular configuration", RuntimeWarning, stacklevel=2)
+    emb = Embedding(_ro(N), _ro(N_v), float(t), _ro(ref.y[: 7 * n]), _ro(ref.y[7 * n :]), _ro(W),
+                    tuple(b.name for b in system.bodies), int(eng.m))
+    return LinearModel(M, K, C, G, velocity_map=T, embedding=emb, derivative_error=err)
+
+
+def _block_diagonal_apply(M: np.ndarray, X: np.ndarray, n: int) -> np.ndarray:
+    """``M @ X`` for M (6n, 6n) block diagonal in 3 x 3 blocks."""
+    blocks = np.stack([M[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] for b in range(2 * n)])
+    return np.matmul(blocks, X.reshape(2 * n, 3, -1)).reshape(6 * n, -1)
+
+
+def _null_space(D: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (6n, 6n - r) of the null space of the full-row-rank D (r, 6n) (QR of D^T)."""
+    size = D.shape[1]
+    r = D.shape[0]
+    if r == 0:
+        return np.eye(size)
+    Q, _ = scipy.linalg.qr(D.T, mode="full")
+    return np.ascontiguousarray(Q[:, r:])
+
+
+def _check_steady(eng: Any, ref: Any, system: Any, ell: np.ndarray, tol: float) -> None:
+    n = eng.n
+    W = ref.frame_omega
+    Rd = ref.y[7 * n : 10 * n].reshape(n, 3)
+    acc_R = ref.R_ddot - np.cross(W[None, :], Rd)
+    acc_w = ref.alpha - np.cross(W[None, :], ref.omega)
+    w2 = float(np.max(np.sum(ref.omega**2, axis=1)))
+    scale_R = max(float(np.linalg.norm(system.gravity)), float(np.max(np.abs(np.cross(W[None, :], Rd)))),
+                  w2 * float(np.max(ell)), float(W @ W) * float(np.max(ell)), 1e-12)
+    scale_w = max(scale_R / float(np.min(ell)), w2, float(W @ W), 1e-12)
+    eR = np.linalg.norm(acc_R, axis=1) / scale_R
+    ew = np.linalg.norm(acc_w, axis=1) / scale_w
+    if max(float(eR.max()), float(ew.max())) > tol:
+        b = int(np.argmax(np.maximum(eR, ew)))
+        raise ValueError(
+            f"system: the current state is neither an equilibrium nor a steady motion seen from the frame turning at "
+            f"frame_omega={W.tolist()}: body {system.bodies[b].name!r} accelerates by "
+            f"{float(np.linalg.norm(acc_R[b])):.3e} m/s^2 and {float(np.linalg.norm(acc_w[b])):.3e} rad/s^2 "
+            "(call system.equilibrium() first, or pass the frame in which the motion is steady)"
+        )
+
+
+def _jacobian(eng, ref, coupling, groups, ell, state_factory, which, *, richardson, rot_step=1.0, constraints=True):
+    """(6n, 6n) dF/dz or dF/dz_dot by central differences over distance-2 colour groups.
+
+    Steps: ``STEP * ell_b`` (translations) and ``STEP * rot_step`` (rotations);
+    with ``richardson`` the steps h and 2h are combined, ``(4 J_h - J_2h) /
+    3``, and ``abs(J_h - J_2h)`` estimates the error. Returns ``(J,
+    relative error estimate)``.
+    """
+    from core.multibody import _linearization as lin
+
+    n = eng.n
+    size = 6 * n
+    zeros = np.zeros(size)
+    J = np.zeros((size, size))
+    J2 = np.zeros((size, size)) if richardson else None
+    # the unique perturbed body that each body's residual sees, per group
+    owner = []
+    for g in groups:
+        gset = set(g)
+        owner.append([next(iter(coupling[b] & gset), -1) for b in range(n)])
+
+    def F(d: np.ndarray) -> np.ndarray:
+        if which == "z":
+            return lin.residual(eng, ref, d, zeros, zeros, state_factory, constraints=constraints)
+        return lin.residual(eng, ref, zeros, d, zeros, state_factory, constraints=constraints)
+
+    body_rows = np.concatenate([3 * np.arange(n)[:, None] + np.arange(3)[None, :],
+                                3 * n + 3 * np.arange(n)[:, None] + np.arange(3)[None, :]], axis=1)  # (n, 6)
+    for gi, g in enumerate(groups):
+        own = np.array(owner[gi])
+        seen = np.flatnonzero(own >= 0)
+        cb = own[seen]
+        rows = body_rows[seen]  # (k, 6)
+        ga = np.array(g)
+        for c in range(6):
+            h = np.zeros(n)
+            h[ga] = STEP * (ell[ga] if c < 3 else rot_step)
+            d = np.zeros(size)
+            d[body_rows[ga, c]] = h[ga]
+            cols = np.repeat(body_rows[cb, c][:, None], 6, axis=1)
+            scale = h[cb][:, None]
+            J[rows, cols] = ((F(d) - F(-d)) / 2.0)[rows] / scale
+            if richardson:
+                J2[rows, cols] = ((F(2.0 * d) - F(-2.0 * d)) / 4.0)[rows] / scale
+    if not richardson:
+        return J, 0.0
+    big = max(float(np.max(np.abs(J))), 1e-300)
+    err = float(np.max(np.abs(J - J2))) / (3.0 * big)
+    return (4.0 * J - J2) / 3.0, err
+
+
+# ------------------------------------------------------------------ sweep
+@dataclass(frozen=True)
+class SweepResult:
+    """Modes over a parameter, tracked from value to value by shape correlation.
+
+    Attributes
+    ----------
+    values : (n_values,) ndarray
+        Parameter values, increasing.
+    eigenvalues : (n_values, k) complex ndarray
+        Column ``j`` follows one mode across the values (matched by the
+        correlation of its shape with the previous value's, then by
+        eigenvalue distance), not the sort order of :class:`Modes`.
+    shapes : (n_values, k, f) complex ndarray
+        The complex shapes, tracked the same way.
+    stable, rigid : (n_values, k) bool ndarray
+        As :class:`Modes`, tracked.
+    build : callable
+        ``build(value) -> LinearModel``, kept for :meth:`boundaries`.
+    """
+
+    values: np.ndarray = field(repr=False)
+    eigenvalues: np.ndarray = field(repr=False)
+    shapes: np.ndarray = field(repr=False)
+    stable: np.ndarray = field(repr=False)
+    rigid: np.ndarray = field(repr=False)
+    build: Callable = field(repr=False)
+
+    @property
+    def omega_n(self) -> np.ndarray:
+        """(n_values, k) natural frequencies ``abs(s)`` (rad/s, Eq. 8.130)."""
+        return np.abs(self.eigenvalues)
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        """(n_values, k) ``-Re(s) / abs(s)`` (Eq. 8.131); NaN for rigid-body modes."""
+        mag = np.abs(self.eigenvalues)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.rigid, np.nan, -self.eigenvalues.real / np.where(mag > 0, mag, 1.0))
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        """(n_values, k) damped frequencies ``abs(Im s) / (2 pi)`` (Hz): a Campbell diagram."""
+        return np.abs(self.eigenvalues.imag) / (2.0 * math.pi)
+
+    def boundaries(self, *, xtol: float | None = None) -> np.ndarray:
+        """Parameter values where a mode crosses ``Re(s) = 0``, by root finding.
+
+        Between neighbouring values where the largest real part of the
+        non-rigid modes, ``h(v) = max Re(s) - STABILITY_TOL * scale``, changes
+        sign, Brent's method on ``h`` (``build`` is called again in this
+        process) finds the crossing to ``xtol`` (default ``1e-10 (1 + max
+        abs(values))``), whatever the spacing of the grid.
+
+        Returns
+        -------
+        (n_boundaries,) ndarray
+            Increasing.
+        """
+        v = self.values
+        xt = 1e-10 * (1.0 + float(np.max(np.abs(v)))) if xtol is None else real_number(xtol, "xtol")
+        if not xt > 0:
+            raise ValueError(f"xtol: expected a tolerance > 0, got {xt!r}")
+        h = np.array([_margin(self.eigenvalues[i], self.rigid[i]) for i in range(v.size)])
+        out = []
+        for i in range(v.size - 1):
+            if (h[i] > 0) != (h[i + 1] > 0):
+                out.append(brentq(lambda x: _margin_of(self.build(x)), v[i], v[i + 1], xtol=xt, maxiter=200))
+        return np.array(out)
+
+    def to_csv(self) -> str:
+        """CSV text: ``value`` then per tracked mode ``re_j, im_j`` (one row per value)."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        k = self.eigenvalues.shape[1]
+        w.writerow(["value"] + [f"{p}_{j}" for j in range(k) for p in ("re", "im")])
+        for i, val in enumerate(self.values):
+            w.writerow([repr(float(val))] + [repr(float(x)) for s in self.eigenvalues[i] for x in (s.real, s.imag)])
+        return buf.getvalue()
+
+    def to_json(self) -> str:
+        """JSON: ``{"values": [...], "eigenvalues": [[[re, im], ...], ...]}`` (tracked columns)."""
+        ev = [[[float(s.real), float(s.imag)] for s in row] for row in self.eigenvalues]
+        return json.dumps({"values": [float(x) for x in self.values], "eigenvalues": ev}, allow_nan=False)
+
+
+def _margin(ev: np.ndarray, rigid: np.ndarray) -> float:
+    scale = float(np.max(np.abs(ev))) if ev.size else 1.0
+    scale = scale if scale > 0 else 1.0
+    live = ev[~rigid]
+    if live.size == 0:
+        return -STABILITY_TOL * scale
+    return float(np.max(live.real)) - STABILITY_TOL * scale
+
+
+def _margin_of(model: Any) -> float:
+    if not isinstance(model, LinearModel):
+        raise ValueError(f"build: expected build(value) to return a LinearModel, got {short_repr(model)}")
+    m = model.modes()
+    return _margin(m.eigenvalues, m.rigid)
+
+
+def _solve(build: Callable, value: float) -> Modes:
+    """Worker task: ``build(value).modes()`` without the embedding (small to send back)."""
+    model = build(value)
+    if not isinstance(model, LinearModel):
+        raise ValueError(f"build: expected build(value) to return a LinearModel, got {short_repr(model)}")
+    return replace(model.modes(), embedding=None)
+
+
+def _track(previous: Modes, current: Modes) -> np.ndarray:
+    """Permutation of ``current``'s modes that follows ``previous``'s (shape correlation, then eigenvalues)."""
+    P, Q = previous.complex_shapes, current.complex_shapes
+    if P.shape != Q.shape:
+        raise ValueError(f"build: the models have different sizes across the sweep ({P.shape} and {Q.shape})")
+    num = np.abs(np.conj(P) @ Q.T) ** 2
+    den = np.outer(np.sum(np.abs(P) ** 2, axis=1), np.sum(np.abs(Q) ** 2, axis=1))
+    mac = num / np.where(den > 0, den, 1.0)
+    scale = max(previous.scale, current.scale, 1e-300)
+    dist = np.abs(previous.eigenvalues[:, None] - current.eigenvalues[None, :]) / scale
+    _, cols = linear_sum_assignment((1.0 - mac) + dist)
+    return cols
+
+
+def sweep(build: Callable, values: Any, *, executor: concurrent.futures.Executor | None = None,
+          progress: Callable[[int, int], Any] | None = None) -> SweepResult:
+    """Modes of ``build(value)`` for every value, computed on an executor and tracked.
+
+    Parameters
+    ----------
+    build : callable
+        ``build(value) -> LinearModel``; it runs in the executor's workers,
+        so with a process pool it must be picklable (a module-level function
+        or a ``functools.partial`` of one).
+    values : (n_values,) array_like
+        Strictly increasing finite parameter values.
+    executor : concurrent.futures.Executor or None, keyword-only
+        Any executor (a process or thread pool, ``dask.distributed``'s
+        ``Client.get_executor()``). Default: a local process pool with one
+        worker per CPU, shut down at the end.
+    progress : callable or None, keyword-only
+        ``progress(done, total)`` after every finished value, in the calling
+        thread. An exception it raises stops the sweep (pending values are
+        cancelled) and propagates: a scene cancels a sweep that way.
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    ValueError
+        For bad values, a ``build`` that cannot be pickled for the default
+        pool, or one that does not return a LinearModel.
+    """
+    if not callable(build):
+        raise ValueError(f"build: expected a callable build(value) -> LinearModel, got {short_repr(build)}")
+    v = float_array(values, "values", expected="parameter values").reshape(-1) if np.ndim(values) <= 1 else None
+    if v is None or v.size == 0 or not np.all(np.isfinite(v)) or np.any(np.diff(v) <= 0):
+        raise ValueError(f"values: expected a non-empty 1-d array of finite, strictly increasing values, got "
+                         f"{short_repr(values)}")
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress: expected a callable progress(done, total) or None, got {short_repr(progress)}")
+    own = executor is None
+    if own:
+        try:
+            pickle.dumps(build)
+        except Exception as exc:  # noqa: BLE001 - any pickling failure
+            raise ValueError(f"build: the default process pool needs a picklable build (a module-level function or "
+                             f"functools.partial), got {short_repr(build)} ({exc}); or pass an executor") from None
+        executor = concurrent.futures.ProcessPoolExecutor(max_workers=os.cpu_count() or 1)
+    elif not isinstance(executor, concurrent.futures.Executor):
+        raise ValueError(f"executor: expected a concurrent.futures.Executor or None, got {short_repr(executor)}")
+    total = v.size
+    results: list[Modes | None] = [None] * total
+    futures: dict = {}
+    try:
+        futures = {executor.submit(_solve, build, float(x)): i for i, x in enumerate(v)}
+        done = 0
+        for fut in concurrent.futures.as_completed(futures):
+            results[futures[fut]] = fut.result()
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    finally:
+        for fut in futures:
+            fut.cancel()
+        if own:
+            executor.shutdown(wait=True, cancel_futures=True)
+    k = results[0].eigenvalues.shape[0]
+    f = results[0].complex_shapes.shape[1]
+    ev = np.empty((total, k), dtype=complex)
+    shapes = np.empty((total, k, f), dtype=complex)
+    stable = np.empty((total, k), dtype=bool)
+    rigid = np.empty((total, k), dtype=bool)
+    prev = None
+    for i, m in enumerate(results):
+        if prev is None:
+            perm = np.arange(k)
+        else:
+            perm = _track(prev, m)
+        tracked = Modes(m.eigenvalues[perm], m.complex_shapes[perm], m.shapes[perm], m.omega_n[perm],
+                        m.damping_ratio[perm], m.frequency_hz[perm], m.stable[perm], m.critical[perm], m.rigid[perm],
+                        m.scale, m.method)
+        ev[i], shapes[i], stable[i], rigid[i] = tracked.eigenvalues, tracked.complex_shapes, tracked.stable, tracked.rigid
+        prev = tracked
+    return SweepResult(_ro(v), _ro(ev), _ro(shapes), _ro(stable), _ro(rigid), build)

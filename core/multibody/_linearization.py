@@ -1,0 +1,476 @@
+"""Hooks of the compiled model for linearization (used by :mod:`core.modal`).
+
+Everything here works on the generic constraint rows of a System (the row
+table of ``_engine``, with its motors) and on its force elements, never on
+joint kinds, so that any row the table gains (contact, rolling) is
+linearized the same way.
+
+Perturbation coordinates (Eqs. 8.110-8.112)
+-------------------------------------------
+About a reference state ``(R0, p0, R0_dot, omega0)`` at time ``t``, every
+body ``b`` gets tangent coordinates ``z_b = (rho_b, theta_b)``: a
+translation of its centre of mass and a small rotation, both measured in an
+observer frame that coincides with the global frame at ``t`` and turns at
+the constant global angular velocity ``Omega`` (zero for equilibria)::
+
+    R = R0(t) + Rot(t) rho,          A = exp(skew(Rot(t) theta)) A0(t)
+
+At ``t`` (``Rot = I``) the velocities and accelerations of the bodies are,
+to first order in ``(z, z_dot)``,
+
+    R_dot   = R0_dot + rho_dot + Omega x rho
+    omega   = omega0 + theta_dot + Omega x theta + theta x omega0          (global)
+    R_ddot  = R0_ddot + rho_ddot + 2 Omega x rho_dot + Omega x (Omega x rho)
+    alpha   = alpha0 + theta_ddot + 2 Omega x theta_dot + Omega x (Omega x theta)
+              + (theta_dot + Omega x theta) x omega0 + theta x alpha0
+
+The linearized equations come from the dynamic residual of every body with
+the multipliers held at their reference values ``lambda0``::
+
+    F(z, z_dot, z_ddot) = [M a - Q + D^T lambda0]   (torques turned to global by A(z))
+
+``F = 0`` at the reference; ``dF/dz`` (stiffness: applied forces *and* the
+geometric stiffness ``d(D^T lambda0)/dz`` of the constraint forces),
+``dF/dz_dot`` (damping and gyroscopic coupling) and ``dF/dz_ddot`` (the mass
+matrix, exact) are projected on the perturbations the constraints allow;
+the change of the multipliers is orthogonal to those and drops out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse
+
+from ._engine import _Engine, cross
+from ._system import exp_parameters, quaternion_products
+
+__all__ = [
+    "Reference",
+    "body_coupling",
+    "body_length_scales",
+    "constraint_force",
+    "constraint_stiffness",
+    "distance2_colors",
+    "mass_matrix",
+    "nonholonomic_rows",
+    "project_positions",
+    "reference",
+    "residual",
+    "row_multipliers",
+    "selected_vectors",
+]
+
+
+@dataclass(frozen=True)
+class Reference:
+    """The reference state of a linearization, arrays of the compiled model (n bodies).
+
+    Attributes
+    ----------
+    t : float
+    y : (13n,) state ``[R, p, R_dot, omega_body]``.
+    A : (n, 3, 3) rotation matrices (body to global).
+    omega : (n, 3) global angular velocities.
+    R_ddot : (n, 3) centre-of-mass accelerations (global).
+    alpha : (n, 3) global angular accelerations.
+    multipliers : (m,) Lagrange multipliers (zero for redundant rows).
+    D : (m, 6n) constraint Jacobian in ``[R_dot, omega_body]``.
+    keep : (r,) independent rows.
+    frame_omega : (3,) angular velocity of the observer frame (global).
+    """
+
+    t: float
+    y: np.ndarray
+    A: np.ndarray
+    omega: np.ndarray
+    R_ddot: np.ndarray
+    alpha: np.ndarray
+    multipliers: np.ndarray
+    D: np.ndarray
+    keep: np.ndarray
+    frame_omega: np.ndarray
+
+
+def reference(system: Any, t: float, frame_omega: np.ndarray) -> tuple[_Engine, Reference]:
+    """A workspace of the System's compiled model and the reference at its current state.
+
+    The constraint rows are analysed (independent rows) and the
+    accelerations and multipliers solved at the current state.
+    """
+    from ._analysis import analyze_rank, check_constrained_mass
+    from ._simulate import _Dynamics
+
+    shared = system._engine()
+    _slot_tables(shared)
+    _row_tables(shared)
+    if getattr(shared, "_linearization_U", None) is None:
+        shared._linearization_U = scipy.sparse.csr_matrix(shared.U)
+    eng = shared.workspace()
+    n = eng.n
+    y = np.array(system._y, dtype=float)
+    if not eng.analyzed:
+        analyze_rank(eng, t, y)
+        shared.adopt(eng)
+    check_constrained_mass(eng, t, y)
+    model = _Dynamics(system, eng, stabilization="none", baumgarte=1.0, position_tol=1e-12)
+    a, lam, _, D, _ = model.accelerations(t, y)
+    D = np.array(D) if eng.m else np.zeros((0, 6 * n))
+    keep = np.arange(eng.m) if eng.keep is None else np.array(eng.keep)
+    At = np.array(eng.frames(y, velocities=False))
+    A = np.transpose(At, (0, 2, 1)).copy()
+    w_body = y[10 * n :].reshape(n, 3)
+    omega = np.einsum("nij,nj->ni", A, w_body)
+    alpha = np.einsum("nij,nj->ni", A, a[3 * n :].reshape(n, 3))
+    ref = Reference(float(t), y, A, omega, a[: 3 * n].reshape(n, 3).copy(), alpha, np.array(lam), D, keep,
+                    np.array(frame_omega, dtype=float))
+    return eng, ref
+
+
+def mass_matrix(eng: _Engine, ref: Reference) -> np.ndarray:
+    """(6n, 6n) ``dF/dz_ddot = diag(m I, A I_body A^T)`` (exact)."""
+    n = eng.n
+    M = np.zeros((6 * n, 6 * n))
+    for k in range(n):
+        M[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = eng.mass[k] * np.eye(3)
+        A = ref.A[k]
+        M[3 * n + 3 * k : 3 * n + 3 * k + 3, 3 * n + 3 * k : 3 * n + 3 * k + 3] = A @ eng.inertia[k] @ A.T
+    return M
+
+
+def perturbed_state(eng: _Engine, ref: Reference, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray):
+    """``(y (13n,), a (6n,), A (n, 3, 3))``: state and accelerations of the perturbation ``(z, z_dot, z_ddot)``."""
+    n = eng.n
+    W = ref.frame_omega[None, :]
+    rho, theta = z[: 3 * n].reshape(n, 3), z[3 * n :].reshape(n, 3)
+    rho_d, theta_d = zd[: 3 * n].reshape(n, 3), zd[3 * n :].reshape(n, 3)
+    rho_dd, theta_dd = zdd[: 3 * n].reshape(n, 3), zdd[3 * n :].reshape(n, 3)
+    Wn = np.repeat(W, n, axis=0)
+    y0 = ref.y
+    P = quaternion_products(exp_parameters(theta), y0[3 * n : 7 * n].reshape(n, 4))
+    P /= np.linalg.norm(P, axis=1)[:, None]
+    E = _rotations(theta)
+    A = np.matmul(E, ref.A)
+    w_theta = cross(Wn, theta)
+    w_rho = cross(Wn, rho)
+    R_dot = y0[7 * n : 10 * n].reshape(n, 3) + rho_d + w_rho
+    omega_E = theta_d + w_theta
+    omega = ref.omega + omega_E + cross(theta, ref.omega)
+    R_dd = ref.R_ddot + rho_dd + 2.0 * cross(Wn, rho_d) + cross(Wn, w_rho)
+    alpha = (ref.alpha + theta_dd + 2.0 * cross(Wn, theta_d) + cross(Wn, w_theta) + cross(omega_E, ref.omega)
+             + cross(theta, ref.alpha))
+    y = np.empty(13 * n)
+    y[: 3 * n] = y0[: 3 * n] + rho.ravel()
+    y[3 * n : 7 * n] = P.ravel()
+    y[7 * n : 10 * n] = R_dot.ravel()
+    At = A.transpose(0, 2, 1)
+    y[10 * n :] = np.matmul(At, omega[:, :, None]).ravel()
+    a = np.concatenate([R_dd.ravel(), np.matmul(At, alpha[:, :, None]).ravel()])
+    return y, a, A
+
+
+def residual(eng: _Engine, ref: Reference, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, state_factory, *,
+             constraints: bool = True) -> np.ndarray:
+    """(6n,) dynamic residual ``F(z, z_dot, z_ddot)`` of every body (forces; torques global).
+
+    ``F = M a - Q + D^T lambda0`` with the multipliers held at the
+    reference, torques about the centres of mass turned from the body
+    frame to the global frame by the perturbed ``A``. ``D^T lambda0`` is
+    summed row by row from the row table (:func:`constraint_force`), so no
+    dense Jacobian is formed; ``constraints=False`` leaves it out (its
+    derivative is :func:`constraint_stiffness`).
+    """
+    n = eng.n
+    y, a, A = perturbed_state(eng, ref, z, zd, zdd)
+    t = ref.t
+    At, Y, Phi = selected_vectors(eng, y)
+    Q = eng.applied(t, y, At, Y, Phi, state_factory)
+    F = eng.M @ a - Q
+    if constraints and eng.m:
+        F += constraint_force(eng, t, At, Y, ref.multipliers)
+    out = np.empty(6 * n)
+    out[: 3 * n] = F[: 3 * n]
+    out[3 * n :] = np.matmul(A, F[3 * n :].reshape(n, 3, 1)).ravel()
+    return out
+
+
+def selected_vectors(eng: _Engine, y: np.ndarray):
+    """``(At, Y, Phi)`` of the row table at ``y`` with velocities, without the Jacobian (see ``_Engine.table``)."""
+    eng.generation += 1  # the work arrays are overwritten
+    At = eng.frames(y, velocities=True)
+    U = getattr(eng, "_linearization_U", None)
+    if U is None:
+        U = eng._linearization_U = scipy.sparse.csr_matrix(eng.U)
+    Y = U @ eng.B
+    m = eng.m_tab
+    Phi = np.einsum("ri,ri->r", Y[:m, 0:3], Y[m : 2 * m, 0:3])
+    return At, Y, Phi
+
+
+def _row_tables(eng: _Engine) -> dict:
+    """Where the Jacobian entries of the row table go (read from the compiled scatter indices), cached on ``eng``."""
+    cached = getattr(eng, "_linearization_rows", None)
+    if cached is not None:
+        return cached
+    n = eng.n
+    nw, nt = 3 * n + 3, 6 * n + 6
+    fw = np.asarray(eng.flat_w)[::3]
+    w_row, w_body = fw // nw, (fw % nw) // 3
+    fr = np.asarray(eng.flat_R)[::3]
+    r_row, r_col = fr // nt, fr % nt
+    live_w = w_body < n
+    live_r = r_col < 3 * n
+    pc = np.asarray(eng.rows_pc)
+    const = np.array(eng.Dt_full[pc, : 3 * n]) if pc.size else np.zeros((0, 3 * n))
+    tables = dict(w_row=w_row[live_w], w_body=w_body[live_w], w_keep=np.flatnonzero(live_w),
+                  r_row=r_row[live_r], r_col=r_col[live_r], r_keep=np.flatnonzero(live_r), pc=pc, pc_R=const)
+    eng._linearization_rows = tables
+    return tables
+
+
+def row_multipliers(eng: _Engine, t: float, lam: np.ndarray) -> np.ndarray:
+    """(m_tab,) multipliers of the table rows: the constraint rows' own, and the angle motors' spread on their
+    auxiliary rows (``C = P1 cos f - P2 sin f``)."""
+    mu = np.zeros(eng.m_tab)
+    mu[: eng.m_dir] = lam[: eng.m_dir]
+    if eng.angle_motors:
+        fv = np.array([mt.values(t) for mt in eng.angle_motors]).reshape(-1, 3)
+        lm = lam[eng.m_dir : eng.m]
+        np.add.at(mu, eng.aux_motor[:, 0], np.cos(fv[:, 0]) * lm)
+        np.add.at(mu, eng.aux_motor[:, 1], -np.sin(fv[:, 0]) * lm)
+    return mu
+
+
+def constraint_force(eng: _Engine, t: float, At: np.ndarray, Y: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """(6n,) ``D^T lambda`` in ``[R_dot, omega_body]`` from the row table, summed row by row.
+
+    The same Jacobian entries as ``_Engine.table`` (cross products ``a x X``
+    in the global frame, the dot-2 rows' ``+-a`` and the point rows'
+    constant ``+-e``), weighted by the rows' multipliers and added per body
+    instead of scattered into a dense ``D``.
+    """
+    n = eng.n
+    tb = _row_tables(eng)
+    mu = row_multipliers(eng, t, lam)
+    out = np.zeros(6 * n)
+    if tb["pc"].size:
+        out[: 3 * n] += tb["pc_R"].T @ mu[tb["pc"]]
+    if tb["r_row"].size:
+        vals = (Y[eng.R_rows, 0:3] * eng.R_sign)[tb["r_keep"]] * mu[tb["r_row"], None]
+        np.add.at(out, (tb["r_col"][:, None] + np.arange(3)[None, :]), vals)
+    if tb["w_row"].size:
+        c = cross(Y[eng.cross_a, 0:3], Y[eng.cross_u, 0:3] * eng.cross_sign)[tb["w_keep"]]
+        g = np.zeros((n, 3))
+        np.add.at(g, tb["w_body"], c * mu[tb["w_row"], None])
+        out[3 * n :] = np.matmul(At, g[:, :, None]).ravel()
+    return out
+
+
+def _rotations(theta: np.ndarray) -> np.ndarray:
+    """exp(skew(theta)) (n, 3, 3) of rotation vectors (n, 3) (Rodriguez formula)."""
+    n = theta.shape[0]
+    ang = np.sqrt(np.einsum("ni,ni->n", theta, theta))
+    small = ang < 1e-4
+    safe = np.where(small, 1.0, ang)
+    a = np.where(small, 1.0 - ang**2 / 6.0, np.sin(ang) / safe)
+    b = np.where(small, 0.5 - ang**2 / 24.0, (1.0 - np.cos(ang)) / safe**2)
+    K = np.zeros((n, 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -theta[:, 2], theta[:, 1], -theta[:, 0]
+    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = theta[:, 2], -theta[:, 1], theta[:, 0]
+    return np.eye(3)[None] + a[:, None, None] * K + b[:, None, None] * np.matmul(K, K)
+
+
+def body_coupling(eng: _Engine, *, constraints: bool = True) -> list[set[int]]:
+    """Per body, the bodies whose coordinates its residual depends on (itself included).
+
+    Two bodies are coupled when they appear in one constraint row of the
+    table (joints, motors, every future row kind; only with
+    ``constraints``), one spring-damper or one torsion spring. User forces
+    and torques may read any state: with any of them every body is coupled
+    to every other.
+    """
+    n = eng.n
+    full = set(range(n))
+    if eng.user_forces or eng.user_torques:
+        return [set(full) for _ in range(n)]
+    groups: list[set[int]] = []
+    if constraints and eng.m_tab:
+        tb = _slot_tables(eng)
+        rows: list[set[int]] = [set() for _ in range(eng.m_tab)]
+        for r, b in zip(tb["t_row"].tolist(), tb["t_body"].tolist()):
+            rows[r].add(b)
+        for r, b in enumerate(tb["a_body"].tolist()):
+            if b >= 0:
+                rows[r].add(b)
+        groups += rows
+    for sp in eng.springs:
+        groups.append({b.index for b in (sp.body_i, sp.body_j) if b.index >= 0})
+    for rs in eng.rot_springs:
+        groups.append({b.index for b in (rs.joint.body_i, rs.joint.body_j) if b.index >= 0})
+    out = [{b} for b in range(n)]
+    for g in groups:
+        for b in g:
+            out[b] |= g
+    return out
+
+
+def distance2_colors(coupling: list[set[int]]) -> list[list[int]]:
+    """Groups of bodies that may be perturbed together (greedy distance-2 colouring).
+
+    No body's residual depends on two bodies of one group, so one pair of
+    evaluations per group and coordinate recovers all their Jacobian columns.
+    """
+    n = len(coupling)
+    color = [-1] * n
+    for b in range(n):
+        near: set[int] = set()
+        for c in coupling[b]:
+            near |= coupling[c]
+        used = {color[c] for c in near if color[c] >= 0}
+        k = 0
+        while k in used:
+            k += 1
+        color[b] = k
+    groups: list[list[int]] = [[] for _ in range(max(color) + 1 if n else 0)]
+    for b, k in enumerate(color):
+        groups[k].append(b)
+    return groups
+
+
+def project_positions(system: Any, t: float, y: np.ndarray, *, tol: float = 1e-12, max_iterations: int = 50):
+    """``(y, residual)``: the state ``y`` (13n,) moved onto ``C(q, t) = 0`` by Newton (least change, mass metric).
+
+    The same iteration as :meth:`System.assemble` (minimum-norm corrections,
+    step halving); the velocities are left as they are.
+
+    Raises
+    ------
+    AssemblyError
+        When Newton does not converge.
+    """
+    from ._analysis import _newton_positions
+
+    eng = system._engine().workspace()
+    if not eng.m:
+        return np.array(y, dtype=float), 0.0
+    y, _, res = _newton_positions(eng, float(t), np.array(y, dtype=float), tol, max_iterations, "animate")
+    return y, float(res)
+
+
+def body_length_scales(eng: _Engine) -> np.ndarray:
+    """(n,) per body the largest distance from its centre of mass to a joint or spring point (m), 1 if none."""
+    n = eng.n
+    arm = np.zeros(n)
+    for jt in eng.joints:
+        for side, body in (("u_i", jt.body_i), ("u_j", jt.body_j)):
+            if body.index >= 0:
+                arm[body.index] = max(arm[body.index], float(np.linalg.norm(jt._local[side])))
+    for sp in eng.springs:
+        for side, body in (("u_i", sp.body_i), ("u_j", sp.body_j)):
+            if body.index >= 0:
+                arm[body.index] = max(arm[body.index], float(np.linalg.norm(sp._local[side])))
+    return np.where(arm > 0.0, arm, 1.0)
+
+
+def nonholonomic_rows(eng: _Engine) -> np.ndarray:
+    """Indices of the rows that constrain velocities only (rolling); ``eng.nonholonomic_rows`` if the model has it.
+
+    Their velocity equations ``D_r v = 0`` restrict the perturbation
+    velocities but not the positions.
+    """
+    return np.asarray(getattr(eng, "nonholonomic_rows", ()), dtype=np.intp).reshape(-1)
+
+
+def _slot_tables(eng: _Engine) -> dict:
+    """Per table row, the body of its direction ``a`` and the signed body terms ``(k, u_k, h_k)`` of ``b``.
+
+    Read from the selection matrix ``U``: row ``r`` selects ``a = A_alpha
+    a_body``, row ``m_tab + r`` selects ``b = sum_k (h_k R_k + A_k u_k)``
+    (``y_b1 - y_b2`` with the signs folded into ``u_k, h_k``). Cached on
+    ``eng``.
+    """
+    cached = getattr(eng, "_linearization_slots", None)
+    if cached is not None:
+        return cached
+    n = eng.n
+    m = eng.m_tab
+    U = eng.U
+    A_blocks = np.any(U[:m, : 4 * n].reshape(m, n, 4) != 0.0, axis=2)  # (m, n)
+    a_body = np.where(A_blocks.any(axis=1), np.argmax(A_blocks, axis=1), -1).astype(np.intp)
+    B = U[m : 2 * m, : 4 * n].reshape(m, n, 4)
+    t_row, t_body = np.nonzero(np.any(B != 0.0, axis=2))
+    tables = dict(a_body=a_body, t_row=t_row.astype(np.intp), t_body=t_body.astype(np.intp),
+                  t_u=B[t_row, t_body, 0:3].copy(), t_h=B[t_row, t_body, 3].copy())
+    eng._linearization_slots = tables
+    return tables
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """(k, 3, 3) skew matrices of (k, 3) vectors."""
+    S = np.zeros(v.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return S
+
+
+def constraint_stiffness(eng: _Engine, ref: Reference) -> np.ndarray:
+    """(6n, 6n) ``d(D^T lambda0)/dz`` at the reference, analytic, from the row table (the geometric stiffness).
+
+    Every table row is ``Phi = a . b`` with ``a = A_alpha a_body`` and ``b =
+    sum_k (h_k R_k + A_k u_k)``; with ``s_k = A_k u_k`` its generalized force
+    is ``h_k a`` on ``R_k``, ``a x b`` on the rotation of ``alpha`` and
+    ``s_k x a`` on the rotation of ``k``. Differentiated along ``dR``,
+    ``da = theta_alpha x a`` and ``ds_k = theta_k x s_k`` and weighted by the
+    row's multiplier (the angle motors' spread on their auxiliary rows),
+    the blocks are::
+
+        (R_k, theta_a) = -h_k [a]x      (theta_a, R_k) = h_k [a]x
+        (theta_a, theta_a) = [b]x [a]x
+        (theta_a, theta_k) = -[a]x [s_k]x   (theta_k, theta_a) = -[s_k]x [a]x
+        (theta_k, theta_k) = [a]x [s_k]x
+
+    (``[v]x`` the skew matrix of ``v``); blocks of the ground are dropped.
+    """
+    n = eng.n
+    K = np.zeros((6 * n, 6 * n))
+    if not eng.m:
+        return K
+    tb = _slot_tables(eng)
+    mu = row_multipliers(eng, ref.t, ref.multipliers)
+    At = np.array(eng.frames(ref.y, velocities=False))
+    Y = eng.U @ eng.B[:, 0:3]
+    m = eng.m_tab
+    a = Y[:m]
+    b = Y[m : 2 * m]
+    Sa = _skew(a) * mu[:, None, None]
+    Sb = _skew(b)
+    K4 = K.reshape(2, n, 3, 2, n, 3)  # (part, body, i, part, body, j); part 0: R, 1: theta
+
+    def add(part_i, bi, part_j, bj, blocks):
+        np.add.at(K4, (part_i, bi, slice(None), part_j, bj, slice(None)), blocks)
+
+    ra = np.flatnonzero((tb["a_body"] >= 0) & (mu != 0.0))
+    if ra.size:
+        alpha = tb["a_body"][ra]
+        add(1, alpha, 1, alpha, np.matmul(Sb[ra], Sa[ra]))
+    rows, body = tb["t_row"], tb["t_body"]
+    if rows.size:
+        live = mu[rows] != 0.0
+        rows, body, u, h = rows[live], body[live], tb["t_u"][live], tb["t_h"][live]
+        A = np.transpose(At, (0, 2, 1))
+        s = np.matmul(A[body], u[:, :, None])[:, :, 0]
+        Ss = _skew(s)
+        Sak = Sa[rows]
+        add(1, body, 1, body, np.matmul(Sak, Ss))
+        alpha = tb["a_body"][rows]
+        moving = alpha >= 0
+        if np.any(moving):
+            al, bo = alpha[moving], body[moving]
+            Sam, Ssm, hm = Sak[moving], Ss[moving], h[moving]
+            add(0, bo, 1, al, -hm[:, None, None] * Sam)
+            add(1, al, 0, bo, hm[:, None, None] * Sam)
+            add(1, al, 1, bo, -np.matmul(Sam, Ssm))
+            add(1, bo, 1, al, -np.matmul(Ssm, Sam))
+    return K
