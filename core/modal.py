@@ -73,7 +73,7 @@ STABILITY_TOL = 1e-8
 #: Relative tolerance of a rigid-body (zero) mode: ``abs(s) <= RIGID_TOL *
 #: scale`` (a double zero eigenvalue moves by the square root of the
 #: round-off in ``K``, so this is looser than ``STABILITY_TOL``).
-RIGID_TOL = 1e-6
+RIGID_TOL = 1e-5
 #: Relative asymmetry of ``K`` up to which the undamped problem is solved as
 #: the symmetric ``K phi = omega^2 M phi`` (Eqs. 8.113-8.116).
 SYMMETRY_TOL = 1e-9
@@ -757,9 +757,10 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
     users = bool(eng.user_forces or eng.user_torques)
     if constraint_stiffness == "analytic":
         K_full = lin.constraint_stiffness(eng, ref)
-        coupling = lin.body_coupling(eng, constraints=False)
+        coupling = lin.body_coupling(eng, table_rows=False)
         with_rows = False
-        needs_position = moving or users or bool(eng.springs) or bool(eng.rot_springs)
+        needs_position = (moving or users or bool(eng.springs) or bool(eng.rot_springs)
+                          or lin.has_extra_rows(eng))
     else:
         K_full = np.zeros((6 * n, 6 * n))
         coupling = lin.body_coupling(eng)
@@ -769,16 +770,16 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
     err_k = 0.0
     if needs_position:
         K_diff, err_k = _jacobian(eng, ref, coupling, groups, ell, state_factory, "z", richardson=True,
-                                  constraints=with_rows)
+                                  table_rows=with_rows)
         K_full = K_full + K_diff
     needs_velocity = (moving or users or any(sp.damping > 0 for sp in eng.springs)
                       or any(rs.damping > 0 for rs in eng.rot_springs))
     if needs_velocity:
-        coupling_v = lin.body_coupling(eng, constraints=False)
+        coupling_v = lin.body_coupling(eng, table_rows=False)
         groups_v = lin.distance2_colors(coupling_v)
         rate = max(1.0, float(np.max(np.abs(ref.omega))), float(np.linalg.norm(W)))
         V_full, err_c = _jacobian(eng, ref, coupling_v, groups_v, ell * rate, state_factory, "zd",
-                                  richardson=users, rot_step=rate, constraints=False)
+                                  richardson=users, rot_step=rate, table_rows=False)
     else:
         V_full, err_c = None, 0.0
     M = N_v.T @ _block_diagonal_apply(M_full, N_v, n)
@@ -794,7 +795,10 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
         if vs <= 1e-13 * cs:
             C = G = None
     T = None if N_v.shape[1] == N.shape[1] else N.T @ N_v
-    err = max(err_k, err_c)
+    rate = max(1.0, float(np.max(np.abs(ref.omega))), float(np.linalg.norm(W)))
+    m_scale = float(np.max(np.abs(M_full)))
+    err = max(err_k / max(float(np.max(np.abs(K_full))), m_scale * rate**2, 1e-300),
+              err_c / max(float(np.max(np.abs(V_full))) if V_full is not None else 0.0, m_scale * rate, 1e-300))
     if err > 1e-3:
         warnings.warn(f"linearize: the finite-difference derivatives may be inaccurate (estimated relative error "
                       f"{err:.1e}); the reference may sit near a singular configuration", RuntimeWarning, stacklevel=2)
@@ -841,13 +845,13 @@ def _check_steady(eng: Any, ref: Any, system: Any, ell: np.ndarray, tol: float) 
         )
 
 
-def _jacobian(eng, ref, coupling, groups, ell, state_factory, which, *, richardson, rot_step=1.0, constraints=True):
+def _jacobian(eng, ref, coupling, groups, ell, state_factory, which, *, richardson, rot_step=1.0, table_rows=True):
     """(6n, 6n) dF/dz or dF/dz_dot by central differences over distance-2 colour groups.
 
     Steps: ``STEP * ell_b`` (translations) and ``STEP * rot_step`` (rotations);
     with ``richardson`` the steps h and 2h are combined, ``(4 J_h - J_2h) /
     3``, and ``abs(J_h - J_2h)`` estimates the error. Returns ``(J,
-    relative error estimate)``.
+    absolute error estimate of the plain central difference at step h)``.
     """
     from core.multibody import _linearization as lin
 
@@ -864,8 +868,8 @@ def _jacobian(eng, ref, coupling, groups, ell, state_factory, which, *, richards
 
     def F(d: np.ndarray) -> np.ndarray:
         if which == "z":
-            return lin.residual(eng, ref, d, zeros, zeros, state_factory, constraints=constraints)
-        return lin.residual(eng, ref, zeros, d, zeros, state_factory, constraints=constraints)
+            return lin.residual(eng, ref, d, zeros, zeros, state_factory, table_rows=table_rows)
+        return lin.residual(eng, ref, zeros, d, zeros, state_factory, table_rows=table_rows)
 
     body_rows = np.concatenate([3 * np.arange(n)[:, None] + np.arange(3)[None, :],
                                 3 * n + 3 * np.arange(n)[:, None] + np.arange(3)[None, :]], axis=1)  # (n, 6)
@@ -887,9 +891,7 @@ def _jacobian(eng, ref, coupling, groups, ell, state_factory, which, *, richards
                 J2[rows, cols] = ((F(2.0 * d) - F(-2.0 * d)) / 4.0)[rows] / scale
     if not richardson:
         return J, 0.0
-    big = max(float(np.max(np.abs(J))), 1e-300)
-    err = float(np.max(np.abs(J - J2))) / (3.0 * big)
-    return (4.0 * J - J2) / 3.0, err
+    return (4.0 * J - J2) / 3.0, float(np.max(np.abs(J - J2))) / 3.0
 
 
 # ------------------------------------------------------------------ sweep

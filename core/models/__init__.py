@@ -10,8 +10,26 @@ from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial
 from ._pendulum import ROD_RADIUS_RATIO, pendulum_chain
 from ._rolling_disk import FLAT_LEAN, RollingDiskMotion, rolling_disk_critical_spin, rolling_disk_reference
 from ._top import HeavyTop, heavy_top
+from ._vibration import (
+    DiskRotor,
+    SphericalPendulum,
+    SteadyTop,
+    TwoMassOscillator,
+    disk_rotor,
+    spherical_pendulum,
+    steady_top,
+    two_mass_oscillator,
+)
 
 __all__ = [
+    "DiskRotor",
+    "SphericalPendulum",
+    "SteadyTop",
+    "TwoMassOscillator",
+    "disk_rotor",
+    "spherical_pendulum",
+    "steady_top",
+    "two_mass_oscillator",
     "CAM_LAWS",
     "FLAT_LEAN",
     "FOLLOWER_KINDS",

@@ -54,6 +54,7 @@ __all__ = [
     "constraint_force",
     "constraint_stiffness",
     "distance2_colors",
+    "has_extra_rows",
     "mass_matrix",
     "nonholonomic_rows",
     "project_positions",
@@ -61,6 +62,7 @@ __all__ = [
     "residual",
     "row_multipliers",
     "selected_vectors",
+    "table_row_count",
 ]
 
 
@@ -172,24 +174,33 @@ def perturbed_state(eng: _Engine, ref: Reference, z: np.ndarray, zd: np.ndarray,
 
 
 def residual(eng: _Engine, ref: Reference, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, state_factory, *,
-             constraints: bool = True) -> np.ndarray:
+             table_rows: bool = True) -> np.ndarray:
     """(6n,) dynamic residual ``F(z, z_dot, z_ddot)`` of every body (forces; torques global).
 
     ``F = M a - Q + D^T lambda0`` with the multipliers held at the
     reference, torques about the centres of mass turned from the body
-    frame to the global frame by the perturbed ``A``. ``D^T lambda0`` is
-    summed row by row from the row table (:func:`constraint_force`), so no
-    dense Jacobian is formed; ``constraints=False`` leaves it out (its
-    derivative is :func:`constraint_stiffness`).
+    frame to the global frame by the perturbed ``A``. The rows of the row
+    table are summed row by row (:func:`constraint_force`, no dense
+    Jacobian); ``table_rows=False`` leaves them out (their derivative is
+    :func:`constraint_stiffness`). Rows outside the table (contacts) are
+    always included, from the engine's full evaluation.
     """
     n = eng.n
     y, a, A = perturbed_state(eng, ref, z, zd, zdd)
     t = ref.t
-    At, Y, Phi = selected_vectors(eng, y)
+    extra = has_extra_rows(eng)
+    if extra:
+        At, Y, Phi, gam = eng.table(t, y, level=2)
+    else:
+        At, Y, Phi = selected_vectors(eng, y)
     Q = eng.applied(t, y, At, Y, Phi, state_factory)
     F = eng.M @ a - Q
-    if constraints and eng.m:
+    if table_rows and eng.m:
         F += constraint_force(eng, t, At, Y, ref.multipliers)
+    if extra:
+        mt = table_row_count(eng)
+        _, D, _, _ = eng.constraint_rows(t, Y, Phi, gam, level=1)
+        F += np.asarray(D)[mt:].T @ ref.multipliers[mt:]
     out = np.empty(6 * n)
     out[: 3 * n] = F[: 3 * n]
     out[3 * n :] = np.matmul(A, F[3 * n :].reshape(n, 3, 1)).ravel()
@@ -230,6 +241,16 @@ def _row_tables(eng: _Engine) -> dict:
     return tables
 
 
+def table_row_count(eng: _Engine) -> int:
+    """Constraint rows of the row table (joints and motors); rows after them (contacts) come from elsewhere."""
+    return int(getattr(eng, "m_motor", eng.m))
+
+
+def has_extra_rows(eng: _Engine) -> bool:
+    """True when the model has constraint rows outside the row table (contacts)."""
+    return eng.m > table_row_count(eng) or getattr(eng, "contact_kernel", None) is not None
+
+
 def row_multipliers(eng: _Engine, t: float, lam: np.ndarray) -> np.ndarray:
     """(m_tab,) multipliers of the table rows: the constraint rows' own, and the angle motors' spread on their
     auxiliary rows (``C = P1 cos f - P2 sin f``)."""
@@ -237,7 +258,7 @@ def row_multipliers(eng: _Engine, t: float, lam: np.ndarray) -> np.ndarray:
     mu[: eng.m_dir] = lam[: eng.m_dir]
     if eng.angle_motors:
         fv = np.array([mt.values(t) for mt in eng.angle_motors]).reshape(-1, 3)
-        lm = lam[eng.m_dir : eng.m]
+        lm = lam[eng.m_dir : table_row_count(eng)]
         np.add.at(mu, eng.aux_motor[:, 0], np.cos(fv[:, 0]) * lm)
         np.add.at(mu, eng.aux_motor[:, 1], -np.sin(fv[:, 0]) * lm)
     return mu
@@ -282,21 +303,21 @@ def _rotations(theta: np.ndarray) -> np.ndarray:
     return np.eye(3)[None] + a[:, None, None] * K + b[:, None, None] * np.matmul(K, K)
 
 
-def body_coupling(eng: _Engine, *, constraints: bool = True) -> list[set[int]]:
+def body_coupling(eng: _Engine, *, table_rows: bool = True) -> list[set[int]]:
     """Per body, the bodies whose coordinates its residual depends on (itself included).
 
     Two bodies are coupled when they appear in one constraint row of the
-    table (joints, motors, every future row kind; only with
-    ``constraints``), one spring-damper or one torsion spring. User forces
-    and torques may read any state: with any of them every body is coupled
-    to every other.
+    table (joints and motors; only with ``table_rows``), one spring-damper
+    or one torsion spring. User forces and torques may read any state, and
+    rows outside the table (contacts) are not analysed: with any of them
+    every body is coupled to every other.
     """
     n = eng.n
     full = set(range(n))
-    if eng.user_forces or eng.user_torques:
+    if eng.user_forces or eng.user_torques or has_extra_rows(eng):
         return [set(full) for _ in range(n)]
     groups: list[set[int]] = []
-    if constraints and eng.m_tab:
+    if table_rows and eng.m_tab:
         tb = _slot_tables(eng)
         rows: list[set[int]] = [set() for _ in range(eng.m_tab)]
         for r, b in zip(tb["t_row"].tolist(), tb["t_body"].tolist()):
