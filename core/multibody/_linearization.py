@@ -149,20 +149,28 @@ def perturbed_state(eng: _Engine, ref: Reference, z: np.ndarray, zd: np.ndarray,
     rho, theta = z[: 3 * n].reshape(n, 3), z[3 * n :].reshape(n, 3)
     rho_d, theta_d = zd[: 3 * n].reshape(n, 3), zd[3 * n :].reshape(n, 3)
     rho_dd, theta_dd = zdd[: 3 * n].reshape(n, 3), zdd[3 * n :].reshape(n, 3)
-    Wn = np.repeat(W, n, axis=0)
     y0 = ref.y
     P = quaternion_products(exp_parameters(theta), y0[3 * n : 7 * n].reshape(n, 4))
     P /= np.linalg.norm(P, axis=1)[:, None]
-    E = _rotations(theta)
-    A = np.matmul(E, ref.A)
-    w_theta = cross(Wn, theta)
-    w_rho = cross(Wn, rho)
-    R_dot = y0[7 * n : 10 * n].reshape(n, 3) + rho_d + w_rho
-    omega_E = theta_d + w_theta
-    omega = ref.omega + omega_E + cross(theta, ref.omega)
-    R_dd = ref.R_ddot + rho_dd + 2.0 * cross(Wn, rho_d) + cross(Wn, w_rho)
-    alpha = (ref.alpha + theta_dd + 2.0 * cross(Wn, theta_d) + cross(Wn, w_theta) + cross(omega_E, ref.omega)
-             + cross(theta, ref.alpha))
+    A = np.matmul(_rotations(theta), ref.A)
+    R_dot = y0[7 * n : 10 * n].reshape(n, 3) + rho_d
+    R_dd = ref.R_ddot + rho_dd
+    omega_E = theta_d
+    alpha = ref.alpha + theta_dd
+    if np.any(W):  # observer frame turning: transport and Coriolis terms
+        Wn = np.repeat(W, n, axis=0)
+        w_theta = cross(Wn, theta)
+        w_rho = cross(Wn, rho)
+        R_dot = R_dot + w_rho
+        omega_E = omega_E + w_theta
+        R_dd = R_dd + 2.0 * cross(Wn, rho_d) + cross(Wn, w_rho)
+        alpha = alpha + 2.0 * cross(Wn, theta_d) + cross(Wn, w_theta)
+    omega = ref.omega + omega_E
+    if np.any(ref.omega):
+        omega = omega + cross(theta, ref.omega)
+        alpha = alpha + cross(omega_E, ref.omega)
+    if np.any(ref.alpha):
+        alpha = alpha + cross(theta, ref.alpha)
     y = np.empty(13 * n)
     y[: 3 * n] = y0[: 3 * n] + rho.ravel()
     y[3 * n : 7 * n] = P.ravel()
