@@ -34,6 +34,15 @@ Every method integrates a *model*: any object with
     local error), and to every dense-output state at ``t_eval``. The
     splitting methods and ``LSODA`` (which keep internal state that a
     projection would invalidate) refuse a model with ``project``.
+``stop_time(t0, y0, t1, y1, dense) -> float | None`` (optional)
+    An event check after every (projected) step of ``rk4``, ``midpoint``,
+    ``RK45`` and ``DOP853``: ``dense(t)`` gives the (projected) state at a
+    time within the step (scipy's dense output; for the fixed-step methods
+    one step of the method from ``y0``). When it returns a time ``te`` in
+    ``[t0, t1]`` the run ends there: states are recorded up to ``te``
+    only, and :class:`Trajectory` reports ``stop_time = te`` and
+    ``stop_state = dense(te)`` (e.g. a contact of :mod:`core.multibody`
+    whose normal force crosses zero).
 
 Single steps are pure functions ``step(model, state, dt, *, t=0.0) -> state``
 (:func:`rk4_step`, :func:`implicit_midpoint_step`, :func:`splitting_step`,
@@ -171,6 +180,11 @@ class Trajectory:
         exact flows instead).
     drift : :class:`DriftReport` of the model's invariants (empty when the
         model has none).
+    stop_time : float or None
+        The time at which the model's ``stop_time`` check ended the run
+        (None: the run reached ``t1``).
+    stop_state : (m,) or None
+        The state at ``stop_time``.
     """
 
     t: np.ndarray  # (n,)
@@ -179,6 +193,8 @@ class Trajectory:
     n_steps: int
     n_rhs: int
     drift: DriftReport
+    stop_time: float | None = None
+    stop_state: np.ndarray | None = None  # (m,)
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -693,16 +709,32 @@ def _run_fixed(
         counter = _CountingModel(model)
         step = _STEPPERS[method]
         project = getattr(model, "project", None)
+        check = getattr(model, "stop_time", None)
         y = y0
         check_inv = inv0 if inv0 is not None else None
         for k in range(1, n + 1):
             tk = t0 + (k - 1) * h
+            y_prev = y
             try:
                 y = step(counter, y, h, tk)
             except IntegrationError as e:
                 raise type(e)(f"step {k}: {e}", step=k, t=tk) from e
             if project is not None:
                 y = project(tk + h, y)
+            if check is not None:
+
+                def dense(te, y_prev=y_prev, tk=tk):
+                    if te <= tk:
+                        return np.array(y_prev)
+                    z = step(counter, y_prev, te - tk, tk)
+                    return project(te, z) if project is not None else z
+
+                te = check(tk, y_prev, tk + h, y, dense)
+                if te is not None:
+                    t_done = t0 + h * np.asarray(save_idx[:k_out], dtype=float)
+                    out_done = out[:k_out]
+                    return Trajectory(_frozen(t_done), _frozen(out_done), method, k, counter.calls,
+                                      drift_report(model, out_done), float(te), _frozen(dense(float(te))))
             saving = k == save_idx[k_out]
             if saving:
                 _check_finite_and_drift(model, y, check_inv, max_drift, k, tk + h)
@@ -743,7 +775,7 @@ def _run_adaptive(
         t_eval = float_array(t_eval, "t_eval", expected="sorted 1-D times within t_span")
         if t_eval.ndim != 1 or np.any(t_eval < t0) or np.any(t_eval > t1) or np.any(np.diff(t_eval) < 0):
             raise ValueError(f"t_eval: expected sorted 1-D times within t_span, got shape {t_eval.shape}")
-    if getattr(model, "project", None) is not None:
+    if getattr(model, "project", None) is not None or getattr(model, "stop_time", None) is not None:
         return _run_adaptive_projected(model, y0, t0, t1, method, rtol, atol, t_eval, inv0, max_drift, max_steps)
     counter = _CountingModel(model, max_calls=max_steps)
     # t_eval is served from scipy's dense output (what solve_ivp itself does
@@ -790,7 +822,7 @@ def _run_adaptive_projected(
     max_drift: float,
     max_steps: int,
 ) -> Trajectory:
-    """Adaptive run that applies ``model.project`` after every accepted step."""
+    """Adaptive run that applies ``model.project`` (and ``model.stop_time``) after every accepted step."""
     from scipy.integrate import DOP853, RK45
 
     solvers = {"RK45": RK45, "DOP853": DOP853}
@@ -800,7 +832,12 @@ def _run_adaptive_projected(
             "use RK45, DOP853, rk4 or midpoint"
         )
     counter = _CountingModel(model, max_calls=max_steps)
-    project = model.project
+    project = getattr(model, "project", None)
+    if project is None:  # stepped one accepted step at a time for the model's stop_time check
+
+        def project(t, y):
+            return y
+
     t_rec: list[float] = []
     y_rec: list[np.ndarray] = []
     if t_eval is None:
@@ -815,6 +852,9 @@ def _run_adaptive_projected(
         pending = t_eval[~first]
     k_next = 0
     n_steps = 0
+    check = getattr(model, "stop_time", None)
+    stopped = None
+    t_prev, y_prev = t0, y0.copy()
     try:
         solver = solvers[method](counter.rhs, t0, y0, t1, rtol=rtol, atol=atol)
         while solver.status == "running":
@@ -836,6 +876,28 @@ def _run_adaptive_projected(
                     step=n_steps,
                     t=t_new,
                 )
+            if check is not None:
+                if dense is None:
+                    dense = solver.dense_output()
+
+                def dense_state(te, dense=dense, t_new=t_new, y_new=y_new):
+                    return np.array(y_new) if te == t_new else project(te, dense(te))
+
+                te = check(t_prev, y_prev, t_new, np.array(y_new), dense_state)
+                if te is not None:
+                    te = float(te)
+                    y_stop = dense_state(te)
+                    if t_eval is None:
+                        t_rec.append(te)
+                        y_rec.append(np.array(y_stop))
+                    while t_eval is not None and k_next < pending.size and pending[k_next] <= te:
+                        tq = float(pending[k_next])
+                        t_rec.append(tq)
+                        y_rec.append(dense_state(tq))
+                        k_next += 1
+                    stopped = (te, y_stop)
+                    break
+                t_prev, y_prev = t_new, np.array(y_new)
             if t_eval is None:
                 t_rec.append(t_new)
                 y_rec.append(np.array(y_new))
@@ -857,11 +919,15 @@ def _run_adaptive_projected(
             "shorten t_span or pass a larger max_steps",
             t=stop.t,
         ) from None
-    while t_eval is not None and len(t_rec) < t_eval.size:  # times equal to t1 after the last step
+    while stopped is None and t_eval is not None and len(t_rec) < t_eval.size:  # times equal to t1 after the last step
         t_rec.append(float(t_eval[len(t_rec)]))
         y_rec.append(np.array(y_rec[-1]))
     states = np.array(y_rec).reshape(len(y_rec), y0.size)
-    return _adaptive_result(model, method, np.array(t_rec), states, n_steps, counter.calls, inv0, max_drift)
+    result = _adaptive_result(model, method, np.array(t_rec), states, n_steps, counter.calls, inv0, max_drift)
+    if stopped is None:
+        return result
+    return Trajectory(result.t, result.states, result.method, result.n_steps, result.n_rhs, result.drift,
+                      stopped[0], _frozen(stopped[1]))
 
 
 def _adaptive_result(

@@ -34,7 +34,7 @@ from ._elements import (
 )
 from ._engine import SingularSystemError
 from ._evaluation import Evaluation
-from ._simulate import ADAPTIVE_METHODS, FIXED_STEP_METHODS, STABILIZATIONS, MultibodyTrajectory
+from ._simulate import ADAPTIVE_METHODS, FIXED_STEP_METHODS, SEPARATION_ACTIONS, STABILIZATIONS, MultibodyTrajectory
 from ._system import INERTIA_TRIANGLE_TOL, PERPENDICULAR_TOL, State, System
 
 __all__ = [
@@ -44,6 +44,7 @@ __all__ = [
     "JOINT_KINDS",
     "PERPENDICULAR_TOL",
     "RANK_TOL",
+    "SEPARATION_ACTIONS",
     "STABILIZATIONS",
     "AssemblyError",
     "AssemblyReport",

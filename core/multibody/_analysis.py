@@ -127,7 +127,9 @@ def constraints_at(eng: _Engine, t: float, y: np.ndarray, level: int):
 
 
 def assembly_rows(eng: _Engine, t: float, y: np.ndarray):
-    """``(C, D)`` for Newton in assembly: the angle motors' rows are the wrapped angle error.
+    """``(C, D)`` of the position constraints for Newton in assembly (rolling rows left out).
+
+    The angle motors' rows are the wrapped angle error.
 
     The driving constraint ``sin(theta - f) = 0`` also holds at ``theta = f +
     pi``, and Newton on the sine from more than a quarter turn away goes
@@ -136,12 +138,14 @@ def assembly_rows(eng: _Engine, t: float, y: np.ndarray):
     """
     At, Y, Phi, gam = eng.table(t, y, level=1)
     C, D, _, _ = eng.constraint_rows(t, Y, Phi, gam, level=1)
+    if eng.m_holo < eng.m:  # rolling rows constrain velocities only
+        C, D = C[: eng.m_holo], D[: eng.m_holo]
     if not eng.angle_motors:
         return C, D
     C = np.array(C)
     D = np.array(D)
     s, c, ds, dc = eng.angle_motor_errors(t, Phi)
-    r = slice(eng.m_dir, eng.m)
+    r = slice(eng.m_dir, eng.m_motor)
     C[r] = np.arctan2(s, c)
     D[r] = (c[:, None] * ds - s[:, None] * dc) / (s * s + c * c)[:, None]
     return C, D
@@ -347,6 +351,7 @@ def assemble(system: Any, *, t: Any = None, tol: Any = 1e-12, max_iterations: An
         y[10 * n + 3 * k : 10 * n + 3 * k + 3] - y0[10 * n + 3 * k : 10 * n + 3 * k + 3]]))) for k, b in enumerate(eng.bodies)}
     system._y = y
     system._t = t
+    system._sync_contacts(eng)
     redundant = tuple(row_label(eng, r) for r in range(eng.m) if eng.keep is not None and r not in set(eng.keep.tolist()))
     return AssemblyReport(
         iterations=it,
@@ -441,6 +446,7 @@ def equilibrium(system: Any, *, t: Any = None, tol: Any = 1e-10, max_iterations:
     disp, rot, moved = _moves(eng, y0, y)
     system._y = y
     system._t = t
+    system._sync_contacts(eng)
     lam_full = np.zeros(eng.m)
     lam_full[keep] = lam
     lam_full.setflags(write=False)

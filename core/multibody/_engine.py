@@ -218,7 +218,8 @@ def _ext(body: Any, ground: int) -> int:
 class _Engine:
     """Constant, compiled description of a System with its work arrays."""
 
-    def __init__(self, bodies, joints, motors, springs, rot_springs, forces, torques, gravity):
+    def __init__(self, bodies, joints, motors, springs, rot_springs, forces, torques, gravity, contacts=(),
+                 contact_starts=()):
         n = len(bodies)
         self.n = n
         g = n  # ground index in the extended (n + 1) body arrays
@@ -232,6 +233,7 @@ class _Engine:
         self.gravity = np.array(gravity, dtype=float)
         self._mass_properties(bodies, joints)
         self._row_table(joints, motors, rot_springs, springs)
+        self._contact_rows(contacts, contact_starts)
         self._work_arrays()
         self._force_tables(springs, rot_springs, forces, torques)
         self.keep: np.ndarray | None = None  # independent rows (None: all)
@@ -244,7 +246,7 @@ class _Engine:
             self.K_aug = np.zeros((6 * n + self.m, 6 * n + self.m))
             self.K_aug[: 6 * n, : 6 * n] = self.M
         self.y_size = 13 * n
-        self._zero_m = np.zeros(self.m)
+        self._zero_m = np.zeros(self.m_motor)
         self._zero_m.setflags(write=False)
 
     # ------------------------------------------------------------ compile
@@ -483,6 +485,47 @@ class _Engine:
             self.Dt_full[rr, cj : cj + 3] += e
             self.Dt_full[rr, ci : ci + 3] -= e
 
+    def _contact_rows(self, contacts, starts) -> None:
+        """Rows of the contacts after the joint and motor rows (see ``core.contact._kernel``).
+
+        Holonomic rows first (one reduced row per constraint-model contact,
+        Eqs. 8.105-8.107), then the velocity-only rows of rolling contacts
+        (``nonholonomic_rows``: no position value, excluded from the
+        position projection and assembly).
+        """
+        self.contacts = tuple(contacts)
+        self.m_motor = self.m  # rows of joints and motors
+        self.contact_kernel = None
+        self.contact_state = None
+        self.contact_row = np.full(len(self.contacts), -1, dtype=np.intp)
+        self.rolling_rows = [np.zeros(0, dtype=np.intp) for _ in self.contacts]
+        m = self.m
+        for c in self.contacts:
+            if c.model == "constraint":
+                self.contact_row[c.index] = m
+                self.row_labels.append((c, "normal"))
+                m += 1
+        self.m_holo = m
+        for c in self.contacts:
+            if c.model == "constraint" and c.rolling:
+                p = c.n_parameters
+                self.rolling_rows[c.index] = np.arange(m, m + p, dtype=np.intp)
+                self.row_labels += [(c, f"rolling t{q + 1}") for q in range(p)]
+                m += p
+        self.nonholonomic_rows = np.arange(self.m_holo, m, dtype=np.intp)
+        self.m = m
+        if self.contacts:
+            from core.contact._kernel import ContactKernel
+
+            self.contact_kernel = ContactKernel(self.contacts, self.n)
+            self.contact_state = self.contact_kernel.initial_state(list(starts))
+        self.contact_eval = None
+
+    def contact_modes_changed(self) -> None:
+        """Forget the rank analysis after a contact changed model (rows switched on or off)."""
+        self.analyzed = False
+        self.keep = None
+
     def _work_arrays(self) -> None:
         n = self.n
         # B ((n + 1) * 4, 9): see the module docstring; the ground's rows are [e_k | 0 | 0], [0 | 0 | 0]
@@ -534,6 +577,10 @@ class _Engine:
         self.keep = None if work.keep is None else work.keep.copy()
         self.rank = work.rank
         self.analyzed = work.analyzed
+        if self.contact_kernel is not None:  # warm start of the surface parameters
+            state = self.contact_kernel.copy_state(work.contact_state)
+            state["mode"] = np.array(self.contact_state["mode"])
+            self.contact_state = state
 
     def workspace(self) -> _Engine:
         """A copy sharing the constant tables but with its own work arrays and row selection.
@@ -551,6 +598,9 @@ class _Engine:
         w.blockA = self.blockA.copy()
         w.K_aug = None if self.K_aug is None else self.K_aug.copy()
         w.keep = None if self.keep is None else self.keep.copy()
+        if self.contact_kernel is not None:
+            w.contact_state = self.contact_kernel.copy_state(self.contact_state)
+            w.contact_eval = None
         return w
 
     # ------------------------------------------------------------ kinematics
@@ -608,6 +658,9 @@ class _Engine:
             else:
                 np.einsum("rbi,bki->rbk", self.Dw[:, : 3 * n].reshape(m, n, 3), At,
                           out=self.Dt_full[:, 3 * n : 6 * n].reshape(m, n, 3))
+        if self.contact_kernel is not None:
+            self.contact_eval = self.contact_kernel.evaluate(
+                y, np.swapaxes(At, 1, 2), level, self.contact_state, t=t)
         return At, Y, Phi, gam
 
     def rates(self, Y: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -618,12 +671,58 @@ class _Engine:
     def constraint_rows(self, t: float, Y, Phi, gam, *, level: int):
         """Constraint vector (m,), its Jacobian D (m, 6n) or None, C_t (m,) and gamma (m,) or None.
 
+        Joint and motor rows (:meth:`_joint_motor_rows`), then the contact
+        rows evaluated by the last :meth:`table` call: the reduced row of
+        each constraint-model contact (value ``-g``) and its rolling rows
+        (value 0); rows of a contact that is not in the constraint model are
+        zero (found redundant by the rank analysis, so their multipliers are
+        zero).
+        """
+        if self.contact_kernel is None:
+            return self._joint_motor_rows(t, Y, Phi, gam, level=level)
+        mm = self.m_motor
+        C0, D0, Ct0, g0 = self._joint_motor_rows(t, Y, Phi, gam, level=level) if mm else (None, None, None, None)
+        m = self.m
+        n6 = 6 * self.n
+        C = np.zeros(m)
+        Ct = np.zeros(m)
+        D = np.zeros((m, n6)) if level >= 1 else None
+        gamma = np.zeros(m) if level >= 2 else None
+        if mm:
+            C[:mm] = C0
+            Ct[:mm] = Ct0
+            if D is not None:
+                D[:mm] = D0
+            if gamma is not None:
+                gamma[:mm] = g0
+        res = self.contact_eval
+        mode = self.contact_state["mode"]
+        for c in self.contacts:
+            r = self.contact_row[c.index]
+            if r < 0 or mode[c.index] != 0:
+                continue
+            C[r] = res["value"][c.index]
+            if D is not None:
+                D[r] = res["D"][c.index]
+                rr = self.rolling_rows[c.index]
+                if rr.size:
+                    D[rr] = res["Dr"][c.index, : rr.size]
+            if gamma is not None:
+                gamma[r] = res["gamma"][c.index]
+                rr = self.rolling_rows[c.index]
+                if rr.size:
+                    gamma[rr] = res["gamma_r"][c.index, : rr.size]
+        return C, D, Ct, gamma
+
+    def _joint_motor_rows(self, t: float, Y, Phi, gam, *, level: int):
+        """Rows of the joints and motors: constraint vector, Jacobian, C_t and gamma.
+
         Adds the motors: ``C = sin(theta - f) = P1 cos f - P2 sin f`` for an
         angle, ``C = s - f`` for a displacement, with ``C_t`` and the
         acceleration terms from ``f, f_dot, f_ddot``. Without motors the
         arrays are views of the table's (do not modify them).
         """
-        m_dir, m = self.m_dir, self.m
+        m_dir, m = self.m_dir, self.m_motor
         if not self.motors:
             D = (self.Dt if self.m_tab == m else self.Dt[:m]) if level >= 1 else None
             gamma = (gam if self.m_tab == m else gam[:m]) if level >= 2 else None
@@ -722,6 +821,9 @@ class _Engine:
                 Tg[b] += _call_load(item, t, state, "torque")
         if Tg is not None:
             Tb += np.einsum("nij,nj->ni", At, Tg)
+        if self.contact_kernel is not None and np.any(self.contact_state["mode"] != 0):
+            _, Qc = self.contact_kernel.compliant_forces(self.contact_eval, self.contact_state["mode"])
+            Q += Qc
         return Q
 
     def _spring_forces(self, t: float, Y: np.ndarray):

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 from scipy.linalg import lapack
+from scipy.optimize import brentq
 
 from core._validation import float_array, positive_integer, real_number, short_repr
 from core.integrators import MAX_STEPS, IntegrationError, integrate
@@ -38,7 +39,7 @@ from ._elements import Body, Joint, Motor
 from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, matrices, parameter_rates
 from ._system import State, _make_state
 
-__all__ = ["ADAPTIVE_METHODS", "FIXED_STEP_METHODS", "STABILIZATIONS", "MultibodyTrajectory"]
+__all__ = ["ADAPTIVE_METHODS", "FIXED_STEP_METHODS", "SEPARATION_ACTIONS", "STABILIZATIONS", "MultibodyTrajectory"]
 
 #: scipy's adaptive Runge-Kutta methods, stepped one accepted step at a time.
 ADAPTIVE_METHODS = ("DOP853", "RK45")
@@ -46,6 +47,13 @@ ADAPTIVE_METHODS = ("DOP853", "RK45")
 FIXED_STEP_METHODS = ("rk4", "midpoint")
 #: Constraint stabilization options of :func:`simulate`.
 STABILIZATIONS = ("projection", "baumgarte", "none")
+#: What :func:`simulate` does when the normal force of a constraint-model
+#: contact crosses zero (the contact would have to pull).
+SEPARATION_ACTIONS = ("stop", "compliant", "bilateral")
+#: A normal force below ``-SEPARATION_TOL`` times the force scale of the run
+#: (the largest of the applied forces and normal forces at the start) is a
+#: separation; round-off around a zero normal force is not.
+SEPARATION_TOL = 1e-9
 
 
 # ------------------------------------------------------------------ model
@@ -68,8 +76,16 @@ class _Dynamics:
         # With a regular, diagonal M the projection metric is M, so D M^-1 D^T of
         # the last right-hand side (its Cholesky factor) serves the projection.
         self._reuse = (stabilization == "projection" and eng.mass_regular and eng.minv_sqrt is not None
-                       and eng.winv_diag is not None and not self.alpha)
+                       and eng.winv_diag is not None and not self.alpha and not eng.nonholonomic_rows.size)
         self._last: tuple | None = None
+        # separation events of constraint-model contacts (see stop_time)
+        self.on_separation = "stop"
+        self.separation_tol = 0.0
+        self.events: list[tuple[float, int, np.ndarray, str]] = []
+        self._lam_last: tuple | None = None  # (t, lambda) of the last right-hand side
+        self._nu_prev: tuple | None = None  # (t, normal forces) at the end of the last step
+        if not any(c.model == "constraint" for c in eng.contacts):
+            self.stop_time = None
 
     def _state(self, t: float, y: np.ndarray) -> State:
         return _make_state(self.system, t, y)
@@ -114,7 +130,8 @@ class _Dynamics:
         Q = eng.applied(t, y, At, Y, Phi, self._state)
         if eng.m:
             eng.last_factor = None
-            a, _ = self._solve(t, y, D, Q, gamma)
+            a, lam = self._solve(t, y, D, Q, gamma)
+            self._lam_last = (t, lam)
             if self._reuse:
                 # the projection after a step starts where the step's last evaluation is (FSAL):
                 # keep its work (valid while no other evaluation overwrote the buffers)
@@ -122,6 +139,66 @@ class _Dynamics:
         else:
             a = eng.solve(t, np.zeros((0, 6 * n)), Q, np.zeros(0))[0]
         return np.concatenate([y[n7:n10], parameter_rates(y[n3:n7].reshape(n, 4), y[n10:].reshape(n, 3)).ravel(), a])
+
+    def normal_forces(self, t: float, y: np.ndarray, lam: np.ndarray | None = None) -> np.ndarray:
+        """(k,) normal forces of the contacts in the constraint model at ``(t, y)`` (nan for the others)."""
+        eng = self.eng
+        if lam is None:
+            lam = self.accelerations(t, y)[1]
+        mode = eng.contact_state["mode"]
+        out = np.full(len(eng.contacts), np.nan)
+        for c in eng.contacts:
+            r = eng.contact_row[c.index]
+            if r >= 0 and mode[c.index] == 0:
+                out[c.index] = lam[r]
+        return out
+
+    def stop_time(self, t0: float, y0: np.ndarray, t1: float, y1: np.ndarray, dense) -> float | None:
+        """The integrators' event check: the earliest zero crossing of a normal force in ``[t0, t1]``.
+
+        A constraint-model contact whose normal force is below
+        ``-separation_tol`` at the end of the step has crossed zero in it;
+        the crossing is located by Brent's method on the normal force along
+        the step's (projected) dense output and recorded in ``events``. With
+        ``on_separation="bilateral"`` the run goes on (None is returned);
+        otherwise it stops at the earliest crossing.
+        """
+        tol = self.separation_tol
+        cached = self._lam_last
+        if cached is not None and cached[0] == t1:
+            nu1 = self.normal_forces(t1, y1, cached[1])  # the step's last stage (before the projection)
+            if not np.any(nu1 < 0.0):
+                self._nu_prev = (t1, nu1)
+                return None
+        nu1 = self.normal_forces(t1, y1)
+        crossing = np.flatnonzero(nu1 < -tol)
+        prev = self._nu_prev
+        nu0 = prev[1] if prev is not None and prev[0] == t0 else self.normal_forces(t0, y0)
+        self._nu_prev = (t1, nu1)
+        new = [int(c) for c in crossing if not nu0[c] < -tol]
+        if not new:
+            return None
+        found = []
+        for c in new:
+            if not nu0[c] > 0.0:
+                te = t0
+            else:
+                def f(tt, c=c):
+                    return float(self.normal_forces(tt, dense(tt))[c])
+
+                try:
+                    te = brentq(f, t0, t1, xtol=1e-15 * max(1.0, abs(t1)), rtol=4.0 * np.finfo(float).eps, maxiter=200)
+                except ValueError:  # no sign change along the dense output: the start is the crossing
+                    te = t0
+            found.append((te, c))
+        found.sort()
+        if self.on_separation == "bilateral":
+            for te, c in found:
+                self.events.append((te, c, dense(te), "bilateral"))
+            return None
+        te, c = found[0]
+        self.events.append((te, c, dense(te), "stopped" if self.on_separation == "stop" else "compliant"))
+        return te
 
     def _metric_factor(self, Dk: np.ndarray, t: float):
         eng = self.eng
@@ -154,15 +231,16 @@ class _Dynamics:
         prev = math.inf
         last = self._last
         self._last = None
+        kp, kv = _position_rows(eng)
         for it in range(10):
             if (it == 0 and last is not None and last[0] is y_in and last[1] == t and last[5] is not None
                     and last[6] == eng.generation):
                 _, _, C, D, Ct, c, _ = last
-                factor = (D[eng.keep] if eng.keep is not None else D) * eng.winv_diag, c
+                factor = (D[kp] if kp is not None else D) * eng.winv_diag, c
             else:
                 C, D, Ct, _ = constraints_at(eng, t, y, 1)
                 if factor is not None:  # from the previous iterate: O(dq) off, enough for Newton's next step
-                    Dk = D if eng.keep is None else D[eng.keep]
+                    Dk = D if kp is None else D[kp]
                     factor = (Dk * eng.winv_diag if eng.winv_diag is not None else eng.winv_apply(Dk.T).T, factor[1])
             res = float(np.max(np.abs(C)))
             if res <= tol or (it and res <= 1e-8 and res > 0.25 * prev):
@@ -171,16 +249,16 @@ class _Dynamics:
                 raise IntegrationError(
                     f"projection onto the constraints did not converge at t={t:.6g} (residual {res:.3e}); "
                     "tighten the tolerances or reduce the step", t=t)
-            keep = eng.keep
-            Dk = D if keep is None else D[keep]
+            Dk = D if kp is None else D[kp]
             if factor is None or it:
                 try:
                     factor = self._metric_factor(Dk, t)
                 except _FactorizationFailed:
                     _recheck_rank(eng, t, y)
+                    kp, kv = _position_rows(eng)
                     continue
             WD, c = factor
-            mu, _ = lapack.dpotrs(c, C if keep is None else C[keep], lower=0)
+            mu, _ = lapack.dpotrs(c, C if kp is None else C[kp], lower=0)
             dq = WD.T @ mu
             # first-order retraction R -= dR, p <- (p - G_bar^T dpi / 2) / |.|: Newton stays quadratic
             y[:n3] -= dq[:n3]
@@ -188,10 +266,9 @@ class _Dynamics:
             P -= parameter_rates(P, dq[n3:].reshape(n, 3))
             P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
             prev = res
-        keep = eng.keep
-        Dk = D if keep is None else D[keep]
-        Ctk = Ct if keep is None else Ct[keep]
-        if factor is None:
+        Dk = D if kv is None else D[kv]
+        Ctk = Ct if kv is None else Ct[kv]
+        if factor is None or kv is not kp:  # rolling rows: the velocity projection has more rows
             factor = self._metric_factor(Dk, t)
         WD, c = factor
         v = y[n7:]
@@ -209,6 +286,19 @@ class _Dynamics:
         return y
 
 
+def _position_rows(eng: _Engine):
+    """Rows of the position projection and of the velocity projection (None: all rows).
+
+    The rows of rolling contacts constrain velocities only: they take part
+    in the velocity projection, not in the position projection.
+    """
+    kv = eng.keep
+    if not eng.nonholonomic_rows.size:
+        return kv, kv
+    rows = np.arange(eng.m) if kv is None else kv
+    return rows[rows < eng.m_holo], rows
+
+
 def _recheck_rank(eng: _Engine, t: float, y: np.ndarray) -> None:
     """After a failed factorization: new independent rows, or a clear error if the rank dropped."""
     old_rank = eng.rank
@@ -224,8 +314,13 @@ def _recheck_rank(eng: _Engine, t: float, y: np.ndarray) -> None:
 
 
 # ------------------------------------------------------------------ outputs
-def _energy(eng: _Engine, states: np.ndarray) -> np.ndarray:
-    """Kinetic + gravitational + spring energy (N,) of states (N, 13n), batched over the outputs."""
+def _energy(eng: _Engine, states: np.ndarray, modes: np.ndarray | None = None,
+            ts: np.ndarray | None = None, start: dict | None = None) -> np.ndarray:
+    """Kinetic + gravitational + spring (+ compliant contact) energy (N,) of states (N, 13n).
+
+    Batched over the outputs; a contact in the compliant model adds ``k
+    delta^(e+1) / (e + 1)`` while the bodies overlap by ``delta``.
+    """
     n = eng.n
     N = states.shape[0]
     R = states[:, : 3 * n].reshape(N, n, 3)
@@ -257,10 +352,42 @@ def _energy(eng: _Engine, states: np.ndarray) -> np.ndarray:
             a0 = eng.rs_0[k]
             d = np.arctan2(P1 * math.cos(a0) - P2 * math.sin(a0), P2 * math.cos(a0) + P1 * math.sin(a0))
             e += 0.5 * eng.rs_k[k] * d**2
+    if modes is not None and np.any(modes == 1):
+        ker = eng.contact_kernel
+        st = ker.copy_state(start if start is not None else eng.contact_state)
+        for idx in np.flatnonzero(np.any(modes == 1, axis=1)):
+            y = states[idx]
+            res = ker.evaluate(y, matrices(y[3 * n : 7 * n].reshape(n, 4)), 0, st,
+                               t=None if ts is None else float(ts[idx]))
+            delta = np.maximum(-res["gap"], 0.0)
+            on = (modes[idx] == 1) & (delta > 0.0)
+            if on.any():
+                ex = ker.exponent[on]
+                e[idx] += float(np.sum(ker.stiffness[on] * delta[on] ** (ex + 1.0) / (ex + 1.0)))
     return e
 
 
-def _residuals(model: _Dynamics, ts: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _switch_to_compliant(eng: _Engine, c: int, t: float, y: np.ndarray) -> None:
+    """Contact ``c`` leaves the constraint model (its rows switch off) for the compliant model."""
+    mode = eng.contact_state["mode"].copy()
+    mode[c] = 1
+    set_contact_modes(eng, mode, t, y)
+
+
+def _separation(system: Any, eng: _Engine, event: tuple):
+    """A :class:`~core.contact.Separation` from an event ``(t, contact index, state, action)``."""
+    from core.contact import Separation
+
+    t, c, y, action = event
+    res = eng.contact_kernel.evaluate(y, matrices(y[3 * eng.n : 7 * eng.n].reshape(eng.n, 4)), 0,
+                                      eng.contact_kernel.copy_state(eng.contact_state), t=t)
+    point = _ro(res["point_i"][c])
+    normal = _ro(res["normal"][c])
+    return Separation(eng.contacts[c], float(t), point, normal, _make_state(system, t, y), action)
+
+
+def _residuals(model: _Dynamics, ts: np.ndarray, states: np.ndarray,
+               modes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """max |C| and max |D v + C_t| per output; taken from the output projections where they ran."""
     eng = model.eng
     N = ts.size
@@ -275,6 +402,8 @@ def _residuals(model: _Dynamics, ts: np.ndarray, states: np.ndarray) -> tuple[np
         if hit is not None and np.array_equal(hit[0], y):
             res_p[k], res_v[k] = hit[1], hit[2]
             continue
+        if modes is not None:
+            set_contact_modes(eng, modes[k], t, y)
         C, D, Ct, _ = constraints_at(eng, t, y, 1)
         res_p[k] = float(np.max(np.abs(C)))
         res_v[k] = float(np.max(np.abs(D @ y[n7:] + Ct)))
@@ -319,8 +448,67 @@ def _reaction_tables(eng: _Engine) -> dict:
     }
 
 
-def _multipliers_and_reactions(model: _Dynamics, ts: np.ndarray, states: np.ndarray):
-    """Multipliers (N, m) and reactions (N, k, 6) [force, torque about the joint point] at the outputs."""
+def set_contact_modes(eng: _Engine, mode: np.ndarray | None, t: float, y: np.ndarray) -> None:
+    """Put the workspace's contacts in the models ``mode`` (k,); redo the rank analysis on a change."""
+    if mode is None or eng.contact_kernel is None:
+        return
+    current = eng.contact_state["mode"]
+    if np.array_equal(current, mode):
+        return
+    current[:] = mode
+    eng.contact_modes_changed()
+    analyze_rank(eng, t, y)
+
+
+def _restart_contacts(model: _Dynamics) -> None:
+    """Follow the contacts from the start of the run again (a pass over the outputs)."""
+    eng = model.eng
+    start = getattr(model, "contact_start", None)
+    if start is None or eng.contact_kernel is None:
+        return
+    state = eng.contact_kernel.copy_state(start)
+    state["mode"] = eng.contact_state["mode"]
+    eng.contact_state = state
+
+
+def _contact_record(eng: _Engine, lam: np.ndarray, res: dict, data: dict, idx: int) -> None:
+    """Fill output ``idx`` of the per-contact arrays from a level-2 evaluation and the multipliers."""
+    mode = eng.contact_state["mode"]
+    F_comp, _ = eng.contact_kernel.compliant_forces(res, mode)
+    for c in eng.contacts:
+        q = c.index
+        p = c.n_parameters
+        on = eng.contact_row[q] >= 0 and mode[q] == 0
+        nu = float(lam[eng.contact_row[q]]) if on else float(F_comp[q])
+        normal = res["normal"][q]
+        data["normal_force"][idx, q] = nu
+        data["point"][idx, q] = res["point_i"][q]
+        data["point_j"][idx, q] = res["point_j"][q]
+        data["normal"][idx, q] = normal
+        data["gap"][idx, q] = res["gap"][q]
+        data["constraint"][idx, q] = on
+        charts = eng.contact_state["charts"][q]
+        for side, surf, off in ((0, c.surface_i, 0), (1, c.surface_j, 2)):
+            loc = res["s"][q, off : off + p]
+            data["surface_parameters"][idx, q, off : off + p] = surf._chart_parameters(loc, charts[side])
+        Ft = np.zeros(3)
+        rr = eng.rolling_rows[q]
+        if on and rr.size:
+            for m, r in enumerate(rr):
+                row = res["Dr"][q, m]
+                if c.body_j.index >= 0:
+                    b = c.body_j.index
+                    Ft -= lam[r] * row[3 * b : 3 * b + 3]
+                else:
+                    b = c.body_i.index
+                    Ft += lam[r] * row[3 * b : 3 * b + 3]
+        data["tangential_force"][idx, q] = Ft
+        data["force"][idx, q] = nu * normal + Ft
+        data["multipliers"][idx, q] = res["N"][q] * nu if on else np.where(np.isnan(res["N"][q]), np.nan, 0.0)
+
+
+def _multipliers_and_reactions(model: _Dynamics, ts: np.ndarray, states: np.ndarray, modes: np.ndarray | None = None):
+    """Multipliers (N, m), reactions (N, k, 6) [force, torque about the joint point], items, contact data."""
     eng = model.eng
     n, m = eng.n, eng.m
     tabs = _reaction_tables(eng)
@@ -330,9 +518,21 @@ def _multipliers_and_reactions(model: _Dynamics, ts: np.ndarray, states: np.ndar
     F = np.zeros((N, k_items, 3))
     nb = np.zeros((N, k_items, 3))
     rows = np.arange(k_items)[:, None]
+    kc = len(eng.contacts)
+    data = {
+        "normal_force": np.zeros((N, kc)), "point": np.zeros((N, kc, 3)), "point_j": np.zeros((N, kc, 3)),
+        "normal": np.zeros((N, kc, 3)), "gap": np.zeros((N, kc)), "surface_parameters": np.full((N, kc, 4), np.nan),
+        "tangential_force": np.zeros((N, kc, 3)), "force": np.zeros((N, kc, 3)),
+        "multipliers": np.full((N, kc, 5), np.nan), "constraint": np.zeros((N, kc), dtype=bool),
+    }
+    _restart_contacts(model)
     for idx in range(N):
+        if modes is not None:
+            set_contact_modes(eng, modes[idx], float(ts[idx]), states[idx])
         _, lam, _, D, _ = model.accelerations(float(ts[idx]), states[idx])
         lam_out[idx] = lam
+        if kc:
+            _contact_record(eng, lam, eng.contact_eval, data, idx)
         if k_items and m:
             G = -(tabs["inc"] * lam) @ D  # (k, 6n) generalized constraint forces per item
             F[idx] = G[rows, tabs["fcols"]]
@@ -349,7 +549,7 @@ def _multipliers_and_reactions(model: _Dynamics, ts: np.ndarray, states: np.ndar
         s = tabs["sign"][None, :, None]
         react[:, :, 0:3] = s * F
         react[:, :, 3:6] = s * T
-    return lam_out, react, tabs["items"]
+    return lam_out, react, tabs["items"], data
 
 
 # ------------------------------------------------------------------ result
@@ -386,6 +586,12 @@ class MultibodyTrajectory:
     n_rhs : int
         Right-hand-side evaluations of the integrator (projections and
         output evaluations not counted).
+    separations : tuple of :class:`~core.contact.Separation`
+        Zero crossings of the normal forces of constraint-model contacts, in
+        time order (see ``simulate(..., on_separation=...)``).
+    status : str
+        ``"completed"`` (reached the last output time) or ``"separated"``
+        (stopped at a separation; the outputs end before it).
     """
 
     t: np.ndarray  # (n,)
@@ -400,6 +606,9 @@ class MultibodyTrajectory:
     n_rhs: int
     _model: Any = field(repr=False, compare=False)
     _owner: Any = field(repr=False, compare=False)
+    separations: tuple = ()
+    status: str = "completed"
+    _modes: Any = field(repr=False, compare=False, default=None)  # (n, k) contact models per output
     _cache: dict = field(repr=False, compare=False, default_factory=dict)
     _lock: Any = field(repr=False, compare=False, default_factory=threading.Lock)
 
@@ -412,10 +621,11 @@ class MultibodyTrajectory:
         with self._lock:
             if "lam" not in self._cache:
                 states = np.concatenate([self.q, self.v], axis=1)
-                lam, react, items = _multipliers_and_reactions(self._model, self.t, states)
+                lam, react, items, contacts = _multipliers_and_reactions(self._model, self.t, states, self._modes)
                 self._cache["items"] = MappingProxyType(dict(items))
                 self._cache["react"] = _ro(react)
                 self._cache["lam"] = _ro(lam)
+                self._cache["contacts"] = contacts
             return self._cache["lam"], self._cache["react"], self._cache["items"]
 
     @property
@@ -513,6 +723,45 @@ class MultibodyTrajectory:
             T = np.einsum("nji,nj->ni", A, T)
         return F, T
 
+    def contact(self, contact: Any):
+        """The contact's normal force, point, normal and surface parameters at the outputs.
+
+        Computed on first use with the multipliers (one solve per output).
+
+        Parameters
+        ----------
+        contact : Contact
+            A contact of this System (from ``System.add_contact``).
+
+        Returns
+        -------
+        ContactHistory
+            ``normal_force`` (n,) N, positive while pressing (the
+            independent multiplier, Eq. 8.107, or the compliant force);
+            ``point``, ``point_j``, ``normal`` (n, 3) global; ``gap`` (n,);
+            ``surface_parameters`` (n, 4) (curves: ``(s_i, nan, s_j,
+            nan)``); ``tangential_force``, ``force`` (n, 3) on ``body_j``;
+            ``multipliers`` (n, 5); ``constraint`` (n,) bool.
+        """
+        from core.contact import Contact, ContactHistory
+
+        if not isinstance(contact, Contact):
+            raise ValueError(f"contact: expected a Contact (from System.add_contact), got {short_repr(contact)}")
+        if contact._owner is not self._owner:
+            raise ValueError(f"contact: {contact.name!r} belongs to another System than this trajectory")
+        eng = self._model.eng
+        if contact.index >= len(eng.contacts) or eng.contacts[contact.index] is not contact:
+            raise ValueError(f"contact: {contact.name!r} was added after this trajectory was computed")
+        self._loads()
+        data = self._cache["contacts"]
+        k = contact.index
+        fields = {name: _ro(data[name][:, k]) for name in (
+            "normal_force", "point", "point_j", "normal", "gap", "surface_parameters", "tangential_force", "force",
+            "multipliers", "constraint")}
+        fields["constraint"] = np.array(data["constraint"][:, k], dtype=bool)
+        fields["constraint"].setflags(write=False)
+        return ContactHistory(t=self.t, **fields)
+
     def state(self, index: int) -> State:
         """The :class:`State` at output ``index`` (negative counts from the end)."""
         if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
@@ -549,6 +798,7 @@ def simulate(
     baumgarte: float = 20.0,
     position_tol: float = 1e-12,
     max_steps: int = MAX_STEPS,
+    on_separation: str = "stop",
 ) -> MultibodyTrajectory:
     """Integrate the constrained equations of motion from the System's current state.
 
@@ -581,6 +831,15 @@ def simulate(
         Newton tolerance of the position projection, ``max |C|``.
     max_steps : int, keyword-only
         Limit on steps (fixed) or right-hand-side evaluations (adaptive).
+    on_separation : str, keyword-only
+        When the normal force of a constraint-model contact crosses zero
+        (it would have to pull): ``"stop"`` (default) ends the run at that
+        instant (``status == "separated"``, outputs up to it);
+        ``"compliant"`` continues with that contact in the compliant model
+        (its ``stiffness``, ``damping``, ``exponent``), which handles the
+        flight, re-contact and impact; ``"bilateral"`` keeps the constraint
+        (the force goes negative). Each crossing is reported in
+        ``separations`` (time by Brent's method on the dense output).
 
     Returns
     -------
@@ -622,6 +881,8 @@ def simulate(
     if not position_tol > 0:
         raise ValueError(f"position_tol: expected a finite tolerance > 0, got {position_tol!r}")
     max_steps = positive_integer(max_steps, "max_steps")
+    if not isinstance(on_separation, str) or on_separation not in SEPARATION_ACTIONS:
+        raise ValueError(f"on_separation: expected one of {list(SEPARATION_ACTIONS)}, got {short_repr(on_separation)}")
 
     shared = system._engine()
     eng = shared.workspace()  # this run's own work arrays: simulations may run in parallel threads
@@ -660,15 +921,17 @@ def simulate(
         model.output_times = frozenset(float(x) for x in tt)
         y0 = model.project(t0, y0)
 
-    n_steps = n_rhs = 0
-    if tt[-1] == t0:
-        states = np.tile(y0, (tt.size, 1))
-    elif adaptive:
-        res = integrate(model, y0, (t0, float(tt[-1])), method=method, rtol=rtol, atol=atol, t_eval=tt,
-                        max_steps=max_steps)
-        states = np.array(res.states)
-        n_steps, n_rhs = res.n_steps, res.n_rhs
-    else:
+    kc = len(eng.contacts)
+    if kc:
+        model.contact_start = eng.contact_kernel.copy_state(eng.contact_state)
+        model.on_separation = on_separation
+        if on_separation == "compliant":
+            for c in eng.contacts:
+                if c.model == "constraint" and c.stiffness is None:
+                    raise ValueError(
+                        f"on_separation: 'compliant' continues contact {c.name!r} with the compliant model, which "
+                        "needs its stiffness (add_contact(..., stiffness=k))")
+    if not adaptive:
         gaps = np.diff(tt)
         counts = np.where(gaps > 0, np.ceil(gaps / dt - 1e-9), 0).astype(np.int64)
         counts[(gaps > 0) & (counts < 1)] = 1
@@ -677,31 +940,100 @@ def simulate(
                 f"dt: the output times with dt={dt:g} need {int(counts.sum())} steps, more than "
                 f"max_steps={max_steps}; use a larger dt or pass a larger max_steps"
             )
-        states = np.empty((tt.size, y0.size))
-        states[0] = y0
-        y = y0
-        for k in range(1, tt.size):
-            if counts[k - 1]:
-                res = integrate(model, y, (float(tt[k - 1]), float(tt[k])), method=method,
-                                dt=float(gaps[k - 1] / counts[k - 1]), save_every=int(counts[k - 1]),
-                                max_steps=max_steps)
-                y = np.array(res.states[-1])
-                n_steps += res.n_steps
-                n_rhs += res.n_rhs
-            states[k] = y
-    res_p, res_v = _residuals(model, tt, states)
+    n_steps = n_rhs = 0
+    pending_event = None
+    if model.stop_time is not None:
+        # force scale of the separation test; a contact that pulls already at t0 separates there
+        At0, Y0, Phi0, _ = eng.table(t0, y0, level=2)
+        Q0 = eng.applied(t0, y0, At0, Y0, Phi0, model._state)
+        _, lam0, _, _, _ = model.accelerations(t0, y0)
+        nu0 = model.normal_forces(t0, y0, lam0)
+        finite = nu0[np.isfinite(nu0)]
+        scale = max(float(np.max(np.abs(finite))) if finite.size else 0.0, float(np.max(np.abs(Q0[: 3 * n]))),
+                    1e-300)
+        model.separation_tol = SEPARATION_TOL * scale
+        model._nu_prev = (t0, nu0)
+        pulling = np.flatnonzero(nu0 < -model.separation_tol)
+        if pulling.size:
+            action = {"stop": "stopped", "compliant": "compliant", "bilateral": "bilateral"}[on_separation]
+            for c in pulling:
+                model.events.append((t0, int(c), np.array(y0), action))
+            if action != "bilateral":
+                pending_event = model.events[-len(pulling)]
+    out_t: list[float] = []
+    out_y: list[np.ndarray] = []
+    out_mode: list[np.ndarray] = []
+
+    def record(times, ys) -> None:
+        mode = eng.contact_state["mode"].copy() if kc else None
+        for tq, yq in zip(times, ys):
+            out_t.append(float(tq))
+            out_y.append(np.array(yq))
+            out_mode.append(mode)
+
+    first = tt[tt <= t0]
+    record(first, [y0] * first.size)
+    idx = first.size
+    t_cur, y_cur = t0, y0
+    stopped = False
+    while True:
+        if pending_event is not None:
+            te, c, ye, action = pending_event
+            pending_event = None
+            if action == "stopped":
+                stopped = True
+                break
+            _switch_to_compliant(eng, c, te, ye)
+            model._nu_prev = None
+        if idx >= tt.size:
+            break
+        if adaptive:
+            res = integrate(model, y_cur, (t_cur, float(tt[-1])), method=method, rtol=rtol, atol=atol,
+                            t_eval=np.concatenate([[t_cur], tt[idx:]]), max_steps=max_steps)
+            record(res.t[1:], res.states[1:])
+            idx += res.t.size - 1
+        else:
+            t_next = float(tt[idx])
+            if t_next <= t_cur:
+                record([t_next], [y_cur])
+                idx += 1
+                continue
+            count = max(1, math.ceil((t_next - t_cur) / dt - 1e-9))
+            res = integrate(model, y_cur, (t_cur, t_next), method=method, dt=(t_next - t_cur) / count,
+                            save_every=count, max_steps=max_steps)
+            if res.stop_time is None:
+                record([t_next], res.states[-1:])
+                idx += 1
+                t_cur, y_cur = t_next, np.array(res.states[-1])
+        n_steps += res.n_steps
+        n_rhs += res.n_rhs
+        if res.stop_time is not None:
+            t_cur, y_cur = float(res.stop_time), np.array(res.stop_state)
+            pending_event = model.events[-1]
+            continue
+        if adaptive:
+            break
+    tt_out = np.array(out_t, dtype=float)
+    states = np.array(out_y).reshape(len(out_y), y0.size)
+    modes = np.array(out_mode) if kc else None
+    separations = tuple(_separation(system, eng, ev) for ev in model.events)
+    _restart_contacts(model)
+    res_p, res_v = _residuals(model, tt_out, states, modes)
     model.residuals = {}
     return MultibodyTrajectory(
-        t=_ro(tt),
+        t=_ro(tt_out),
         q=_ro(states[:, : 7 * n]),
         v=_ro(states[:, 7 * n :]),
-        energy=_ro(_energy(eng, states)),
+        energy=_ro(_energy(eng, states, modes, tt_out, getattr(model, "contact_start", None))),
         residual_position=_ro(res_p),
         residual_velocity=_ro(res_v),
         method=method,
         stabilization=stabilization,
         n_steps=int(n_steps),
         n_rhs=int(n_rhs),
+        separations=separations,
+        status="separated" if stopped else "completed",
+        _modes=modes,
         _model=model,
         _owner=system,
     )

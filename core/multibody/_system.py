@@ -325,6 +325,8 @@ class System:
         self._rot_springs: list[RotationalSpringDamper] = []
         self._forces: list[Force] = []
         self._torques: list[Torque] = []
+        self._contacts: list = []
+        self._contact_start: list = []
         self._names: dict[str, set[str]] = {"body": {"ground"}, "joint": set(), "item": set()}
         self._y = np.zeros(0)
         self._t = 0.0
@@ -356,6 +358,11 @@ class System:
     def rotational_spring_dampers(self) -> tuple[RotationalSpringDamper, ...]:
         """Torsion spring-dampers in the order they were added."""
         return tuple(self._rot_springs)
+
+    @property
+    def contacts(self) -> tuple:
+        """Contacts in the order they were added."""
+        return tuple(self._contacts)
 
     @property
     def state(self) -> State:
@@ -392,7 +399,7 @@ class System:
         return (
             f"System({len(self._bodies)} bodies, {len(self._joints)} joints, {len(self._motors)} motors, "
             f"{len(self._springs) + len(self._rot_springs)} spring-dampers, "
-            f"{len(self._forces) + len(self._torques)} loads)"
+            f"{len(self._forces) + len(self._torques)} loads, {len(self._contacts)} contacts)"
         )
 
     # ------------------------------------------------------------- helpers
@@ -403,9 +410,17 @@ class System:
         if self._engine_cache is None:
             self._engine_cache = _Engine(
                 self._bodies, self._joints, self._motors, self._springs, self._rot_springs,
-                self._forces, self._torques, self.gravity,
+                self._forces, self._torques, self.gravity, self._contacts, self._contact_start,
             )
         return self._engine_cache
+
+    def _sync_contacts(self, eng: _Engine) -> None:
+        """Keep the surface parameters found at the new current state (the next engine starts from them)."""
+        if eng.contact_kernel is None:
+            return
+        st = eng.contact_state
+        self._contact_start = [(np.array(st["s"][q]), st["charts"][q][0], st["charts"][q][1])
+                               for q in range(len(self._contacts))]
 
     def _body(self, body: Any, name: str, *, allow_ground: bool = True) -> Body:
         if not isinstance(body, Body):
@@ -838,6 +853,165 @@ class System:
         self._changed()
         return torque
 
+
+    # ------------------------------------------------------------- contacts
+    def add_contact(
+        self,
+        body_i: Body,
+        surface_i: Any,
+        body_j: Body,
+        surface_j: Any,
+        *,
+        model: str = "constraint",
+        rolling: bool = False,
+        stiffness: float | None = None,
+        damping: float = 0.0,
+        exponent: float = 1.5,
+        tolerance: float = 1e-6,
+        name: str | None = None,
+    ):
+        """Add a contact between a surface of ``body_i`` and a surface of ``body_j`` (Eqs. 8.84-8.109).
+
+        The contact point is found in the current configuration (sampled
+        guess, then Newton on the surface parameters). With
+        ``model="constraint"`` the five contact constraints (point
+        coincidence, Eq. 8.90; the normal of one surface perpendicular to
+        the tangents of the other, Eqs. 8.93-8.94) in the body coordinates
+        and the four surface parameters are adjoined to the equations of
+        motion; since the surface parameters have no inertia, ``C_s^T
+        lambda = 0`` leaves one independent multiplier, the normal force
+        (Eqs. 8.105-8.107). With ``model="compliant"`` a Hunt-Crossley force
+        ``F = k delta^e (1 + 3/2 c delta_dot)`` acts along the common
+        normal while the bodies overlap by ``delta``. See docs/contact.md.
+
+        Parameters
+        ----------
+        body_i, body_j : Body
+            Two different bodies of this System (either may be the ground).
+        surface_i, surface_j : Surface
+            In the frames of ``body_i`` and ``body_j``: two surfaces
+            (:class:`~core.contact.Plane`, :class:`~core.contact.Sphere`,
+            :class:`~core.contact.Ellipsoid`, :class:`~core.contact.Torus`,
+            :class:`~core.contact.ParametricSurface`) or two
+            :class:`~core.contact.PlanarCurve` in parallel body x-y planes.
+        model : ``"constraint"`` or ``"compliant"``, keyword-only
+        rolling : bool, keyword-only
+            Rolling without slip: the contact points' relative velocity
+            along the tangents is zero (two velocity constraints, one for
+            curves; constraint model only).
+        stiffness : float or None, keyword-only
+            ``k`` (N/m^exponent, > 0): required by the compliant model; for
+            the constraint model it enables ``simulate(...,
+            on_separation="compliant")``.
+        damping : float, keyword-only
+            Hunt-Crossley ``c`` (s/m, >= 0); the coefficient of restitution
+            of a slow impact is about ``1 - c v``.
+        exponent : float, keyword-only
+            ``e`` >= 1 (1.5: Hertz contact of curved surfaces).
+        tolerance : float, keyword-only
+            Constraint model: the largest gap or penetration (m) accepted
+            in the current configuration (``assemble`` then closes it).
+        name : str or None
+
+        Returns
+        -------
+        Contact
+
+        Raises
+        ------
+        ValueError
+            Naming the argument: bodies or surfaces of the wrong kind, a
+            curve with a surface, bad model options (``stiffness: expected a
+            finite stiffness > 0 ...``), two flat faces, bodies that do not
+            touch or penetrate beyond ``tolerance``, a line contact (the
+            rank of ``C_s``, Eq. 8.109), curves in planes that are not
+            parallel.
+        """
+        from core.contact import CONTACT_MODELS, Contact, Surface
+        from core.contact._search import check_rank, find_contact
+
+        bi = self._body(body_i, "body_i")
+        bj = self._body(body_j, "body_j")
+        if bi is bj:
+            raise ValueError(f"body_i, body_j: expected two different bodies, got {bi.name!r} twice")
+        for surf, label in ((surface_i, "surface_i"), (surface_j, "surface_j")):
+            if not isinstance(surf, Surface):
+                raise ValueError(
+                    f"{label}: expected a Plane, Sphere, Ellipsoid, Torus, ParametricSurface or PlanarCurve, "
+                    f"got {short_repr(surf)}")
+        if surface_i.n_parameters != surface_j.n_parameters:
+            raise ValueError(
+                "surface_i, surface_j: a planar curve touches only another planar curve (curve-on-curve contact "
+                f"in a plane), got {surface_i!r} and {surface_j!r}")
+        if not isinstance(model, str) or model not in CONTACT_MODELS:
+            raise ValueError(f"model: expected one of {list(CONTACT_MODELS)}, got {short_repr(model)}")
+        if not isinstance(rolling, (bool, np.bool_)):
+            raise ValueError(f"rolling: expected True or False, got {short_repr(rolling)}")
+        rolling = bool(rolling)
+        if rolling and model != "constraint":
+            raise ValueError("rolling: rolling without slip needs model='constraint' (a compliant contact has "
+                             "no tangential force)")
+        k = None
+        if stiffness is not None:
+            k = real_number(stiffness, "stiffness", expected="a finite stiffness > 0 (N/m^exponent)")
+            if not k > 0.0:
+                raise ValueError(f"stiffness: expected a finite stiffness > 0 (N/m^exponent), got {k!r}")
+        elif model == "compliant":
+            raise ValueError("stiffness: the compliant model needs a finite stiffness > 0 (N/m^exponent), got None")
+        c = _positive(damping, "damping", allow_zero=True)
+        e = real_number(exponent, "exponent", expected="a finite exponent >= 1")
+        if not e >= 1.0:
+            raise ValueError(f"exponent: expected a finite exponent >= 1, got {e!r}")
+        tol = _positive(tolerance, "tolerance", allow_zero=False)
+        if surface_i.unbounded and surface_j.unbounded:
+            what = "two lines" if surface_i.n_parameters == 1 else "two planes"
+            raise ValueError(
+                f"surface_i, surface_j: {what} (parallel flat faces) touch along a whole line or face, not at a "
+                "point: C_s has no full rank (Eq. 8.109); give one of the bodies a curved surface")
+        if surface_i.degenerate_tangents and surface_j.degenerate_tangents:
+            raise ValueError(
+                "surface_i, surface_j: two rims (tori with minor_radius 0) meet edge to edge, where neither "
+                "surface has a tangent plane; give one of them a minor radius > 0")
+        name = self._item_name(name, "contact")
+        Ri, Ai = self._frame(bi)
+        Rj, Aj = self._frame(bj)
+        if surface_i.n_parameters == 1:
+            zc = float(np.linalg.norm(np.cross(Ai[:, 2], Aj[:, 2])))
+            if zc > 1e-6:
+                self._names["item"].discard(name)
+                raise ValueError(
+                    f"surface_i, surface_j: planar curves lie in their bodies' x-y planes, which must be parallel "
+                    f"(the bodies' z axes are {zc:.2e} rad apart); keep the mechanism planar with joints")
+        try:
+            info = find_contact(name, surface_i, Ri, Ai, surface_j, Rj, Aj)
+            check_rank(name, info)
+        except ValueError:
+            self._names["item"].discard(name)
+            raise
+        gap = info["gap"]
+        L = min(surface_i.length_scale, surface_j.length_scale)
+        where = f"(closest points {np.round(info['point_i'], 9).tolist()} and {np.round(info['point_j'], 9).tolist()})"
+        if model == "constraint" and abs(gap) > tol:
+            self._names["item"].discard(name)
+            if gap > 0:
+                raise ValueError(
+                    f"body_i, body_j: {bi.name!r} and {bj.name!r} do not touch: gap {gap:.3e} m > tolerance "
+                    f"{tol:g} m {where}; place them in contact, or use model='compliant'")
+            raise ValueError(
+                f"body_i, body_j: {bi.name!r} and {bj.name!r} penetrate by {-gap:.3e} m > tolerance {tol:g} m "
+                f"{where}; place them in contact")
+        if model == "compliant" and math.isfinite(L) and -gap > 0.5 * L:
+            self._names["item"].discard(name)
+            raise ValueError(
+                f"body_i, body_j: {bi.name!r} and {bj.name!r} penetrate by {-gap:.3e} m, more than half the "
+                f"length scale {L:g} m of the surfaces {where}; separate them")
+        contact = Contact(name, bi, bj, surface_i, surface_j, model, rolling, k, c, e, tol, len(self._contacts),
+                          gap, None, self)
+        self._contacts.append(contact)
+        self._contact_start.append((np.array(info["s"]), info["charts"][0], info["charts"][1]))
+        self._changed()
+        return contact
+
     # ------------------------------------------------------------- analyses
     def assemble(self, *, t: float | None = None, tol: float = 1e-12, max_iterations: int = 50):
         """Move the current state onto the constraints (positions, then velocities).
@@ -917,6 +1091,7 @@ class System:
         baumgarte: float = 20.0,
         position_tol: float = 1e-12,
         max_steps: int | None = None,
+        on_separation: str = "stop",
     ):
         """Integrate the constrained equations of motion from the current state.
 
@@ -955,6 +1130,12 @@ class System:
         max_steps : int, keyword-only
             Limit on steps (fixed) or right-hand-side evaluations
             (adaptive); default ``core.integrators.MAX_STEPS``.
+        on_separation : str, keyword-only
+            Contacts in the constraint model: when a normal force crosses
+            zero, ``"stop"`` (default) ends the run there,
+            ``"compliant"`` continues with that contact's compliant model
+            and ``"bilateral"`` keeps the constraint (it pulls); every
+            crossing is listed in ``traj.separations`` (docs/contact.md).
 
         Returns
         -------
@@ -975,6 +1156,7 @@ class System:
         return simulate(
             self, t, method=method, rtol=rtol, atol=atol, dt=dt, stabilization=stabilization, baumgarte=baumgarte,
             position_tol=position_tol, max_steps=MAX_STEPS if max_steps is None else max_steps,
+            on_separation=on_separation,
         )
 
     def evaluate(self, *, t: float | None = None):

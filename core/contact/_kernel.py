@@ -1,0 +1,725 @@
+"""Batched contact kinematics: surface parameters, the five constraints, their reduction to one row.
+
+Notation (one contact; ``i``, ``j`` its bodies; global vectors)::
+
+    r_k = R_k + A_k u_k(s_k)                       contact points (Eq. 8.84)
+    t_k = A_k du_k/ds_k, n_k = A_k nu_k(s_k)       tangents, normal field (Eqs. 8.85-8.86)
+    C = [P^T (r_i - r_j); n_a . t_b1; n_a . t_b2]  the five constraints (Eqs. 8.90, 8.93-8.94)
+
+``P`` is the identity for surfaces (three point rows) and body i's ``x, y``
+axes for planar curves (two in-plane point rows, one normal row). The
+normal rows pair the normal field of one surface ``a`` with the tangents of
+the other ``b``: ``a = i, b = j`` unless ``surface_j`` has no tangents (a
+rim), then ``a = j, b = i``.
+
+Surface parameters as functions of the configuration. For a given
+configuration ``q`` the parameters ``s(q)`` solve the four *extremal*
+conditions ``E(q, s) = [d . t_b1, d . t_b2, n_a . t_b1, n_a . t_b2] = 0``
+(``d = r_i - r_j``): ``d`` and ``n_a`` are both normal to the tangent
+plane of ``b``, so the two points face each other along the common normal
+(closest points when apart, deepest points when overlapping). On the
+constraint manifold these are four of the five constraints, so ``s(q)`` is
+the chapter's solution for the non-generalized coordinates; off it the
+fifth, the gap ``g = n_i . (r_j - r_i)`` (``n_i`` the unit outward normal
+of surface i), is the residual. ``s(q)`` is found by Newton's method from
+the last value (or a global search), to round-off.
+
+Augmented equations. With ``C_q`` (5 x 6n, Newton-Euler velocities) and
+``C_s`` (5 x 4, Eq. 8.97) the chapter's augmented equations (Eqs.
+8.95-8.104) are::
+
+    [M    0    C_q^T] [a    ]   [Q    ]
+    [0    0    C_s^T] [s_dd ] = [0    ]       (no inertia for s)
+    [C_q  C_s  0    ] [lam  ]   [gamma]
+
+``C_s^T lam = 0`` (Eq. 8.105) and rank ``C_s = 4`` (Eq. 8.109) leave the
+one-dimensional solution ``lam = N nu`` with ``N`` the left null vector of
+``C_s`` (Eqs. 8.106-8.107); premultiplying the last block row by ``N^T``
+removes ``s_dd``. What remains is one ordinary constraint row per contact,
+``N^T C_q a = N^T gamma``, with the multiplier ``nu``. ``N`` is scaled so
+that its point part is the unit normal (``P N_p . n_i = 1``): ``nu`` is
+then the normal force (N, positive while pressing) and the row's value
+``N^T C = -g`` the penetration.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+__all__ = ["CONTACT_RANK_TOL", "ContactError", "ContactKernel"]
+
+#: Rank tolerance of C_s (Eq. 8.109): the volume spanned by the columns of
+#: C_s scaled to unit length (rows scaled by the contact's length scale) must
+#: exceed it; a line or surface contact has zero volume.
+CONTACT_RANK_TOL = 1e-8
+
+#: Newton on the surface parameters stops when a step is below this fraction
+#: of the contact's length scale (the geometry at the last iterate is used;
+#: the gap is stationary in s, so its error is of second order).
+_STEP_TOL = 1e-11
+_MAX_ITER = 25
+_CHART_LIMIT = 1.0  # rad: a sphere/ellipsoid chart is re-centred beyond this latitude or longitude
+
+CONSTRAINT, COMPLIANT = 0, 1
+
+
+class ContactError(ValueError):
+    """Contact geometry that cannot be followed (no contact point, rank loss); ``t`` says when."""
+
+    def __init__(self, message: str, *, t: float | None = None):
+        super().__init__(message)
+        self.t = t
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.stack(
+        [a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+         a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+         a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("...i,...i->...", a, b)
+
+
+class _Group:
+    """Contacts with the same number of parameters per body (2: surfaces, 1: curves)."""
+
+    def __init__(self, contacts: list, p: int, ground: int):
+        self.contacts = contacts
+        self.p = p
+        self.k = len(contacts)
+        self.pos = np.array([c.index for c in contacts], dtype=np.intp)
+        self.bi = np.array([ground if c.body_i.index < 0 else c.body_i.index for c in contacts], dtype=np.intp)
+        self.bj = np.array([ground if c.body_j.index < 0 else c.body_j.index for c in contacts], dtype=np.intp)
+        self.swap = np.array([bool(c.surface_j.degenerate_tangents) for c in contacts], dtype=bool)
+        self.surf_i = [c.surface_i for c in contacts]
+        self.surf_j = [c.surface_j for c in contacts]
+        L = np.array([min(c.surface_i.length_scale, c.surface_j.length_scale) for c in contacts], dtype=float)
+        self.L = np.where(np.isfinite(L), L, 1.0)
+
+
+class _Frames:
+    """Body data of the contacts of a group: rotation matrices, positions, velocities (global)."""
+
+    __slots__ = ("A_i", "A_j", "R_i", "R_j", "V_i", "V_j", "W_i", "W_j")
+
+
+def frames_of(group: _Group, A_ext: np.ndarray, R_ext: np.ndarray, V_ext: np.ndarray | None,
+              W_ext: np.ndarray | None) -> _Frames:
+    f = _Frames()
+    f.A_i, f.A_j = A_ext[group.bi], A_ext[group.bj]
+    f.R_i, f.R_j = R_ext[group.bi], R_ext[group.bj]
+    if V_ext is not None:
+        f.V_i, f.V_j = V_ext[group.bi], V_ext[group.bj]
+        f.W_i, f.W_j = W_ext[group.bi], W_ext[group.bj]
+    return f
+
+
+def _stack_geometry(surfaces: list, s: np.ndarray, charts: list, order: int):
+    """Per-contact geometry stacked over contacts: 7 entries (u, U1, U2, U3, nu, N1, N2)."""
+    parts = [surf._geometry(s[c], order, charts[c]) for c, surf in enumerate(surfaces)]
+    return [None if parts[0][e] is None else np.stack([np.asarray(pt[e], dtype=float) for pt in parts])
+            for e in range(7)]
+
+
+class _Geo:
+    """Global geometry of one side of the contacts of a group."""
+
+    __slots__ = ("rho", "T", "T2", "T3", "n", "n1", "n2", "nu_norm", "U1_norm")
+
+
+def _globalize(g, A: np.ndarray) -> _Geo:
+    out = _Geo()
+    out.rho = np.einsum("kab,kb->ka", A, g[0])
+    out.T = np.einsum("kab,kbl->kal", A, g[1])
+    out.T2 = None if g[2] is None else np.einsum("kab,kblm->kalm", A, g[2])
+    out.T3 = None if g[3] is None else np.einsum("kab,kblmo->kalmo", A, g[3])
+    out.n = np.einsum("kab,kb->ka", A, g[4])
+    out.n1 = None if g[5] is None else np.einsum("kab,kbl->kal", A, g[5])
+    out.n2 = None if g[6] is None else np.einsum("kab,kblm->kalm", A, g[6])
+    return out
+
+
+def _pick(swap: np.ndarray, x_i: np.ndarray, x_j: np.ndarray) -> np.ndarray:
+    if not swap.any():
+        return x_i
+    if swap.all():
+        return x_j
+    return np.where(swap.reshape((-1,) + (1,) * (x_i.ndim - 1)), x_j, x_i)
+
+
+class _Kin:
+    """Everything computed for a group at one configuration (and velocity)."""
+
+
+def _extremal(group: _Group, fr: _Frames, gi: _Geo, gj: _Geo):
+    """``E`` (k, 2p) and ``E_s`` (k, 2p, 2p) of the extremal conditions; also d, n_a, t_b, T2_b."""
+    p = group.p
+    swap = group.swap
+    d = (fr.R_i + gi.rho) - (fr.R_j + gj.rho)
+    n_a = _pick(swap, gi.n, gj.n)
+    n1_a = _pick(swap, gi.n1, gj.n1)
+    tb = _pick(swap, gj.T, gi.T)
+    T2b = _pick(swap, gj.T2, gi.T2)
+    E = np.concatenate([np.einsum("kx,kxm->km", d, tb), np.einsum("kx,kxm->km", n_a, tb)], axis=1)
+    Es = np.empty((group.k, 2 * p, 2 * p))
+    dT2 = np.einsum("kx,kxml->kml", d, T2b)
+    ti = np.einsum("kxm,kxl->kml", tb, gi.T)
+    tj = np.einsum("kxm,kxl->kml", tb, gj.T)
+    sw = swap[:, None, None]
+    Es[:, :p, :p] = ti + np.where(sw, dT2, 0.0)
+    Es[:, :p, p:] = -tj + np.where(sw, 0.0, dT2)
+    colA = np.einsum("kxm,kxl->kml", tb, n1_a)
+    colB = np.einsum("kx,kxml->kml", n_a, T2b)
+    Es[:, p:, :p] = np.where(sw, colB, colA)
+    Es[:, p:, p:] = np.where(sw, colA, colB)
+    return E, Es, d, n_a, tb
+
+
+def _column_scales(group: _Group, gi: _Geo, gj: _Geo) -> np.ndarray:
+    """(k, 2p) arc length per unit of each parameter (a rim's psi: L times the normal's turn)."""
+    out = []
+    for g in (gi, gj):
+        t = np.linalg.norm(g.T, axis=1)
+        nn = np.linalg.norm(g.n, axis=1)[:, None]
+        rot = np.linalg.norm(g.n1, axis=1) / np.where(nn > 0, nn, 1.0) * group.L[:, None]
+        out.append(np.maximum(t, rot))
+    return np.concatenate(out, axis=1)
+
+
+def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, order: int, *,
+                     t: float | None = None, max_iter: int = _MAX_ITER, damped: bool = False):
+    """Newton on the extremal conditions from ``s`` (k, 2p); returns ``(s, gi, gj, raw_i, raw_j, E, Es)``.
+
+    ``order`` is the surface derivative order of the returned geometry
+    (2 or 3). Charts of spheres and ellipsoids are re-centred (in place in
+    ``charts``) when the point leaves the central region of its chart.
+
+    Raises
+    ------
+    ContactError
+        When Newton does not converge or ``E_s`` is singular.
+    """
+    p = group.p
+    s = np.array(s, dtype=float)
+    for it in range(max_iter):
+        ci = [ch[0] for ch in charts]
+        cj = [ch[1] for ch in charts]
+        raw_i = _stack_geometry(group.surf_i, s[:, :p], ci, order)
+        raw_j = _stack_geometry(group.surf_j, s[:, p:], cj, order)
+        gi, gj = _globalize(raw_i, fr.A_i), _globalize(raw_j, fr.A_j)
+        E, Es, _, _, _ = _extremal(group, fr, gi, gj)
+        try:
+            ds = -np.linalg.solve(Es, E[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            ds = np.full_like(s, np.nan)
+        scale = _column_scales(group, gi, gj)
+        step = np.max(np.abs(ds) * scale, axis=1) / group.L
+        if not np.all(np.isfinite(step)):
+            bad = int(np.argmax(~np.isfinite(step)))
+            raise ContactError(_lost(group.contacts[bad], t, "the extremal conditions are singular (E_s, rank "
+                                     "of C_s < 2p, Eq. 8.109): a line or surface contact, or a singular point "
+                                     "of a parametrization"), t=t)
+        lim = 0.25 if damped else 0.5
+        big = step > lim
+        if big.any():
+            ds = np.where(big[:, None], ds * (lim / np.where(big, step, 1.0))[:, None], ds)
+        done = step <= _STEP_TOL
+        if done.all():
+            s = s + ds
+            _rechart(group, s, charts)
+            facing = np.einsum("ki,ki->k", gi.n, gj.n) < 0.0
+            if not facing.all():
+                bad = int(np.argmin(facing))
+                raise ContactError(_lost(group.contacts[bad], t, "Newton reached a pair of points whose normals are "
+                                         "not opposed (the far sides of the surfaces)"), t=t)
+            return s, gi, gj, raw_i, raw_j, E, Es
+        s = s + ds
+        _rechart(group, s, charts)
+    worst = int(np.argmax(step))
+    raise ContactError(_lost(group.contacts[worst], t, f"Newton on the contact point did not converge in "
+                                                      f"{max_iter} iterations (last step {step[worst]:.2e} of the "
+                                                      "length scale): the contact point jumped"), t=t)
+
+
+def _lost(contact: Any, t: float | None, why: str) -> str:
+    when = "" if t is None else f" at t={t:.6g}"
+    return f"contact {contact.name!r}: the contact point cannot be followed{when}: {why}"
+
+
+def _rechart(group: _Group, s: np.ndarray, charts: list) -> None:
+    p = group.p
+    for c in range(group.k):
+        for side, surf, off in ((0, group.surf_i[c], 0), (1, group.surf_j[c], p)):
+            if surf.charted and np.max(np.abs(s[c, off : off + p])) > _CHART_LIMIT:
+                chart, s_new = surf._new_chart(s[c, off : off + p], charts[c][side])
+                charts[c][side] = chart
+                s[c, off : off + p] = s_new
+
+
+# ------------------------------------------------------------------ rows
+def contact_rows(group: _Group, fr: _Frames, gi: _Geo, gj: _Geo, level: int, rolling: np.ndarray, Es: np.ndarray):
+    """Reduced contact row and, with rolling, the rolling rows of every contact of a group.
+
+    Returns a :class:`_Kin` with (k = contacts of the group):
+
+    * ``value`` (k,) ``N^T C`` (the penetration ``-g``); ``gap`` (k,);
+      ``normal`` (k, 3) unit outward normal of surface i; ``point_i``,
+      ``point_j`` (k, 3);
+    * ``N`` (k, r) the chapter's multipliers per unit normal force;
+      ``rank`` (k,) the scaled volume of the columns of C_s;
+    * level >= 1: ``J`` (k, 12) the row's coefficients of ``[R_dot_i,
+      omega_i, R_dot_j, omega_j]`` (global omegas); ``Jr`` (k, p, 12) the
+      rolling rows';
+    * level >= 2: ``gamma`` (k,), ``gamma_r`` (k, p), ``sdot`` (k, 2p),
+      ``rate`` (k,) ``d(N^T C)/dt`` (the penetration rate).
+    """
+    p = group.p
+    k = group.k
+    swap = group.swap
+    out = _Kin()
+    E, Es2, d, n_a, tb = _extremal(group, fr, gi, gj)
+    del E, Es2
+    n_i = gi.n
+    nn = np.linalg.norm(n_i, axis=1)
+    nhat = n_i / nn[:, None]
+    # point-row directions P (k, 3, rp)
+    if p == 2:
+        P = np.broadcast_to(np.eye(3), (k, 3, 3))
+    else:
+        P = fr.A_i[:, :, :2]
+    rp = P.shape[2]
+    r = rp + p
+    c = np.concatenate([np.einsum("kxq,kx->kq", P, d), np.einsum("kx,kxm->km", n_a, tb)], axis=1)
+    Cs = np.empty((k, r, 2 * p))
+    Cs[:, :rp, :p] = np.einsum("kxq,kxl->kql", P, gi.T)
+    Cs[:, :rp, p:] = -np.einsum("kxq,kxl->kql", P, gj.T)
+    Cs[:, rp:, :] = Es[:, p:, :]
+    # left null vector by signed minors (generalized cross product)
+    if p == 1:
+        Nraw = _cross(Cs[:, :, 0], Cs[:, :, 1])
+    else:
+        Nraw = np.empty((k, 5))
+        rows = np.arange(5)
+        for q in range(5):
+            Nraw[:, q] = (-1.0) ** q * np.linalg.det(Cs[:, rows != q, :])
+    # rank indicator (Eq. 8.109): the same minors of C_s with rows and columns scaled
+    L = group.L
+    rs = np.empty((k, r))
+    rs[:, :rp] = 1.0 / L[:, None]
+    rs[:, rp:] = L[:, None] / (np.linalg.norm(n_a, axis=1)[:, None] * np.linalg.norm(tb, axis=1))
+    cn = np.linalg.norm(Cs * rs[:, :, None], axis=1)
+    cs = 1.0 / np.where(cn > 0, cn, np.inf)
+    prod_r = np.prod(rs, axis=1)[:, None] / rs
+    out.rank = np.linalg.norm(Nraw * prod_r, axis=1) * np.prod(cs, axis=1)
+    w_raw = np.einsum("kxq,kq->kx", P, Nraw[:, :rp])
+    scale = _dot(w_raw, nhat)
+    scale = np.where(scale != 0.0, scale, np.nan)
+    N = Nraw / scale[:, None]
+    out.N = N
+    w = np.einsum("kxq,kq->kx", P, N[:, :rp])  # = nhat on the manifold
+    out.value = _dot(N, c)
+    out.gap = -_dot(nhat, d)
+    out.normal = nhat
+    out.point_i = fr.R_i + gi.rho
+    out.point_j = fr.R_j + gj.rho
+    out.c = c
+    out.Cs = Cs
+    if level < 1:
+        return out
+    # Jacobian of N^T C: point part w . (v_i^P - v_j^P) (+ rotation of P for curves), normal part
+    m = _cross(n_a, np.einsum("kxm,km->kx", tb, N[:, rp:]))  # n_a x (t_b N_n)
+    J = np.zeros((k, 12))
+    J[:, 0:3] = w
+    J[:, 3:6] = _cross(gi.rho, w)
+    if p == 1:
+        J[:, 3:6] += _cross(w, d)
+    J[:, 6:9] = -w
+    J[:, 9:12] = -_cross(gj.rho, w)
+    sw = swap[:, None]
+    J[:, 3:6] += np.where(sw, -m, m)
+    J[:, 9:12] += np.where(sw, m, -m)
+    out.J = J
+    if rolling.any():
+        Jr = np.zeros((k, p, 12))
+        tbT = np.moveaxis(tb, 1, 2)  # (k, p, 3)
+        Jr[:, :, 0:3] = tbT
+        Jr[:, :, 3:6] = _cross(gi.rho[:, None, :], tbT)
+        Jr[:, :, 6:9] = -tbT
+        Jr[:, :, 9:12] = -_cross(gj.rho[:, None, :], tbT)
+        out.Jr = Jr
+    else:
+        out.Jr = None
+    if level < 2:
+        return out
+    # s_dot from the extremal conditions: E_s s_dot = -E_q v
+    vrel = (fr.V_i + _cross(fr.W_i, gi.rho)) - (fr.V_j + _cross(fr.W_j, gj.rho))  # material points
+    W_a = _pick(swap, fr.W_i, fr.W_j)
+    W_b = _pick(swap, fr.W_j, fr.W_i)
+    tbT = np.moveaxis(tb, 1, 2)
+    wtb = _cross(W_b[:, None, :], tbT)  # (k, p, 3) omega_b x t_bk
+    Eq_t = np.einsum("kx,kmx->km", vrel, tbT) + np.einsum("kx,kmx->km", d, wtb)
+    Eq_n = np.einsum("kx,kmx->km", _cross(W_a, n_a), tbT) + np.einsum("kx,kmx->km", n_a, wtb)
+    Eqv = np.concatenate([Eq_t, Eq_n], axis=1)
+    sdot = -np.linalg.solve(Es, Eqv[..., None])[..., 0]
+    out.sdot = sdot
+    sd_i, sd_j = sdot[:, :p], sdot[:, p:]
+    sd_a = _pick(swap, sd_i, sd_j)
+    sd_b = _pick(swap, sd_j, sd_i)
+    Td_i = np.einsum("kxl,kl->kx", gi.T, sd_i)
+    Td_j = np.einsum("kxl,kl->kx", gj.T, sd_j)
+    ddot = vrel + Td_i - Td_j
+    rq_i = _cross(fr.W_i, _cross(fr.W_i, gi.rho)) + 2.0 * _cross(fr.W_i, Td_i) + np.einsum(
+        "kxlm,kl,km->kx", gi.T2, sd_i, sd_i)
+    rq_j = _cross(fr.W_j, _cross(fr.W_j, gj.rho)) + 2.0 * _cross(fr.W_j, Td_j) + np.einsum(
+        "kxlm,kl,km->kx", gj.T2, sd_j, sd_j)
+    hp = np.einsum("kxq,kx->kq", P, rq_i - rq_j)
+    if p == 1:
+        PT = np.moveaxis(P, 1, 2)  # (k, 2, 3)
+        wP = _cross(fr.W_i[:, None, :], PT)
+        wwP = _cross(fr.W_i[:, None, :], wP)
+        hp = hp + 2.0 * np.einsum("kqx,kx->kq", wP, ddot) + np.einsum("kqx,kx->kq", wwP, d)
+    n1_a = _pick(swap, gi.n1, gj.n1)
+    n2_a = _pick(swap, gi.n2, gj.n2)
+    T2b = _pick(swap, gj.T2, gi.T2)
+    T3b = _pick(swap, gj.T3, gi.T3)
+    n1s = np.einsum("kxl,kl->kx", n1_a, sd_a)
+    ndot = _cross(W_a, n_a) + n1s
+    nq = _cross(W_a, _cross(W_a, n_a)) + 2.0 * _cross(W_a, n1s) + np.einsum("kxlm,kl,km->kx", n2_a, sd_a, sd_a)
+    T2s = np.einsum("kxml,kl->kmx", T2b, sd_b)  # (k, p, 3): d t_bm / ds_b . sdot_b
+    tdot = wtb + T2s
+    tq = (_cross(W_b[:, None, :], wtb) + 2.0 * _cross(W_b[:, None, :], T2s)
+          + np.einsum("kxmlo,kl,ko->kmx", T3b, sd_b, sd_b))
+    hn = np.einsum("kx,kmx->km", nq, tbT) + 2.0 * np.einsum("kx,kmx->km", ndot, tdot) + np.einsum(
+        "kx,kmx->km", n_a, tq)
+    gamma_c = -np.concatenate([hp, hn], axis=1)
+    out.gamma_c = gamma_c
+    out.gamma = _dot(N, gamma_c)
+    vel = np.concatenate([fr.V_i, fr.W_i, fr.V_j, fr.W_j], axis=1)
+    out.rate = _dot(J, vel)
+    if out.Jr is not None:
+        wi = _cross(fr.W_i, _cross(fr.W_i, gi.rho) + Td_i)
+        wj = _cross(fr.W_j, _cross(fr.W_j, gj.rho) + Td_j)
+        hr = np.einsum("kmx,kx->km", tdot, vrel) + np.einsum("kmx,kx->km", tbT, wi - wj)
+        out.gamma_r = -hr
+    else:
+        out.gamma_r = None
+    return out
+
+
+#: Systems with at most this many contacts evaluate them on Python floats (``_scalar``).
+SCALAR_MAX = 8
+
+
+class _Static:
+    """Constant data of one contact for the float path."""
+
+    def __init__(self, contact: Any, n: int):
+        self.contact = contact
+        self.surf_i, self.surf_j = contact.surface_i, contact.surface_j
+        self.p = contact.n_parameters
+        self.swap = bool(contact.surface_j.degenerate_tangents)
+        self.rim_i = bool(contact.surface_i.degenerate_tangents)
+        self.rim_j = bool(contact.surface_j.degenerate_tangents)
+        L = min(contact.surface_i.length_scale, contact.surface_j.length_scale)
+        self.L = float(L) if math.isfinite(L) else 1.0
+        self.rolling = bool(contact.rolling)
+        self.bi = n if contact.body_i.index < 0 else contact.body_i.index
+        self.bj = n if contact.body_j.index < 0 else contact.body_j.index
+
+
+class ContactKernel:
+    """Compiled contacts of a System: groups by parameter count, rows, evaluation.
+
+    Parameters
+    ----------
+    contacts : sequence of Contact
+    n : int
+        Number of moving bodies (the ground is index ``n`` in the extended arrays).
+    """
+
+    def __init__(self, contacts, n: int):
+        self.contacts = tuple(contacts)
+        self.n = n
+        self.k = len(self.contacts)
+        self.groups = []
+        for p in (2, 1):
+            cs = [c for c in self.contacts if c.n_parameters == p]
+            if cs:
+                self.groups.append(_Group(cs, p, n))
+        self.p = np.array([c.n_parameters for c in self.contacts], dtype=np.intp)
+        self.rolling = np.array([c.rolling for c in self.contacts], dtype=bool)
+        self.constraint = np.array([c.model == "constraint" for c in self.contacts], dtype=bool)
+        self.stiffness = np.array([c.stiffness if c.stiffness is not None else np.nan for c in self.contacts])
+        self.damping = np.array([c.damping for c in self.contacts])
+        self.exponent = np.array([c.exponent for c in self.contacts])
+        self.static = [_Static(c, n) for c in self.contacts]
+
+    # ------------------------------------------------------------ state
+    def initial_state(self, starts: list) -> dict:
+        """Warm-start data: parameters and charts per contact (from ``starts``: (s, chart_i, chart_j)), and modes."""
+        s = [np.array(st[0], dtype=float) for st in starts]
+        charts = [[st[1], st[2]] for st in starts]
+        mode = np.where(self.constraint, CONSTRAINT, COMPLIANT).astype(np.int8)
+        return {"s": s, "charts": charts, "mode": mode}
+
+    @staticmethod
+    def copy_state(state: dict) -> dict:
+        return {"s": [np.array(x) for x in state["s"]], "charts": [list(ch) for ch in state["charts"]],
+                "mode": np.array(state["mode"])}
+
+    # ------------------------------------------------------------ evaluation
+    def evaluate(self, y: np.ndarray, A: np.ndarray, level: int, state: dict, *, t: float | None = None,
+                 batched: bool | None = None):
+        """Kinematics of every contact at state ``y`` (13n,) with rotation matrices ``A`` (n, 3, 3).
+
+        Returns a dict of arrays over all contacts (k): ``value``, ``gap``,
+        ``normal``, ``point_i``, ``point_j``, ``N`` (k, 5, nan-padded),
+        ``rank``, ``s`` (k, 4, nan-padded, chart parameters); level >= 1:
+        ``D`` (k, 6n), ``Dr`` (k, 2, 6n) rolling rows; level >= 2:
+        ``gamma`` (k,), ``gamma_r`` (k, 2), ``rate`` (k,), ``gamma_c`` (k,
+        5). ``state`` (warm start, charts) is updated. ``batched``: numpy
+        arrays over the contacts (default when there are more than
+        :data:`SCALAR_MAX` contacts) or one contact at a time on floats.
+
+        Raises
+        ------
+        ContactError
+            When a contact point cannot be followed or C_s loses rank
+            (Eq. 8.109).
+        """
+        if batched is None:
+            batched = self.k > SCALAR_MAX
+        res = self._evaluate_batched(y, A, level, state, t) if batched else self._evaluate_floats(
+            y, A, level, state, t)
+        bad = ~(res["rank"] > CONTACT_RANK_TOL)
+        if bad.any():
+            c = self.contacts[int(np.argmax(bad))]
+            when = "" if t is None else f" at t={t:.6g}"
+            raise ContactError(
+                f"contact {c.name!r}: C_s lost rank{when} (Eq. 8.109; scaled volume {res['rank'][c.index]:.1e}): "
+                "the surfaces touch along a line or over an area, where the contact point is not unique", t=t)
+        return res
+
+    def _empty(self, level: int) -> dict:
+        k, n = self.k, self.n
+        res = {
+            "value": np.zeros(k), "gap": np.zeros(k), "normal": np.zeros((k, 3)), "point_i": np.zeros((k, 3)),
+            "point_j": np.zeros((k, 3)), "N": np.full((k, 5), np.nan), "rank": np.zeros(k),
+            "s": np.full((k, 4), np.nan),
+        }
+        if level >= 1:
+            res["D"] = np.zeros((k, 6 * n))
+            res["Dr"] = np.zeros((k, 2, 6 * n))
+        if level >= 2:
+            res["gamma"] = np.zeros(k)
+            res["gamma_r"] = np.zeros((k, 2))
+            res["rate"] = np.zeros(k)
+            res["gamma_c"] = np.full((k, 5), np.nan)
+        return res
+
+    def _evaluate_floats(self, y, A, level, state, t):
+        from ._scalar import Frames1, evaluate_one, newton_one
+
+        n = self.n
+        res = self._empty(level)
+        At = A.tolist()
+        Rl = y[: 3 * n].tolist()
+        ground_A = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        if level >= 2:
+            Vl = y[7 * n : 10 * n].tolist()
+            Wl = np.einsum("kab,kb->ka", A, y[10 * n :].reshape(n, 3)).ravel().tolist()
+        order = 3 if level >= 2 else 2
+        vals, gaps, normals, pis, pjs, ranks = [], [], [], [], [], []
+        for cs in self.static:
+            fr = Frames1()
+            for side, b in (("i", cs.bi), ("j", cs.bj)):
+                if b < n:
+                    Am = At[b]
+                    setattr(fr, "A" + side, (tuple(Am[0]), tuple(Am[1]), tuple(Am[2])))
+                    setattr(fr, "R" + side, tuple(Rl[3 * b : 3 * b + 3]))
+                    if level >= 2:
+                        setattr(fr, "V" + side, tuple(Vl[3 * b : 3 * b + 3]))
+                        setattr(fr, "W" + side, tuple(Wl[3 * b : 3 * b + 3]))
+                else:
+                    setattr(fr, "A" + side, ground_A)
+                    setattr(fr, "R" + side, (0.0, 0.0, 0.0))
+                    setattr(fr, "V" + side, (0.0, 0.0, 0.0))
+                    setattr(fr, "W" + side, (0.0, 0.0, 0.0))
+            q = cs.contact.index
+            charts = state["charts"][q]
+            try:
+                s, gi, gj, _, Es = newton_one(cs, fr, state["s"][q].tolist(), charts, order, t=t)
+            except ContactError:
+                s, gi, gj, Es = self._restart_one(cs, fr, state, order, t)
+            state["s"][q] = np.array(s)
+            out = evaluate_one(cs, fr, gi, gj, Es, level)
+            p = cs.p
+            r = 2 * p + 1
+            vals.append(out["value"])
+            gaps.append(out["gap"])
+            normals.append(out["normal"])
+            pis.append(out["point_i"])
+            pjs.append(out["point_j"])
+            ranks.append(out["rank"])
+            res["N"][q, :r] = out["N"]
+            res["s"][q, 0:p] = s[:p]
+            res["s"][q, 2 : 2 + p] = s[p:]
+            if level >= 1:
+                self._scatter_one(res["D"][q], cs, out["J"], fr)
+                if cs.rolling:
+                    for m in range(p):
+                        self._scatter_one(res["Dr"][q, m], cs, out["Jr"][m], fr)
+            if level >= 2:
+                res["gamma"][q] = out["gamma"]
+                res["rate"][q] = out["rate"]
+                res["gamma_c"][q, :r] = out["gamma_c"]
+                if cs.rolling:
+                    res["gamma_r"][q, :p] = out["gamma_r"]
+        res["value"][:] = vals
+        res["gap"][:] = gaps
+        res["normal"][:] = normals
+        res["point_i"][:] = pis
+        res["point_j"][:] = pjs
+        res["rank"][:] = ranks
+        return res
+
+    def _restart_one(self, cs, fr, state, order, t):
+        """The warm start failed: search the contact point afresh (sampling and damped Newton)."""
+        from ._scalar import newton_one
+        from ._search import find_contact
+
+        q = cs.contact.index
+        Ai, Aj = np.array(fr.Ai), np.array(fr.Aj)
+        try:
+            info = find_contact(cs.contact.name, cs.surf_i, np.array(fr.Ri), Ai, cs.surf_j, np.array(fr.Rj), Aj)
+        except ContactError as exc:
+            raise ContactError(f"{exc}{'' if t is None else f' (t={t:.6g})'}", t=t) from None
+        charts = [info["charts"][0], info["charts"][1]]
+        state["charts"][q] = charts
+        s, gi, gj, _, Es = newton_one(cs, fr, list(info["s"]), charts, order, t=t)
+        return s, gi, gj, Es
+
+    def _restart_group(self, g: _Group, fr: _Frames, t):
+        from ._search import find_contact
+
+        s0, charts = [], []
+        for q, c in enumerate(g.contacts):
+            try:
+                info = find_contact(c.name, c.surface_i, fr.R_i[q], fr.A_i[q], c.surface_j, fr.R_j[q], fr.A_j[q])
+            except ContactError as exc:
+                raise ContactError(f"{exc}{'' if t is None else f' (t={t:.6g})'}", t=t) from None
+            s0.append(info["s"])
+            charts.append([info["charts"][0], info["charts"][1]])
+        return np.stack(s0), charts
+
+    def _scatter_one(self, row: np.ndarray, cs, J, fr) -> None:
+        from ._scalar import _rotT
+
+        n = self.n
+        if cs.bi < n:
+            b = cs.bi
+            row[3 * b : 3 * b + 3] += J[0]
+            row[3 * n + 3 * b : 3 * n + 3 * b + 3] += _rotT(fr.Ai, J[1])
+        if cs.bj < n:
+            b = cs.bj
+            row[3 * b : 3 * b + 3] += J[2]
+            row[3 * n + 3 * b : 3 * n + 3 * b + 3] += _rotT(fr.Aj, J[3])
+
+    def _evaluate_batched(self, y, A, level, state, t):
+        n = self.n
+        A_ext = np.empty((n + 1, 3, 3))
+        A_ext[:n] = A
+        A_ext[n] = np.eye(3)
+        R_ext = np.zeros((n + 1, 3))
+        R_ext[:n] = y[: 3 * n].reshape(n, 3)
+        V_ext = W_ext = None
+        if level >= 2:
+            V_ext = np.zeros((n + 1, 3))
+            V_ext[:n] = y[7 * n : 10 * n].reshape(n, 3)
+            W_ext = np.zeros((n + 1, 3))
+            W_ext[:n] = np.einsum("kab,kb->ka", A, y[10 * n :].reshape(n, 3))
+        res = self._empty(level)
+        order = 3 if level >= 2 else 2
+        for g in self.groups:
+            fr = frames_of(g, A_ext, R_ext, V_ext, W_ext)
+            s0 = np.stack([state["s"][c] for c in g.pos])
+            charts = [state["charts"][c] for c in g.pos]
+            try:
+                s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
+            except ContactError:  # the warm start failed: search every contact of the group afresh
+                s0, charts = self._restart_group(g, fr, t)
+                for q, c in enumerate(g.pos):
+                    state["charts"][c] = charts[q]
+                s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
+            for q, c in enumerate(g.pos):
+                state["s"][c] = s[q]
+            kin = contact_rows(g, fr, gi, gj, level, self.rolling[g.pos], Es)
+            pos = g.pos
+            p = g.p
+            r = 2 * p + 1
+            res["value"][pos] = kin.value
+            res["gap"][pos] = kin.gap
+            res["normal"][pos] = kin.normal
+            res["point_i"][pos] = kin.point_i
+            res["point_j"][pos] = kin.point_j
+            res["N"][pos, :r] = kin.N
+            res["rank"][pos] = kin.rank
+            res["s"][pos, 0:p] = s[:, :p]
+            res["s"][pos, 2 : 2 + p] = s[:, p:]
+            if level >= 1:
+                Ai, Aj = fr.A_i, fr.A_j
+                res["D"][pos] = self._scatter(g, kin.J, Ai, Aj)
+                if kin.Jr is not None:
+                    for m in range(p):
+                        res["Dr"][pos, m] = self._scatter(g, kin.Jr[:, m], Ai, Aj)
+            if level >= 2:
+                res["gamma"][pos] = kin.gamma
+                res["rate"][pos] = kin.rate
+                res["gamma_c"][pos, :r] = kin.gamma_c
+                if kin.gamma_r is not None:
+                    res["gamma_r"][pos, :p] = kin.gamma_r
+        return res
+
+    def _scatter(self, g: _Group, J: np.ndarray, Ai: np.ndarray, Aj: np.ndarray) -> np.ndarray:
+        """Rows (k, 6n) in Newton-Euler velocities from coefficients (k, 12) with global omegas."""
+        n = self.n
+        out = np.zeros((g.k, 6 * n))
+        # omega_global = A omega_body: coefficient of omega_body is A^T c
+        ci = np.einsum("kab,ka->kb", Ai, J[:, 3:6])
+        cj = np.einsum("kab,ka->kb", Aj, J[:, 9:12])
+        for q in range(g.k):
+            b = int(g.bi[q])
+            if b < n:
+                out[q, 3 * b : 3 * b + 3] += J[q, 0:3]
+                out[q, 3 * n + 3 * b : 3 * n + 3 * b + 3] += ci[q]
+            b = int(g.bj[q])
+            if b < n:
+                out[q, 3 * b : 3 * b + 3] += J[q, 6:9]
+                out[q, 3 * n + 3 * b : 3 * n + 3 * b + 3] += cj[q]
+        return out
+
+    def compliant_forces(self, res: dict, mode: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Hunt-Crossley normal forces (k,) and the generalized force (6n,) of the compliant contacts.
+
+        ``F = k delta^e (1 + 3/2 c delta_dot)`` for a penetration ``delta =
+        -g > 0`` (zero apart, never pulling); on ``body_j`` along the
+        normal at its point, the opposite on ``body_i`` at its point:
+        ``Q = -F D_row^T`` with ``D_row`` the row of the penetration.
+        """
+        k = self.k
+        F = np.zeros(k)
+        on = mode == COMPLIANT
+        delta = -res["gap"]
+        pen = on & (delta > 0.0)
+        if pen.any():
+            dl = np.where(pen, delta, 0.0)
+            rate = res["rate"]
+            val = self.stiffness * dl ** self.exponent * (1.0 + 1.5 * self.damping * rate)
+            F = np.where(pen, np.maximum(val, 0.0), 0.0)
+        Q = -(F @ res["D"]) if pen.any() else np.zeros(6 * self.n)
+        return F, Q

@@ -1,0 +1,136 @@
+"""Initial contact: surface parameters from a configuration (sampling guess, then Newton).
+
+The parameters that satisfy the extremal conditions (see ``_kernel``) are
+searched from the best of a set of sampled pairs of points: for a plane
+(or a line), the samples of the other surface with the lowest signed height
+above it; otherwise the pairs of samples that are nearest with opposed
+normals. Newton's method (steps limited to a quarter of the length scale)
+refines the best candidates; a solution must have opposed normals, and of
+several the one with the largest gap (the nearest points, not the far
+sides) is taken.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from ._kernel import CONTACT_RANK_TOL, ContactError, _Group, contact_rows, frames_of, solve_parameters
+
+__all__ = ["find_contact"]
+
+_CANDIDATES = 8
+
+
+def _frames(R_i, A_i, R_j, A_j):
+    A_ext = np.stack([A_i, A_j, np.eye(3)])
+    R_ext = np.stack([R_i, R_j, np.zeros(3)])
+    return A_ext, R_ext
+
+
+def _global(surface, s, R, A):
+    g = surface._geometry(s, 1, None)
+    x = R + g[0] @ A.T
+    nu = g[4] @ A.T
+    nn = np.linalg.norm(nu, axis=-1, keepdims=True)
+    return x, nu / np.where(nn > 0, nn, 1.0)
+
+
+def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, surface_j: Any, R_j: np.ndarray,
+                 A_j: np.ndarray) -> dict:
+    """Surface parameters of the contact of two surfaces in the given configuration.
+
+    Returns a dict: ``s`` (2p,) chart parameters, ``charts`` [chart_i,
+    chart_j], ``gap`` (m), ``normal`` (3,) global, ``point_i``, ``point_j``,
+    ``rank`` (the scaled volume of C_s, Eq. 8.109).
+
+    Raises
+    ------
+    ContactError
+        When no pair of points with opposed normals is found.
+    """
+    p = surface_i.n_parameters
+    stand_in = SimpleNamespace(
+        name=name, index=0, surface_i=surface_i, surface_j=surface_j,
+        body_i=SimpleNamespace(index=0), body_j=SimpleNamespace(index=1), n_parameters=p,
+    )
+    group = _Group([stand_in], p, 2)
+    A_ext, R_ext = _frames(R_i, A_i, R_j, A_j)
+    fr = frames_of(group, A_ext, R_ext, None, None)
+    candidates = _candidates(surface_i, R_i, A_i, surface_j, R_j, A_j)
+    best = None
+    errors = []
+    for s_i, s_j in candidates:
+        ch_i, l_i = surface_i._default_chart(s_i)
+        ch_j, l_j = surface_j._default_chart(s_j)
+        charts = [[ch_i, ch_j]]
+        s0 = np.concatenate([l_i, l_j])[None]
+        try:
+            s, gi, gj, _, _, _, Es = solve_parameters(group, fr, s0, charts, 2, max_iter=60, damped=True)
+        except ContactError as exc:  # no convergence, or points that do not face each other
+            errors.append(str(exc))
+            continue
+        kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
+        cand = {"s": s[0], "charts": charts[0], "gap": float(kin.gap[0]), "normal": kin.normal[0],
+                "point_i": kin.point_i[0], "point_j": kin.point_j[0], "rank": float(kin.rank[0])}
+        if best is None or cand["gap"] > best["gap"] + 1e-9 * group.L[0]:
+            best = cand
+    if best is None:
+        why = f" ({errors[0]})" if errors else ""
+        raise ContactError(
+            f"contact {name!r}: no pair of points with opposed normals found between {surface_i!r} and "
+            f"{surface_j!r}{why}"
+        )
+    return best
+
+
+def _candidates(surface_i, R_i, A_i, surface_j, R_j, A_j) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Start parameters (canonical) for Newton, best first."""
+    if surface_i.unbounded or surface_j.unbounded:
+        flat_i = surface_i.unbounded
+        flat, Rf, Af = (surface_i, R_i, A_i) if flat_i else (surface_j, R_j, A_j)
+        other, Ro, Ao = (surface_j, R_j, A_j) if flat_i else (surface_i, R_i, A_i)
+        S = other._samples()
+        x, nrm = _global(other, S, Ro, Ao)
+        foot = flat.parameters((x - Rf) @ Af)
+        xf, nf = _global(flat, foot, Rf, Af)
+        h = np.einsum("ki,ki->k", nf, x - xf)
+        merit = h + other.length_scale * (1.0 + np.einsum("ki,ki->k", nrm, nf))
+        order = np.argsort(merit)[:_CANDIDATES]
+        if flat_i:
+            return [(foot[q], S[q]) for q in order]
+        return [(S[q], foot[q]) for q in order]
+    Si, Sj = surface_i._samples(), surface_j._samples()
+    xi, ni = _global(surface_i, Si, R_i, A_i)
+    xj, nj = _global(surface_j, Sj, R_j, A_j)
+    L = min(surface_i.length_scale, surface_j.length_scale)
+    dist = np.linalg.norm(xi[:, None, :] - xj[None, :, :], axis=-1)
+    merit = dist / L + (1.0 + ni @ nj.T)
+    flat_order = np.argsort(merit, axis=None)[: 4 * _CANDIDATES]
+    out = []
+    seen = set()
+    for f in flat_order:
+        a, b = divmod(int(f), Sj.shape[0])
+        key = (a, b)
+        if key in seen:
+            continue
+        seen.add(key)
+        out.append((Si[a], Sj[b]))
+        if len(out) >= _CANDIDATES:
+            break
+    return out
+
+
+def check_rank(name: str, info: dict) -> None:
+    """Refuse a contact whose C_s lacks full column rank (Eq. 8.109): a line or surface contact."""
+    if not info["rank"] > CONTACT_RANK_TOL:
+        raise ContactError(
+            f"contact {name!r}: C_s has lost rank at the contact point (Eq. 8.109; scaled volume "
+            f"{info['rank']:.1e} <= {CONTACT_RANK_TOL:g}): the surfaces touch along a line or over an area "
+            "(a cylinder or a torus lying on a plane, parallel flat faces, conforming surfaces), where the "
+            "contact point is not unique. For a planar mechanism (a cam and its follower, rollers) describe "
+            "both profiles as PlanarCurve in their bodies' x-y planes (curve-on-curve contact, one parameter "
+            "per body); otherwise use a surface with curvature in both directions (a torus, an ellipsoid)"
+        )
