@@ -7,7 +7,7 @@ the body and joint handles). Global +z is up; SI units.
 
 from ._cam import CAM_LAWS, FOLLOWER_KINDS, CamCurve, CamFollower, CamKinematics, CamProfile
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
-from ._pendulum import ROD_RADIUS_RATIO, pendulum_chain
+from ._pendulum import ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
 from ._rolling_disk import FLAT_LEAN, RollingDiskMotion, rolling_disk_critical_spin, rolling_disk_reference
 from ._top import HeavyTop, heavy_top
 from ._vibration import (
@@ -39,11 +39,13 @@ __all__ = [
     "CamKinematics",
     "CamProfile",
     "HeavyTop",
+    "ReducedChainMotion",
     "RollingDiskMotion",
     "SliderCrank",
     "SpatialDoublePendulum",
     "heavy_top",
     "pendulum_chain",
+    "pendulum_chain_reduced",
     "rolling_disk_critical_spin",
     "rolling_disk_reference",
     "slider_crank",

@@ -4,6 +4,9 @@
   or uniform rod) swings with the exact large-amplitude period
   ``4 sqrt(l_eq / g) K(sin^2(theta0 / 2))`` (``l_eq = L`` for the point mass,
   ``2 L / 3`` for the rod).
+* pendulum_chain_reduced (the joint-angle equations): the same period,
+  energy conservation, the initial state of pendulum_chain, argument checks
+  (against System.simulate in test_multibody_dynamics).
 * slider_crank, spatial_double_pendulum, heavy_top: geometry, assembly and
   argument checks (their dynamics are tested in test_multibody_dynamics).
 """
@@ -22,8 +25,10 @@ from core.models import (
     HeavyTop,
     SliderCrank,
     SpatialDoublePendulum,
+    ReducedChainMotion,
     heavy_top,
     pendulum_chain,
+    pendulum_chain_reduced,
     slider_crank,
     spatial_double_pendulum,
 )
@@ -91,6 +96,63 @@ def test_tilted_chain_is_straight_and_at_rest():
     for k, body in enumerate(system.bodies):
         np.testing.assert_allclose(system.state.position(body), (k + 0.5) * direction, atol=1e-15)
     assert np.all(system.state.v == 0.0)
+
+
+@pytest.mark.parametrize(("kind", "l_eq"), [("point", 1.2), ("rod", 0.8)])
+def test_reduced_single_link_large_amplitude_period(kind, l_eq):
+    theta0, L, g = 1.0, 1.2, 9.81
+    period = 4.0 * math.sqrt(l_eq / g) * ellipk(math.sin(theta0 / 2.0) ** 2)
+    motion = pendulum_chain_reduced(1, [0.0, period / 2.0, period], length=L, kind=kind, tilt=theta0, gravity=g)
+    assert isinstance(motion, ReducedChainMotion)
+    np.testing.assert_allclose(motion.angles[:, 0], [theta0, -theta0, theta0], atol=1e-11)
+    np.testing.assert_allclose(motion.rates[:, 0], 0.0, atol=1e-10)
+
+
+@pytest.mark.parametrize("kind", ["rod", "point"])
+def test_reduced_chain_starts_at_the_model_and_conserves_energy(kind):
+    n, L, m, g, tilt = 4, 0.9, 1.7, 9.81, 0.8
+    t = np.linspace(0.0, 3.0, 31)
+    motion = pendulum_chain_reduced(n, t, length=L, mass=m, kind=kind, tilt=tilt, gravity=g)
+    assert motion.t.shape == (31,) and motion.angles.shape == motion.rates.shape == (31, n)
+    assert motion.centres.shape == (31, n, 3)
+    system = pendulum_chain(n, length=L, mass=m, kind=kind, tilt=tilt, gravity=g)
+    np.testing.assert_allclose(motion.centres[0], [system.state.position(b) for b in system.bodies], atol=1e-15)
+    np.testing.assert_allclose(motion.centres[..., 0], 0.0)
+    # energy from the centres' velocities (sum over the links above of L phi_dot (0, cos, sin)) and heights
+    offset = 0.5 if kind == "rod" else 1.0
+    J = m * L * L / 12.0 if kind == "rod" else 0.0
+    i, k = np.indices((n, n))
+    a = np.where(i < k, L, 0.0) + np.where(i == k, offset * L, 0.0)
+    de = np.stack([np.cos(motion.angles), np.sin(motion.angles)], axis=-1) * motion.rates[..., None]
+    v = np.einsum("ik,tid->tkd", a, de)
+    energy = 0.5 * m * (v**2).sum(axis=(1, 2)) + 0.5 * J * (motion.rates**2).sum(axis=1)
+    energy += m * g * motion.centres[..., 2].sum(axis=1)
+    assert np.ptp(motion.rates) > 1.0  # it moves
+    assert np.ptp(energy) < 1e-10 * abs(energy[0])
+
+
+def test_reduced_chain_with_one_time_is_the_initial_state():
+    motion = pendulum_chain_reduced(2, [1.5], tilt=0.3)
+    np.testing.assert_allclose(motion.angles, [[0.3, 0.3]])
+    np.testing.assert_allclose(motion.rates, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        (dict(n=0, t=[0.0, 1.0]), r"n: expected an integer >= 1"),
+        (dict(n=2, t=[0.0, 1.0], kind="chain"), r"kind: expected 'rod' or 'point'"),
+        (dict(n=2, t=[1.0, 0.0]), r"t: expected a non-empty 1-d array of finite non-decreasing times"),
+        (dict(n=2, t=[]), r"t: expected a non-empty 1-d array"),
+        (dict(n=2, t=[0.0, np.nan]), r"t: expected a non-empty 1-d array"),
+        (dict(n=2, t=[0.0, 1.0j]), r"t: expected real numbers, got complex"),
+        (dict(n=2, t=[0.0, 1.0], rtol=0.0), r"rtol: expected a finite tolerance > 0"),
+        (dict(n=2, t=[0.0, 1.0], atol=-1.0), r"atol: expected a finite tolerance > 0"),
+    ],
+)
+def test_pendulum_chain_reduced_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        pendulum_chain_reduced(**kwargs)
 
 
 def test_slider_crank_geometry():

@@ -3,7 +3,8 @@
 * Newton-Euler and Euler-parameter forms of the equations (Eqs. 8.51-8.57)
   give the same accelerations and multipliers at random states.
 * A planar double pendulum of uniform rods on revolute joints against its
-  reduced Lagrange equations, integrated by DOP853 at rtol 1e-12.
+  reduced Lagrange equations (core.models.pendulum_chain_reduced),
+  integrated by DOP853 at rtol 1e-12.
 * The heavy top (one body, one spherical joint) against core.gyroscope's
   exact (elliptic-function) motion.
 * A slider-crank against the closed-form slider position and velocity.
@@ -24,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from core.gyroscope import RotorParams
 from core.gyroscope import simulate as gyroscope_simulate
-from core.models import heavy_top, pendulum_chain, slider_crank, spatial_double_pendulum
+from core.models import heavy_top, pendulum_chain, pendulum_chain_reduced, slider_crank, spatial_double_pendulum
 from core.multibody import System
 from core.rotations import (
     constant_relative_rotation_residual,
@@ -81,45 +82,17 @@ def test_newton_euler_and_euler_parameter_forms_agree():
 
 
 # ------------------------------------------------------------------ double pendulum
-def _reduced_chain(n_links, L, m, g):
-    """Reduced Lagrange equations of a planar chain of uniform rods, angles from the downward vertical.
-
-    Centre of mass k: sum_{i<k} L e(phi_i) + L/2 e(phi_k), e = (sin, -cos) in the y-z plane;
-    T = 1/2 sum_ij B_ij cos(phi_i - phi_j) phi_i' phi_j' + 1/2 sum_k (m L^2 / 12) phi_k'^2,
-    B = m a a^T with a_ik = L (i < k), L/2 (i = k); V = -sum_k m g z_k. The equations are
-    sum_j [B_ij cos(phi_i - phi_j) + J delta_ij] phi_j'' = -sum_j B_ij sin(phi_i - phi_j) phi_j'^2
-    - m g (sum_k a_ik) sin phi_i.
-    """
-    a = np.array([[L if i < k else (L / 2 if i == k else 0.0) for k in range(n_links)] for i in range(n_links)])
-    B = m * a @ a.T
-    J = m * L * L / 12.0
-    w_g = m * g * a.sum(axis=1)
-
-    def rhs(t, y):
-        ph, w = y[:n_links], y[n_links:]
-        d = ph[:, None] - ph[None, :]
-        M = B * np.cos(d) + J * np.eye(n_links)
-        return np.concatenate([w, np.linalg.solve(M, -(B * np.sin(d)) @ (w * w) - w_g * np.sin(ph))])
-
-    return rhs
-
-
 def test_double_pendulum_of_rods_against_reduced_lagrange_equations():
     tilt, T = 1.1, 4.0
     system = pendulum_chain(2, length=0.8, mass=1.3, kind="rod", tilt=tilt)
     t = np.linspace(0.0, T, 41)
     traj = system.simulate(t, method="DOP853", rtol=1e-11, atol=1e-12)
-    sol = solve_ivp(_reduced_chain(2, 0.8, 1.3, 9.81), (0.0, T), [tilt, tilt, 0.0, 0.0], method="DOP853",
-                    rtol=1e-12, atol=1e-12, t_eval=t)
-    ph = sol.y[:2]
-    e = lambda a: np.stack([np.zeros_like(a), np.sin(a), -np.cos(a)], axis=1)  # noqa: E731
-    c0 = 0.4 * e(ph[0])
-    c1 = 0.8 * e(ph[0]) + 0.4 * e(ph[1])
+    reduced = pendulum_chain_reduced(2, t, length=0.8, mass=1.3, kind="rod", tilt=tilt, rtol=1e-12, atol=1e-12)
     # chaotic-looking motion (large swing); both solutions at ~1e-11 local accuracy stay within 1e-8 over 4 s
-    np.testing.assert_allclose(traj.position(system.bodies[0]), c0, rtol=0, atol=1e-8)
-    np.testing.assert_allclose(traj.position(system.bodies[1]), c1, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(traj.position(system.bodies[0]), reduced.centres[:, 0], rtol=0, atol=1e-8)
+    np.testing.assert_allclose(traj.position(system.bodies[1]), reduced.centres[:, 1], rtol=0, atol=1e-8)
     # angular velocities about x equal the reduced angle rates
-    np.testing.assert_allclose(traj.omega(system.bodies[1])[:, 0], sol.y[3], rtol=0, atol=1e-7)
+    np.testing.assert_allclose(traj.omega(system.bodies[1])[:, 0], reduced.rates[:, 1], rtol=0, atol=1e-7)
     assert np.ptp(traj.energy) < 1e-8 * abs(traj.energy[0] - traj.energy.min() + 1.0)
     assert traj.residual_position.max() < 1e-11 and traj.residual_velocity.max() < 1e-12
 
