@@ -45,7 +45,8 @@ class PlanarCurve(Surface):
     Build one with :meth:`polar` (a cam profile ``r(phi)``), :meth:`circle`
     (a roller), :meth:`line` (a flat follower face) or the constructor (any
     parametric curve). Public methods take parameters of shape ``(...,)``
-    or ``(..., 1)`` and return body-frame arrays: ``u (..., 3)`` (``z =
+    or ``(..., 1)`` (a trailing axis of length 1 is the parameter axis) and
+    return body-frame arrays: ``u (..., 3)`` (``z =
     0``), derivatives ``(..., 3, 1)``, ``(..., 3, 1, 1)``, ``(..., 3, 1, 1,
     1)``.
 

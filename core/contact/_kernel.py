@@ -66,6 +66,17 @@ _CHART_LIMIT = 1.0  # rad: a sphere/ellipsoid chart is re-centred beyond this la
 CONSTRAINT, COMPLIANT = 0, 1
 
 
+def _det_sign(M: list) -> float:
+    """Sign of the determinant of the small matrix E_s (2 x 2 or 4 x 4), as a float."""
+    if len(M) == 2:
+        d = M[0][0] * M[1][1] - M[0][1] * M[1][0]
+    else:
+        from ._scalar import _det4
+
+        d = _det4(M)
+    return 1.0 if d > 0 else (-1.0 if d < 0 else 0.0)
+
+
 class ContactError(ValueError):
     """Contact geometry that cannot be followed (no contact point, rank loss); ``t`` says when."""
 
@@ -207,6 +218,7 @@ def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, or
     p = group.p
     s = np.array(s, dtype=float)
     for it in range(max_iter):
+        _rechart(group, s, charts)  # before the geometry: the returned s and geometry share one chart
         ci = [ch[0] for ch in charts]
         cj = [ch[1] for ch in charts]
         raw_i = _stack_geometry(group.surf_i, s[:, :p], ci, order)
@@ -231,7 +243,6 @@ def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, or
         done = step <= _STEP_TOL
         if done.all():
             s = s + ds
-            _rechart(group, s, charts)
             facing = np.einsum("ki,ki->k", gi.n, gj.n) < 0.0
             if not facing.all():
                 bad = int(np.argmin(facing))
@@ -239,7 +250,6 @@ def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, or
                                          "not opposed (the far sides of the surfaces)"), t=t)
             return s, gi, gj, raw_i, raw_j, E, Es
         s = s + ds
-        _rechart(group, s, charts)
     worst = int(np.argmax(step))
     raise ContactError(_lost(group.contacts[worst], t, f"Newton on the contact point did not converge in "
                                                       f"{max_iter} iterations (last step {step[worst]:.2e} of the "
@@ -469,12 +479,13 @@ class ContactKernel:
 
     @staticmethod
     def copy_state(state: dict) -> dict:
+        """A copy of the warm-start data (without the evaluation cache and the prediction rates)."""
         return {"s": [np.array(x) for x in state["s"]], "charts": [list(ch) for ch in state["charts"]],
                 "mode": np.array(state["mode"])}
 
     # ------------------------------------------------------------ evaluation
     def evaluate(self, y: np.ndarray, A: np.ndarray, level: int, state: dict, *, t: float | None = None,
-                 batched: bool | None = None):
+                 batched: bool | None = None, commit: bool = True, strict: bool = False):
         """Kinematics of every contact at state ``y`` (13n,) with rotation matrices ``A`` (n, 3, 3).
 
         Returns a dict of arrays over all contacts (k): ``value``, ``gap``,
@@ -482,9 +493,18 @@ class ContactKernel:
         ``rank``, ``s`` (k, 4, nan-padded, chart parameters); level >= 1:
         ``D`` (k, 6n), ``Dr`` (k, 2, 6n) rolling rows; level >= 2:
         ``gamma`` (k,), ``gamma_r`` (k, 2), ``rate`` (k,), ``gamma_c`` (k,
-        5). ``state`` (warm start, charts) is updated. ``batched``: numpy
-        arrays over the contacts (default when there are more than
-        :data:`SCALAR_MAX` contacts) or one contact at a time on floats.
+        5). ``batched``: numpy arrays over the contacts (default when
+        there are more than :data:`SCALAR_MAX` contacts) or one contact at
+        a time on floats.
+
+        Warm start: Newton starts from the *committed* parameters of
+        ``state`` (moved by ``s_dot (t - t_committed)`` when that is small)
+        or else from the last evaluation. ``commit`` makes the result the
+        new committed start: a run commits only at its accepted, projected
+        states, so a stage of a rejected step never moves it. When the warm
+        start fails the contact is searched afresh; with ``strict`` (a
+        run's accepted states) a point found that way far from the
+        committed one is a jump of the contact point and an error.
 
         Raises
         ------
@@ -494,6 +514,11 @@ class ContactKernel:
         """
         if batched is None:
             batched = self.k > SCALAR_MAX
+        cached = state.get("cache")
+        if cached is not None and cached[1] >= level and cached[2] == batched and np.array_equal(cached[0], y):
+            if commit:
+                self._commit_last(state, t, cached[3], y, A, strict)
+            return cached[3]
         res = self._evaluate_batched(y, A, level, state, t) if batched else self._evaluate_floats(
             y, A, level, state, t)
         bad = ~(res["rank"] > CONTACT_RANK_TOL)
@@ -503,7 +528,64 @@ class ContactKernel:
             raise ContactError(
                 f"contact {c.name!r}: C_s lost rank{when} (Eq. 8.109; scaled volume {res['rank'][c.index]:.1e}): "
                 "the surfaces touch along a line or over an area, where the contact point is not unique", t=t)
+        state["cache"] = (np.array(y), level, batched, res)
+        if commit:
+            self._commit_last(state, t, res, y, A, strict)
         return res
+
+    def _start(self, state: dict, q: int, t: float | None):
+        """Start parameters and a copy of the charts for contact ``q`` (see :meth:`evaluate`)."""
+        s0 = state["s"][q]
+        charts = state["charts"][q]
+        pred = state.get("rate", {}).get(q)
+        t_c = state.get("t_committed", {}).get(q)
+        if pred is not None and t is not None and t_c is not None and pred[2] is charts[0] and pred[3] is charts[1]:
+            dt = t - t_c
+            if abs(dt) * pred[4] <= 0.2:
+                return (s0 + np.asarray(pred[1]) * dt if dt else np.array(s0)), list(charts)
+        last = state.get("last", {}).get(q)
+        if last is not None:
+            return np.array(last[0]), list(last[1])
+        return np.array(s0), list(charts)
+
+    def _commit_last(self, state: dict, t, res: dict, y: np.ndarray, A: np.ndarray, strict: bool) -> None:
+        """Make the last evaluation's parameters the committed warm start (checking for jumps when strict)."""
+        last = state.get("last", {})
+        n = self.n
+        for c in self.contacts:
+            q = c.index
+            if q not in last:
+                continue
+            s, charts, restarted, sign = last[q]
+            u = []
+            for body, key in ((c.body_i, "point_i"), (c.body_j, "point_j")):
+                b = body.index
+                x = res[key][q]
+                u.append(x if b < 0 else A[b].T @ (x - y[3 * b : 3 * b + 3]))
+            prev = state.setdefault("points", {}).get(q)
+            if strict and restarted and prev is not None:
+                L = self.static[q].L
+                jump = max(float(np.linalg.norm(u[0] - prev[0])), float(np.linalg.norm(u[1] - prev[1])))
+                if jump > 0.25 * L:
+                    when = "" if t is None else f" at t={t:.6g}"
+                    raise ContactError(
+                        f"contact {c.name!r}: the contact point jumped by {jump:.3g} m on a body{when}: the nearest "
+                        "points of the surfaces moved discontinuously (a surface about to lie flat on the other, a "
+                        "non-convex profile, or a step too large to follow them)", t=t)
+            old_sign = state.setdefault("signs", {}).get(q)
+            if strict and old_sign is not None and sign != old_sign:
+                t0 = state.get("t_committed", {}).get(q)
+                between = "" if t is None or t0 is None else f" between t={t0:.6g} and t={t:.6g}"
+                raise ContactError(
+                    f"contact {c.name!r}: the contact passed a configuration where C_s loses rank (Eq. 8.109)"
+                    f"{between}: the surfaces lay along each other there (e.g. a disk or a wheel lying flat), "
+                    "and the contact point is no longer the nearest one", t=t)
+            state["s"][q] = np.array(s)
+            state["charts"][q] = list(charts)
+            state.setdefault("t_committed", {})[q] = t
+            state["points"][q] = (u[0], u[1])
+            state["signs"][q] = sign
+            last[q] = (s, charts, False, sign)
 
     def _empty(self, level: int) -> dict:
         k, n = self.k, self.n
@@ -551,13 +633,19 @@ class ContactKernel:
                     setattr(fr, "V" + side, (0.0, 0.0, 0.0))
                     setattr(fr, "W" + side, (0.0, 0.0, 0.0))
             q = cs.contact.index
-            charts = state["charts"][q]
+            s0, charts = self._start(state, q, t)
+            restarted = False
             try:
-                s, gi, gj, _, Es = newton_one(cs, fr, state["s"][q].tolist(), charts, order, t=t)
+                s, gi, gj, _, Es = newton_one(cs, fr, s0.tolist(), charts, order, t=t)
             except ContactError:
-                s, gi, gj, Es = self._restart_one(cs, fr, state, order, t)
-            state["s"][q] = np.array(s)
+                s, gi, gj, Es, charts = self._restart_one(cs, fr, order, t)
+                restarted = True
+            state.setdefault("last", {})[q] = (np.array(s), charts, restarted, _det_sign(Es))
             out = evaluate_one(cs, fr, gi, gj, Es, level)
+            if level >= 2 and t is not None:
+                sd = out["sdot"]
+                speed = max(abs(x) for x in sd) if sd else 0.0
+                state.setdefault("rate", {})[q] = (t, sd, charts[0], charts[1], speed)
             p = cs.p
             r = 2 * p + 1
             vals.append(out["value"])
@@ -588,21 +676,19 @@ class ContactKernel:
         res["rank"][:] = ranks
         return res
 
-    def _restart_one(self, cs, fr, state, order, t):
+    def _restart_one(self, cs, fr, order, t):
         """The warm start failed: search the contact point afresh (sampling and damped Newton)."""
         from ._scalar import newton_one
         from ._search import find_contact
 
-        q = cs.contact.index
         Ai, Aj = np.array(fr.Ai), np.array(fr.Aj)
         try:
             info = find_contact(cs.contact.name, cs.surf_i, np.array(fr.Ri), Ai, cs.surf_j, np.array(fr.Rj), Aj)
         except ContactError as exc:
             raise ContactError(f"{exc}{'' if t is None else f' (t={t:.6g})'}", t=t) from None
         charts = [info["charts"][0], info["charts"][1]]
-        state["charts"][q] = charts
         s, gi, gj, _, Es = newton_one(cs, fr, list(info["s"]), charts, order, t=t)
-        return s, gi, gj, Es
+        return s, gi, gj, Es, charts
 
     def _restart_group(self, g: _Group, fr: _Frames, t):
         from ._search import find_contact
@@ -647,17 +733,19 @@ class ContactKernel:
         order = 3 if level >= 2 else 2
         for g in self.groups:
             fr = frames_of(g, A_ext, R_ext, V_ext, W_ext)
-            s0 = np.stack([state["s"][c] for c in g.pos])
-            charts = [state["charts"][c] for c in g.pos]
+            starts = [self._start(state, c, t) for c in g.pos]
+            s0 = np.stack([st[0] for st in starts])
+            charts = [st[1] for st in starts]
+            restarted = False
             try:
                 s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
             except ContactError:  # the warm start failed: search every contact of the group afresh
                 s0, charts = self._restart_group(g, fr, t)
-                for q, c in enumerate(g.pos):
-                    state["charts"][c] = charts[q]
                 s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
+                restarted = True
+            signs = np.sign(np.linalg.det(Es))
             for q, c in enumerate(g.pos):
-                state["s"][c] = s[q]
+                state.setdefault("last", {})[c] = (np.array(s[q]), charts[q], restarted, float(signs[q]))
             kin = contact_rows(g, fr, gi, gj, level, self.rolling[g.pos], Es)
             pos = g.pos
             p = g.p

@@ -204,6 +204,7 @@ def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float |
     L = cs.L
     step = math.inf
     for _ in range(max_iter):
+        _rechart(cs, s, charts)  # before the geometry: the returned s, geometry and s_dot share one chart
         Di, Dni = cs.surf_i._derivs_float(tuple(s[:p]), order, charts[0])
         Dj, Dnj = cs.surf_j._derivs_float(tuple(s[p:]), order, charts[1])
         gi = _glob(Di, Dni, fr.Ai, p, order)
@@ -228,7 +229,6 @@ def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float |
         f = lim / step if step > lim else 1.0
         for q in range(2 * p):
             s[q] -= f * ds[q]
-        _rechart(cs, s, charts)
         if step <= _STEP_TOL:
             if not _dot(gi.n, gj.n) < 0.0:
                 raise ContactError(_lost(cs.contact, t, "Newton reached a pair of points whose normals are not "

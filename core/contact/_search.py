@@ -17,7 +17,17 @@ from typing import Any
 
 import numpy as np
 
-from ._kernel import CONTACT_RANK_TOL, ContactError, _Group, contact_rows, frames_of, solve_parameters
+from ._kernel import (
+    CONTACT_RANK_TOL,
+    ContactError,
+    _extremal,
+    _globalize,
+    _Group,
+    _stack_geometry,
+    contact_rows,
+    frames_of,
+    solve_parameters,
+)
 
 __all__ = ["find_contact"]
 
@@ -78,6 +88,22 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
         if best is None or cand["gap"] > best["gap"] + 1e-9 * group.L[0]:
             best = cand
     if best is None:
+        if candidates:  # no convergence: a line contact has a rank-deficient C_s at the sampled guess already
+            s_i, s_j = candidates[0]
+            ch_i, l_i = surface_i._default_chart(s_i)
+            ch_j, l_j = surface_j._default_chart(s_j)
+            raw_i = _stack_geometry([surface_i], l_i[None], [ch_i], 2)
+            raw_j = _stack_geometry([surface_j], l_j[None], [ch_j], 2)
+            gi, gj = _globalize(raw_i, fr.A_i), _globalize(raw_j, fr.A_j)
+            for g, surf, label, sv in ((gi, surface_i, "surface_i", s_i), (gj, surface_j, "surface_j", s_j)):
+                tt = float(np.max(np.linalg.norm(g.T[0], axis=0)))
+                if not np.linalg.norm(g.n[0]) > 1e-10 * max(tt * tt, 1e-300):
+                    raise ContactError(
+                        f"{label}: {surf!r} is degenerate near s={np.round(sv, 6).tolist()}: its normal du/ds1 x du/ds2 "
+                        "vanishes (parallel or zero tangents); choose a regular parametrization")
+            _, Es, _, _, _ = _extremal(group, fr, gi, gj)
+            kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
+            check_rank(name, {"rank": float(kin.rank[0])})
         why = f" ({errors[0]})" if errors else ""
         raise ContactError(
             f"contact {name!r}: no pair of points with opposed normals found between {surface_i!r} and "

@@ -520,6 +520,7 @@ class _Engine:
             self.contact_kernel = ContactKernel(self.contacts, self.n)
             self.contact_state = self.contact_kernel.initial_state(list(starts))
         self.contact_eval = None
+        self.contact_strict = False  # a run's accepted states: a jump of a contact point is an error
 
     def contact_modes_changed(self) -> None:
         """Forget the rank analysis after a contact changed model (rows switched on or off)."""
@@ -629,14 +630,17 @@ class _Engine:
         """(n_sel, 9) ``U @ B``: position, velocity and quadratic acceleration of every selected vector."""
         return self.U @ self.B
 
-    def table(self, t: float, y: np.ndarray, *, level: int):
+    def table(self, t: float, y: np.ndarray, *, level: int, commit: bool = True):
         """Evaluate the row table at state ``y``.
 
         level 0: values; 1: values and Jacobian; 2: also the acceleration
         terms. Returns ``(At, Y, Phi, gam)``: transposed rotation matrices,
         the selected vectors ``U @ B`` (see :meth:`rates`) and per table row
         the value and ``gamma`` (None below level 2). The Jacobian is left
-        in ``self.Dt`` (body velocities) when ``level >= 1``.
+        in ``self.Dt`` (body velocities) when ``level >= 1``. The contacts
+        are evaluated too (``self.contact_eval``); ``commit`` makes their
+        surface parameters the warm start of later evaluations (see
+        ``core.contact._kernel.ContactKernel.evaluate``).
         """
         self.generation += 1  # the Jacobian buffers are overwritten
         At = self.frames(y, velocities=level >= 2)
@@ -660,7 +664,7 @@ class _Engine:
                           out=self.Dt_full[:, 3 * n : 6 * n].reshape(m, n, 3))
         if self.contact_kernel is not None:
             self.contact_eval = self.contact_kernel.evaluate(
-                y, np.swapaxes(At, 1, 2), level, self.contact_state, t=t)
+                y, np.swapaxes(At, 1, 2), level, self.contact_state, t=t, commit=commit, strict=self.contact_strict)
         return At, Y, Phi, gam
 
     def rates(self, Y: np.ndarray, rows: np.ndarray) -> np.ndarray:

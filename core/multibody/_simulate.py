@@ -103,10 +103,10 @@ class _Dynamics:
                     f"the constrained equations became singular at t={t:.6g} although the constraint rows "
                     "are independent: the constrained mass matrix is singular there", t=t) from None
 
-    def accelerations(self, t: float, y: np.ndarray):
+    def accelerations(self, t: float, y: np.ndarray, *, commit: bool = True):
         """``(a (6n,), lambda (m,), C, D, C_t)`` at ``(t, y)``."""
         eng = self.eng
-        At, Y, Phi, gam = eng.table(t, y, level=2)
+        At, Y, Phi, gam = eng.table(t, y, level=2, commit=commit)
         C, D, Ct, gamma = eng.constraint_rows(t, Y, Phi, gam, level=2)
         if self.alpha:
             al = self.alpha
@@ -122,7 +122,7 @@ class _Dynamics:
         """``y_dot = [R_dot, p_dot = G_bar^T omega_body / 2, a]`` (Eqs. 8.51-8.54)."""
         eng = self.eng
         n, n3, n7, n10 = self._n, self._n3, self._n7, self._n10
-        At, Y, Phi, gam = eng.table(t, y, level=2)
+        At, Y, Phi, gam = eng.table(t, y, level=2, commit=False)  # a stage: not a warm start of the contacts
         C, D, Ct, gamma = eng.constraint_rows(t, Y, Phi, gam, level=2)
         if self.alpha:
             al = self.alpha
@@ -144,7 +144,7 @@ class _Dynamics:
         """(k,) normal forces of the contacts in the constraint model at ``(t, y)`` (nan for the others)."""
         eng = self.eng
         if lam is None:
-            lam = self.accelerations(t, y)[1]
+            lam = self.accelerations(t, y, commit=False)[1]
         mode = eng.contact_state["mode"]
         out = np.full(len(eng.contacts), np.nan)
         for c in eng.contacts:
@@ -963,6 +963,7 @@ def simulate(
     out_t: list[float] = []
     out_y: list[np.ndarray] = []
     out_mode: list[np.ndarray] = []
+    eng.contact_strict = True
 
     def record(times, ys) -> None:
         mode = eng.contact_state["mode"].copy() if kc else None
@@ -1013,6 +1014,7 @@ def simulate(
             continue
         if adaptive:
             break
+    eng.contact_strict = False
     tt_out = np.array(out_t, dtype=float)
     states = np.array(out_y).reshape(len(out_y), y0.size)
     modes = np.array(out_mode) if kc else None

@@ -95,3 +95,193 @@ def test_follower_separates_at_the_closed_form_instant():
     assert [s.action for s in bil.separations] == ["bilateral"]
     assert abs(bil.separations[0].t - t_sep) < 1e-10
     assert np.min(bil.contact(c).normal_force) < 0.0
+
+
+def test_spinning_sphere_sliding_on_a_plane_tracks_its_contact_point():
+    system, ball = _ball(velocity=(1.0, 0.5, 0.0), omega=(3.0, -2.0, 7.0))
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
+    t = np.linspace(0.0, 2.0, 41)
+    traj = system.simulate(t, rtol=1e-11, atol=1e-13)
+    h = traj.contact(c)
+    np.testing.assert_allclose(h.normal_force, 2.0 * G, rtol=1e-10)
+    np.testing.assert_allclose(traj.energy, traj.energy[0], rtol=1e-12)
+    # the contact point is below the centre; its sphere parameters are those of A^T (0, 0, -r)
+    R = traj.position(ball)
+    np.testing.assert_allclose(h.point, R - [0.0, 0.0, 0.1], atol=1e-13)
+    sphere = Sphere(0.1)
+    for k in range(0, 41, 5):
+        A = traj.state(k).rotation_matrix(ball)
+        u = sphere.point(h.surface_parameters[k, 2:])
+        np.testing.assert_allclose(u, A.T @ [0.0, 0.0, -0.1], atol=1e-13)
+    # the plane's parameters are the contact point's x, y
+    np.testing.assert_allclose(h.surface_parameters[:, :2], R[:, :2], atol=1e-13)
+
+
+def test_sphere_rolling_down_a_slope():
+    alpha, m, r = 0.3, 2.0, 0.1
+    n = np.array([-math.sin(alpha), 0.0, math.cos(alpha)])
+    system, ball = _ball(radius=r, mass=m)
+    system.set_state(system.state.displaced(dq=np.concatenate([r * n - [0.0, 0.0, r], np.zeros(3)])))
+    c = system.add_contact(system.ground, Plane(normal=n), ball, Sphere(r), rolling=True)
+    system.assemble()
+    t = np.linspace(0.0, 1.0, 11)
+    traj = system.simulate(t, rtol=1e-11, atol=1e-13)
+    down = np.array([-math.cos(alpha), 0.0, -math.sin(alpha)])
+    travel = (traj.position(ball) - traj.position(ball)[0]) @ down
+    np.testing.assert_allclose(travel, 0.5 * (5.0 / 7.0) * G * math.sin(alpha) * t**2, atol=1e-12)
+    h = traj.contact(c)
+    np.testing.assert_allclose(h.normal_force, m * G * math.cos(alpha), rtol=1e-10)
+    # friction up the slope, (2/7) m g sin(alpha) (on the ball)
+    np.testing.assert_allclose(h.tangential_force, np.tile(-(2.0 / 7.0) * m * G * math.sin(alpha) * down, (11, 1)),
+                               atol=1e-9)
+    np.testing.assert_allclose(traj.energy, traj.energy[0], atol=1e-12)
+    assert np.max(traj.residual_velocity) < 1e-12
+
+
+def _ball_on_ball(theta0, *, rolling, r=0.1, R=0.3, m=1.0):
+    system = System(gravity=(0.0, 0.0, -G))
+    J = 0.4 * m * r * r
+    rho = R + r
+    ball = system.add_body("ball", mass=m, inertia=(J, J, J),
+                           position=(rho * math.sin(theta0), 0.0, rho * math.cos(theta0)))
+    c = system.add_contact(system.ground, Sphere(R), ball, Sphere(r), rolling=rolling)
+    system.assemble()
+    return system, ball, c, rho
+
+
+def test_sphere_sliding_off_a_sphere_leaves_at_two_thirds():
+    theta0 = 0.1
+    system, ball, c, rho = _ball_on_ball(theta0, rolling=False)
+    traj = system.simulate(np.linspace(0.0, 3.0, 301), rtol=1e-12, atol=1e-14)
+    assert traj.status == "separated"
+    (sep,) = traj.separations
+    R = sep.state.position(ball)
+    cos_sep = R[2] / np.linalg.norm(R)
+    assert abs(cos_sep - 2.0 / 3.0 * math.cos(theta0)) < 1e-9
+    # N = m g (3 cos(theta) - 2 cos(theta0)) along the way; the contact point on the line of centres
+    pos = traj.position(ball)
+    cos_t = pos[:, 2] / np.linalg.norm(pos, axis=1)
+    h = traj.contact(c)
+    np.testing.assert_allclose(h.normal_force, G * (3.0 * cos_t - 2.0 * math.cos(theta0)), atol=1e-9)
+    np.testing.assert_allclose(h.point, 0.3 * pos / np.linalg.norm(pos, axis=1)[:, None], atol=1e-13)
+    np.testing.assert_allclose(h.normal, pos / np.linalg.norm(pos, axis=1)[:, None], atol=1e-13)
+    np.testing.assert_allclose(traj.energy, traj.energy[0], atol=1e-12)
+    np.testing.assert_allclose(sep.point, 0.3 * R / np.linalg.norm(R), atol=1e-12)
+
+
+def test_sphere_rolling_off_a_sphere_leaves_at_ten_seventeenths():
+    theta0 = 0.1
+    system, ball, c, rho = _ball_on_ball(theta0, rolling=True)
+    traj = system.simulate(np.linspace(0.0, 3.0, 301), rtol=1e-12, atol=1e-14)
+    (sep,) = traj.separations
+    R = sep.state.position(ball)
+    assert abs(R[2] / np.linalg.norm(R) - 10.0 / 17.0 * math.cos(theta0)) < 1e-9
+    pos = traj.position(ball)
+    cos_t = pos[:, 2] / np.linalg.norm(pos, axis=1)
+    h = traj.contact(c)
+    np.testing.assert_allclose(h.normal_force, G * (17.0 * cos_t - 10.0 * math.cos(theta0)) / 7.0, atol=1e-9)
+    np.testing.assert_allclose(traj.energy, traj.energy[0], atol=1e-12)
+
+
+def test_sphere_resting_on_a_sphere():
+    system, ball, c, rho = _ball_on_ball(0.0, rolling=False)
+    traj = system.simulate(np.linspace(0.0, 1.0, 5), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(traj.contact(c).normal_force, G, rtol=1e-13)
+    np.testing.assert_allclose(traj.contact(c).point, np.tile([0.0, 0.0, 0.3], (5, 1)), atol=1e-15)
+
+
+@pytest.mark.parametrize("method, kw", [("DOP853", {"rtol": 1e-11, "atol": 1e-13}), ("rk4", {"dt": 1e-3})])
+def test_ball_lifted_off_a_plane_by_a_growing_force(method, kw):
+    rate = 50.0  # N/s upward: the ball leaves when the force equals its weight
+    system, ball = _ball(mass=2.0)
+    system.add_force(ball, lambda t, state: np.array([0.0, 0.0, rate * t]))
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
+    traj = system.simulate(np.linspace(0.0, 1.0, 11), method=method, **kw)
+    (sep,) = traj.separations
+    assert abs(sep.t - 2.0 * G / rate) < 1e-10
+    assert traj.status == "separated" and traj.t[-1] <= sep.t
+    np.testing.assert_allclose(traj.contact(c).normal_force, 2.0 * G - rate * traj.t, atol=1e-9)
+
+
+def _hertz_duration(m, k, v0):
+    from scipy.integrate import quad
+
+    d_max = (5.0 * m * v0 * v0 / (4.0 * k)) ** 0.4
+    integral = quad(lambda x: 1.0 / math.sqrt(1.0 - x**2.5), 0.0, 1.0, limit=200)[0]
+    return d_max, 2.0 * d_max / v0 * integral
+
+
+def test_hertz_impact_depth_and_duration():
+    m, r, k, v0, gap0 = 1.0, 0.1, 1e6, 1.0, 0.01
+    system = System(gravity=(0.0, 0.0, 0.0))
+    J = 0.4 * m * r * r
+    ball = system.add_body("ball", mass=m, inertia=(J, J, J), position=(0.0, 0.0, r + gap0), velocity=(0.0, 0.0, -v0))
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(r), model="compliant", stiffness=k)
+    d_max, t_c = _hertz_duration(m, k, v0)
+    t = np.linspace(0.0, 2.0 * gap0 / v0 + t_c, 6001)
+    traj = system.simulate(t, rtol=1e-11, atol=1e-14)
+    np.testing.assert_allclose(traj.energy, traj.energy[0], rtol=1e-9)
+    hc = traj.contact(c)
+    assert abs(-np.min(hc.gap) - d_max) < 1e-7 * d_max + 1e-12
+    touching = t[hc.normal_force > 0.0]
+    assert abs((touching[-1] - touching[0]) - t_c) <= 2.0 * (t[1] - t[0])
+    np.testing.assert_allclose(traj.velocity(ball)[-1], [0.0, 0.0, v0], atol=1e-9)  # elastic: back at v0
+
+
+def test_dropped_ball_rebounds_to_its_height():
+    m, r, k, h0 = 1.0, 0.1, 1e6, 0.05
+    system, ball = _ball(radius=r, mass=m)
+    system.set_state(system.state.displaced(dq=np.array([0.0, 0.0, h0, 0.0, 0.0, 0.0])))
+    system.add_contact(system.ground, Plane(), ball, Sphere(r), model="compliant", stiffness=k)
+    t_up = 2.0 * math.sqrt(2.0 * h0 / G)
+    t = np.linspace(0.0, 1.5 * t_up, 3001)
+    traj = system.simulate(t, rtol=1e-11, atol=1e-14)
+    np.testing.assert_allclose(traj.energy, traj.energy[0], rtol=1e-9)
+    later = t > 0.6 * t_up
+    assert abs(np.max(traj.position(ball)[later, 2]) - (r + h0)) < 1e-7
+
+
+def test_hunt_crossley_damping_against_a_one_dimensional_reference():
+    from scipy.integrate import solve_ivp
+
+    m, r, k, c_hc, v0 = 1.0, 0.1, 1e6, 0.2, 1.0
+    system = System(gravity=(0.0, 0.0, 0.0))
+    J = 0.4 * m * r * r
+    ball = system.add_body("ball", mass=m, inertia=(J, J, J), position=(0.0, 0.0, r), velocity=(0.0, 0.0, -v0))
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(r), model="compliant", stiffness=k, damping=c_hc)
+    traj = system.simulate(np.linspace(0.0, 0.05, 11), rtol=1e-11, atol=1e-14)
+    v_out = traj.velocity(ball)[-1, 2]
+
+    def rhs(t, x):
+        d, dd = x
+        f = k * max(d, 0.0) ** 1.5 * (1.0 + 1.5 * c_hc * dd) if d > 0 else 0.0
+        return [dd, -max(f, 0.0) / m]
+
+    def left(t, x):
+        return x[0]
+
+    left.terminal, left.direction = True, -1
+    ref = solve_ivp(rhs, (0.0, 0.05), [0.0, v0], rtol=1e-12, atol=1e-15, events=left, first_step=1e-7)
+    v_ref = -ref.y_events[0][-1][1]
+    assert abs(v_out - v_ref) < 1e-7
+    assert 0.0 < v_out < v0  # a coefficient of restitution below one (about 1 - c v0 for small c v0)
+    assert np.all(traj.contact(c).normal_force >= 0.0)
+
+
+def test_follower_leaves_the_cam_and_lands_with_the_compliant_model():
+    e, m, k, F0 = 0.01, 0.5, 2000.0, 20.0
+    speed = 1.2 * math.sqrt((m * G + F0 + k * e) / (m * e))
+    system, c, fol = _cam(speed)
+    t = np.linspace(0.0, 2.0 * 2.0 * math.pi / speed, 401)
+    traj = system.simulate(t, rtol=1e-9, atol=1e-11, on_separation="compliant")
+    assert traj.status == "completed"
+    assert traj.separations[0].action == "compliant"
+    t_sep = math.asin((m * G + F0) / (m * e * speed**2 - k * e)) / speed
+    assert abs(traj.separations[0].t - t_sep) < 1e-9
+    h = traj.contact(c)
+    before = traj.t <= t_sep
+    assert np.all(h.constraint[before]) and not np.any(h.constraint[~before])
+    flight = np.flatnonzero(h.gap > 1e-6)
+    assert flight.size
+    assert np.any(h.normal_force[flight[0]:] > 0.0)  # it lands again: re-contact and impact
+    assert np.all(h.normal_force[~before] >= 0.0)  # the compliant force never pulls

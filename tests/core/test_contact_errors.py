@@ -1,0 +1,177 @@
+"""Bad input to System.add_contact, simulate and trajectories: every error is clear, no NaN leaves the solver."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.contact import CONTACT_RANK_TOL, ContactError, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
+from core.multibody import System
+from core.rotations import euler_parameters_from_axis_angle
+
+
+def _ball_system(z=0.1, radius=0.1):
+    system = System(gravity=(0.0, 0.0, -9.81))
+    ball = system.add_body("ball", mass=1.0, inertia=(0.004, 0.004, 0.004), position=(0.0, 0.0, z))
+    return system, ball
+
+
+def _cylinder(s):  # radius 0.1 about the body y axis, outward normal
+    return np.stack([0.1 * np.cos(s[..., 1]), s[..., 0], 0.1 * np.sin(s[..., 1])], axis=-1)
+
+
+def test_bodies_that_do_not_touch_or_penetrate():
+    system, ball = _ball_system(z=0.15)
+    with pytest.raises(ValueError, match=r"body_i, body_j: 'ground' and 'ball' do not touch: gap 5.000e-02 m > "
+                                         r"tolerance 1e-06 m .*use model='compliant'"):
+        system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
+    system, ball = _ball_system(z=0.09)
+    with pytest.raises(ValueError, match=r"penetrate by 1.000e-02 m > tolerance 1e-06 m"):
+        system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
+    # within a stated tolerance the contact is accepted and assemble closes the gap
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1), tolerance=0.02)
+    assert abs(c.initial_gap + 0.01) < 1e-15
+    with pytest.raises(ValueError, match=r"violates the constraints .*contact1 \(contact\): normal"):
+        system.simulate([0.0, 0.1])
+    system.assemble()
+    assert abs(system.state.position(ball)[2] - 0.1) < 1e-14
+    assert system.contacts == (c,)
+    # a compliant contact may start apart, not deeply inside
+    system, ball = _ball_system(z=0.02)
+    with pytest.raises(ValueError, match=r"penetrate by 8.000e-02 m, more than half the length scale"):
+        system.add_contact(system.ground, Plane(), ball, Sphere(0.1), model="compliant", stiffness=1e5)
+
+
+def test_line_contact_is_refused_with_what_to_do():
+    system, body = _ball_system(z=0.1)
+    cyl = ParametricSurface(_cylinder, bounds=((-0.5, 0.5), (-math.pi, math.pi)))
+    with pytest.raises(ContactError, match=r"C_s has lost rank at the contact point \(Eq. 8.109.*along a line .*"
+                                           r"PlanarCurve"):
+        system.add_contact(system.ground, Plane(), body, cyl)
+    # a torus lying on its side touches along a circle
+    system = System()
+    flat = euler_parameters_from_axis_angle(np.array([1.0, 0.0, 0.0]), math.pi / 2)  # body y along global z
+    wheel = system.add_body("wheel", mass=1.0, inertia=(1.0, 1.0, 1.0), position=(0.0, 0.0, 0.05), orientation=flat)
+    with pytest.raises(ContactError, match=r"lost rank"):
+        system.add_contact(system.ground, Plane(), wheel, Torus(0.3, 0.05))
+    assert system.contacts == ()
+
+
+@pytest.mark.parametrize("si, sj, message", [
+    (Plane(), Plane(), r"two planes \(parallel flat faces\)"),
+    (PlanarCurve.line(), PlanarCurve.line(normal=(0, -1)), r"two lines \(parallel flat faces\)"),
+    (Plane(), PlanarCurve.circle(0.1), r"a planar curve touches only another planar curve"),
+    (Torus(0.2, 0.0), Torus(0.3, 0.0), r"two rims"),
+    ("plane", Sphere(0.1), r"surface_i: expected a Plane, Sphere, Ellipsoid, Torus, ParametricSurface or PlanarCurve"),
+])
+def test_pairs_that_have_no_contact_point(si, sj, message):
+    system, ball = _ball_system()
+    with pytest.raises(ValueError, match=message):
+        system.add_contact(system.ground, si, ball, sj)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"model": "soft"}, r"model: expected one of \['constraint', 'compliant'\], got 'soft'"),
+    ({"model": "compliant"}, r"stiffness: the compliant model needs a finite stiffness > 0"),
+    ({"stiffness": -1.0}, r"stiffness: expected a finite stiffness > 0 \(N/m\^exponent\), got -1.0"),
+    ({"stiffness": 0.0}, r"stiffness: expected a finite stiffness > 0"),
+    ({"stiffness": float("inf")}, r"stiffness: expected a finite stiffness > 0"),
+    ({"stiffness": 1e5j}, r"stiffness: expected real numbers, got complex"),
+    ({"damping": -0.1}, r"damping: expected a finite number >= 0"),
+    ({"exponent": 0.5}, r"exponent: expected a finite exponent >= 1, got 0.5"),
+    ({"tolerance": 0.0}, r"tolerance: expected a finite number > 0"),
+    ({"rolling": 1}, r"rolling: expected True or False"),
+    ({"rolling": True, "model": "compliant", "stiffness": 1e5}, r"rolling: rolling without slip needs "
+                                                                r"model='constraint'"),
+])
+def test_model_options_are_validated(kwargs, message):
+    system, ball = _ball_system()
+    with pytest.raises(ValueError, match=message):
+        system.add_contact(system.ground, Plane(), ball, Sphere(0.1), **kwargs)
+    assert system.contacts == ()
+    system.add_contact(system.ground, Plane(), ball, Sphere(0.1), name="contact1")  # the name is still free
+
+
+def test_bodies_are_validated():
+    system, ball = _ball_system()
+    other, stranger = _ball_system()
+    with pytest.raises(ValueError, match=r"body_j: body 'ball' belongs to another System"):
+        system.add_contact(system.ground, Plane(), stranger, Sphere(0.1))
+    with pytest.raises(ValueError, match=r"body_i, body_j: expected two different bodies"):
+        system.add_contact(ball, Sphere(0.1), ball, Sphere(0.1))
+    with pytest.raises(ValueError, match=r"body_i: expected a Body"):
+        system.add_contact("ground", Plane(), ball, Sphere(0.1))
+
+
+def test_planar_curves_need_parallel_planes():
+    system = System()
+    tilted = euler_parameters_from_axis_angle(np.array([1.0, 0.0, 0.0]), 0.2)
+    cam = system.add_body("cam", mass=1.0, inertia=(1.0, 1.0, 1.0), orientation=tilted)
+    fol = system.add_body("follower", mass=1.0, inertia=(1.0, 1.0, 1.0), position=(0.0, 0.05, 0.0))
+    with pytest.raises(ValueError, match=r"planar curves lie in their bodies' x-y planes, which must be parallel"):
+        system.add_contact(cam, PlanarCurve.circle(0.05), fol, PlanarCurve.line(normal=(0.0, -1.0)))
+
+
+def test_degenerate_parametric_surface_is_refused():
+    system, ball = _ball_system()
+    flat_strip = ParametricSurface(lambda s: np.stack([s[..., 0] + s[..., 1], s[..., 0] + s[..., 1],
+                                                       0.0 * s[..., 0]], axis=-1), bounds=((-1, 1), (-1, 1)))
+    with pytest.raises(ContactError, match=r"surface_i: ParametricSurface\(\.\.\.\) is degenerate near s=.*its normal "
+                                           r"du/ds1 x du/ds2 vanishes"):
+        system.add_contact(system.ground, flat_strip, ball, Sphere(0.1))
+
+
+def test_simulate_options_for_separation():
+    system, ball = _ball_system()
+    system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
+    with pytest.raises(ValueError, match=r"on_separation: expected one of \['stop', 'compliant', 'bilateral'\]"):
+        system.simulate([0.0, 0.1], on_separation="ignore")
+    with pytest.raises(ValueError, match=r"on_separation: 'compliant' continues contact 'contact1' with the "
+                                         r"compliant model, which needs its stiffness"):
+        system.simulate([0.0, 0.1], on_separation="compliant")
+
+
+def test_a_contact_that_pulls_at_the_start_separates_there():
+    system = System(gravity=(0.0, 0.0, 9.81))  # gravity pulls the ball off the plane
+    ball = system.add_body("ball", mass=1.0, inertia=(0.004, 0.004, 0.004), position=(0.0, 0.0, 0.1))
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
+    traj = system.simulate([0.0, 0.1, 0.2])
+    assert traj.status == "separated"
+    assert traj.t.tolist() == [0.0]
+    assert traj.separations[0].t == 0.0 and traj.separations[0].contact is c
+
+
+def test_trajectory_contact_arguments():
+    system, ball = _ball_system()
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
+    traj = system.simulate([0.0, 0.1])
+    other, b2 = _ball_system()
+    c2 = other.add_contact(other.ground, Plane(), b2, Sphere(0.1))
+    with pytest.raises(ValueError, match=r"contact: expected a Contact"):
+        traj.contact(ball)
+    with pytest.raises(ValueError, match=r"contact: 'contact1' belongs to another System"):
+        traj.contact(c2)
+    late = system.add_contact(system.ground, Plane(point=(0.0, 0.0, 0.0)), ball, Sphere(0.1), name="late")
+    with pytest.raises(ValueError, match=r"contact: 'late' was added after this trajectory was computed"):
+        traj.contact(late)
+    assert traj.contact(c).normal_force.shape == (2,)
+
+
+def test_a_contact_that_becomes_a_line_contact_stops_the_run_with_its_time():
+    # a thin disk without spin falls over on its rim (held by the bilateral constraint) until it lies flat
+    system = System(gravity=(0.0, 0.0, -9.81))
+    lean = 0.3
+    p = euler_parameters_from_axis_angle(np.array([1.0, 0.0, 0.0]), lean)
+    A = np.array([[1, 0, 0], [0, math.cos(lean), -math.sin(lean)], [0, math.sin(lean), math.cos(lean)]])
+    disk = system.add_body("disk", mass=1.0, inertia=(0.0025, 0.005, 0.0025), position=A @ [0.0, 0.0, 0.1],
+                           orientation=p)
+    system.add_contact(disk, Torus(0.1, 0.0), system.ground, Plane())
+    with pytest.raises(ContactError, match=r"contact 'contact1': the contact passed a configuration where C_s "
+                                           r"loses rank \(Eq. 8.109\) between t=0.\d+ and t=0.\d+"):
+        system.simulate(np.linspace(0.0, 3.0, 31), on_separation="bilateral")
+
+
+def test_rank_tolerance_is_public():
+    assert 0.0 < CONTACT_RANK_TOL < 1e-6
