@@ -5,10 +5,25 @@ initial state (and, where a scene needs more, a small frozen dataclass with
 the body and joint handles). Global +z is up; SI units.
 """
 
-from ._cam import CAM_LAWS, FOLLOWER_KINDS, CamCurve, CamFollower, CamKinematics, CamProfile
+from ._cam import (
+    CAM_CONTACT_MODELS,
+    CAM_LAWS,
+    FOLLOWER_KINDS,
+    CamCurve,
+    CamFollower,
+    CamKinematics,
+    CamMotion,
+    CamProfile,
+    CamSystem,
+)
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
 from ._pendulum import ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
-from ._rolling_disk import FLAT_LEAN, RollingDiskMotion, rolling_disk_critical_spin, rolling_disk_reference
+from ._rolling_disk import (
+    FLAT_LEAN,
+    RollingDiskMotion,
+    rolling_disk_critical_spin,
+    rolling_disk_reference,
+)
 from ._top import HeavyTop, heavy_top
 from ._vibration import (
     DiskRotor,
@@ -30,6 +45,7 @@ __all__ = [
     "spherical_pendulum",
     "steady_top",
     "two_mass_oscillator",
+    "CAM_CONTACT_MODELS",
     "CAM_LAWS",
     "FLAT_LEAN",
     "FOLLOWER_KINDS",
@@ -37,7 +53,9 @@ __all__ = [
     "CamCurve",
     "CamFollower",
     "CamKinematics",
+    "CamMotion",
     "CamProfile",
+    "CamSystem",
     "HeavyTop",
     "ReducedChainMotion",
     "RollingDiskMotion",

@@ -27,7 +27,17 @@ from scipy.optimize import minimize_scalar
 
 from core._validation import float_array, real_number, short_repr
 
-__all__ = ["CAM_LAWS", "FOLLOWER_KINDS", "CamCurve", "CamFollower", "CamKinematics", "CamProfile"]
+__all__ = [
+    "CAM_CONTACT_MODELS",
+    "CAM_LAWS",
+    "FOLLOWER_KINDS",
+    "CamCurve",
+    "CamFollower",
+    "CamKinematics",
+    "CamMotion",
+    "CamProfile",
+    "CamSystem",
+]
 
 #: Displacement laws of :meth:`CamProfile.rise_dwell_return`.
 CAM_LAWS = ("cycloidal", "harmonic", "345")
@@ -88,7 +98,42 @@ def _trig_stack(theta: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([cycle_n[k % 4] for k in range(order + 1)]), np.stack([cycle_t[k % 4] for k in range(order + 1)])
 
 
+# The same rules on Python floats (lists of derivatives), for one parameter
+# value: the contact kernel evaluates the cam contour at one point at a time.
+def _mul_f(a: list[float], b: list[float]) -> list[float]:
+    return [sum(_BINOMIAL[n][k] * a[k] * b[n - k] for k in range(n + 1)) for n in range(min(len(a), len(b)))]
+
+
+def _sqrt_f(a: list[float]) -> list[float]:
+    g = [math.sqrt(a[0])]
+    for n in range(1, len(a)):
+        g.append((a[n] - sum(_BINOMIAL[n][k] * g[k] * g[n - k] for k in range(1, n))) / (2.0 * g[0]))
+    return g
+
+
+def _reciprocal_f(a: list[float]) -> list[float]:
+    g = [1.0 / a[0]]
+    for n in range(1, len(a)):
+        g.append(-sum(_BINOMIAL[n][k] * a[k] * g[n - k] for k in range(1, n + 1)) / a[0])
+    return g
+
+
 # ------------------------------------------------------------------ displacement laws
+def _law_float(law: str, x: float) -> list[float]:
+    """:func:`_law_stack` at one point, on floats."""
+    if law == "cycloidal":
+        w = _TWO_PI
+        s, c = math.sin(w * x), math.cos(w * x)
+        return [x - s / w, 1.0 - c, w * s, w * w * c, -(w**3) * s]
+    if law == "harmonic":
+        w = math.pi
+        s, c = math.sin(w * x), math.cos(w * x)
+        return [0.5 * (1.0 - c), 0.5 * w * s, 0.5 * w * w * c, -0.5 * w**3 * s, -0.5 * w**4 * c]
+    x2 = x * x
+    return [x2 * x * (10.0 - 15.0 * x + 6.0 * x2), x2 * (30.0 - 60.0 * x + 30.0 * x2),
+            x * (60.0 - 180.0 * x + 120.0 * x2), 60.0 - 360.0 * x + 360.0 * x2, -360.0 + 720.0 * x]
+
+
 def _law_stack(law: str, x: np.ndarray) -> np.ndarray:
     """Normalized rise ``f(x)``, ``f(0) = 0``, ``f(1) = 1``, and its derivatives to order 4 in x."""
     if law == "cycloidal":
@@ -111,11 +156,13 @@ def _law_stack(law: str, x: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class _Segment:
-    """One smooth piece ``[start, stop]`` of a lift law; ``stack(theta)`` is its analytic derivative stack."""
+    """One smooth piece ``[start, stop]`` of a lift law; ``stack(theta)`` is its analytic derivative stack
+    (array), ``at(theta)`` the same at one angle (list of floats)."""
 
     start: float
     stop: float
     stack: Callable[[np.ndarray], np.ndarray]
+    at: Callable[[float], list[float]]
 
 
 # ------------------------------------------------------------------ results
@@ -315,34 +362,47 @@ class CamProfile:
         """Segments of the rise-dwell-return law ``s(theta)`` (the follower motion, any follower)."""
         L, b1, b2, b3, law = self.lift, self.rise, self.dwell, self.fall, self.law
         assert L is not None and b1 is not None and b2 is not None and b3 is not None and law is not None
-        scale = np.array([1.0, 1.0 / b1, 1.0 / b1**2, 1.0 / b1**3, 1.0 / b1**4])
-        fscale = np.array([1.0, 1.0 / b3, 1.0 / b3**2, 1.0 / b3**3, 1.0 / b3**4])
+        scale = [1.0, 1.0 / b1, 1.0 / b1**2, 1.0 / b1**3, 1.0 / b1**4]
+        fscale = [1.0, 1.0 / b3, 1.0 / b3**2, 1.0 / b3**3, 1.0 / b3**4]
         a2, a3 = b1 + b2, b1 + b2 + b3
 
         def rise_stack(theta: np.ndarray) -> np.ndarray:
             f = _law_stack(law, theta / b1)
-            return L * f * scale.reshape((-1,) + (1,) * theta.ndim)
+            return L * f * np.reshape(scale, (-1,) + (1,) * theta.ndim)
 
         def fall_stack(theta: np.ndarray) -> np.ndarray:
             f = _law_stack(law, (theta - a2) / b3)
-            out = -L * f * fscale.reshape((-1,) + (1,) * theta.ndim)
+            out = -L * f * np.reshape(fscale, (-1,) + (1,) * theta.ndim)
             out[0] += L
             return out
 
-        def constant(value: float) -> Callable[[np.ndarray], np.ndarray]:
+        def rise_at(theta: float) -> list[float]:
+            f = _law_float(law, theta / b1)
+            return [L * fk * sk for fk, sk in zip(f, scale)]
+
+        def fall_at(theta: float) -> list[float]:
+            f = _law_float(law, (theta - a2) / b3)
+            out = [-L * fk * sk for fk, sk in zip(f, fscale)]
+            out[0] += L
+            return out
+
+        def constant(value: float) -> tuple[Callable[[np.ndarray], np.ndarray], Callable[[float], list[float]]]:
             def stack(theta: np.ndarray) -> np.ndarray:
                 out = np.zeros((_ORDER + 1,) + theta.shape)
                 out[0] = value
                 return out
 
-            return stack
+            def at(theta: float) -> list[float]:
+                return [value, 0.0, 0.0, 0.0, 0.0]
 
-        segments = [_Segment(0.0, b1, rise_stack)]
+            return stack, at
+
+        segments = [_Segment(0.0, b1, rise_stack, rise_at)]
         if b2 > 0:
-            segments.append(_Segment(b1, a2, constant(L)))
-        segments.append(_Segment(a2, a3, fall_stack))
+            segments.append(_Segment(b1, a2, *constant(L)))
+        segments.append(_Segment(a2, a3, fall_stack, fall_at))
         if a3 < _TWO_PI:
-            segments.append(_Segment(a3, _TWO_PI, constant(0.0)))
+            segments.append(_Segment(a3, _TWO_PI, *constant(0.0)))
         return tuple(segments)
 
     def motion_law(self, theta: Any) -> CamKinematics:
@@ -504,7 +564,11 @@ class CamFollower:
                 s, c = np.sin(theta), np.cos(theta)
                 return np.stack([e * (1.0 - c), e * s, e * c, -e * s, -e * c])
 
-            return (_Segment(0.0, _TWO_PI, flat_stack),)
+            def flat_at(theta: float) -> list[float]:
+                s, c = math.sin(theta), math.cos(theta)
+                return [e * (1.0 - c), e * s, e * c, -e * s, -e * c]
+
+            return (_Segment(0.0, _TWO_PI, flat_stack, flat_at),)
         Rr, eo, y0 = R + self.roller_radius, self.offset, self._pitch_height
         b0 = math.asin(-eo / (Rr - e))
 
@@ -520,7 +584,19 @@ class CamFollower:
             y[0] -= y0
             return y
 
-        return (_Segment(0.0, _TWO_PI, roller_stack),)
+        def roller_at(theta: float) -> list[float]:
+            sb, cb = math.sin(theta + b0), math.cos(theta + b0)
+            S = [sb, cb, -sb, -cb, sb]
+            C = [cb, -sb, -cb, sb, cb]
+            w = [-e * v for v in S]
+            w[0] += eo
+            q2 = [-v for v in _mul_f(w, w)]
+            q2[0] += Rr * Rr
+            y = [a - e * b for a, b in zip(_sqrt_f(q2), C)]
+            y[0] -= y0
+            return y
+
+        return (_Segment(0.0, _TWO_PI, roller_stack, roller_at),)
 
     @property
     def phase(self) -> float:
@@ -641,6 +717,93 @@ class CamFollower:
             return math.sqrt((2.0 * k * e + F) / (m * e))
         return math.sqrt(1.0 / self._max_ratio()[0])
 
+    def build_system(
+        self,
+        speed: float,
+        *,
+        start: float = 0.0,
+        model: str = "constraint",
+        contact_stiffness: float = 1e8,
+        contact_damping: float = 0.5,
+        contact_exponent: float = 1.5,
+    ) -> CamSystem:
+        """The cam and follower as a :class:`core.multibody.System` at time ``start``, assembled.
+
+        Bodies: the cam (1 kg, a disk's inertia; it only loads the motor)
+        on a revolute joint driven by a motor at ``speed``, and the follower
+        (``mass``) on a prismatic joint, pressed by the spring
+        (``add_spring_damper`` with free length set for ``preload`` at zero
+        lift; a constant force when ``stiffness = 0``) and gravity, in
+        contact with the cam through ``system.add_contact`` between the cam
+        contour (:meth:`cam_curve` as a :class:`~core.contact.PlanarCurve`
+        in the cam's body x-y plane) and a line (flat face) or a circle
+        (roller) of the follower. See :class:`CamSystem` for the frames.
+
+        Parameters
+        ----------
+        speed : float
+            Cam speed omega (rad/s); the cam angle is ``omega t``.
+        start : float, keyword-only
+            Time of the initial state (s): cam angle ``omega start``, the
+            follower at its lift and velocity there.
+        model : str, keyword-only
+            ``"constraint"`` (the contact constraints, Eqs. 8.90-8.109) or
+            ``"compliant"`` (Hunt-Crossley; the follower starts pressed in by
+            the quasi-static penetration).
+        contact_stiffness, contact_damping, contact_exponent : float, keyword-only
+            Hunt-Crossley ``F = k delta^e (1 + 3/2 c delta_dot)`` (N/m^e,
+            s/m): the compliant model, and the constraint model after a
+            separation with ``on_separation="compliant"``.
+
+        Returns
+        -------
+        CamSystem
+        """
+        return _build_system(self, speed, start, model, contact_stiffness, contact_damping, contact_exponent)
+
+    def simulate(
+        self,
+        speed: float,
+        t: Any,
+        *,
+        model: str = "constraint",
+        on_separation: str = "stop",
+        contact_stiffness: float = 1e8,
+        contact_damping: float = 0.5,
+        contact_exponent: float = 1.5,
+        rtol: float = 1e-10,
+        atol: float = 1e-12,
+    ) -> CamMotion:
+        """Run the cam at constant ``speed`` on :class:`core.multibody.System` (see :meth:`build_system`).
+
+        Parameters
+        ----------
+        speed : float
+            Cam speed omega (rad/s).
+        t : (n,) array_like
+            Non-decreasing output times (s); the cam angle is ``omega t``.
+        model : str, keyword-only
+            ``"constraint"`` (default: the contact constraints, normal force
+            from the multiplier, Eq. 8.107) or ``"compliant"`` (Hunt-Crossley;
+            the follower starts pressed in by the quasi-static penetration).
+        on_separation : str, keyword-only
+            Constraint model, when the normal force would turn negative
+            (above :meth:`jump_speed`): ``"stop"`` (the outputs end before
+            it), ``"compliant"`` (continue with the Hunt-Crossley contact:
+            the follower leaves the cam and lands) or ``"bilateral"`` (the
+            constraint pulls).
+        contact_stiffness, contact_damping, contact_exponent : float, keyword-only
+            The Hunt-Crossley law (see :meth:`build_system`).
+        rtol, atol : float, keyword-only
+            DOP853's tolerances.
+
+        Returns
+        -------
+        CamMotion
+        """
+        return _simulate(self, speed, t, model, on_separation, contact_stiffness, contact_damping,
+                         contact_exponent, rtol, atol)
+
     def _max_ratio(self) -> tuple[float, float]:
         """``max over theta of -m s'' / (k s + F_0 + m g)`` and its angle."""
         m, k, F = self.mass, self.stiffness, self.preload + self.mass * self.gravity
@@ -740,6 +903,48 @@ class CamFollower:
         p = c - self.roller_radius * nu
         return CamCurve(p[0], p[1], p[2], p[3])
 
+    def _stack_float(self, theta: float) -> list[float]:
+        """Lift and its first four derivatives at one cam angle (floats)."""
+        wrapped = theta % _TWO_PI
+        segments = self._segments
+        for seg in reversed(segments):
+            if wrapped >= seg.start:
+                return seg.at(wrapped)
+        return segments[0].at(wrapped)
+
+    def _curve_float(self, u: float) -> tuple[tuple[float, float], ...]:
+        """:meth:`cam_curve` at one parameter: ``(point, d1, d2, d3)`` as pairs of floats."""
+        h = self._stack_float(u)
+        sn, cs = math.sin(u), math.cos(u)
+        n_, t_ = (sn, cs), (cs, -sn)
+        if self.follower == "flat":
+            h[0] += self.profile.base_radius
+            rho, rho1, rho2 = h[0] + h[2], h[1] + h[3], h[2] + h[4]
+            return (
+                (h[0] * n_[0] + h[1] * t_[0], h[0] * n_[1] + h[1] * t_[1]),
+                (rho * t_[0], rho * t_[1]),
+                (rho1 * t_[0] - rho * n_[0], rho1 * t_[1] - rho * n_[1]),
+                ((rho2 - rho) * t_[0] - 2.0 * rho1 * n_[0], (rho2 - rho) * t_[1] - 2.0 * rho1 * n_[1]),
+            )
+        y = h
+        y[0] += self._pitch_height
+        cyc_n = (n_, t_, (-sn, -cs), (-cs, sn))
+        cyc_t = (t_, (-sn, -cs), (-cs, sn), n_)
+        eo = self.offset
+        c = []
+        for k in range(_ORDER + 1):
+            cx, cy = eo * cyc_t[k % 4][0], eo * cyc_t[k % 4][1]
+            for j in range(k + 1):
+                b = _BINOMIAL[k][j] * y[j]
+                cx += b * cyc_n[(k - j) % 4][0]
+                cy += b * cyc_n[(k - j) % 4][1]
+            c.append((cx, cy))
+        dx, dy = [v[0] for v in c[1:]], [v[1] for v in c[1:]]
+        inv = _reciprocal_f(_sqrt_f([a + b for a, b in zip(_mul_f(dx, dx), _mul_f(dy, dy))]))
+        nx, ny = _mul_f([-v for v in dy], inv), _mul_f(dx, inv)
+        rf = self.roller_radius
+        return tuple((c[k][0] - rf * nx[k], c[k][1] - rf * ny[k]) for k in range(4))
+
     def _normal_stack(self, theta: np.ndarray) -> np.ndarray:
         """Stack (4, ..., 2) of the pitch curve's outward unit normal ``nu = rot90(c') / |c'|``."""
         c = self._pitch_stack(theta, 4)
@@ -827,3 +1032,250 @@ class CamFollower:
                     f"{rho[i]:.6g} m (at cam angle {u[i]:.6g} rad), got {self.roller_radius!r}: the cam would be "
                     f"undercut; use a smaller roller or a larger base_radius"
                 )
+
+
+# ------------------------------------------------------------------ simulation on the multibody System
+#: Contact models of :meth:`CamFollower.simulate`.
+CAM_CONTACT_MODELS = ("constraint", "compliant")
+
+
+@dataclass(frozen=True)
+class CamMotion:
+    """A cam-follower run on :class:`core.multibody.System` (see :meth:`CamFollower.simulate`).
+
+    Attributes
+    ----------
+    t : (n,) ndarray
+        Output times (s); with ``on_separation="stop"`` they end before a
+        separation.
+    cam_angle : (n,) ndarray
+        ``theta = speed t`` (rad), not wrapped.
+    lift : (n,) ndarray
+        Follower displacement along its axis from its lowest position on
+        the cam (m), from the simulated follower body (negative while a
+        compliant contact is pressed in).
+    lift_rate : (n,) ndarray
+        Its rate (m/s).
+    contact_force : (n,) ndarray
+        Normal force between cam and follower (N), positive while pressing:
+        the contact's independent multiplier (Eq. 8.107) in the constraint
+        model, the Hunt-Crossley force in the compliant model (0 while
+        apart).
+    contact_point : (n, 3) ndarray
+        Contact point on the cam, global (m).
+    gap : (n,) ndarray
+        Distance between cam and follower along the common normal (m);
+        negative: the compliant contact's penetration.
+    separations : (k, 2) ndarray
+        ``(time (s), cam angle (rad))`` where the follower leaves the cam:
+        the zero crossings of the constraint's normal force (Brent's method
+        on the dense output), and in the compliant model the openings of
+        the gap (linear interpolation between outputs).
+    landings : (k, 2) ndarray
+        ``(time, cam angle)`` where a compliant contact closes again.
+    status : str
+        ``"completed"`` or ``"separated"`` (stopped at a separation).
+    trajectory : MultibodyTrajectory
+        The System's run (poses of ``system.bodies``: cam, follower).
+    """
+
+    t: np.ndarray  # (n,)
+    cam_angle: np.ndarray  # (n,)
+    lift: np.ndarray  # (n,)
+    lift_rate: np.ndarray  # (n,)
+    contact_force: np.ndarray  # (n,)
+    contact_point: np.ndarray  # (n, 3)
+    gap: np.ndarray  # (n,)
+    separations: np.ndarray  # (k, 2)
+    landings: np.ndarray  # (k, 2)
+    status: str
+    trajectory: Any = field(repr=False)
+
+
+@dataclass(frozen=True)
+class CamSystem:
+    """The cam-follower as a :class:`core.multibody.System` (see :meth:`CamFollower.build_system`).
+
+    The profile plane is the global x-z plane (profile x -> global x,
+    profile y -> global z): the follower slides along global +z above the
+    shaft, gravity acts along -z, and the cam turns about the global -y axis
+    through the origin (its body z axis; body x-y is the profile plane).
+
+    Attributes
+    ----------
+    system : System
+    cam, follower : Body
+    cam_joint : Joint
+        Revolute joint ground-cam at the origin, axis global -y.
+    motor : Motor
+        Drives the cam angle: ``theta(t) = speed t``.
+    follower_joint : Joint
+        Prismatic joint ground-follower along global +z.
+    spring : SpringDamper or Force
+        The follower spring (a constant force ``F_0`` when ``stiffness =
+        0``).
+    contact : Contact
+        Cam contour (a :class:`~core.contact.PlanarCurve` on the cam) on the
+        flat face (a line) or the roller (a circle) of the follower.
+    lift_origin : float
+        Global z of the follower's centre of mass at zero lift (m).
+    speed : float
+        Cam speed (rad/s).
+    """
+
+    system: Any
+    cam: Any
+    follower: Any
+    cam_joint: Any
+    motor: Any
+    follower_joint: Any
+    spring: Any
+    contact: Any
+    lift_origin: float
+    speed: float
+
+
+_CAM_ORIENTATION = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)  # body x-y plane = global x-z plane, body z = -y
+
+
+def _cam_planar_curve(cam: CamFollower):
+    """The cam contour as a counter-clockwise PlanarCurve in the cam body's x-y plane: ``c(sigma) = p(-sigma)``.
+
+    The kernel asks for the point and its three derivatives one after the
+    other at the same parameter: the last evaluation is kept (a small
+    cache per curve; a lock keeps it consistent across threads).
+    """
+    import threading
+
+    from core.contact import PlanarCurve
+
+    lock = threading.Lock()
+    last: list[Any] = [None, None]
+    signs = (1.0, -1.0, 1.0, -1.0)
+
+    def evaluate(s: Any) -> list[np.ndarray]:
+        arr = np.asarray(s, dtype=float)
+        key = (arr.shape, arr.tobytes())
+        with lock:
+            if last[0] == key:
+                return last[1]
+        if arr.ndim == 0:
+            values = [np.array(v) * sign for v, sign in zip(cam._curve_float(-float(arr)), signs)]
+        else:
+            c = cam.cam_curve(-arr)
+            values = [c.point, -c.d1, c.d2, -c.d3]
+        with lock:
+            last[0], last[1] = key, values
+        return values
+
+    return PlanarCurve(lambda s: evaluate(s)[0], first=lambda s: evaluate(s)[1], second=lambda s: evaluate(s)[2],
+                       third=lambda s: evaluate(s)[3], bounds=(-math.pi, math.pi),
+                       length_scale=cam.profile.base_radius)
+
+
+def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_stiffness: Any,
+                  contact_damping: Any, contact_exponent: Any) -> CamSystem:
+    from core.contact import PlanarCurve
+    from core.multibody import System
+    from core.rotations import quaternion_product
+
+    w = real_number(speed, "speed", expected="a finite cam speed (rad/s)")
+    t0 = real_number(start, "start", expected="a finite start time (s)")
+    if not isinstance(model, str) or model not in CAM_CONTACT_MODELS:
+        raise ValueError(f"model: expected one of {list(CAM_CONTACT_MODELS)}, got {short_repr(model)}")
+    kc = _positive(contact_stiffness, "contact_stiffness", "N/m^exponent")
+    cc = _non_negative(contact_damping, "contact_damping", "s/m")
+    ec = real_number(contact_exponent, "contact_exponent", expected="a finite exponent >= 1")
+    if not ec >= 1.0:
+        raise ValueError(f"contact_exponent: expected a finite exponent >= 1, got {ec!r}")
+    theta0 = w * t0
+    kin = cam.kinematics(theta0)
+    s0, ds0 = float(kin.lift), float(kin.dlift)
+    height = cam._pitch_height  # follower's centre of mass at zero lift: face point or roller centre
+    penetration = 0.0
+    if model == "compliant":
+        # start pressed in by the quasi-static Hunt-Crossley penetration
+        force = float(cam.contact_force(theta0, w))
+        penetration = (max(force, 0.0) / kc) ** (1.0 / ec)
+    m = cam.mass
+    system = System(gravity=(0.0, 0.0, -cam.gravity))
+    half = 0.5 * theta0
+    # cam turned by theta0 about its body z axis
+    qc = np.array(_CAM_ORIENTATION)
+    turn = np.array([math.cos(half), 0.0, 0.0, math.sin(half)])
+    p_cam = quaternion_product(qc, turn)
+    R_max = float(np.max(np.linalg.norm(cam.cam_curve(np.linspace(0.0, _TWO_PI, 361)).point, axis=-1)))
+    cam_mass = 1.0
+    cam_body = system.add_body("cam", mass=cam_mass, inertia=(cam_mass * R_max**2 / 4,) * 2 + (cam_mass * R_max**2 / 2,),
+                               position=(0.0, 0.0, 0.0), orientation=p_cam, omega_body=(0.0, 0.0, w))
+    z_origin = height
+    z0 = z_origin + s0 - penetration
+    side = max(cam.profile.base_radius, 0.01) / 2
+    follower = system.add_body("follower", mass=m, inertia=(m * side * side / 6.0,) * 3,
+                               position=(cam.offset, 0.0, z0), orientation=_CAM_ORIENTATION,
+                               velocity=(0.0, 0.0, w * ds0))
+    cam_joint = system.add_joint("revolute", system.ground, cam_body, point=(0.0, 0.0, 0.0), axis=(0.0, -1.0, 0.0),
+                                 name="cam_joint")
+    motor = system.add_motor(cam_joint, angle=(lambda t: w * (t - t0), lambda t: w, lambda t: 0.0), name="cam_motor")
+    follower_joint = system.add_joint("prismatic", system.ground, follower, point=(cam.offset, 0.0, z0),
+                                      axis=(0.0, 0.0, 1.0), name="follower_joint")
+    k, F0 = cam.stiffness, cam.preload
+    if k > 0:
+        reach = 0.1 + 2.0 * float(np.max(cam.kinematics(np.linspace(0.0, _TWO_PI, 361)).lift))
+        anchor = (cam.offset, 0.0, z_origin + reach)
+        spring = system.add_spring_damper(system.ground, anchor, follower, (cam.offset, 0.0, z0), stiffness=k,
+                                          free_length=reach + F0 / k, name="follower_spring")
+    else:
+        spring = system.add_force(follower, lambda t, state: np.array([0.0, 0.0, -F0]), name="follower_preload")
+    if cam.follower == "flat":
+        follower_curve = PlanarCurve.line(point=(0.0, 0.0), normal=(0.0, -1.0))
+    else:
+        follower_curve = PlanarCurve.circle(cam.roller_radius)
+    contact = system.add_contact(cam_body, _cam_planar_curve(cam), follower, follower_curve, model=model,
+                                 stiffness=kc, damping=cc, exponent=ec, name="cam_contact")
+    system.assemble(t=t0)
+    return CamSystem(system, cam_body, follower, cam_joint, motor, follower_joint, spring, contact, z_origin, w)
+
+
+def _gap_crossings(t: np.ndarray, speed: float, gap: np.ndarray, compliant: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Openings and closings of a compliant contact between outputs: ``(k, 2)`` times and cam angles each.
+
+    Only pairs of consecutive outputs both in the compliant model count;
+    the time is interpolated linearly in the gap.
+    """
+    a, b = gap[:-1], gap[1:]
+    both = compliant[:-1] & compliant[1:]
+    result = []
+    for idx in (np.flatnonzero(both & (a < 0) & (b >= 0)), np.flatnonzero(both & (a >= 0) & (b < 0))):
+        frac = a[idx] / (a[idx] - b[idx])
+        times = t[idx] + frac * (t[idx + 1] - t[idx])
+        result.append(np.stack([times, speed * times], axis=-1).reshape(-1, 2))
+    return result[0], result[1]
+
+
+def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: Any, contact_stiffness: Any,
+              contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any) -> CamMotion:
+    times = float_array(t, "t", expected="non-decreasing output times (s)")
+    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
+        raise ValueError(f"t: expected a non-empty 1-d array of finite non-decreasing times (s), got shape "
+                         f"{times.shape}")
+    built = _build_system(cam, speed, float(times[0]), model, contact_stiffness, contact_damping, contact_exponent)
+    traj = built.system.simulate(times, rtol=rtol, atol=atol, on_separation=on_separation)
+    history = traj.contact(built.contact)
+    follower = built.system.bodies.index(built.follower)
+    z = traj.q[:, 3 * follower + 2]
+    zd = traj.v[:, 3 * follower + 2]
+    w = built.speed
+    lift = z - built.lift_origin
+    force = np.array(history.normal_force)
+    gap = np.array(history.gap)
+    events = np.array([(sep.t, w * sep.t) for sep in traj.separations], dtype=float).reshape(-1, 2)
+    compliant = ~np.asarray(history.constraint, dtype=bool)
+    opened, landings = _gap_crossings(np.asarray(traj.t), w, gap, compliant)
+    both = np.concatenate([events, opened])
+    sep = both[np.argsort(both[:, 0], kind="stable")]
+    return CamMotion(
+        t=np.array(traj.t), cam_angle=w * np.array(traj.t), lift=lift, lift_rate=np.array(zd), contact_force=force,
+        contact_point=np.array(history.point), gap=gap, separations=sep, landings=landings, status=traj.status,
+        trajectory=traj,
+    )

@@ -12,6 +12,11 @@
   on the contour, convexity and undercut refusals.
 * Jump speed: N(theta) at the jump speed touches zero and is positive
   below it; the eccentric closed forms.
+* Through the full System path (``simulate``: motor-driven cam, follower
+  on a prismatic joint with a spring and gravity, curve-on-curve contact):
+  lift, follower velocity and contact force against the closed forms; the
+  separation instant against the closed-form zero of N; the compliant
+  model leaves the cam and lands.
 * Argument checks.
 """
 
@@ -22,7 +27,7 @@ import math
 import numpy as np
 import pytest
 
-from core.models import CAM_LAWS, CamCurve, CamFollower, CamKinematics, CamProfile
+from core.models import CAM_LAWS, CamCurve, CamFollower, CamKinematics, CamMotion, CamProfile, CamSystem
 
 TWO_PI = 2.0 * math.pi
 
@@ -504,3 +509,151 @@ def test_follower_is_frozen_and_values_are_floats():
     assert isinstance(cam.mass, float) and isinstance(cam.stiffness, float) and isinstance(cam.offset, float)
     with pytest.raises(AttributeError):
         cam.mass = 2.0  # type: ignore[misc]
+
+
+# ------------------------------------------------------------------ through core.multibody.System
+def check_against_closed_forms(cam, motion, speed, *, force_rtol=1e-8):
+    """Lift, follower velocity and contact force of a constraint-model run against the closed forms."""
+    k = cam.kinematics(motion.cam_angle)
+    scale = np.abs(k.lift).max()
+    np.testing.assert_allclose(motion.lift, k.lift, rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(motion.lift_rate, speed * k.dlift, rtol=0, atol=1e-8 * speed * np.abs(k.dlift).max())
+    N = cam.contact_force(motion.cam_angle, speed)
+    np.testing.assert_allclose(motion.contact_force, N, rtol=force_rtol)
+    np.testing.assert_allclose(motion.gap, 0.0, atol=1e-10)
+
+
+@pytest.mark.parametrize("follower, rf, eo", [("flat", 0.0, 0.01), ("roller", 0.01, 0.008)])
+def test_simulate_eccentric_matches_the_closed_forms(follower, rf, eo):
+    cam = CamFollower(CamProfile.eccentric(), follower=follower, roller_radius=rf, offset=eo)
+    speed = 30.0
+    t = np.linspace(0.0, TWO_PI / speed, 41)
+    motion = cam.simulate(speed, t)
+    assert isinstance(motion, CamMotion) and motion.status == "completed"
+    assert motion.separations.shape == (0, 2) and motion.landings.shape == (0, 2)
+    np.testing.assert_allclose(motion.cam_angle, speed * t)
+    check_against_closed_forms(cam, motion, speed)
+    # the contact point on the cam is the contour's point at the cam angle, turned into the global x-z plane
+    p = cam.cam_curve(motion.cam_angle).point
+    c, s_ = np.cos(motion.cam_angle), np.sin(motion.cam_angle)
+    x, z = c * p[:, 0] - s_ * p[:, 1], s_ * p[:, 0] + c * p[:, 1]
+    np.testing.assert_allclose(motion.contact_point, np.stack([x, 0 * x, z], axis=-1), atol=1e-11)
+    # the follower's axis: the contact point of a roller is one roller radius from the roller centre
+    if follower == "roller":
+        centre = motion.trajectory.q[:, 3:6]
+        np.testing.assert_allclose(np.linalg.norm(motion.contact_point - centre, axis=-1), rf, rtol=1e-9)
+
+
+def test_build_system_frames():
+    cam = CamFollower(CamProfile.eccentric(), follower="roller", roller_radius=0.01, offset=0.005)
+    built = cam.build_system(25.0, start=0.1)
+    assert isinstance(built, CamSystem)
+    state = built.system.state
+    assert state.t == 0.1
+    s = float(cam.kinematics(2.5).lift)
+    np.testing.assert_allclose(state.position(built.follower), [0.005, 0.0, built.lift_origin + s], atol=1e-14)
+    np.testing.assert_allclose(state.omega(built.cam), [0.0, -25.0, 0.0], atol=1e-13)
+    np.testing.assert_allclose(state.velocity(built.follower)[2], 25.0 * float(cam.kinematics(2.5).dlift), rtol=1e-12)
+    assert built.cam_joint.kind == "revolute" and built.follower_joint.kind == "prismatic"
+    assert built.contact.model == "constraint"
+    # without a spring rate the preload is a constant force
+    no_spring = CamFollower(CamProfile.eccentric(), stiffness=0.0, preload=5.0).build_system(10.0)
+    assert no_spring.system.spring_dampers == ()
+
+
+def test_separation_at_the_closed_form_angle():
+    cam = CamFollower(CamProfile.eccentric(), stiffness=200.0, preload=2.0)
+    speed = 1.2 * cam.jump_speed()
+    motion = cam.simulate(speed, np.linspace(0.0, TWO_PI / speed, 121))
+    assert motion.status == "separated"
+    # N = m w^2 e cos th + k e (1 - cos th) + F0 + m g = 0
+    m, k, e = cam.mass, cam.stiffness, 0.01
+    F = cam.preload + m * cam.gravity
+    expected = math.acos(-(k * e + F) / (m * speed**2 * e - k * e))
+    assert motion.separations.shape == (1, 2)
+    assert motion.separations[0, 1] == pytest.approx(expected, abs=1e-8)
+    assert motion.separations[0, 0] == pytest.approx(expected / speed, abs=1e-8 / speed)
+    assert motion.cam_angle[-1] <= expected
+    check_against_closed_forms(cam, motion, speed)
+    # below the jump speed nothing separates
+    below = cam.simulate(0.98 * cam.jump_speed(), np.linspace(0.0, TWO_PI / speed, 31))
+    assert below.status == "completed" and below.separations.size == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("law", CAM_LAWS)
+@pytest.mark.parametrize("follower, rf, eo", [("flat", 0.0, 0.0), ("roller", 0.01, 0.005)])
+def test_simulate_rise_dwell_return_matches_the_closed_forms(law, follower, rf, eo):
+    cam = CamFollower(CamProfile.rise_dwell_return(law=law), follower=follower, roller_radius=rf, offset=eo)
+    speed = 0.8 * cam.jump_speed()
+    t = np.linspace(0.01, 0.01 + TWO_PI / speed, 91)
+    motion = cam.simulate(speed, t)
+    assert motion.status == "completed"
+    # the harmonic law's acceleration jumps at the ends of the rise and the fall; outputs there see one side
+    exact = np.ones(t.size, dtype=bool)
+    if law == "harmonic":
+        theta = np.mod(motion.cam_angle, TWO_PI)
+        for edge in (0.0, math.pi / 2, 2 * math.pi / 3, 7 * math.pi / 6, TWO_PI):
+            exact &= np.abs(theta - edge) > 1e-6
+    sub = CamMotion(**{**motion.__dict__, "t": motion.t[exact], "cam_angle": motion.cam_angle[exact],
+                       "lift": motion.lift[exact], "lift_rate": motion.lift_rate[exact],
+                       "contact_force": motion.contact_force[exact], "gap": motion.gap[exact]})
+    check_against_closed_forms(cam, sub, speed)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("follower, rf", [("flat", 0.0), ("roller", 0.01)])
+def test_eccentric_over_three_revolutions(follower, rf):
+    cam = CamFollower(CamProfile.eccentric(), follower=follower, roller_radius=rf)
+    speed = 0.9 * cam.jump_speed()
+    motion = cam.simulate(speed, np.linspace(0.0, 3 * TWO_PI / speed, 181))
+    check_against_closed_forms(cam, motion, speed)
+
+
+@pytest.mark.slow
+def test_compliant_follower_leaves_and_lands():
+    cam = CamFollower(CamProfile.eccentric(), stiffness=200.0, preload=2.0)
+    speed = 1.2 * cam.jump_speed()
+    t = np.linspace(0.0, 2 * TWO_PI / speed, 481)
+    motion = cam.simulate(speed, t, on_separation="compliant")
+    assert motion.status == "completed"
+    first = motion.separations[0]
+    m, k, e = cam.mass, cam.stiffness, 0.01
+    F = cam.preload + m * cam.gravity
+    assert first[1] == pytest.approx(math.acos(-(k * e + F) / (m * speed**2 * e - k * e)), abs=1e-8)
+    assert len(motion.landings) >= 1 and motion.landings[0, 0] > first[0]
+    # separations and landings alternate after the first separation
+    events = sorted([(x, "s") for x in motion.separations[:, 0]] + [(x, "l") for x in motion.landings[:, 0]])
+    kinds = [kind for _, kind in events]
+    assert all(a != b for a, b in zip(kinds, kinds[1:]))
+    # in flight the follower is above the cam and feels no force
+    flying = motion.gap > 1e-6
+    assert np.any(flying)
+    np.testing.assert_array_equal(motion.contact_force[flying], 0.0)
+    assert np.all(motion.contact_force >= 0)
+    # the model="compliant" run agrees with the constraint run before the separation (pressed in by ~1e-5 m)
+    compliant = cam.simulate(0.5 * cam.jump_speed(), np.linspace(0, TWO_PI / (0.5 * cam.jump_speed()), 61),
+                             model="compliant")
+    N = cam.contact_force(compliant.cam_angle, 0.5 * cam.jump_speed())
+    np.testing.assert_allclose(compliant.contact_force, N, rtol=2e-2)
+    assert np.all(compliant.gap < 0)
+    assert compliant.separations.size == 0
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(speed=float("nan")), "speed: expected a finite cam speed"),
+        (dict(model="rigid"), "model: expected one of"),
+        (dict(contact_stiffness=0.0), "contact_stiffness: expected a finite number > 0"),
+        (dict(contact_damping=-1.0), "contact_damping: expected a finite number >= 0"),
+        (dict(contact_exponent=0.5), "contact_exponent: expected a finite exponent >= 1"),
+        (dict(t=[0.1, 0.0]), "t: expected a non-empty 1-d array of finite non-decreasing times"),
+        (dict(on_separation="jump"), "on_separation: expected one of"),
+    ],
+)
+def test_simulate_arguments(kwargs, message):
+    cam = CamFollower(CamProfile.eccentric())
+    args = {"speed": 10.0, "t": [0.0, 0.01], **kwargs}
+    with pytest.raises(ValueError, match=message):
+        cam.simulate(args.pop("speed"), args.pop("t"), **args)
