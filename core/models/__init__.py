@@ -21,6 +21,7 @@ from ._pendulum import ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pen
 from ._rolling_disk import (
     FLAT_LEAN,
     RollingDiskMotion,
+    rolling_disk,
     rolling_disk_critical_spin,
     rolling_disk_reference,
 )
@@ -64,6 +65,7 @@ __all__ = [
     "heavy_top",
     "pendulum_chain",
     "pendulum_chain_reduced",
+    "rolling_disk",
     "rolling_disk_critical_spin",
     "rolling_disk_reference",
     "slider_crank",

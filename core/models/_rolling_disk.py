@@ -26,6 +26,7 @@ from core.rotations import euler_parameters_from_euler_angles
 __all__ = [
     "FLAT_LEAN",
     "RollingDiskMotion",
+    "rolling_disk",
     "rolling_disk_critical_spin",
     "rolling_disk_reference",
 ]
@@ -56,6 +57,92 @@ def _disk_arguments(radius: Any, mass: Any, lean: Any, spin: Any, rolling: Any, 
     if g < 0:
         raise ValueError(f"gravity: expected a finite g >= 0 (m/s^2), got {g!r}")
     return R, m, lean, spin, bool(rolling), heading_rate, g
+
+
+def _initial_state(R: float, lean: float, spin: float, heading_rate: float, lean_rate: float):
+    """Centre, Euler parameters, centre velocity and omega (global) at heading 0 with the contact point at the origin."""
+    s, c = math.sin(lean), math.cos(lean)
+    f1 = np.array([1.0, 0.0, 0.0])
+    f2 = np.array([0.0, c, s])
+    f3 = np.array([0.0, -s, c])
+    centre = R * f3
+    velocity = R * spin * f1 - R * lean_rate * f2
+    omega = lean_rate * f1 + spin * f2 + heading_rate * c * f3
+    p = euler_parameters_from_euler_angles(np.array([0.0, lean, 0.0]), "ZXY")
+    return centre, p, velocity, omega
+
+
+def rolling_disk(
+    radius: float = 0.1,
+    mass: float = 1.0,
+    lean: float = 0.0,
+    spin: float = 20.0,
+    rolling: bool = True,
+    *,
+    heading_rate: float = 0.0,
+    lean_rate: float = 0.0,
+    gravity: float = 9.81,
+):
+    """A thin uniform disk standing on the ground, as a System with one contact, assembled.
+
+    The disk (mass ``m``, moments ``m R^2 / 4`` about its diameters, body
+    x and z, and ``m R^2 / 2`` about its symmetry axis, body y) touches the
+    ground's plane (:class:`~core.contact.Plane`, the ground's ``z = 0``,
+    normal +z) with its rim (:class:`~core.contact.Torus` of major radius
+    ``R`` and minor radius 0, axis = body y), through
+    ``system.add_contact(system.ground, Plane(), disk, Torus(R, 0),
+    rolling=rolling)`` in the constraint model: the normal force is the
+    contact's multiplier (Eq. 8.107). With ``rolling=True`` the contact
+    point does not slip (nonholonomic velocity constraints); with
+    ``rolling=False`` the rim slides without friction.
+
+    Initial state (module conventions): heading 0, lean ``lean`` about +x
+    (a positive lean lifts the symmetry axis towards +z and tips the top
+    of the disk towards -y), spin angle 0, contact point at the origin;
+    angular velocity ``lean_rate f1 + spin f2 + heading_rate cos(lean)
+    f3`` and the centre's velocity of rolling without slip ``R spin f1 -
+    R lean_rate f2`` (also when sliding). The identity orientation is the
+    upright disk; a positive ``spin`` rolls it along +x.
+
+    Parameters
+    ----------
+    radius, mass : float
+        R (m) and m (kg), > 0.
+    lean : float
+        Initial lean (rad), ``abs(lean) < FLAT_LEAN``.
+    spin : float
+        Angular velocity about the symmetry axis (rad/s).
+    rolling : bool
+        True: rolling without slip; False: frictionless sliding.
+    heading_rate, lean_rate : float, keyword-only
+        Initial heading rate about +z and lean rate (rad/s).
+    gravity : float, keyword-only
+        g (m/s^2) along -z, >= 0.
+
+    Returns
+    -------
+    (System, Body, Contact)
+        The system, the disk and the contact (``traj.contact(contact)``
+        gives the normal force, the contact point and its track).
+
+    See Also
+    --------
+    rolling_disk_reference : the same disk from its reduced equations.
+    rolling_disk_critical_spin : the spin above which upright rolling is stable.
+    """
+    from core.contact import Plane, Torus
+    from core.multibody import System
+
+    R, m, lean, spin, rolling, heading_rate, g = _disk_arguments(radius, mass, lean, spin, rolling, heading_rate,
+                                                                 gravity)
+    lean_rate = real_number(lean_rate, "lean_rate", expected="a finite lean rate (rad/s)")
+    centre, p, velocity, omega = _initial_state(R, lean, spin, heading_rate, lean_rate)
+    system = System(gravity=(0.0, 0.0, -g))
+    disk = system.add_body("disk", mass=m, inertia=(0.25 * m * R * R, 0.5 * m * R * R, 0.25 * m * R * R),
+                           position=centre, orientation=p, velocity=velocity, omega=omega)
+    contact = system.add_contact(system.ground, Plane(), disk, Torus(R, 0.0), rolling=rolling, name="rim")
+    system.assemble()
+    return system, disk, contact
 
 
 def rolling_disk_critical_spin(radius: float = 0.1, *, rolling: bool = True, gravity: float = 9.81) -> float:

@@ -9,6 +9,10 @@
   a wobble of angular frequency ``sqrt((4/5)(3 Omega^2 - g/R))`` above the
   critical spin ``sqrt(g / (3 R))``, growth below it; sliding: ``2
   sqrt(Omega^2 - g/R)``.
+* Through the System (``rolling_disk``: the rim, a zero-tube Torus, on
+  the ground Plane, with rolling rows or frictionless): pose, normal force
+  (the contact multiplier) and energy against the reduced equations;
+  upright rolling stable above the critical spin, unstable below it.
 * Argument checks.
 """
 
@@ -19,7 +23,13 @@ import math
 import numpy as np
 import pytest
 
-from core.models import FLAT_LEAN, RollingDiskMotion, rolling_disk_critical_spin, rolling_disk_reference
+from core.models import (
+    FLAT_LEAN,
+    RollingDiskMotion,
+    rolling_disk,
+    rolling_disk_critical_spin,
+    rolling_disk_reference,
+)
 from core.rotations import matrix_from_euler_parameters
 
 G = 9.81
@@ -198,3 +208,92 @@ def test_critical_spin_arguments():
         rolling_disk_critical_spin(-0.1)
     with pytest.raises(ValueError, match="rolling: expected True"):
         rolling_disk_critical_spin(0.1, rolling="yes")
+
+
+# ------------------------------------------------------------------ through core.multibody.System
+def compare_with_reference(system, disk, contact, t, reference, *, tol):
+    traj = system.simulate(t, rtol=1e-11, atol=1e-13)
+    assert traj.status == "completed"
+    state_centre = np.array([traj.state(i).position(disk) for i in range(t.size)])
+    A = np.array([traj.state(i).rotation_matrix(disk) for i in range(t.size)])
+    np.testing.assert_allclose(state_centre, reference.centre, rtol=0, atol=tol * 0.1)
+    np.testing.assert_allclose(A, matrix_from_euler_parameters(reference.orientation), rtol=0, atol=tol)
+    history = traj.contact(contact)
+    np.testing.assert_allclose(history.normal_force, reference.normal_force, rtol=tol)
+    np.testing.assert_allclose(history.point, reference.contact_point, rtol=0, atol=tol * 0.1)
+    return traj
+
+
+def test_rolling_disk_builder():
+    system, disk, contact = rolling_disk(0.15, 2.0, lean=0.2, spin=8.0, heading_rate=1.0, lean_rate=-0.3)
+    assert system.bodies == (disk,) and system.contacts == (contact,)
+    assert contact.rolling and contact.model == "constraint"
+    assert contact.surface_j.major_radius == 0.15 and contact.surface_j.minor_radius == 0.0
+    np.testing.assert_allclose(np.diag(disk.inertia), [2 * 0.15**2 / 4, 2 * 0.15**2 / 2, 2 * 0.15**2 / 4])
+    ref = rolling_disk_reference([0.0], 0.15, 2.0, lean=0.2, spin=8.0, heading_rate=1.0, lean_rate=-0.3)
+    state = system.state
+    np.testing.assert_allclose(state.position(disk), ref.centre[0], atol=1e-15)
+    np.testing.assert_allclose(state.rotation_matrix(disk), matrix_from_euler_parameters(ref.orientation[0]),
+                               atol=1e-15)
+    np.testing.assert_allclose(state.velocity(disk), ref.velocity[0], atol=1e-14)
+    np.testing.assert_allclose(state.omega(disk), ref.omega[0], atol=1e-14)
+    # identity orientation = upright, rolling along +x
+    system, disk, _ = rolling_disk()
+    np.testing.assert_allclose(system.state.orientation(disk), [1.0, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(system.state.velocity(disk), [2.0, 0.0, 0.0])
+    sliding = rolling_disk(rolling=False)[2]
+    assert not sliding.rolling
+
+
+def test_rolling_disk_system_matches_the_reduced_equations():
+    kwargs = dict(lean=0.3, spin=10.0, heading_rate=2.0, lean_rate=0.5)
+    t = np.linspace(0.0, 1.0, 21)
+    system, disk, contact = rolling_disk(**kwargs)
+    traj = compare_with_reference(system, disk, contact, t, rolling_disk_reference(t, **kwargs), tol=1e-8)
+    assert np.ptp(traj.energy) < 1e-10 * abs(traj.energy[0])
+    # no slip at the contact point
+    history = traj.contact(contact)
+    for i in range(t.size):
+        st = traj.state(i)
+        r = history.point[i] - st.position(disk)
+        np.testing.assert_allclose(st.velocity(disk) + np.cross(st.omega(disk), r), 0.0, atol=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rolling", [True, False])
+def test_disk_system_over_three_seconds(rolling):
+    kwargs = dict(lean=0.4, spin=9.0, heading_rate=1.5, lean_rate=-0.4, rolling=rolling)
+    t = np.linspace(0.0, 3.0, 301)
+    system, disk, contact = rolling_disk(**kwargs)
+    traj = compare_with_reference(system, disk, contact, t, rolling_disk_reference(t, **kwargs), tol=1e-8)
+    assert np.ptp(traj.energy) < 1e-10 * abs(traj.energy[0])
+
+
+@pytest.mark.parametrize("factor", [1.5, 0.7])
+def test_upright_rolling_stability_through_the_system(factor):
+    """A 1e-4 rad/s lean kick: bounded wobble above the critical spin, exponential fall below (System and reference)."""
+    spin = factor * rolling_disk_critical_spin(0.1)
+    t = np.linspace(0.0, 1.2, 25)
+    system, disk, contact = rolling_disk(spin=spin, lean_rate=1e-4)
+    traj = system.simulate(t, rtol=1e-11, atol=1e-13)
+    A = np.array([traj.state(i).rotation_matrix(disk) for i in range(t.size)])
+    lean = np.arcsin(A[:, 2, 1])  # the symmetry axis (body y) rises by sin(lean)
+    reference = rolling_disk_reference(t, spin=spin, lean_rate=1e-4)
+    np.testing.assert_allclose(lean, reference.lean, rtol=0, atol=1e-9)
+    linear = _linear_upright(t, 1e-4, spin, 0.1, True)
+    np.testing.assert_allclose(lean, linear, rtol=0, atol=1e-2 * np.abs(linear).max())
+    if factor > 1:
+        assert np.abs(lean).max() < 2e-5
+    else:
+        assert np.abs(lean).max() > 1e-2
+
+
+def test_rolling_disk_arguments():
+    with pytest.raises(ValueError, match="radius: expected a finite number > 0"):
+        rolling_disk(radius=0.0)
+    with pytest.raises(ValueError, match=r"lean: expected \|lean\| < 1.5 rad"):
+        rolling_disk(lean=2.0)
+    with pytest.raises(ValueError, match="rolling: expected True"):
+        rolling_disk(rolling="no")
+    with pytest.raises(ValueError, match="lean_rate: expected a finite lean rate"):
+        rolling_disk(lean_rate=float("nan"))
