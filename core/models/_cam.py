@@ -552,6 +552,11 @@ class CamFollower:
         object.__setattr__(self, "_segments", self._build_segments())
         self._check_shape()
 
+    def __reduce__(self):
+        # the lift segments are closures: rebuild them from the public fields (pickling for process pools)
+        return (CamFollower, (self.profile, self.follower, self.roller_radius, self.mass, self.stiffness,
+                              self.preload, self.gravity, self.offset))
+
     # ------------------------------------------------------------ lift
     def _build_segments(self) -> tuple[_Segment, ...]:
         prof = self.profile
@@ -1075,8 +1080,10 @@ class CamMotion:
         ``(time, cam angle)`` where a compliant contact closes again.
     status : str
         ``"completed"`` or ``"separated"`` (stopped at a separation).
-    trajectory : MultibodyTrajectory
-        The System's run (poses of ``system.bodies``: cam, follower).
+    trajectory : MultibodyTrajectory or None
+        The System's run (poses of ``system.bodies``: cam, follower); None
+        in a pickled copy (the trajectory holds the System's compiled
+        model, which does not pickle).
     """
 
     t: np.ndarray  # (n,)
@@ -1090,6 +1097,11 @@ class CamMotion:
     landings: np.ndarray  # (k, 2)
     status: str
     trajectory: Any = field(repr=False)
+
+    def __reduce__(self):
+        arrays = (self.t, self.cam_angle, self.lift, self.lift_rate, self.contact_force, self.contact_point, self.gap,
+                  self.separations, self.landings)
+        return (CamMotion, (*arrays, self.status, None))
 
 
 @dataclass(frozen=True)

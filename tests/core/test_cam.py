@@ -657,3 +657,31 @@ def test_simulate_arguments(kwargs, message):
     args = {"speed": 10.0, "t": [0.0, 0.01], **kwargs}
     with pytest.raises(ValueError, match=message):
         cam.simulate(args.pop("speed"), args.pop("t"), **args)
+
+
+def test_follower_and_motion_pickle():
+    """Scenes compute on a process pool: the model and its results cross process boundaries."""
+    import pickle
+
+    for cam in (CamFollower(CamProfile.eccentric(), follower="roller", roller_radius=0.01, offset=0.003),
+                CamFollower(CamProfile.rise_dwell_return(law="345"), stiffness=500.0)):
+        copy = pickle.loads(pickle.dumps(cam))
+        assert copy == cam
+        theta = np.linspace(0, TWO_PI, 7)
+        np.testing.assert_array_equal(copy.kinematics(theta).d2lift, cam.kinematics(theta).d2lift)
+        assert copy.jump_speed() == cam.jump_speed()
+    motion = cam.simulate(10.0, [0.0, 0.01])
+    copy = pickle.loads(pickle.dumps(motion))
+    assert copy.trajectory is None and copy.status == motion.status
+    np.testing.assert_array_equal(copy.contact_force, motion.contact_force)
+    np.testing.assert_array_equal(copy.separations, motion.separations)
+
+
+@pytest.mark.parametrize("speed", [-30.0, 0.0])
+def test_simulate_backwards_and_at_rest(speed):
+    cam = CamFollower(CamProfile.rise_dwell_return(law="cycloidal"), follower="roller", roller_radius=0.01,
+                      offset=0.004)
+    motion = cam.simulate(speed, np.linspace(0.02, 0.2, 10))
+    assert motion.status == "completed"
+    np.testing.assert_allclose(motion.lift, cam.kinematics(motion.cam_angle).lift, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(motion.contact_force, cam.contact_force(motion.cam_angle, speed), rtol=1e-8)
