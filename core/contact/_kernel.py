@@ -611,7 +611,7 @@ class ContactKernel:
         res = self._empty(level)
         At = A.tolist()
         Rl = y[: 3 * n].tolist()
-        ground_A = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        from ._scalar import IDENTITY as ground_A
         if level >= 2:
             Vl = y[7 * n : 10 * n].tolist()
             Wl = np.einsum("kab,kb->ka", A, y[10 * n :].reshape(n, 3)).ravel().tolist()

@@ -84,21 +84,36 @@ class _G:
     __slots__ = ("rho", "T", "T2", "T3", "n", "n1", "n2")
 
 
-def _glob(D: dict, Dn, A, p: int, order: int) -> _G:
+#: The identity rotation (the ground's frame): geometry in it is not rotated.
+IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def _glob(D: dict, Dn, A, p: int, order: int, normal_order: int = 2, third: bool = True) -> _G:
+    """Global geometry of one side: ``rho``, tangents and their derivatives, the normal field.
+
+    Only what the side's role needs is formed: the normal's derivatives up
+    to ``normal_order`` (the side whose normal enters the constraints) and
+    the third derivatives when ``third`` (the side whose tangents do).
+    """
     g = _G()
-    G = {k: _rot(A, v) for k, v in D.items()}
+    n_ord = min(order - 1, normal_order)
+    keep3 = third or (Dn is None and n_ord >= 2)  # (nu = t1 x t2 needs the side's own third derivatives)
+    if A is IDENTITY:
+        G = D
+    else:
+        (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = A
+        G = {k: (a00 * v[0] + a01 * v[1] + a02 * v[2], a10 * v[0] + a11 * v[1] + a12 * v[2],
+                 a20 * v[0] + a21 * v[1] + a22 * v[2]) for k, v in D.items() if keep3 or sum(k) < 3}
     g.rho = G[(0,) * p]
     g.T = [G[k] for k in _K1[p]]
     g.T2 = [[G[k] for k in row] for row in _K2[p]] if order >= 2 else None
-    g.T3 = [[[G[k] for k in r2] for r2 in r1] for r1 in _K3[p]] if order >= 3 else None
+    g.T3 = [[[G[k] for k in r2] for r2 in r1] for r1 in _K3[p]] if order >= 3 and third else None
     if Dn is None:  # nu = t1 x t2 (Eq. 8.86), rotated tangents
-        T, T2, T3 = g.T, g.T2, g.T3
+        T, T2 = g.T, g.T2
         g.n = _cross(T[0], T[1])
-        if order >= 2:
-            g.n1 = [_add(_cross(T2[0][l], T[1]), _cross(T[0], T2[1][l])) for l in range(2)]
-        else:
-            g.n1 = None
-        if order >= 3:
+        g.n1 = [_add(_cross(T2[0][l], T[1]), _cross(T[0], T2[1][l])) for l in range(2)] if n_ord >= 1 else None
+        if n_ord >= 2:
+            T3 = [[[G[k] for k in r2] for r2 in r1] for r1 in _K3[p]] if g.T3 is None else g.T3
             n2 = [[None, None], [None, None]]
             for l in range(2):
                 for m in range(l, 2):
@@ -108,10 +123,14 @@ def _glob(D: dict, Dn, A, p: int, order: int) -> _G:
             g.n2 = n2
         else:
             g.n2 = None
+    elif A is IDENTITY:
+        g.n = Dn[(0,) * p]
+        g.n1 = [Dn[k] for k in _K1[p]] if n_ord >= 1 else None
+        g.n2 = [[Dn[k] for k in row] for row in _K2[p]] if n_ord >= 2 else None
     else:
         g.n = _rot(A, Dn[(0,) * p])
-        g.n1 = [_rot(A, Dn[k]) for k in _K1[p]] if order >= 2 else None
-        g.n2 = [[_rot(A, Dn[k]) for k in row] for row in _K2[p]] if order >= 3 else None
+        g.n1 = [_rot(A, Dn[k]) for k in _K1[p]] if n_ord >= 1 else None
+        g.n2 = [[_rot(A, Dn[k]) for k in row] for row in _K2[p]] if n_ord >= 2 else None
     return g
 
 
@@ -203,12 +222,15 @@ def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float |
     s = list(s)
     L = cs.L
     step = math.inf
+    # iterate on second derivatives; the third (for gamma) only once the step is small
+    cur = min(order, 2)
+    a_is_i = not cs.swap
     for _ in range(max_iter):
         _rechart(cs, s, charts)  # before the geometry: the returned s, geometry and s_dot share one chart
-        Di, Dni = cs.surf_i._derivs_float(tuple(s[:p]), order, charts[0])
-        Dj, Dnj = cs.surf_j._derivs_float(tuple(s[p:]), order, charts[1])
-        gi = _glob(Di, Dni, fr.Ai, p, order)
-        gj = _glob(Dj, Dnj, fr.Aj, p, order)
+        Di, Dni = cs.surf_i._derivs_float(tuple(s[:p]), cur, charts[0])
+        Dj, Dnj = cs.surf_j._derivs_float(tuple(s[p:]), cur, charts[1])
+        gi = _glob(Di, Dni, fr.Ai, p, cur, 2 if a_is_i else 0, not a_is_i)
+        gj = _glob(Dj, Dnj, fr.Aj, p, cur, 0 if a_is_i else 2, a_is_i)
         E, Es, _ = _extremal(cs, fr, gi, gj)
         ds = _solve(Es, E)
         if ds is None:
@@ -230,10 +252,15 @@ def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float |
         for q in range(2 * p):
             s[q] -= f * ds[q]
         if step <= _STEP_TOL:
+            if cur < order:  # one more evaluation, with the third derivatives
+                cur = order
+                continue
             if not _dot(gi.n, gj.n) < 0.0:
                 raise ContactError(_lost(cs.contact, t, "Newton reached a pair of points whose normals are not "
                                          "opposed (the far sides of the surfaces)"), t=t)
             return s, gi, gj, E, Es
+        if step <= 1e-5:
+            cur = order
     raise ContactError(_lost(cs.contact, t, f"Newton on the contact point did not converge in {max_iter} iterations "
                                             f"(last step {step:.2e} of the length scale): the contact point jumped"),
                        t=t)
