@@ -90,8 +90,22 @@ class PlanarCurve(Surface):
                     out.append(cont[(k,)])
             return out
 
+        names = ("point", "first", "second", "third")
+
         def derivs_float(x: float, order: int) -> list[tuple[float, float]]:
-            return [tuple(v) for v in np.asarray(derivs(np.array(x), order)).reshape(order + 1, 2).tolist()]
+            # one point: the user's functions on a float (shapes were checked at construction)
+            if any(given[k - 1] is None for k in range(1, order + 1)):
+                return [tuple(v) for v in np.asarray(derivs(np.array(x), order)).reshape(order + 1, 2).tolist()]
+            out = []
+            for k, f in enumerate((point,) + given[:order]):
+                try:
+                    a, b_ = np.asarray(f(x), dtype=float).reshape(2).tolist()
+                except Exception as exc:  # noqa: BLE001 - reported with the argument's name
+                    raise ValueError(f"{names[k]}: the function failed at s={x!r}: {type(exc).__name__}: {exc}") from exc
+                if not (math.isfinite(a) and math.isfinite(b_)):
+                    raise ValueError(f"{names[k]}: expected finite values at s={x!r}, got {(a, b_)}")
+                out.append((a, b_))
+            return out
 
         self._init(derivs, np.linspace(b[0], b[1], 721), length_scale, "PlanarCurve(...)")
         self._derivs_2d = derivs_float

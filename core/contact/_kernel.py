@@ -521,7 +521,7 @@ class ContactKernel:
             return cached[3]
         res = self._evaluate_batched(y, A, level, state, t) if batched else self._evaluate_floats(
             y, A, level, state, t)
-        bad = ~(res["rank"] > CONTACT_RANK_TOL)
+        bad = res["rank"] <= CONTACT_RANK_TOL  # (nan: not computed at level 2)
         if bad.any():
             c = self.contacts[int(np.argmax(bad))]
             when = "" if t is None else f" at t={t:.6g}"
@@ -534,18 +534,25 @@ class ContactKernel:
         return res
 
     def _start(self, state: dict, q: int, t: float | None):
-        """Start parameters and a copy of the charts for contact ``q`` (see :meth:`evaluate`)."""
+        """Start parameters and a copy of the charts for contact ``q`` (see :meth:`evaluate`).
+
+        From the committed parameters or those of the last evaluation,
+        whichever is nearer in time, moved by the last known ``s_dot`` over
+        the time between (a wheel rolling at ``omega`` turns its rim
+        parameter by ``omega dt`` in a step, beyond the reach of Newton's
+        method when a long step is not extrapolated).
+        """
         s0 = state["s"][q]
         charts = state["charts"][q]
         pred = state.get("rate", {}).get(q)
         t_c = state.get("t_committed", {}).get(q)
+        last = state.get("last", {}).get(q)
+        t_last = state.get("t_last", {}).get(q)
+        if last is not None and (t is None or t_c is None or (t_last is not None and abs(t - t_last) < abs(t - t_c))):
+            s0, charts, t_c = last[0], last[1], t_last
         if pred is not None and t is not None and t_c is not None and pred[2] is charts[0] and pred[3] is charts[1]:
             dt = t - t_c
-            if abs(dt) * pred[4] <= 0.2:
-                return (s0 + np.asarray(pred[1]) * dt if dt else np.array(s0)), list(charts)
-        last = state.get("last", {}).get(q)
-        if last is not None:
-            return np.array(last[0]), list(last[1])
+            return (np.asarray(s0) + np.asarray(pred[1]) * dt if dt else np.array(s0)), list(charts)
         return np.array(s0), list(charts)
 
     def _commit_last(self, state: dict, t, res: dict, y: np.ndarray, A: np.ndarray, strict: bool) -> None:
@@ -641,7 +648,8 @@ class ContactKernel:
                 s, gi, gj, Es, charts = self._restart_one(cs, fr, order, t)
                 restarted = True
             state.setdefault("last", {})[q] = (np.array(s), charts, restarted, _det_sign(Es))
-            out = evaluate_one(cs, fr, gi, gj, Es, level)
+            state.setdefault("t_last", {})[q] = t
+            out = evaluate_one(cs, fr, gi, gj, Es, level, rank=level < 2)  # checked at the projections
             if level >= 2 and t is not None:
                 sd = out["sdot"]
                 speed = max(abs(x) for x in sd) if sd else 0.0
@@ -746,6 +754,7 @@ class ContactKernel:
             signs = np.sign(np.linalg.det(Es))
             for q, c in enumerate(g.pos):
                 state.setdefault("last", {})[c] = (np.array(s[q]), charts[q], restarted, float(signs[q]))
+                state.setdefault("t_last", {})[c] = t
             kin = contact_rows(g, fr, gi, gj, level, self.rolling[g.pos], Es)
             pos = g.pos
             p = g.p

@@ -135,29 +135,42 @@ def _glob(D: dict, Dn, A, p: int, order: int, normal_order: int = 2, third: bool
 
 
 def _solve(M: list, b: list):
-    """Solution of the small dense system ``M x = b`` (Gaussian elimination, partial pivoting); None if singular."""
+    """Solution of the small dense system ``M x = b`` (2 x 2 by Cramer's rule, else Gaussian elimination
+    with partial pivoting); None if singular."""
     n = len(b)
+    if n == 2:
+        (a, c), (d, e) = M
+        det = a * e - c * d
+        if not (abs(det) > 0.0 and math.isfinite(det)):
+            return None
+        return [(b[0] * e - c * b[1]) / det, (a * b[1] - d * b[0]) / det]
     a = [list(row) + [b[i]] for i, row in enumerate(M)]
     for col in range(n):
-        piv = max(range(col, n), key=lambda r: abs(a[r][col]))
-        if not abs(a[piv][col]) > 0.0 or not math.isfinite(a[piv][col]):
+        piv = col
+        big = abs(a[col][col])
+        for r in range(col + 1, n):
+            v = abs(a[r][col])
+            if v > big:
+                piv, big = r, v
+        if not (big > 0.0 and math.isfinite(big)):
             return None
         if piv != col:
             a[col], a[piv] = a[piv], a[col]
         rowc = a[col]
         inv = 1.0 / rowc[col]
         for r in range(col + 1, n):
-            f = a[r][col] * inv
+            rr = a[r]
+            f = rr[col] * inv
             if f != 0.0:
-                rr = a[r]
                 for q in range(col, n + 1):
                     rr[q] -= f * rowc[q]
     x = [0.0] * n
     for r in range(n - 1, -1, -1):
-        acc = a[r][n]
+        row = a[r]
+        acc = row[n]
         for q in range(r + 1, n):
-            acc -= a[r][q] * x[q]
-        x[r] = acc / a[r][r]
+            acc -= row[q] * x[q]
+        x[r] = acc / row[r]
     return x
 
 
@@ -277,8 +290,11 @@ def _rechart(cs, s: list, charts: list) -> None:
             s[off : off + p] = [float(x) for x in s_new]
 
 
-def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int) -> dict:
-    """Reduced row, rolling rows and their terms for one contact (see ``_kernel.contact_rows``)."""
+def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank: bool = True) -> dict:
+    """Reduced row, rolling rows and their terms for one contact (see ``_kernel.contact_rows``).
+
+    ``rank``: also the scaled volume of the columns of C_s (Eq. 8.109); nan otherwise.
+    """
     p = cs.p
     swap = cs.swap
     out: dict[str, Any] = {}
@@ -308,19 +324,19 @@ def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int) -> dict:
         for q in range(5):
             minor = [Cs[x] for x in range(5) if x != q]
             Nraw.append((-1.0 if q % 2 else 1.0) * _det4(minor))
-    # rank indicator (Eq. 8.109)
-    L = cs.L
-    rs = [1.0 / L] * rp + [L / (_norm(n_a) * _norm(tb[m])) for m in range(p)]
-    cols = []
-    for col in range(2 * p):
-        cols.append(math.sqrt(sum((Cs[x][col] * rs[x]) ** 2 for x in range(r))))
-    prod_cs = 1.0
-    for v in cols:
-        prod_cs = prod_cs / v if v > 0 else 0.0
-    prod_rs = 1.0
-    for v in rs:
-        prod_rs *= v
-    out["rank"] = math.sqrt(sum((Nraw[x] * prod_rs / rs[x]) ** 2 for x in range(r))) * prod_cs
+    if rank:  # rank indicator (Eq. 8.109)
+        L = cs.L
+        rs = [1.0 / L] * rp + [L / (_norm(n_a) * _norm(tb[m])) for m in range(p)]
+        prod_cs = 1.0
+        for col in range(2 * p):
+            v = math.sqrt(sum((Cs[x][col] * rs[x]) ** 2 for x in range(r)))
+            prod_cs = prod_cs / v if v > 0 else 0.0
+        prod_rs = 1.0
+        for v in rs:
+            prod_rs *= v
+        out["rank"] = math.sqrt(sum((Nraw[x] * prod_rs / rs[x]) ** 2 for x in range(r))) * prod_cs
+    else:
+        out["rank"] = math.nan
     w_raw = _ZERO
     for q in range(rp):
         w_raw = _axpy(Nraw[q], P[q], w_raw)

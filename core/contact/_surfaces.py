@@ -820,6 +820,28 @@ class ParametricSurface(Surface):
     def _samples(self):
         return self._grid
 
+    def _derivs_float(self, s, order, chart):
+        given = (self._first, self._second, self._third)
+        if any(given[k - 1] is None for k in range(1, order + 1)):
+            return super()._derivs_float(s, order, chart)
+        x = np.array(s, dtype=float)
+        arrays = []
+        for k, (f, name) in enumerate(((self._point, "point"), (self._first, "first"), (self._second, "second"),
+                                       (self._third, "third"))[: order + 1]):
+            try:
+                a = np.asarray(f(x), dtype=float).reshape((3,) + (2,) * k)
+            except Exception as exc:  # noqa: BLE001 - reported with the argument's name
+                raise ValueError(f"{name}: the function failed at s={s!r}: {type(exc).__name__}: {exc}") from exc
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"{name}: expected finite values at s={s!r}")
+            arrays.append(a)
+        D = {(0, 0): tuple(arrays[0].tolist())}
+        for k in range(1, order + 1):
+            for idx, orders in _index_orders(2, k):
+                if orders not in D:
+                    D[orders] = tuple(arrays[k][(slice(None),) + idx].tolist())
+        return D, None
+
 
 def _call_user_tensor(f: Callable, s: np.ndarray, name: str, shape: tuple[int, ...]) -> np.ndarray:
     try:

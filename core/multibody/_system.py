@@ -753,7 +753,7 @@ class System:
         Pi = _vector(point_i, "point_i")
         Pj = _vector(point_j, "point_j")
         k = _positive(stiffness, "stiffness", allow_zero=True)
-        c = _positive(damping, "damping", allow_zero=True)
+        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True)
         L0 = float(np.linalg.norm(Pj - Pi)) if free_length is None else _positive(free_length, "free_length", allow_zero=True)
         name = self._item_name(name, "spring_damper")
         local = {"u_i": self._local_point(bi, Pi), "u_j": self._local_point(bj, Pj)}
@@ -791,7 +791,7 @@ class System:
         if jt.kind not in ("revolute", "cylindrical"):
             raise ValueError(f"joint: a rotational spring-damper needs a revolute or cylindrical joint, got {jt.kind}")
         k = _positive(stiffness, "stiffness", allow_zero=True)
-        c = _positive(damping, "damping", allow_zero=True)
+        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True)
         a0 = real_number(angle0, "angle0")
         name = self._item_name(name, "rotational_spring_damper")
         rs = RotationalSpringDamper(name, jt, k, c, a0, len(self._rot_springs), self)
@@ -865,7 +865,7 @@ class System:
         model: str = "constraint",
         rolling: bool = False,
         stiffness: float | None = None,
-        damping: float = 0.0,
+        damping: float | None = None,
         exponent: float = 1.5,
         tolerance: float = 1e-6,
         name: str | None = None,
@@ -903,9 +903,9 @@ class System:
             ``k`` (N/m^exponent, > 0): required by the compliant model; for
             the constraint model it enables ``simulate(...,
             on_separation="compliant")``.
-        damping : float, keyword-only
-            Hunt-Crossley ``c`` (s/m, >= 0); the coefficient of restitution
-            of a slow impact is about ``1 - c v``.
+        damping : float or None, keyword-only
+            Hunt-Crossley ``c`` (s/m, >= 0; None: 0, elastic); the
+            coefficient of restitution of a slow impact is about ``1 - c v``.
         exponent : float, keyword-only
             ``e`` >= 1 (1.5: Hertz contact of curved surfaces).
         tolerance : float, keyword-only
@@ -958,7 +958,7 @@ class System:
                 raise ValueError(f"stiffness: expected a finite stiffness > 0 (N/m^exponent), got {k!r}")
         elif model == "compliant":
             raise ValueError("stiffness: the compliant model needs a finite stiffness > 0 (N/m^exponent), got None")
-        c = _positive(damping, "damping", allow_zero=True)
+        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True)
         e = real_number(exponent, "exponent", expected="a finite exponent >= 1")
         if not e >= 1.0:
             raise ValueError(f"exponent: expected a finite exponent >= 1, got {e!r}")

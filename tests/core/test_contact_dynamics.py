@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from core.contact import PlanarCurve, Plane, Sphere
+from core.contact import PlanarCurve, Plane, Sphere, Torus
 from core.multibody import System
 
 G = 9.81
@@ -190,13 +190,13 @@ def test_sphere_resting_on_a_sphere():
     np.testing.assert_allclose(traj.contact(c).point, np.tile([0.0, 0.0, 0.3], (5, 1)), atol=1e-15)
 
 
-@pytest.mark.parametrize("method, kw", [("DOP853", {"rtol": 1e-11, "atol": 1e-13}), ("rk4", {"dt": 1e-3})])
+@pytest.mark.parametrize("method, kw", [("DOP853", {"rtol": 1e-11, "atol": 1e-13}), ("rk4", {"dt": 5e-3})])
 def test_ball_lifted_off_a_plane_by_a_growing_force(method, kw):
     rate = 50.0  # N/s upward: the ball leaves when the force equals its weight
     system, ball = _ball(mass=2.0)
     system.add_force(ball, lambda t, state: np.array([0.0, 0.0, rate * t]))
     c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
-    traj = system.simulate(np.linspace(0.0, 1.0, 11), method=method, **kw)
+    traj = system.simulate(np.linspace(0.0, 0.5, 6), method=method, **kw)
     (sep,) = traj.separations
     assert abs(sep.t - 2.0 * G / rate) < 1e-10
     assert traj.status == "separated" and traj.t[-1] <= sep.t
@@ -218,14 +218,15 @@ def test_hertz_impact_depth_and_duration():
     ball = system.add_body("ball", mass=m, inertia=(J, J, J), position=(0.0, 0.0, r + gap0), velocity=(0.0, 0.0, -v0))
     c = system.add_contact(system.ground, Plane(), ball, Sphere(r), model="compliant", stiffness=k)
     d_max, t_c = _hertz_duration(m, k, v0)
-    t = np.linspace(0.0, 2.0 * gap0 / v0 + t_c, 6001)
+    t_in = gap0 / v0
+    # outputs at the touch-down, the deepest point (half-way) and the lift-off of the closed form
+    t = np.array([0.0, t_in, t_in + 0.5 * t_c, t_in + t_c, 2.0 * t_in + t_c])
     traj = system.simulate(t, rtol=1e-11, atol=1e-14)
     np.testing.assert_allclose(traj.energy, traj.energy[0], rtol=1e-9)
     hc = traj.contact(c)
-    assert abs(-np.min(hc.gap) - d_max) < 1e-7 * d_max + 1e-12
-    touching = t[hc.normal_force > 0.0]
-    assert abs((touching[-1] - touching[0]) - t_c) <= 2.0 * (t[1] - t[0])
-    np.testing.assert_allclose(traj.velocity(ball)[-1], [0.0, 0.0, v0], atol=1e-9)  # elastic: back at v0
+    np.testing.assert_allclose(hc.gap, [gap0, 0.0, -d_max, 0.0, gap0], atol=1e-9 * d_max + 1e-13)
+    np.testing.assert_allclose(traj.velocity(ball)[:, 2], [-v0, -v0, 0.0, v0, v0], atol=1e-8)
+    assert hc.normal_force[2] > 0.0 and hc.normal_force[4] == 0.0
 
 
 def test_dropped_ball_rebounds_to_its_height():
@@ -233,12 +234,13 @@ def test_dropped_ball_rebounds_to_its_height():
     system, ball = _ball(radius=r, mass=m)
     system.set_state(system.state.displaced(dq=np.array([0.0, 0.0, h0, 0.0, 0.0, 0.0])))
     system.add_contact(system.ground, Plane(), ball, Sphere(r), model="compliant", stiffness=k)
-    t_up = 2.0 * math.sqrt(2.0 * h0 / G)
-    t = np.linspace(0.0, 1.5 * t_up, 3001)
+    t_fall = math.sqrt(2.0 * h0 / G)
+    t = np.array([0.0, 0.5 * t_fall, 1.5 * t_fall, 1.8 * t_fall])
     traj = system.simulate(t, rtol=1e-11, atol=1e-14)
     np.testing.assert_allclose(traj.energy, traj.energy[0], rtol=1e-9)
-    later = t > 0.6 * t_up
-    assert abs(np.max(traj.position(ball)[later, 2]) - (r + h0)) < 1e-7
+    z, vz = traj.position(ball)[-1, 2], traj.velocity(ball)[-1, 2]
+    assert vz > 0.0
+    assert abs(z + vz * vz / (2.0 * G) - (r + h0)) < 1e-8  # the apex of the rebound
 
 
 def test_hunt_crossley_damping_against_a_one_dimensional_reference():
@@ -272,8 +274,8 @@ def test_follower_leaves_the_cam_and_lands_with_the_compliant_model():
     e, m, k, F0 = 0.01, 0.5, 2000.0, 20.0
     speed = 1.2 * math.sqrt((m * G + F0 + k * e) / (m * e))
     system, c, fol = _cam(speed)
-    t = np.linspace(0.0, 2.0 * 2.0 * math.pi / speed, 401)
-    traj = system.simulate(t, rtol=1e-9, atol=1e-11, on_separation="compliant")
+    t = np.linspace(0.0, 2.0 * math.pi / speed, 121)
+    traj = system.simulate(t, rtol=1e-8, atol=1e-11, on_separation="compliant")
     assert traj.status == "completed"
     assert traj.separations[0].action == "compliant"
     t_sep = math.asin((m * G + F0) / (m * e * speed**2 - k * e)) / speed
@@ -285,3 +287,51 @@ def test_follower_leaves_the_cam_and_lands_with_the_compliant_model():
     assert flight.size
     assert np.any(h.normal_force[flight[0]:] > 0.0)  # it lands again: re-contact and impact
     assert np.all(h.normal_force[~before] >= 0.0)  # the compliant force never pulls
+
+
+def _rolling_disk(lean, spin, *, rolling=True, radius=0.1, mass=1.0):
+    """A thin disk on its rim (symmetry axis = body y), leaning by ``lean`` about x, rolling about its axis."""
+    from core.rotations import euler_parameters_from_axis_angle
+
+    system = System(gravity=(0.0, 0.0, -G))
+    A = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(lean), -math.sin(lean)], [0.0, math.sin(lean), math.cos(lean)]])
+    centre = A @ [0.0, 0.0, radius]
+    omega = A @ [0.0, spin, 0.0]
+    disk = system.add_body("disk", mass=mass, inertia=(mass * radius**2 / 4, mass * radius**2 / 2, mass * radius**2 / 4),
+                           position=centre, orientation=euler_parameters_from_axis_angle(np.array([1.0, 0, 0]), lean),
+                           omega=omega, velocity=np.cross(omega, centre))
+    c = system.add_contact(disk, Torus(radius, 0.0), system.ground, Plane(), rolling=rolling)
+    system.assemble()
+    return system, disk, c
+
+
+def test_upright_rolling_disk_rolls_straight():
+    system, disk, c = _rolling_disk(0.0, 20.0)
+    t = np.linspace(0.0, 0.5, 11)
+    traj = system.simulate(t, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(traj.position(disk)[:, 0], 20.0 * 0.1 * t, atol=1e-12)  # v = omega R along +x
+    np.testing.assert_allclose(traj.position(disk)[:, 1:], np.tile([0.0, 0.1], (11, 1)), atol=1e-13)
+    np.testing.assert_allclose(traj.contact(c).normal_force, G, rtol=1e-12)
+    np.testing.assert_allclose(traj.contact(c).tangential_force, 0.0, atol=1e-10)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rolling", [True, False])
+def test_leaning_disk_conserves_energy_over_ten_seconds(rolling):
+    system, disk, c = _rolling_disk(0.3, 15.0, rolling=rolling)
+    traj = system.simulate(np.linspace(0.0, 10.0, 601), rtol=1e-11, atol=1e-13)
+    assert traj.status == "completed"
+    np.testing.assert_allclose(traj.energy, traj.energy[0], atol=2e-9)
+    assert np.max(traj.residual_position) < 1e-11 and np.max(traj.residual_velocity) < 1e-11
+    assert np.all(traj.contact(c).normal_force > 0.0)
+
+
+@pytest.mark.slow
+def test_cam_force_over_ten_revolutions():
+    speed, e, m, k, F0 = 60.0, 0.01, 0.5, 2000.0, 20.0
+    system, c, fol = _cam(speed)
+    t = np.linspace(0.0, 10 * 2.0 * math.pi / speed, 2001)
+    traj = system.simulate(t, rtol=1e-11, atol=1e-13)
+    th = speed * t
+    N = -m * e * speed**2 * np.sin(th) + m * G + F0 + k * e * np.sin(th)
+    np.testing.assert_allclose(traj.contact(c).normal_force, N, rtol=1e-8)

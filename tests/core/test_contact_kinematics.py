@@ -276,7 +276,12 @@ def test_float_and_batched_paths_agree(pair):
     A = matrices(y0[3 * n : 7 * n].reshape(n, 4))
     a = ker.evaluate(y0, A, 2, ker.copy_state(eng.contact_state), batched=False)
     b = ker.evaluate(y0, A, 2, ker.copy_state(eng.contact_state), batched=True)
-    for key in ("value", "gap", "normal", "point_i", "point_j", "N", "rank", "D", "Dr", "gamma", "gamma_r", "rate",
+    for key in ("value", "gap", "normal", "point_i", "point_j", "N", "D", "Dr", "gamma", "gamma_r", "rate",
                 "gamma_c"):
         x, z = np.nan_to_num(a[key]), np.nan_to_num(b[key])
         np.testing.assert_allclose(x, z, atol=1e-11 * max(1.0, float(np.max(np.abs(x)))), err_msg=key)
+    # the rank indicator (Eq. 8.109) is computed below level 2 (the projections) by the float path
+    a = ker.evaluate(y0, A, 1, ker.copy_state(eng.contact_state), batched=False)
+    b = ker.evaluate(y0, A, 1, ker.copy_state(eng.contact_state), batched=True)
+    np.testing.assert_allclose(a["rank"], b["rank"], rtol=1e-9)
+    assert np.all(a["rank"] > 1e-3)
