@@ -61,7 +61,6 @@ class Contact:
     tolerance: float = field(repr=False)
     index: int = field(repr=False)
     initial_gap: float = field(repr=False)
-    _start: Any = field(repr=False, compare=False)  # (s (2p,), chart_i, chart_j) found by add_contact
     _owner: Any = field(repr=False, compare=False)
 
     kind = "contact"

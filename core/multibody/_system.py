@@ -1006,7 +1006,7 @@ class System:
                 f"body_i, body_j: {bi.name!r} and {bj.name!r} penetrate by {-gap:.3e} m, more than half the "
                 f"length scale {L:g} m of the surfaces {where}; separate them")
         contact = Contact(name, bi, bj, surface_i, surface_j, model, rolling, k, c, e, tol, len(self._contacts),
-                          gap, None, self)
+                          gap, self)
         self._contacts.append(contact)
         self._contact_start.append((np.array(info["s"]), info["charts"][0], info["charts"][1]))
         self._changed()
