@@ -191,6 +191,11 @@ class LinearModel:
         with ``s`` the ``f_v < f`` independent velocities; then the
         equations are ``M s_dot + (C + G) s + K u = 0``. Default: the
         identity (``s = u_dot``).
+    position_rate_map : (f, f) array_like or None, keyword-only
+        Rolling systems in steady motion only: ``u_dot = velocity_map @ s
+        + position_rate_map @ u`` (a turned wheel rolling at speed moves
+        sideways: the rolling constraints of the perturbed motion depend on
+        the positions too). Needs ``velocity_map``. Default: zero.
     embedding : Embedding or None, keyword-only
         Set by :func:`linearize`: how ``u`` maps to the bodies.
     derivative_error : float, keyword-only
@@ -205,7 +210,7 @@ class LinearModel:
     """
 
     def __init__(self, M: Any, K: Any, C: Any = None, G: Any = None, *, velocity_map: Any = None,
-                 embedding: Embedding | None = None, derivative_error: float = 0.0):
+                 position_rate_map: Any = None, embedding: Embedding | None = None, derivative_error: float = 0.0):
         M = _matrix(M, "M")
         if M.shape[0] != M.shape[1] or M.shape[0] == 0:
             raise ValueError(f"M: expected a non-empty square matrix, got shape {M.shape}")
@@ -226,6 +231,11 @@ class LinearModel:
                 raise ValueError(f"velocity_map: expected shape (f, {fv}) with f >= {fv}, got {T.shape}")
             f = T.shape[0]
         K = _matrix(K, "K", (fv, f))
+        Y = None
+        if position_rate_map is not None:
+            if T is None:
+                raise ValueError("position_rate_map: needs a velocity_map (rolling systems only)")
+            Y = _matrix(position_rate_map, "position_rate_map", (f, f))
         C = None if C is None else _matrix(C, "C", (fv, fv))
         G = None if G is None else _matrix(G, "G", (fv, fv))
         if G is not None:
@@ -236,6 +246,7 @@ class LinearModel:
             raise ValueError(f"embedding: expected an Embedding or None, got {short_repr(embedding)}")
         self.M, self.K, self.C, self.G = M, K, C, G
         self.velocity_map = T
+        self.position_rate_map = Y
         self.embedding = embedding
         self.derivative_error = float(derivative_error)
 
@@ -274,7 +285,10 @@ class LinearModel:
 
         ``x = [u, u_dot]`` (or ``[u, s]``):
 
-        .. math:: \dot x = \begin{bmatrix} 0 & T \\ -M^{-1} K & -M^{-1}(C + G) \end{bmatrix} x
+        .. math:: \dot x = \begin{bmatrix} Y & T \\ -M^{-1} K & -M^{-1}(C + G) \end{bmatrix} x
+
+        (``T`` the velocity map, the identity without rolling rows; ``Y``
+        the position rate map, zero unless a rolling system moves).
 
         Returns
         -------
@@ -285,6 +299,8 @@ class LinearModel:
         cho = scipy.linalg.cho_factor(0.5 * (self.M + self.M.T))
         A = np.zeros((f + fv, f + fv))
         A[:f, f:] = T
+        if self.position_rate_map is not None:
+            A[:f, :f] = self.position_rate_map
         A[f:, :f] = -scipy.linalg.cho_solve(cho, self.K)
         A[f:, f:] = -scipy.linalg.cho_solve(cho, self.velocity_matrix)
         return A
@@ -785,26 +801,88 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
     M = N_v.T @ _block_diagonal_apply(M_full, N_v, n)
     M = 0.5 * (M + M.T)
     K = N_v.T @ K_full @ N
+    T = None if N_v.shape[1] == N.shape[1] else N.T @ N_v
+    Y = None
+    err_e = 0.0
+    if np.any(velocity_only) and moving:
+        # rolling rows of a moving reference: D_r z_dot + E z = 0 with E = d(D_r v)/dz at z_dot = 0, so
+        # z_dot = N_v s + Z u and z_ddot = N_v s_dot + Z u_dot (u_dot = T s + Y u, Y = N^T Z)
+        E, err_e = _rolling_rate_jacobian(eng, ref, ell, ref.keep[velocity_only])
+        rhs = np.zeros((Dz.shape[0], N.shape[1]))
+        rhs[velocity_only] = -(E @ N)
+        Z = scipy.linalg.lstsq(Dz, rhs)[0]
+        T = N.T @ N_v
+        Y = N.T @ Z
+        MZ = _block_diagonal_apply(M_full, Z, n)
+        K = K + N_v.T @ MZ @ Y
+        if V_full is not None:
+            K = K + N_v.T @ V_full @ Z
+        else:
+            V_full = np.zeros((6 * n, 6 * n))
+        V_extra = N_v.T @ MZ @ T
+    else:
+        V_extra = None
     C = G = None
     if V_full is not None:
         V = N_v.T @ V_full @ N_v
+        if V_extra is not None:
+            V = V + V_extra
         C = 0.5 * (V + V.T)
         G = 0.5 * (V - V.T)
         vs = max(float(np.max(np.abs(V))), 1e-300)
         cs = max(float(np.max(np.abs(M))), float(np.max(np.abs(K))), 1e-300)
         if vs <= 1e-13 * cs:
             C = G = None
-    T = None if N_v.shape[1] == N.shape[1] else N.T @ N_v
     rate = max(1.0, float(np.max(np.abs(ref.omega))), float(np.linalg.norm(W)))
     m_scale = float(np.max(np.abs(M_full)))
     err = max(err_k / max(float(np.max(np.abs(K_full))), m_scale * rate**2, 1e-300),
-              err_c / max(float(np.max(np.abs(V_full))) if V_full is not None else 0.0, m_scale * rate, 1e-300))
+              err_c / max(float(np.max(np.abs(V_full))) if V_full is not None else 0.0, m_scale * rate, 1e-300),
+              err_e / rate)
     if err > 1e-3:
         warnings.warn(f"linearize: the finite-difference derivatives may be inaccurate (estimated relative error "
                       f"{err:.1e}); the reference may sit near a singular configuration", RuntimeWarning, stacklevel=2)
     emb = Embedding(_ro(N), _ro(N_v), float(t), _ro(ref.y[: 7 * n]), _ro(ref.y[7 * n :]), _ro(W),
                     tuple(b.name for b in system.bodies), int(eng.m))
-    return LinearModel(M, K, C, G, velocity_map=T, embedding=emb, derivative_error=err)
+    return LinearModel(M, K, C, G, velocity_map=T, position_rate_map=Y, embedding=emb, derivative_error=err)
+
+
+def _rolling_rate_jacobian(eng: Any, ref: Any, ell: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(E, error)``: ``E = d(D_r v)/dz`` (len(rows), 6n) of the rolling rows at ``z_dot = 0``, by differences.
+
+    The perturbed state keeps the reference velocities carried with the
+    bodies (``lin.perturbed_state``); a rolling row's velocity ``D_r v``
+    then changes to first order with the positions when the reference
+    moves (a wheel turned by ``dtheta`` while rolling at speed ``v``
+    slides sideways at ``v dtheta``). Central differences with the steps of
+    :func:`_jacobian`, Richardson-extrapolated; only the bodies that appear
+    in the rows are perturbed. ``error`` is the absolute error estimate of
+    the plain difference.
+    """
+    from core.multibody import _linearization as lin
+
+    n = eng.n
+    size = 6 * n
+    zeros = np.zeros(size)
+
+    def g(z: np.ndarray) -> np.ndarray:
+        y, _, _ = lin.perturbed_state(eng, ref, z, zeros, zeros)
+        _, Y, Phi, gam = eng.table(ref.t, y, level=1)
+        _, D, _, _ = eng.constraint_rows(ref.t, Y, Phi, gam, level=1)
+        return np.asarray(D)[rows] @ y[7 * n :]
+
+    Dr = ref.D[rows]
+    bodies = [b for b in range(n) if np.any(Dr[:, 3 * b : 3 * b + 3]) or np.any(Dr[:, 3 * (n + b) : 3 * (n + b) + 3])]
+    E = np.zeros((rows.size, size))
+    E2 = np.zeros((rows.size, size))
+    for b in bodies:
+        for c in range(6):
+            col = 3 * b + c if c < 3 else 3 * n + 3 * b + c - 3
+            h = STEP * (ell[b] if c < 3 else 1.0)
+            d = np.zeros(size)
+            d[col] = h
+            E[:, col] = (g(d) - g(-d)) / (2.0 * h)
+            E2[:, col] = (g(2.0 * d) - g(-2.0 * d)) / (4.0 * h)
+    return (4.0 * E - E2) / 3.0, float(np.max(np.abs(E - E2), initial=0.0)) / 3.0
 
 
 def _block_diagonal_apply(M: np.ndarray, X: np.ndarray, n: int) -> np.ndarray:

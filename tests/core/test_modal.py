@@ -17,6 +17,7 @@ from core.modal import RIGID_TOL, LinearModel, Modes, _linearize, linearize, swe
 from core.models import (
     disk_rotor,
     pendulum_chain,
+    rolling_disk,
     slider_crank,
     spatial_double_pendulum,
     spherical_pendulum,
@@ -208,6 +209,24 @@ def test_rotor_forward_and_backward_whirl(speed):
     if speed:
         assert modes.method == "state-space"
         assert np.max(np.abs(linearize(rotor.system).G)) > 0
+
+
+@pytest.mark.parametrize("spin", [3.0, 10.0, 30.0, 100.0])
+def test_rolling_disk_lean_in_steady_rolling(spin):
+    """Thin disk rolling upright at spin n (rolling rows, moving reference): the lean obeys
+    ``(A + m R^2) th'' + (C (C + m R^2) n^2 / A - m g R) th = 0``, ``A = m R^2 / 4``, ``C = m R^2 / 2``,
+    i.e. ``s^2 = -(12 n^2 - 4 g / R) / 5``; the heading, place and spin angle are free."""
+    R = 0.1
+    system, _, _ = rolling_disk(radius=R, mass=1.3, spin=spin)
+    lin = linearize(system)
+    assert lin.position_rate_map is not None and lin.velocity_map.shape == (5, 3)
+    s2 = -(12.0 * spin**2 - 4.0 * G / R) / 5.0
+    root = np.sqrt(complex(s2))
+    modes = lin.modes()
+    live = modes.eigenvalues[~modes.rigid]
+    near = np.min(np.abs(live[:, None] - np.array([root, -root])[None, :]), axis=0)
+    np.testing.assert_allclose(near, 0.0, atol=1e-10 * abs(root))
+    assert modes.is_stable is (s2 < 0)
 
 
 def test_damped_rotor_is_asymptotically_stable():
