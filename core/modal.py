@@ -77,9 +77,15 @@ RIGID_TOL = 1e-5
 #: Relative asymmetry of ``K`` up to which the undamped problem is solved as
 #: the symmetric ``K phi = omega^2 M phi`` (Eqs. 8.113-8.116).
 SYMMETRY_TOL = 1e-9
+#: Relative size (to the largest entry) up to which a singular value counts as
+#: zero when the structural zeros of a state-space problem are split off
+#: (motions no force depends on, see ``LinearModel.modes``); the others must
+#: exceed ``STRUCTURAL_GAP``, else nothing is split off.
+STRUCTURAL_TOL = 1e-12
+STRUCTURAL_GAP = 1e-6
 #: Finite-difference step of the positions: ``STEP * l`` (m) for a body with
 #: length scale ``l`` and ``STEP`` rad for rotations; Richardson-extrapolated.
-STEP = 1e-3
+STEP = 3e-4
 
 
 # ------------------------------------------------------------------ validation
@@ -350,10 +356,84 @@ class LinearModel:
             method = "symmetric"
         else:
             A = self.state_matrix()
-            s, V = scipy.linalg.eig(A)
-            X = V[:f].T.copy()
-            method = "state-space"
+            Q = _structural_subspace(A, f)
+            if Q.shape[1] == 0:
+                s, V = scipy.linalg.eig(A)
+                X = V[:f].T.copy()
+                return _modes(s, X, method="state-space", embedding=self.embedding)
+            s, V, structural = _deflated_eig(A, Q)
+            return _modes(s, V[:f].T.copy(), method="state-space", embedding=self.embedding, structural=structural)
         return _modes(s, X, method=method, embedding=self.embedding)
+
+
+def _null_columns(X: np.ndarray, scale: float) -> np.ndarray | None:
+    """Orthonormal basis (cols, k) of the vectors that ``X`` maps below ``STRUCTURAL_TOL * scale`` (SVD);
+    None when a singular value lies between that and ``STRUCTURAL_GAP * scale`` (no clear rank)."""
+    if X.shape[0] == 0:
+        return np.eye(X.shape[1])
+    _, sv, Vt = scipy.linalg.svd(X)
+    if np.any((sv > STRUCTURAL_TOL * scale) & (sv <= STRUCTURAL_GAP * scale)):
+        return None
+    rank = int(np.sum(sv > STRUCTURAL_TOL * scale))
+    return Vt[rank:].T.copy()
+
+
+def _structural_subspace(A: np.ndarray, f: int) -> np.ndarray:
+    """Orthonormal basis (f + f_v, d) of the motions that never meet a force: the largest invariant subspace
+    of the state matrix ``A`` on which the accelerations (rows ``f:``) vanish.
+
+    Ignorable coordinates (a position on which no force depends, a free spin,
+    the heading and place of a rolling body) and the velocities that only
+    move them span it; their eigenvalues are structural zeros. Iterated
+    as ``S_0 = ker A[f:]``, ``S_k+1 = {x in S_k: A x in S_k}``; null spaces by
+    SVD, a singular value counting as zero up to ``STRUCTURAL_TOL`` times the
+    largest entry. When one lies between that and ``STRUCTURAL_GAP`` (a
+    mode so slow that it cannot be told from a structural one) the result
+    is empty: nothing is split off.
+    """
+    n = A.shape[0]
+    empty = np.zeros((n, 0))
+    scale = max(float(np.max(np.abs(A))), 1e-300)
+    H = A[f:]
+    Q = _null_columns(H, max(float(np.max(np.abs(H))), 1e-300))
+    while Q is not None and Q.shape[1]:
+        AQ = A @ Q
+        c = _null_columns(AQ - Q @ (Q.T @ AQ), scale)
+        if c is None or c.shape[1] == Q.shape[1]:
+            Q = None if c is None else Q
+            break
+        Q, _ = scipy.linalg.qr(Q @ c, mode="economic")
+    return empty if Q is None or Q.shape[1] in (0, n) else Q
+
+
+def _deflated_eig(A: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eigenvalues and eigenvectors of ``A`` with the invariant subspace ``Q`` split off.
+
+    In the orthonormal basis ``[Q, P]`` the matrix is block triangular,
+    ``[[A11, A12], [0, A22]]``: the eigenvalues of ``A22`` (the dynamics
+    the forces see) are computed apart from the structural ones of
+    ``A11``, so that a cluster of structural zeros (a defective eigenvalue,
+    sensitive to round-off) cannot spoil a small eigenvalue next to it.
+    An eigenvector of ``A22`` is completed by its part in ``Q``,
+    ``(s I - A11) z = A12 y``. Returns ``(s, V, structural)``.
+    """
+    n, d = Q.shape
+    full, _ = scipy.linalg.qr(Q, mode="full")
+    P = full[:, d:]
+    A11 = Q.T @ A @ Q
+    A12 = Q.T @ A @ P
+    A22 = P.T @ A @ P
+    s1, Y1 = scipy.linalg.eig(A11)
+    s2, Y2 = scipy.linalg.eig(A22)
+    V2 = np.empty((n, s2.size), dtype=complex)
+    for k in range(s2.size):
+        y = Y2[:, k]
+        z = np.linalg.lstsq(s2[k] * np.eye(d) - A11, A12 @ y, rcond=None)[0]
+        V2[:, k] = P @ y + Q @ z
+    s = np.concatenate([s1, s2])
+    V = np.concatenate([Q @ Y1, V2], axis=1)
+    structural = np.concatenate([np.ones(d, dtype=bool), np.zeros(s2.size, dtype=bool)])
+    return s, V, structural
 
 
 # ------------------------------------------------------------------ modes
@@ -616,8 +696,14 @@ def _real_shape(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w / c, r / c
 
 
-def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | None) -> Modes:
-    """Sort eigenvalues (pairs adjacent, +Im first), normalize shapes and flag modes."""
+def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | None,
+           structural: np.ndarray | None = None) -> Modes:
+    """Sort eigenvalues (pairs adjacent, +Im first), normalize shapes and flag modes.
+
+    ``structural`` (k,) bool: the eigenvalues split off by
+    :func:`_deflated_eig`; when given, only those can be rigid (a small
+    eigenvalue of the rest is a slow mode, not a rigid-body one).
+    """
     k = s.shape[0]
     scale = float(np.max(np.abs(s))) if k else 0.0
     scale = scale if scale > 0 else 1.0
@@ -659,6 +745,8 @@ def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | 
     assert pos == k == len(order)
     mag = np.abs(ev)
     rigid = mag <= RIGID_TOL * scale
+    if structural is not None:
+        rigid &= np.asarray(structural, dtype=bool)[order]
     with np.errstate(invalid="ignore", divide="ignore"):
         xi = np.where(rigid, np.nan, -ev.real / np.where(mag > 0, mag, 1.0))
     stable = (ev.real <= tiny) | rigid
@@ -1022,9 +1110,12 @@ class SweepResult:
 
         Between neighbouring values where the largest real part of the
         non-rigid modes, ``h(v) = max Re(s) - STABILITY_TOL * scale``, changes
-        sign, Brent's method on ``h`` (``build`` is called again in this
-        process) finds the crossing to ``xtol`` (default ``1e-10 (1 + max
-        abs(values))``), whatever the spacing of the grid.
+        sign, Brent's method (``build`` is called again in this process)
+        finds the crossing to ``xtol`` (default ``1e-10 (1 + max
+        abs(values))``), whatever the spacing of the grid: the crossing of
+        ``max Re(s) = 0`` itself when it changes sign between the same
+        values, else that of ``h`` (undamped modes, whose real parts are
+        round-off of either sign).
 
         Returns
         -------
@@ -1036,10 +1127,13 @@ class SweepResult:
         if not xt > 0:
             raise ValueError(f"xtol: expected a tolerance > 0, got {xt!r}")
         h = np.array([_margin(self.eigenvalues[i], self.rigid[i]) for i in range(v.size)])
+        h0 = np.array([_margin(self.eigenvalues[i], self.rigid[i], offset=False) for i in range(v.size)])
         out = []
         for i in range(v.size - 1):
             if (h[i] > 0) != (h[i + 1] > 0):
-                out.append(brentq(lambda x: _margin_of(self.build(x)), v[i], v[i + 1], xtol=xt, maxiter=200))
+                exact = (h0[i] > 0) != (h0[i + 1] > 0)
+                out.append(brentq(lambda x: _margin_of(self.build(x), offset=not exact), v[i], v[i + 1], xtol=xt,
+                                  maxiter=200))
         return np.array(out)
 
     def to_csv(self) -> str:
@@ -1058,20 +1152,22 @@ class SweepResult:
         return json.dumps({"values": [float(x) for x in self.values], "eigenvalues": ev}, allow_nan=False)
 
 
-def _margin(ev: np.ndarray, rigid: np.ndarray) -> float:
+def _margin(ev: np.ndarray, rigid: np.ndarray, *, offset: bool = True) -> float:
+    """``max Re(s)`` of the non-rigid modes, less ``STABILITY_TOL * scale`` with ``offset``."""
     scale = float(np.max(np.abs(ev))) if ev.size else 1.0
     scale = scale if scale > 0 else 1.0
+    tol = STABILITY_TOL * scale if offset else 0.0
     live = ev[~rigid]
     if live.size == 0:
         return -STABILITY_TOL * scale
-    return float(np.max(live.real)) - STABILITY_TOL * scale
+    return float(np.max(live.real)) - tol
 
 
-def _margin_of(model: Any) -> float:
+def _margin_of(model: Any, *, offset: bool = True) -> float:
     if not isinstance(model, LinearModel):
         raise ValueError(f"build: expected build(value) to return a LinearModel, got {short_repr(model)}")
     m = model.modes()
-    return _margin(m.eigenvalues, m.rigid)
+    return _margin(m.eigenvalues, m.rigid, offset=offset)
 
 
 def _solve(build: Callable, value: float) -> Modes:

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 from core.gyroscope import RotorParams, sleeping_top_critical_spin
 from core.modal import RIGID_TOL, LinearModel, Modes, _linearize, linearize, sweep
@@ -227,6 +228,49 @@ def test_rolling_disk_lean_in_steady_rolling(spin):
     near = np.min(np.abs(live[:, None] - np.array([root, -root])[None, :]), axis=0)
     np.testing.assert_allclose(near, 0.0, atol=1e-10 * abs(root))
     assert modes.is_stable is (s2 < 0)
+
+
+def _slow_mode_beside_structural_zeros(lam: float, seed: int) -> LinearModel:
+    """u = (a, b, q), s = (w, r): a_dot = w, b_dot = a + q, q_dot = r, w_dot = -lam w, r_dot = -q.
+
+    ``a, b`` are ignorable (no force depends on them; ``b`` is a double zero
+    eigenvalue, defective), ``w`` decays slowly at ``-lam`` and drives them,
+    ``(q, r)`` is a unit oscillator; coordinates mixed by random rotations."""
+    from scipy.stats import ortho_group
+
+    T = np.array([[1.0, 0.0], [0.0, 0.0], [0.0, 1.0]])
+    Y = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 0.0, 0.0]])
+    K = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    C = np.diag([lam, 0.0])
+    Pu = ortho_group.rvs(3, random_state=seed)
+    Ps = ortho_group.rvs(2, random_state=seed + 1)
+    return LinearModel(np.eye(2), Ps.T @ K @ Pu, Ps.T @ C @ Ps, velocity_map=Pu.T @ T @ Ps,
+                       position_rate_map=Pu.T @ Y @ Pu)
+
+
+@pytest.mark.parametrize("seed", [1, 5, 9])
+def test_slow_mode_beside_structural_zeros(seed):
+    lam = 1e-4
+    model = _slow_mode_beside_structural_zeros(lam, seed)
+    modes = model.modes()
+    assert np.sum(modes.rigid) == 2  # a and b, split off
+    live = modes.eigenvalues[~modes.rigid]
+    np.testing.assert_allclose(np.sort_complex(live), [-lam, -1j, 1j], atol=1e-8 * lam)
+    # the plain eigenvalues of the state matrix: round-off splits the defective zero and moves -lam by ~lam^2
+    plain = scipy.linalg.eigvals(model.state_matrix())
+    assert np.min(np.abs(plain + lam)) > 1e-6 * lam
+
+
+def _damped_oscillator(c: float) -> LinearModel:
+    return LinearModel(np.eye(1), 4.0 * np.eye(1), C=c * np.eye(1))
+
+
+def test_boundary_is_the_crossing_of_zero():
+    """s = -c/2 +- i sqrt(4 - c^2/4): Re(s) = 0 at c = 0 exactly, not at the stability tolerance."""
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        result = sweep(_damped_oscillator, np.linspace(-1.0, 1.0, 4), executor=pool)
+    b = result.boundaries(xtol=1e-15)
+    assert b.shape == (1,) and abs(b[0]) < 1e-14
 
 
 def test_damped_rotor_is_asymptotically_stable():
