@@ -33,7 +33,9 @@ def _compress(png: bytes) -> bytes:
     image = Image.open(io.BytesIO(png)).convert("RGB")
     for colors in (256, 128, 64):
         out = io.BytesIO()
-        image.quantize(colors=colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+        # k-means refinement keeps the colours of small swatches (a legend's),
+        # which plain median cut merges into the greys around them
+        image.quantize(colors=colors, method=Image.Quantize.MEDIANCUT, kmeans=4, dither=Image.Dither.NONE).save(
             out, format="PNG", optimize=True
         )
         if out.tell() <= MAX_BYTES:
