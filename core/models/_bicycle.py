@@ -1,0 +1,779 @@
+r"""The Whipple bicycle: four rigid bodies, three revolute joints and two rolling knife-edge wheels.
+
+The benchmark bicycle of Meijaard, Papadopoulos, Ruina and Schwab (Proc. R.
+Soc. A 463, 2007) built from the general engine: a rear wheel, a rear frame
+with the rider, a front fork with the handlebar and a front wheel
+(:meth:`core.multibody.System.add_body`), the hubs and the steer axis as
+revolute joints, and each wheel's rim a :class:`core.contact.Torus` of minor
+radius zero rolling without slip on the ground :class:`core.contact.Plane`
+(``System.add_contact(..., rolling=True)``). No bicycle-specific equation
+enters the model; the paper's linearized equations in lean and steer,
+
+.. math:: M \ddot q + v C_1 \dot q + (g K_0 + v^2 K_2) q = 0, \qquad q = (\phi, \delta),
+
+are built from the same parameters by its Appendix A formulas in
+:func:`whipple_bicycle_reference`, as an independent check of
+:func:`core.modal.linearize`.
+
+Conventions. The parameters (:class:`WhippleParameters`, Table 1 of the
+paper) are in the paper's frame: origin at the rear contact point, ``x``
+forward, ``y`` to the right, ``z`` down. The System uses the engine's
+frame, global ``+z`` up: ``x`` forward, ``y`` to the left, so a vector
+``(x, y, z)`` of the paper is ``(x, -y, -z)`` here, and an inertia tensor
+``I`` is ``T I T`` with ``T = diag(1, -1, -1)`` (the products ``I_xz``
+change sign). The angles of :func:`whipple_angles` and
+:func:`whipple_modes` are the paper's: lean ``phi`` positive to the right
+(a rotation about the forward axis, the same in both frames), steer
+``delta`` positive to the right (about the steer axis pointing down), yaw
+``psi`` positive to the right (about the paper's downward ``z``: the
+negative of the engine's heading) and the rear frame's pitch about the
+paper's ``y`` (right) axis.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+from scipy.optimize import brentq
+
+from core._validation import float_array, real_number, short_repr
+
+__all__ = [
+    "MEIJAARD_2007",
+    "MEIJAARD_2007_EIGENVALUES",
+    "MEIJAARD_2007_SPEEDS",
+    "WHIPPLE_FALL_LEAN",
+    "WHIPPLE_MODE_NAMES",
+    "WHIPPLE_PARAMETER_SETS",
+    "WhippleAngles",
+    "WhippleMode",
+    "WhippleParameters",
+    "WhippleReference",
+    "WhippleRide",
+    "whipple_angles",
+    "whipple_bicycle",
+    "whipple_bicycle_reference",
+    "whipple_linear_response",
+    "whipple_modes",
+    "whipple_push",
+    "whipple_ride",
+]
+
+#: Names of the modes of the upright bicycle, in the order :func:`whipple_modes` returns them.
+WHIPPLE_MODE_NAMES = ("weave", "capsize", "castering")
+#: Lean (rad) at which :func:`whipple_ride` calls the bicycle fallen and stops.
+WHIPPLE_FALL_LEAN = math.radians(60.0)
+#: Body, joint and contact names of :func:`whipple_bicycle`, in the System's order.
+_BODIES = ("rear_wheel", "frame", "fork", "front_wheel")
+_JOINTS = ("rear_hub", "steer", "front_hub")
+_CONTACTS = ("rear_contact", "front_contact")
+_FRAME, _FORK = 1, 2
+_T = np.diag([1.0, -1.0, -1.0])  # the paper's vectors to the engine's (z down -> z up, y right -> y left)
+
+
+# ------------------------------------------------------------------ parameters
+@dataclass(frozen=True)
+class WhippleParameters:
+    """The parameters of a Whipple bicycle (Table 1 of Meijaard et al. 2007), in the paper's frame.
+
+    Frame of the paper: origin at the rear contact point, ``x`` forward,
+    ``y`` to the right, ``z`` down; positions of the centres of mass are
+    ``(x, z)`` with ``z < 0`` above the ground; inertia tensors are about
+    the centres of mass, in that frame (a wheel's about its centre, ``xx``
+    about a diameter and ``yy`` about its axle). SI units.
+
+    Attributes
+    ----------
+    wheelbase : float
+        ``w`` (m), > 0.
+    trail : float
+        ``c`` (m): the front contact point is this far behind the point
+        where the steer axis meets the ground.
+    steer_axis_tilt : float
+        ``lambda`` (rad) from the vertical, in ``(-pi/2, pi/2)``.
+    gravity : float
+        ``g`` (m/s^2), >= 0.
+    rear_radius, rear_mass : float
+        ``r_R`` (m), ``m_R`` (kg).
+    rear_inertia : (2,) tuple
+        ``(I_Rxx, I_Ryy)`` (kg m^2); ``I_Rzz = I_Rxx``.
+    frame_position : (2,) tuple
+        ``(x_B, z_B)`` (m): rear frame and rider.
+    frame_mass : float
+        ``m_B`` (kg).
+    frame_inertia : (4,) tuple
+        ``(I_Bxx, I_Byy, I_Bzz, I_Bxz)`` (kg m^2).
+    fork_position : (2,) tuple
+        ``(x_H, z_H)`` (m): front fork and handlebar.
+    fork_mass : float
+        ``m_H`` (kg).
+    fork_inertia : (4,) tuple
+        ``(I_Hxx, I_Hyy, I_Hzz, I_Hxz)`` (kg m^2).
+    front_radius, front_mass : float
+        ``r_F`` (m), ``m_F`` (kg).
+    front_inertia : (2,) tuple
+        ``(I_Fxx, I_Fyy)`` (kg m^2); ``I_Fzz = I_Fxx``.
+
+    Raises
+    ------
+    ValueError
+        Naming the field: a length, radius or mass that is not > 0, a tilt
+        outside ``(-pi/2, pi/2)``, a tuple of the wrong length, an inertia
+        tensor that is not positive definite or breaks the triangle
+        inequality, a wheel whose axle moment exceeds twice its diametral
+        one.
+    """
+
+    wheelbase: float
+    trail: float
+    steer_axis_tilt: float
+    gravity: float
+    rear_radius: float
+    rear_mass: float
+    rear_inertia: tuple[float, float]
+    frame_position: tuple[float, float]
+    frame_mass: float
+    frame_inertia: tuple[float, float, float, float]
+    fork_position: tuple[float, float]
+    fork_mass: float
+    fork_inertia: tuple[float, float, float, float]
+    front_radius: float
+    front_mass: float
+    front_inertia: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        for name in ("wheelbase", "rear_radius", "rear_mass", "frame_mass", "fork_mass", "front_radius",
+                     "front_mass"):
+            v = real_number(getattr(self, name), name, expected="a finite number > 0")
+            if not v > 0:
+                raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
+            object.__setattr__(self, name, v)
+        object.__setattr__(self, "trail", real_number(self.trail, "trail", expected="a finite trail (m)"))
+        tilt = real_number(self.steer_axis_tilt, "steer_axis_tilt", expected="a finite angle (rad)")
+        if not abs(tilt) < 0.5 * math.pi:
+            raise ValueError(f"steer_axis_tilt: expected an angle from the vertical in (-pi/2, pi/2) rad, got {tilt!r}")
+        object.__setattr__(self, "steer_axis_tilt", tilt)
+        g = real_number(self.gravity, "gravity", expected="a finite g >= 0 (m/s^2)")
+        if g < 0:
+            raise ValueError(f"gravity: expected a finite g >= 0 (m/s^2), got {g!r}")
+        object.__setattr__(self, "gravity", g)
+        for name, size in (("rear_inertia", 2), ("frame_position", 2), ("frame_inertia", 4), ("fork_position", 2),
+                           ("fork_inertia", 4), ("front_inertia", 2)):
+            a = float_array(getattr(self, name), name, expected=f"{size} real numbers")
+            if a.shape != (size,) or not np.all(np.isfinite(a)):
+                raise ValueError(f"{name}: expected {size} finite numbers, got {short_repr(getattr(self, name))}")
+            object.__setattr__(self, name, tuple(float(x) for x in a))
+        for name in ("rear_inertia", "front_inertia"):
+            ixx, iyy = getattr(self, name)
+            if not (ixx > 0 and 0 < iyy <= 2 * ixx):
+                raise ValueError(f"{name}: expected 0 < I_yy <= 2 I_xx (a wheel), got {getattr(self, name)}")
+        for name in ("frame_inertia", "fork_inertia"):
+            J = _tensor(getattr(self, name))
+            ev = np.linalg.eigvalsh(J)
+            if not ev[0] > 0 or ev[0] + ev[1] < ev[2] * (1.0 - 1e-12):
+                raise ValueError(f"{name}: expected a positive definite inertia tensor whose principal moments "
+                                 f"satisfy the triangle inequality, got {getattr(self, name)} (moments {ev})")
+
+    @property
+    def steer_axis(self) -> np.ndarray:
+        """(3,) unit vector along the steer axis pointing down, engine frame (positive steer turns right)."""
+        lam = self.steer_axis_tilt
+        return np.array([math.sin(lam), 0.0, -math.cos(lam)])
+
+
+def _tensor(values: tuple[float, float, float, float]) -> np.ndarray:
+    """(3, 3) inertia tensor of ``(I_xx, I_yy, I_zz, I_xz)`` (paper's frame)."""
+    ixx, iyy, izz, ixz = values
+    return np.array([[ixx, 0.0, ixz], [0.0, iyy, 0.0], [ixz, 0.0, izz]])
+
+
+#: Table 1 of Meijaard, Papadopoulos, Ruina and Schwab, Proc. R. Soc. A 463 (2007): the benchmark bicycle.
+MEIJAARD_2007 = WhippleParameters(
+    wheelbase=1.02, trail=0.08, steer_axis_tilt=math.pi / 10.0, gravity=9.81,
+    rear_radius=0.3, rear_mass=2.0, rear_inertia=(0.0603, 0.12),
+    frame_position=(0.3, -0.9), frame_mass=85.0, frame_inertia=(9.2, 11.0, 2.8, 2.4),
+    fork_position=(0.9, -0.7), fork_mass=4.0, fork_inertia=(0.05892, 0.06, 0.00708, -0.00756),
+    front_radius=0.35, front_mass=3.0, front_inertia=(0.1405, 0.28),
+)
+
+#: Named parameter sets accepted by ``parameters=`` (a :class:`WhippleParameters` is accepted too).
+WHIPPLE_PARAMETER_SETS = {"meijaard2007": MEIJAARD_2007}
+
+#: Forward speeds (m/s) of Table 2 of the paper (eigenvalues of the benchmark at 0, 1, ..., 10 m/s).
+MEIJAARD_2007_SPEEDS = tuple(float(v) for v in range(11))
+
+#: The published eigenvalues of the benchmark (Table 2, 14 decimals) at :data:`MEIJAARD_2007_SPEEDS`,
+#: with the weave speed, the capsize speed and the speed where the weave pair turns complex:
+#: ``{"eigenvalues": {v: (4 complex)}, "weave_speed", "capsize_speed", "weave_onset_speed"}``.
+MEIJAARD_2007_EIGENVALUES = {
+    "eigenvalues": {
+        0.0: (-5.53094371765393, -3.13164324790656, 3.13164324790656, 5.53094371765393),
+        1.0: (-7.11008014637442, -3.13423125066578, 3.52696170990070 - 0.80774027519930j,
+              3.52696170990070 + 0.80774027519930j),
+        2.0: (-8.67387984831735, -3.07158645641514, 2.68234517512745 - 1.68066296590675j,
+              2.68234517512745 + 1.68066296590675j),
+        3.0: (-10.35101467245920, -2.63366137253667, 1.70675605663975 - 2.31582447384325j,
+              1.70675605663975 + 2.31582447384325j),
+        4.0: (-12.15861426576450, -1.42944427361326, 0.41325331521125 - 3.07910818603206j,
+              0.41325331521125 + 3.07910818603206j),
+        5.0: (-14.07838969279820, -0.77534188219585 - 4.46486771378823j, -0.77534188219585 + 4.46486771378823j,
+              -0.32286642900409),
+        6.0: (-16.08537123098030, -1.52644486584142 - 5.87673060598709j, -1.52644486584142 + 5.87673060598709j,
+              -0.00406690076970),
+        7.0: (-18.15788466125262, -2.13875644258362 - 7.19525913329805j, -2.13875644258362 + 7.19525913329805j,
+              0.10268170574766),
+        8.0: (-20.27940894394569, -2.69348683581097 - 8.46037971396931j, -2.69348683581097 + 8.46037971396931j,
+              0.14327879765713),
+        9.0: (-22.43788559040858, -3.21675402252485 - 9.69377351531791j, -3.21675402252485 + 9.69377351531791j,
+              0.15790184030917),
+        10.0: (-24.62459635017404, -3.72016840437287 - 10.90681139476287j, -3.72016840437287 + 10.90681139476287j,
+               0.16105338653172),
+    },
+    "weave_speed": 4.29238253634111,
+    "capsize_speed": 6.02426201538837,
+    "weave_onset_speed": 0.68428307889246,
+}
+
+
+def _parameters(parameters: Any) -> WhippleParameters:
+    if isinstance(parameters, WhippleParameters):
+        return parameters
+    if isinstance(parameters, str) and parameters in WHIPPLE_PARAMETER_SETS:
+        return WHIPPLE_PARAMETER_SETS[parameters]
+    raise ValueError(f"parameters: expected a WhippleParameters or one of {sorted(WHIPPLE_PARAMETER_SETS)}, "
+                     f"got {short_repr(parameters)}")
+
+
+# ------------------------------------------------------------------ the System
+def whipple_bicycle(speed: float = 5.0, parameters: Any = "meijaard2007"):
+    """The Whipple bicycle upright and running straight ahead at ``speed``, as an assembled System.
+
+    Four bodies, added in this order (their names): ``"rear_wheel"``,
+    ``"frame"`` (rear frame with the rider), ``"fork"`` (front fork and
+    handlebar), ``"front_wheel"``; three revolute joints: ``"rear_hub"``
+    (frame, rear wheel; axis +y), ``"steer"`` (frame, fork; axis along the
+    steer axis pointing down, so a positive joint angle steers right) and
+    ``"front_hub"`` (fork, front wheel); two contacts in the constraint
+    model, rolling without slip: ``"rear_contact"`` and ``"front_contact"``,
+    each between the ground's :class:`~core.contact.Plane` and the wheel's
+    rim, a :class:`~core.contact.Torus` of minor radius 0 about the wheel's
+    body y axis. Gravity ``g`` acts along -z.
+
+    Reference configuration (engine frame, z up): rear contact point at the
+    origin, heading +x, upright; the steer axis meets the ground at ``x = w
+    + c``; the steer joint sits where the perpendicular from the front hub
+    meets the steer axis. Every body moves at ``(speed, 0, 0)`` and the
+    wheels turn at ``speed / r`` about +y: a steady motion, ready for
+    :func:`core.modal.linearize`.
+
+    Parameters
+    ----------
+    speed : float
+        Forward speed ``v`` (m/s); negative rolls backwards.
+    parameters : str or WhippleParameters
+        A name of :data:`WHIPPLE_PARAMETER_SETS` (``"meijaard2007"``, Table
+        1 of the paper) or a parameter set.
+
+    Returns
+    -------
+    System
+        ``system.bodies``, ``system.joints`` and ``system.contacts`` in the
+        order above.
+
+    Raises
+    ------
+    ValueError
+        For a non-finite speed or unknown parameters.
+    """
+    from core.contact import Plane, Torus
+    from core.multibody import System
+
+    v = real_number(speed, "speed", expected="a finite forward speed (m/s)")
+    p = _parameters(parameters)
+    w, c, rR, rF = p.wheelbase, p.trail, p.rear_radius, p.front_radius
+    forward = (v, 0.0, 0.0)
+    system = System(gravity=(0.0, 0.0, -p.gravity))
+    rear = system.add_body(_BODIES[0], mass=p.rear_mass, inertia=(p.rear_inertia[0], p.rear_inertia[1],
+                                                                  p.rear_inertia[0]),
+                           position=(0.0, 0.0, rR), velocity=forward, omega=(0.0, v / rR, 0.0))
+    frame = system.add_body(_BODIES[1], mass=p.frame_mass, inertia=_T @ _tensor(p.frame_inertia) @ _T,
+                            position=(p.frame_position[0], 0.0, -p.frame_position[1]), velocity=forward)
+    fork = system.add_body(_BODIES[2], mass=p.fork_mass, inertia=_T @ _tensor(p.fork_inertia) @ _T,
+                           position=(p.fork_position[0], 0.0, -p.fork_position[1]), velocity=forward)
+    front = system.add_body(_BODIES[3], mass=p.front_mass, inertia=(p.front_inertia[0], p.front_inertia[1],
+                                                                    p.front_inertia[0]),
+                            position=(w, 0.0, rF), velocity=forward, omega=(0.0, v / rF, 0.0))
+    axis = p.steer_axis
+    hub = np.array([w, 0.0, rF])
+    ground_point = np.array([w + c, 0.0, 0.0])
+    head = ground_point + ((hub - ground_point) @ axis) * axis  # foot of the perpendicular from the front hub
+    system.add_joint("revolute", frame, rear, point=(0.0, 0.0, rR), axis=(0.0, 1.0, 0.0), name=_JOINTS[0])
+    system.add_joint("revolute", frame, fork, point=head, axis=axis, name=_JOINTS[1])
+    system.add_joint("revolute", fork, front, point=hub, axis=(0.0, 1.0, 0.0), name=_JOINTS[2])
+    system.add_contact(system.ground, Plane(), rear, Torus(rR, 0.0), rolling=True, name=_CONTACTS[0])
+    system.add_contact(system.ground, Plane(), front, Torus(rF, 0.0), rolling=True, name=_CONTACTS[1])
+    system.assemble()
+    return system
+
+
+# ------------------------------------------------------------------ the paper's linear equations
+@dataclass(frozen=True)
+class WhippleReference:
+    r"""The paper's linearized equations ``M q'' + v C1 q' + (g K0 + v^2 K2) q = 0``, ``q = (phi, delta)``.
+
+    Built by :func:`whipple_bicycle_reference` from the parameters with the
+    formulas of Appendix A of Meijaard et al. (2007); lean ``phi`` and steer
+    ``delta`` in the paper's signs (both positive to the right).
+
+    Attributes
+    ----------
+    M, C1, K0, K2 : (2, 2) ndarray
+    gravity : float
+        ``g`` (m/s^2).
+    """
+
+    M: np.ndarray = field(repr=False)  # (2, 2)
+    C1: np.ndarray = field(repr=False)  # (2, 2)
+    K0: np.ndarray = field(repr=False)  # (2, 2)
+    K2: np.ndarray = field(repr=False)  # (2, 2)
+    gravity: float
+
+    def state_matrix(self, speed: float) -> np.ndarray:
+        """(4, 4) ``A`` of ``x' = A x``, ``x = (phi, delta, phi', delta')``, at forward speed ``speed`` (m/s)."""
+        v = real_number(speed, "speed", expected="a finite forward speed (m/s)")
+        A = np.zeros((4, 4))
+        A[:2, 2:] = np.eye(2)
+        A[2:, :2] = -np.linalg.solve(self.M, self.gravity * self.K0 + v * v * self.K2)
+        A[2:, 2:] = -np.linalg.solve(self.M, v * self.C1)
+        return A
+
+    def eigenvalues(self, speed: float) -> np.ndarray:
+        """(4,) complex eigenvalues at ``speed``, sorted by real part, then imaginary part."""
+        ev = scipy.linalg.eigvals(self.state_matrix(speed))
+        return ev[np.lexsort((ev.imag, ev.real))]
+
+    def stability_boundaries(self, speeds: Any = (0.0, 10.0)) -> np.ndarray:
+        """Speeds in ``[speeds[0], speeds[1]]`` where the largest real part crosses zero (Brent, 1e-14 m/s).
+
+        For the benchmark: the weave speed and the capsize speed.
+        """
+        lo, hi = (float(x) for x in speeds)
+        grid = np.linspace(lo, hi, 201)
+        h = np.array([float(np.max(self.eigenvalues(x).real)) for x in grid])
+        out = []
+        for i in range(grid.size - 1):
+            if (h[i] > 0) != (h[i + 1] > 0):
+                out.append(brentq(lambda x: float(np.max(self.eigenvalues(x).real)), grid[i], grid[i + 1],
+                                  xtol=1e-14, rtol=4 * np.finfo(float).eps, maxiter=200))
+        return np.array(out)
+
+
+def whipple_bicycle_reference(parameters: Any = "meijaard2007") -> WhippleReference:
+    """The paper's ``M``, ``C1``, ``K0``, ``K2`` from the parameters (Meijaard et al. 2007, Appendix A).
+
+    Total mass and centre of mass, the front assembly ``A`` (fork and front
+    wheel), its distance ``u_A`` from the steer axis and its moments about
+    it, the ratio ``mu = (c / w) cos(lambda)``, the gyrostatic coefficients
+    ``S_R = I_Ryy / r_R``, ``S_F = I_Fyy / r_F`` and the static moment
+    ``S_A``, as printed in the appendix. For the benchmark this gives the
+    paper's Table 2 matrices, e.g. ``M = [[80.81722, 2.31941332208709],
+    [2.31941332208709, 0.29784188199686]]``.
+
+    Parameters
+    ----------
+    parameters : str or WhippleParameters
+
+    Returns
+    -------
+    WhippleReference
+    """
+    p = _parameters(parameters)
+    w, c, lam, g = p.wheelbase, p.trail, p.steer_axis_tilt, p.gravity
+    rR, mR, (IRxx, IRyy) = p.rear_radius, p.rear_mass, p.rear_inertia
+    (xB, zB), mB, (IBxx, _, IBzz, IBxz) = p.frame_position, p.frame_mass, p.frame_inertia
+    (xH, zH), mH, (IHxx, _, IHzz, IHxz) = p.fork_position, p.fork_mass, p.fork_inertia
+    rF, mF, (IFxx, IFyy) = p.front_radius, p.front_mass, p.front_inertia
+    mT = mR + mB + mH + mF
+    xT = (xB * mB + xH * mH + w * mF) / mT
+    zT = (-rR * mR + zB * mB + zH * mH - rF * mF) / mT
+    ITxx = IRxx + IBxx + IHxx + IFxx + mR * rR**2 + mB * zB**2 + mH * zH**2 + mF * rF**2
+    ITxz = IBxz + IHxz - mB * xB * zB - mH * xH * zH + mF * w * rF
+    ITzz = IRxx + IBzz + IHzz + IFxx + mB * xB**2 + mH * xH**2 + mF * w**2  # I_Rzz = I_Rxx, I_Fzz = I_Fxx
+    mA = mH + mF
+    xA = (xH * mH + w * mF) / mA
+    zA = (zH * mH - rF * mF) / mA
+    IAxx = IHxx + IFxx + mH * (zH - zA) ** 2 + mF * (rF + zA) ** 2
+    IAxz = IHxz - mH * (xH - xA) * (zH - zA) + mF * (w - xA) * (rF + zA)
+    IAzz = IHzz + IFxx + mH * (xH - xA) ** 2 + mF * (w - xA) ** 2
+    sl, cl = math.sin(lam), math.cos(lam)
+    uA = (xA - w - c) * cl - zA * sl
+    IAll = mA * uA**2 + IAxx * sl**2 + 2.0 * IAxz * sl * cl + IAzz * cl**2
+    IAlx = -mA * uA * zA + IAxx * sl + IAxz * cl
+    IAlz = mA * uA * xA + IAxz * sl + IAzz * cl
+    mu = c / w * cl
+    SR = IRyy / rR
+    SF = IFyy / rF
+    ST = SR + SF
+    SA = mA * uA + mu * mT * xT
+    M = np.array([[ITxx, IAlx + mu * ITxz], [IAlx + mu * ITxz, IAll + 2.0 * mu * IAlz + mu**2 * ITzz]])
+    K0 = np.array([[mT * zT, -SA], [-SA, -SA * sl]])
+    K2 = np.array([[0.0, (ST - mT * zT) / w * cl], [0.0, (SA + SF * sl) / w * cl]])
+    C1 = np.array([[0.0, mu * ST + SF * cl + ITxz / w * cl - mu * mT * zT],
+                   [-(mu * ST + SF * cl), IAlz / w * cl + mu * (SA + ITzz / w * cl)]])
+    for a in (M, C1, K0, K2):
+        a.setflags(write=False)
+    return WhippleReference(M, C1, K0, K2, g)
+
+
+# ------------------------------------------------------------------ angles of the System
+@dataclass(frozen=True)
+class WhippleAngles:
+    """Lean, steer, yaw and pitch of the rear frame, in the paper's signs (rad; read-only arrays).
+
+    Attributes
+    ----------
+    lean : (...,) ``phi``, positive leaning right.
+    steer : (...,) ``delta``, positive steering right (about the steer axis, pointing down).
+    yaw : (...,) ``psi``, positive turning right (the negative of the engine's heading about +z).
+    pitch : (...,) ``theta_B``, rotation of the rear frame about the paper's ``y`` (right) axis.
+    """
+
+    lean: np.ndarray
+    steer: np.ndarray
+    yaw: np.ndarray
+    pitch: np.ndarray
+
+
+def whipple_angles(q: Any, parameters: Any = "meijaard2007") -> WhippleAngles:
+    """The paper's angles of a :func:`whipple_bicycle` System at positions ``q``.
+
+    The rear frame's rotation matrix is ``A = Rz(h) Rx(phi) Ry(b)`` (intrinsic
+    ``"ZXY"``: heading ``h`` about the engine's +z, lean about the forward
+    axis, pitch ``b`` about the engine's +y); the paper's yaw is ``-h`` and
+    its pitch ``-b``. The steer angle is the rotation of the fork relative to
+    the frame about the steer axis (pointing down):
+    ``atan2(a . (e x A_rel e), e . A_rel e)`` with ``A_rel = A_frame^T
+    A_fork``, ``a`` the axis and ``e`` the frame's y axis.
+
+    Parameters
+    ----------
+    q : (..., 28) array_like
+        Positions ``[R (12) | p (16)]`` of the System's four bodies
+        (``State.q``, ``MultibodyTrajectory.q``).
+    parameters : str or WhippleParameters
+        Those of the System (for the steer axis).
+
+    Returns
+    -------
+    WhippleAngles
+    """
+    from core.multibody._engine import matrices
+    from core.rotations import euler_angles_from_matrix
+
+    p = _parameters(parameters)
+    q = float_array(q, "q", expected="positions (..., 28) of the bicycle's four bodies")
+    if q.shape[-1:] != (28,) or not np.all(np.isfinite(q)):
+        raise ValueError(f"q: expected finite positions (..., 28) of the bicycle's four bodies, got shape {q.shape}")
+    lead = q.shape[:-1]
+    P = q[..., 12:].reshape(-1, 4, 4)
+    P = P / np.linalg.norm(P, axis=-1, keepdims=True)
+    A_frame = matrices(P[:, _FRAME])
+    A_fork = matrices(P[:, _FORK])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a frame pitched by 90 degrees (never a bicycle on its wheels)
+        zxy = np.asarray(euler_angles_from_matrix(A_frame, "ZXY")).reshape(-1, 3)
+    rel = np.einsum("kji,kjl->kil", A_frame, A_fork)
+    a = p.steer_axis
+    e = np.array([0.0, 1.0, 0.0])
+    f = rel @ e
+    steer = np.arctan2(np.cross(e, f) @ a, f @ e)
+    out = [x.reshape(lead) for x in (zxy[:, 1], steer, -zxy[:, 0], -zxy[:, 2])]
+    for x in out:
+        x.setflags(write=False)
+    return WhippleAngles(*out)
+
+
+# ------------------------------------------------------------------ modes
+@dataclass(frozen=True)
+class WhippleMode:
+    """One eigenvalue of the linearized bicycle, named.
+
+    Attributes
+    ----------
+    name : str
+        ``"weave"`` (the oscillating pair, or below ``weave_onset_speed``
+        the two positive real roots that merge into it), ``"capsize"`` (the
+        slow real mode, mostly lean) or ``"castering"`` (the fast, strongly
+        damped real mode, mostly steer).
+    eigenvalue : complex
+        ``s`` (1/s).
+    lean, steer : complex
+        The mode shape in the paper's ``(phi, delta)``, scaled so that the
+        larger of the two is 1 (turned to be real).
+    stable : bool
+        ``Re(s) <= 0``.
+    """
+
+    name: str
+    eigenvalue: complex
+    lean: complex
+    steer: complex
+    stable: bool
+
+
+def whipple_modes(model: Any, parameters: Any = "meijaard2007") -> tuple[WhippleMode, ...]:
+    """The four non-rigid modes of a linearized :func:`whipple_bicycle`, named and in lean and steer.
+
+    ``model`` is ``core.modal.linearize(system)`` of the System; its
+    embedding maps each mode shape to the bodies' small rotations
+    ``dtheta`` (global), from which lean ``= dtheta_frame . x`` and steer ``=
+    (dtheta_fork - dtheta_frame) . a`` (``a`` the steer axis pointing
+    down). Names follow the paper: a complex pair is the weave; of the real
+    modes the most negative one is castering, the next capsize, and when
+    four are real (below the weave onset speed, 0.684 m/s for the
+    benchmark) the two largest are the weave's.
+
+    Returns
+    -------
+    tuple of WhippleMode
+        Weave (``Im s >= 0`` first), capsize, castering.
+
+    Raises
+    ------
+    ValueError
+        For a model that is not a linearized System of four bodies, or one
+        that does not have four non-rigid modes.
+    """
+    from core.modal import LinearModel
+
+    p = _parameters(parameters)
+    if not isinstance(model, LinearModel) or model.embedding is None or model.embedding.n_bodies != 4:
+        raise ValueError(f"model: expected core.modal.linearize(whipple_bicycle(...)), got {short_repr(model)}")
+    modes = model.modes()
+    keep = np.flatnonzero(~modes.rigid)
+    if keep.size != 4:
+        raise ValueError(f"model: expected 4 non-rigid modes (weave pair, capsize, castering), got {keep.size}")
+    s = modes.eigenvalues[keep]
+    z = modes.complex_shapes[keep] @ model.embedding.basis.T  # (4, 24) complex, global small rotations
+    n = 4
+    th_frame = z[:, 3 * n + 3 * _FRAME : 3 * n + 3 * _FRAME + 3]
+    th_fork = z[:, 3 * n + 3 * _FORK : 3 * n + 3 * _FORK + 3]
+    lean = th_frame[:, 0]
+    steer = (th_fork - th_frame) @ p.steer_axis
+    scale = max(float(np.max(np.abs(s))), 1e-300)
+    oscillating = np.abs(s.imag) > 1e-8 * scale
+    names = np.empty(4, dtype=object)
+    names[oscillating] = "weave"
+    real = np.flatnonzero(~oscillating)
+    real = real[np.argsort(s[real].real)]
+    if real.size == 4:
+        names[real] = ("castering", "capsize", "weave", "weave")
+    elif real.size == 2:
+        names[real] = ("castering", "capsize")
+    else:
+        raise ValueError(f"model: expected 2 or 4 real modes besides the weave pair, got {real.size}")
+    out = []
+    for k in range(4):
+        big = lean[k] if abs(lean[k]) >= abs(steer[k]) else steer[k]
+        big = big if big != 0 else 1.0
+        out.append(WhippleMode(str(names[k]), complex(s[k]), complex(lean[k] / big), complex(steer[k] / big),
+                               bool(s[k].real <= 0.0)))
+    order = {name: i for i, name in enumerate(WHIPPLE_MODE_NAMES)}
+    out.sort(key=lambda m: (order[m.name], -m.eigenvalue.imag, -m.eigenvalue.real))
+    return tuple(out)
+
+
+# ------------------------------------------------------------------ a push and the response
+def whipple_push(system: Any, impulse: float):
+    """The state just after a lateral impulse on the rear frame's centre of mass (a push from the side).
+
+    The velocities jump by the constrained impulse response, Gauss's
+    principle for impulses: ``dv = M^-1 J^T P`` projected onto the
+    constraints in the mass metric, ``dv -= M^-1 D^T (D M^-1 D^T)^-1 D dv``
+    (all rows of ``D``, the rolling ones too); the positions do not change.
+
+    Parameters
+    ----------
+    system : System
+        A :func:`whipple_bicycle` (its current state is pushed; not changed).
+    impulse : float
+        ``P`` (N s) along the paper's ``y``: positive pushes to the right.
+
+    Returns
+    -------
+    State
+        Put it in with ``system.set_state(state)``.
+    """
+    P = real_number(impulse, "impulse", expected="a finite impulse (N s)")
+    names = tuple(b.name for b in system.bodies)
+    if names != _BODIES:
+        raise ValueError(f"system: expected a whipple_bicycle System (bodies {_BODIES}), got bodies {names}")
+    ev = system.evaluate()
+    M = np.asarray(ev.M)
+    D = np.asarray(ev.D)[np.asarray(ev.independent)]
+    n = len(names)
+    J = np.zeros(6 * n)
+    J[3 * _FRAME : 3 * _FRAME + 3] = (0.0, -P, 0.0)  # the paper's +y is the engine's -y
+    Mi = np.linalg.inv(M)  # diag(m I, I_body): 3 x 3 blocks
+    dv = Mi @ J
+    MiDt = Mi @ D.T
+    dv -= MiDt @ np.linalg.solve(D @ MiDt, D @ dv)
+    return system.state.displaced(dv=dv)
+
+
+def whipple_linear_response(model: Any, velocity_change: Any, t: Any, parameters: Any = "meijaard2007"):
+    """Lean and steer of the linear model after a velocity jump at ``t = 0`` from the reference.
+
+    The jump ``dv`` (Newton-Euler velocities ``[R_dot, omega_body]`` of the
+    System, e.g. ``whipple_push(system, P).v - system.state.v``) becomes the
+    tangent velocity ``z_d = [dR_dot, A dOmega_body]`` and the linear state
+    ``x0 = [0, N_v^T z_d]``; then ``x(t) = expm(A t) x0`` with ``A`` the
+    model's state matrix and ``z = N u`` gives lean and steer as in
+    :func:`whipple_modes`.
+
+    Returns
+    -------
+    (lean, steer) : two (n_times,) ndarrays (rad, the paper's signs)
+    """
+    p = _parameters(parameters)
+    emb = model.embedding
+    n = emb.n_bodies
+    dv = float_array(velocity_change, "velocity_change").reshape(-1)
+    times = float_array(t, "t").reshape(-1)
+    from core.multibody._engine import matrices
+
+    A_bodies = matrices(emb.q0[3 * n :].reshape(n, 4))
+    zd = np.concatenate([dv[: 3 * n], np.einsum("nij,nj->ni", A_bodies, dv[3 * n :].reshape(n, 3)).ravel()])
+    f = emb.basis.shape[1]
+    x0 = np.concatenate([np.zeros(f), emb.velocity_basis.T @ zd])
+    A = model.state_matrix()
+    X = np.array([scipy.linalg.expm(A * ti) @ x0 for ti in times])
+    z = X[:, :f] @ emb.basis.T
+    th_frame = z[:, 3 * n + 3 * _FRAME : 3 * n + 3 * _FRAME + 3]
+    th_fork = z[:, 3 * n + 3 * _FORK : 3 * n + 3 * _FORK + 3]
+    return th_frame[:, 0], (th_fork - th_frame) @ p.steer_axis
+
+
+# ------------------------------------------------------------------ a ride
+@dataclass(frozen=True)
+class WhippleRide:
+    """A nonlinear run of :func:`whipple_bicycle` (:func:`whipple_ride`); read-only arrays.
+
+    Attributes
+    ----------
+    t : (n,) s.
+    q : (n, 28) positions ``[R | p]`` of the four bodies.
+    v : (n, 24) velocities ``[R_dot | omega_body]``.
+    lean, steer, yaw : (n,) rad, the paper's signs (:func:`whipple_angles`).
+    rear_contact, front_contact : (n, 3) contact points on the ground (m, engine frame).
+    fallen : bool
+        The lean passed ``lean_limit``, a wheel left the ground or its
+        contact was lost: the run ends there.
+    end : str
+        Why the run ended before ``t[-1]`` asked for ("" if it did not).
+    """
+
+    t: np.ndarray
+    q: np.ndarray = field(repr=False)
+    v: np.ndarray = field(repr=False)
+    lean: np.ndarray = field(repr=False)
+    steer: np.ndarray = field(repr=False)
+    yaw: np.ndarray = field(repr=False)
+    rear_contact: np.ndarray = field(repr=False)
+    front_contact: np.ndarray = field(repr=False)
+    fallen: bool
+    end: str
+
+
+def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_limit: float = WHIPPLE_FALL_LEAN,
+                 rtol: float = 1e-6, atol: float = 1e-8, piece: float = 0.25) -> WhippleRide:
+    """Ride a :func:`whipple_bicycle` from its current state over the output times ``t`` (DOP853).
+
+    The System's :meth:`~core.multibody.System.simulate` runs in pieces of
+    ``piece`` seconds; the ride ends after the first sample whose lean
+    passes ``lean_limit``, at a separation (a wheel's normal force reaching
+    zero), or when the contact cannot be followed any more (a wheel lying
+    flat), with ``fallen`` set and the reason in ``end``. The System's
+    current state is left as it was.
+
+    Parameters
+    ----------
+    system : System
+        From :func:`whipple_bicycle`, in the state to start from (e.g. after
+        ``system.set_state(whipple_push(system, P))``).
+    t : (n,) array_like
+        Increasing output times (s), from the state's time.
+    lean_limit : float, keyword-only
+        ``|lean|`` (rad) at which the bicycle counts as fallen.
+    rtol, atol : float, keyword-only
+        DOP853's tolerances.
+    piece : float, keyword-only
+        Simulated seconds per call of ``simulate`` (the lean is checked
+        after each).
+
+    Returns
+    -------
+    WhippleRide
+    """
+    from core.contact import ContactError
+    from core.integrators import IntegrationError
+    from core.multibody import AssemblyError, SingularSystemError
+
+    p = _parameters(parameters)
+    times = float_array(t, "t", expected="output times (s)").reshape(-1)
+    if times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+        raise ValueError(f"t: expected at least two finite, increasing times (s), got {short_repr(t)}")
+    limit = real_number(lean_limit, "lean_limit", expected="a lean (rad) > 0")
+    start = system.state
+    rear_c, front_c = system.contacts
+    parts: list[dict] = []
+    end = ""
+    fallen = False
+    i = 0
+    try:
+        while i < times.size - 1:
+            j = int(np.searchsorted(times, times[i] + piece, side="right"))
+            j = min(max(j, i + 2), times.size)
+            try:
+                traj = system.simulate(times[i:j], rtol=rtol, atol=atol)
+            except (ContactError, SingularSystemError, IntegrationError, AssemblyError) as exc:
+                end = f"the run stopped near t = {times[i]:.3f} s: {exc}"
+                fallen = True
+                break
+            q = np.asarray(traj.q)
+            ang = whipple_angles(q, p)
+            part = {"t": np.asarray(traj.t), "q": q, "v": np.asarray(traj.v), "lean": ang.lean, "steer": ang.steer,
+                    "yaw": ang.yaw, "rear": traj.contact(rear_c).point, "front": traj.contact(front_c).point}
+            over = np.flatnonzero(np.abs(ang.lean) > limit)
+            if over.size:
+                part = {k: a[: over[0] + 1] for k, a in part.items()}
+                end = f"the bicycle fell: its lean passed {math.degrees(limit):.0f} deg at t = {part['t'][-1]:.3f} s"
+                fallen = True
+            elif traj.status == "separated":
+                sep = traj.separations[-1]
+                end = f"the {sep.contact.name.split('_')[0]} wheel left the ground at t = {sep.t:.3f} s"
+                fallen = True
+            parts.append(part if not parts else {k: a[1:] for k, a in part.items()})
+            if fallen:
+                break
+            system.set_state(traj.state(-1))
+            i = j - 1
+    finally:
+        system.set_state(start)
+    if not parts:
+        st = start
+        ang = whipple_angles(st.q, p)
+        one = {"t": np.array([st.t]), "q": st.q[None], "v": st.v[None], "lean": ang.lean.reshape(1),
+               "steer": ang.steer.reshape(1), "yaw": ang.yaw.reshape(1), "rear": np.full((1, 3), np.nan),
+               "front": np.full((1, 3), np.nan)}
+        parts = [one]
+    out = {k: np.concatenate([pt[k] for pt in parts]) for k in parts[0]}
+    for a in out.values():
+        a.setflags(write=False)
+    return WhippleRide(out["t"], out["q"], out["v"], out["lean"], out["steer"], out["yaw"], out["rear"], out["front"],
+                       fallen, end)
