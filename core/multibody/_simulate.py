@@ -250,6 +250,8 @@ class _Dynamics:
                     f"projection onto the constraints did not converge at t={t:.6g} (residual {res:.3e}); "
                     "tighten the tolerances or reduce the step", t=t)
             Dk = D if kp is None else D[kp]
+            if Dk.shape[0] == 0:
+                break
             if factor is None or it:
                 try:
                     factor = self._metric_factor(Dk, t)
@@ -268,6 +270,8 @@ class _Dynamics:
             prev = res
         Dk = D if kv is None else D[kv]
         Ctk = Ct if kv is None else Ct[kv]
+        if Dk.shape[0] == 0:  # every row is switched off (contacts that left the constraint model)
+            return y
         if factor is None or kv is not kp:  # rolling rows: the velocity projection has more rows
             factor = self._metric_factor(Dk, t)
         WD, c = factor
@@ -958,8 +962,12 @@ def simulate(
             action = {"stop": "stopped", "compliant": "compliant", "bilateral": "bilateral"}[on_separation]
             for c in pulling:
                 model.events.append((t0, int(c), np.array(y0), action))
-            if action != "bilateral":
+            if action == "stopped":
                 pending_event = model.events[-len(pulling)]
+            elif action == "compliant":  # every contact that pulls at the start leaves the constraint model
+                for c in pulling[:-1]:
+                    _switch_to_compliant(eng, int(c), t0, y0)
+                pending_event = model.events[-1]
     out_t: list[float] = []
     out_y: list[np.ndarray] = []
     out_mode: list[np.ndarray] = []

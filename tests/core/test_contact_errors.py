@@ -141,6 +141,14 @@ def test_a_contact_that_pulls_at_the_start_separates_there():
     assert traj.status == "separated"
     assert traj.t.tolist() == [0.0]
     assert traj.separations[0].t == 0.0 and traj.separations[0].contact is c
+    # continued in the compliant model, the ball falls up, free (no constraint row is left)
+    system = System(gravity=(0.0, 0.0, 9.81))
+    ball = system.add_body("ball", mass=1.0, inertia=(0.004, 0.004, 0.004), position=(0.0, 0.0, 0.1))
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1), stiffness=1e5)
+    traj = system.simulate([0.0, 0.1, 0.2], on_separation="compliant")
+    assert traj.status == "completed" and traj.separations[0].action == "compliant"
+    np.testing.assert_allclose(traj.contact(c).gap, 0.5 * 9.81 * np.array([0.0, 0.01, 0.04]), atol=1e-12)
+    assert traj.contact(c).constraint.tolist() == [True, False, False]
 
 
 def test_trajectory_contact_arguments():
