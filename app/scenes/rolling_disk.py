@@ -1,0 +1,922 @@
+"""Rolling disk scene: a coin (Euler's disk) on the ground, rolling without slip or sliding.
+
+The disk of :func:`core.models.rolling_disk`: a thin uniform disk whose rim
+(a :class:`core.contact.Torus` of minor radius zero) touches the ground's
+:class:`core.contact.Plane` through ``System.add_contact`` -- the five
+contact constraints with the normal force as the independent multiplier,
+and, rolling, the no-slip velocity constraints at the contact point. The
+initial lean, spin and heading rate, the contact model, the radius and the
+mass are the scene's controls; the readout compares the spin with the
+critical upright spin of :func:`core.models.rolling_disk_critical_spin`.
+
+The scene holds no physics and does no long work on the loop thread. The
+motion is computed on the app's executor in chunks of 0.5 s of simulated
+time ahead of the display clock (:class:`app.worker.ChunkTimeline`,
+sequential): the job :func:`_compute_chunk` takes the frozen :class:`Model`
+(picklable parameters), rebuilds the System with
+:func:`core.models.rolling_disk` in the worker, puts it in the final state
+of the previous chunk and runs :meth:`core.multibody.System.simulate`
+(DOP853); the same job reads the contact (point, force, normal force), the
+energy and the constraint residuals, the lean, spin and heading rate
+(:func:`core.rotations.euler_angles_from_euler_parameters` and
+:func:`core.rotations.euler_angle_rates_from_omega` in the disk's ``"ZXY"``
+angles) and formats the CSV rows. A run that cannot go on -- the disk leaves
+the ground (the normal force reaches zero: a constraint cannot pull), lies
+down flat (the contact loses rank, Eq. 8.109) or leans past
+:data:`core.models.FLAT_LEAN` -- ends its chunk there, and the clock stops at
+that instant with a notice.
+
+Per frame the loop thread interpolates one row of samples and streams poses:
+the disk (one mesh with a marker, created once and scaled when the radius
+changes), the contact point, the contact-force arrow and, when the camera
+follows the disk, the ground's offset. The contact point's track is a
+fixed-size line-segment buffer (:mod:`app.scenes._trail`) sent ten times a
+second, and its newest segment, up to the contact point drawn, every frame.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import os
+import time
+import warnings
+from typing import Any, ClassVar
+
+import numpy as np
+import trimesh
+
+from app.controls import Choice, Slider, Toggle
+from app.nodes import set_array, set_pose
+from app.scenes._playback import Playback
+from app.scenes._plots import History, Legend, PlotRefresh, Table
+from app.scenes._trail import extend_trail, trail_segments
+from app.scenes.base import Scene
+from app.worker import ChunkTimeline
+from core.contact import ContactError
+from core.integrators import IntegrationError
+from core.models import FLAT_LEAN, rolling_disk, rolling_disk_critical_spin
+from core.multibody import AssemblyError, SingularSystemError
+from core.rotations import (
+    GimbalLockWarning,
+    euler_angle_rates_from_omega,
+    euler_angles_from_euler_parameters,
+    rotate_vector,
+)
+
+__all__ = [
+    "CONTACTS",
+    "CSV_HEADER",
+    "Inputs",
+    "Model",
+    "PRESETS",
+    "ROLLING",
+    "RTOL",
+    "RollingDiskScene",
+    "SLIDING",
+    "log10_floor",
+    "preset_inputs",
+]
+
+#: The contact models (the *Contact* dropdown).
+ROLLING = "Rolling without slip"
+SLIDING = "Frictionless sliding"
+CONTACTS = (ROLLING, SLIDING)
+
+#: Preset names in the order of their buttons.
+PRESETS = (
+    "Upright, 2 × critical spin",
+    "Upright, 0.7 × critical spin",
+    "Leaning coin, circling",
+    "Sliding coin",
+)
+
+#: DOP853's relative tolerance (atol is 100 times smaller, in the state's
+#: units). The energy then drifts by about 1e-7 of E over 3 s (the default
+#: disk); positions and velocities are projected onto the constraints after
+#: every step, so the residuals stay at the projection's tolerance.
+RTOL = 1e-6
+ATOL = 1e-8
+
+#: Header of the exported CSV (one line: column names with units).
+CSV_HEADER = ("t (s),x (m),y (m),z (m),p0,p1,p2,p3,lean (rad),E (J),max |C| (m),max |dC/dt| (m/s),"
+              "normal force (N)")
+
+_GRAVITY = 9.81
+_CHUNK_SIM_TIME = 0.5  # s of simulated time per chunk
+_SAMPLES = 30  # samples per chunk (60 per simulated second), plus the chunk's start
+_CHUNKS_KEPT = 24
+_REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes (~5 Hz)
+_TRACK_PERIOD = 0.1  # s of wall time between track buffer updates (~10 Hz)
+_TRACK_CAPACITY = 1000  # line segments of the contact point's track
+_TRACK_MIN_STEP = 0.002  # m: a track point closer than this to the last one is not added
+_TRACK_LIFT = 0.0015  # m above the ground, so the grid does not cover the track
+_WINDOW = 10.0  # s of simulated time in the plots and the CSV
+_LOG_FLOOR = -17.0  # log10 of an exact zero in the log plots
+_GRID_SECTION = 0.25  # m: the grid repeats with this period (so a shift by it is invisible)
+_GRID_SIZE = 4.0  # m
+_DISK_THICKNESS = 0.06  # of the radius: the unit disk's thickness
+# The contact force arrow: length 3 R |F| / (|F| + m g) (m), from the contact point.
+_ARROW_RADII = 3.0
+# Colours: none of the arrows or curves red, green or blue (frame axes).
+_DISK_COLOR = (196, 170, 110)  # brass
+_MARKER_COLOR = (70, 45, 30)  # dark brown stripe across the face: the spin
+_TRACK_COLOR = (0, 150, 140)  # teal
+_FORCE_COLOR = (225, 95, 0)  # orange
+_POINT_COLOR = (40, 40, 48)
+_LABEL_SCALE = 1.2
+_POINT_RADIUS = 0.07  # of the disk's radius: the contact point's dot
+
+# Columns of _Chunk.frames: what a frame draws, interpolated as one row.
+_CENTRE, _P, _POINT, _FORCE = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13)
+# Columns of _Chunk.table.columns (the CSV's after t).
+_LEAN, _ENERGY, _RES_P, _RES_V, _NORMAL = 7, 8, 9, 10, 11
+# Columns of _Chunk.rates: lean rate, spin omega_2 (about the axis), heading rate (rad/s), speed (m/s).
+_LEAN_RATE, _SPIN, _HEADING_RATE, _SPEED = 0, 1, 2, 3
+
+#: The controls that define the motion (a change restarts it).
+_MODEL_KEYS = frozenset({"lean_deg", "spin", "heading_rate", "contact", "radius", "mass"})
+
+
+@dataclasses.dataclass(frozen=True)
+class Inputs:
+    """Values of the scene's model controls (degrees only for the lean)."""
+
+    lean_deg: float = 10.0
+    spin: float = 12.0
+    heading_rate: float = 0.0
+    contact: str = ROLLING
+    radius: float = 0.1
+    mass: float = 1.0
+
+
+_DEFAULT = Inputs()
+
+#: The model's controls, in panel order.
+SLIDERS: tuple[Slider, ...] = (
+    Slider("lean_deg", "Lean (deg)", min=0.0, max=60.0, step=0.5, default=_DEFAULT.lean_deg,
+           hint="Initial lean θ from upright (the symmetry axis rises by θ)"),
+    Slider("spin", "Spin ω2 (rad/s)", min=-60.0, max=60.0, step=0.01, default=_DEFAULT.spin,
+           hint="Initial angular velocity about the disk's axis; positive rolls it along +x"),
+    Slider("heading_rate", "Heading rate dψ/dt (rad/s)", min=-10.0, max=10.0, step=0.01,
+           default=_DEFAULT.heading_rate, hint="Initial turning rate about the vertical"),
+    Slider("radius", "Radius R (m)", min=0.03, max=0.3, step=0.005, default=_DEFAULT.radius,
+           hint="Radius of the thin uniform disk"),
+    Slider("mass", "Mass m (kg)", min=0.01, max=5.0, step=0.01, default=_DEFAULT.mass,
+           hint="Mass of the disk (the motion does not depend on it; forces and energy do)"),
+)
+
+
+def preset_inputs(name: str, *, radius: float = _DEFAULT.radius, mass: float = _DEFAULT.mass,
+                  contact: str = ROLLING) -> Inputs:
+    """Control values of preset ``name`` for a disk of ``radius`` (m) and ``mass`` (kg).
+
+    The upright presets spin at a multiple of the critical upright spin of
+    ``contact`` (:func:`core.models.rolling_disk_critical_spin`); the others
+    set their own contact model.
+
+    Raises
+    ------
+    ValueError
+        For an unknown preset name or a contact not in :data:`CONTACTS`.
+    """
+    if contact not in CONTACTS:
+        raise ValueError(f"contact: expected one of {list(CONTACTS)}, got {contact!r}")
+    if name in (PRESETS[0], PRESETS[1]):
+        factor = 2.0 if name == PRESETS[0] else 0.7
+        spin = factor * rolling_disk_critical_spin(radius, rolling=contact == ROLLING, gravity=_GRAVITY)
+        return Inputs(1.0, round(spin, 2), 0.0, contact, radius, mass)
+    if name == PRESETS[2]:
+        return Inputs(20.0, 10.0, 0.0, ROLLING, radius, mass)
+    if name == PRESETS[3]:
+        return Inputs(10.0, 15.0, 0.0, SLIDING, radius, mass)
+    raise ValueError(f"name: expected one of {list(PRESETS)}, got {name!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Model:
+    """What a chunk job needs: the disk and its initial state (picklable, hashable).
+
+    Attributes
+    ----------
+    radius : R (m)
+    mass : m (kg)
+    lean : initial lean (rad)
+    spin : initial spin omega_2 about the axis (rad/s)
+    heading_rate : initial heading rate (rad/s)
+    rolling : rolling without slip (True) or frictionless sliding (False)
+    """
+
+    radius: float
+    mass: float
+    lean: float
+    spin: float
+    heading_rate: float
+    rolling: bool
+
+    @classmethod
+    def from_inputs(cls, inputs: Inputs) -> Model:
+        """The model of ``inputs``.
+
+        Raises
+        ------
+        ValueError
+            For a value :func:`core.models.rolling_disk` would refuse (the
+            controls' ranges keep them out; a state file is checked the same way).
+        """
+        if inputs.contact not in CONTACTS:
+            raise ValueError(f"contact: expected one of {list(CONTACTS)}, got {inputs.contact!r}")
+        model = cls(float(inputs.radius), float(inputs.mass), math.radians(inputs.lean_deg), float(inputs.spin),
+                    float(inputs.heading_rate), inputs.contact == ROLLING)
+        if not (math.isfinite(model.mass) and model.mass > 0.0):
+            raise ValueError(f"mass: expected a finite number > 0 (kg), got {model.mass!r}")
+        if not abs(model.lean) < FLAT_LEAN:
+            raise ValueError(f"lean: expected |lean| < {math.degrees(FLAT_LEAN):.1f}°, got {inputs.lean_deg!r}°")
+        rolling_disk_critical_spin(model.radius, rolling=model.rolling, gravity=_GRAVITY)  # checks the radius
+        return model
+
+    @property
+    def critical_spin(self) -> float:
+        """Critical upright spin (rad/s): sqrt(g / (3 R)) rolling, sqrt(g / R) sliding."""
+        return rolling_disk_critical_spin(self.radius, rolling=self.rolling, gravity=_GRAVITY)
+
+
+# -- the job: rebuild the disk in the worker, simulate one chunk ----------------------
+@dataclasses.dataclass(frozen=True)
+class _Chunk:
+    """Samples of one chunk of simulated time (read-only arrays).
+
+    ``frames`` holds, per sample, what a frame draws (centre, Euler
+    parameters, contact point, contact force; interpolated as one row);
+    ``q_end`` / ``v_end`` are the final state the next chunk continues from.
+    ``end`` is empty while the motion goes on, else why it stopped at ``t[-1]``.
+    """
+
+    k: int
+    model: Model
+    t: np.ndarray  # (n,) s, n >= 2
+    frames: np.ndarray  # (n, 13) centre (3), p (4), contact point (3), contact force on the disk (3)
+    rates: np.ndarray  # (n, 4) lean rate, spin omega_2, heading rate (rad/s), speed of the centre (m/s)
+    table: Table  # t and the CSV columns: centre, p, lean, E, max |C|, max |dC/dt|, N
+    q_end: np.ndarray  # (7,)
+    v_end: np.ndarray  # (6,)
+    energy0: float  # J, at t = 0
+    end: str  # "" while the motion goes on; else what ended it at t[-1]
+    n_steps: int
+    n_rhs: int
+    cpu_seconds: float  # CPU time of the job (the worker's thread)
+    worker: int  # pid of the process that computed it
+
+    @property
+    def final(self) -> bool:
+        return bool(self.end)
+
+
+def _continuous(P: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
+    """Euler parameters (n, 4) with signs flipped so consecutive samples agree (for nlerp),
+    the first with ``before`` (4,) when given."""
+    P = np.array(P)
+    if before is not None and float(P[0] @ before) < 0.0:
+        P[0] = -P[0]
+    for i in range(1, P.shape[0]):
+        if float(P[i] @ P[i - 1]) < 0.0:
+            P[i] = -P[i]
+    return P
+
+
+_RUN_ERRORS = (ContactError, SingularSystemError, IntegrationError, AssemblyError)
+
+
+def _separation_text(traj: Any) -> str:
+    return (f"the disk left the ground at t = {traj.separations[-1].t:.3f} s: the normal force reached zero "
+            "and a contact constraint cannot pull (Eq. 8.107)")
+
+
+def _simulate(system: Any, t: np.ndarray) -> tuple[list[Any], str]:
+    """Run ``system`` over the times ``t``: its trajectories and why the run ended early ("" if not).
+
+    A separation ends the run at its instant (``on_separation="stop"``). A
+    run that fails (the contact lying flat, Eq. 8.109, or the integrator) is
+    run again in pieces of about 1/20 of the chunk (at least one sample
+    interval) and ends after the last piece that worked; the list then holds
+    the pieces (possibly none).
+    """
+    options = {"method": "DOP853", "rtol": RTOL, "atol": ATOL, "on_separation": "stop"}
+    start = system.state
+    try:
+        traj = system.simulate(t, **options)
+    except _RUN_ERRORS as exc:
+        failure = exc
+    else:
+        return [traj], _separation_text(traj) if traj.status == "separated" else ""
+    pieces: list[Any] = []
+    step = max(1, (t.size - 1) // 20)
+    system.set_state(start)
+    i = 0
+    while i < t.size - 1:
+        try:
+            traj = system.simulate(t[i: i + step + 1], **options)
+        except _RUN_ERRORS:
+            break
+        pieces.append(traj)
+        if traj.status == "separated":
+            return pieces, _separation_text(traj)
+        system.set_state(traj.state(-1))
+        i += step
+    if isinstance(failure, ContactError) and "rank" in str(failure):
+        return pieces, (f"the disk lay down flat near t = {t[i]:.3f} s: its contact constraints lose rank "
+                        "there (Eq. 8.109)")
+    return pieces, f"the run stopped near t = {t[i]:.3f} s: {type(failure).__name__}: {failure}"
+
+
+def _joined(trajs: list[Any], contact: Any, disk: Any) -> dict[str, np.ndarray]:
+    """Arrays of a run's pieces, joined without repeating the times they share."""
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "q", "v", "omega", "energy", "res_p", "res_v",
+                                                           "point", "force", "normal")}
+    for j, traj in enumerate(trajs):
+        s = slice(1 if j else 0, None)
+        history = traj.contact(contact)
+        for key, a in (("t", traj.t), ("q", traj.q), ("v", traj.v), ("omega", traj.omega(disk)),
+                       ("energy", traj.energy), ("res_p", traj.residual_position),
+                       ("res_v", traj.residual_velocity), ("point", history.point), ("force", history.force),
+                       ("normal", history.normal_force)):
+            parts[key].append(np.asarray(a)[s])
+    return {k: np.concatenate(v) for k, v in parts.items()}
+
+
+def _still(previous: _Chunk, k: int, end: str, cpu0: float) -> _Chunk:
+    """Chunk ``k`` after a motion that ended: the last sample of ``previous``, held."""
+    return dataclasses.replace(
+        previous, k=k, t=previous.t[-1:].repeat(2), frames=previous.frames[-1:].repeat(2, axis=0),
+        rates=previous.rates[-1:].repeat(2, axis=0),
+        table=Table.build(previous.t[-1:], previous.table.columns[-1:]), end=end, n_steps=0, n_rhs=0,
+        cpu_seconds=time.thread_time() - cpu0, worker=os.getpid(),
+    )
+
+
+def _compute_chunk(model: Model, k: int, previous: _Chunk | None) -> _Chunk:
+    """Chunk ``k`` of ``model`` (runs on the executor; never on the loop thread).
+
+    The System is rebuilt from ``model`` (a job gets picklable parameters
+    only); chunk 0 starts from the builder's assembled initial state, chunk
+    ``k > 0`` from the final state of chunk ``k - 1`` (``previous``), at its
+    time. After a chunk that ended the motion, the next one holds its last
+    sample.
+
+    Raises
+    ------
+    ValueError
+        When chunk 0 cannot start at all, or the motion leaves the finite range.
+    """
+    cpu0 = time.thread_time()
+    if k > 0 and (previous is None or previous.k != k - 1):
+        raise ValueError(f"previous: chunk {k} continues from chunk {k - 1}, which was not given")
+    if previous is not None and previous.final:
+        return _still(previous, k, previous.end, cpu0)
+    system, disk, contact = rolling_disk(model.radius, model.mass, model.lean, model.spin, model.rolling,
+                                         heading_rate=model.heading_rate, gravity=_GRAVITY)
+    if previous is not None:
+        system.set_state(dataclasses.replace(system.state, t=float(previous.t[-1]), q=previous.q_end,
+                                             v=previous.v_end))
+    t = np.linspace(k * _CHUNK_SIM_TIME, (k + 1) * _CHUNK_SIM_TIME, _SAMPLES + 1)
+    trajs, end = _simulate(system, t)
+    if not trajs:  # not even the first piece: the motion ends where the chunk starts
+        if previous is None:
+            raise ValueError(end)
+        return _still(previous, k, end, cpu0)
+    s = _joined(trajs, contact, disk)
+    P = _continuous(s["q"][:, 3:7], previous.frames[-1, _P] if previous is not None else None)
+    with warnings.catch_warnings():  # past FLAT_LEAN the angles near their singularity; cut off below
+        warnings.simplefilter("ignore", GimbalLockWarning)
+        angles = euler_angles_from_euler_parameters(P / np.linalg.norm(P, axis=1)[:, None], "ZXY")
+    flat = np.flatnonzero(np.abs(angles[:, 1]) >= FLAT_LEAN)  # (psi, theta, phi): theta is the lean
+    if flat.size:  # the disk lies down: the motion ends at the last sample before FLAT_LEAN
+        n = max(int(flat[0]), 1)
+        end = (f"the disk fell flat at t = {s['t'][n - 1]:.3f} s (its lean reached "
+               f"{math.degrees(FLAT_LEAN):.0f}°)")
+        s = {key: a[:n] for key, a in s.items()}
+        P, angles = P[:n], angles[:n]
+    lean = angles[:, 1]
+    rates = euler_angle_rates_from_omega(angles, s["omega"], "ZXY", tol=1e-9)  # d(psi, theta, phi)/dt
+    spin = np.einsum("ij,ij->i", s["omega"], rotate_vector(P, np.array([0.0, 1.0, 0.0])))  # along the axis
+    speed = np.linalg.norm(s["v"][:, :3], axis=1)
+    frames = np.concatenate([s["q"][:, :3], P, s["point"], s["force"]], axis=1)
+    columns = np.concatenate([s["q"][:, :3], s["q"][:, 3:7], lean[:, None], s["energy"][:, None],
+                              s["res_p"][:, None], s["res_v"][:, None], s["normal"][:, None]], axis=1)
+    rate_columns = np.stack([rates[:, 1], spin, rates[:, 0], speed], axis=1)
+    for name, a in (("positions", frames), ("columns", columns), ("rates", rate_columns)):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name}: the motion left the finite range near t = {t[0]:.3g} s")
+    table = Table.build(s["t"], columns)
+    tt = s["t"]
+    if tt.size == 1:  # the run ended where it began: a still chunk of two equal samples
+        tt, frames, rate_columns = (np.repeat(a, 2, axis=0) for a in (tt, frames, rate_columns))
+    energy0 = previous.energy0 if previous is not None else float(columns[0, _ENERGY])
+    q_end, v_end = np.array(s["q"][-1]), np.array(s["v"][-1])
+    for a in (tt, frames, rate_columns, q_end, v_end):
+        a.setflags(write=False)
+    return _Chunk(k, model, tt, frames, rate_columns, table, q_end, v_end, energy0, end,
+                  sum(int(tr.n_steps) for tr in trajs), sum(int(tr.n_rhs) for tr in trajs),
+                  time.thread_time() - cpu0, os.getpid())
+
+
+# -- meshes (created once, in build) ---------------------------------------------------
+def _disk_meshes() -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    """The unit disk (radius 1, axis along body y, centred) and its marker stripe.
+
+    The stripe runs across both faces from the rim to the centre along body
+    +x, so the spin shows from either side; both are scaled by R per radius.
+    """
+    disk = trimesh.creation.cylinder(radius=1.0, height=_DISK_THICKNESS, sections=72)
+    disk.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [1.0, 0.0, 0.0]))
+    stripe = trimesh.creation.box(extents=(0.92, _DISK_THICKNESS * 1.25, 0.16))
+    stripe.apply_translation([0.5, 0.0, 0.0])
+    return disk, stripe
+
+
+@dataclasses.dataclass
+class _Gui:
+    readout: Any  # app.readout.Readout: the motion now (about 5 times a second)
+    info: Any  # app.readout.Readout: the model's constants (when they change)
+    legend: Legend
+    plot_lean: Any
+    plot_energy: Any
+    plot_residual: Any
+    plot_normal: Any
+
+
+def _wxyz_z_to(v: np.ndarray, norm: float) -> tuple[float, float, float, float]:
+    """Euler parameters (scalar first) of the shortest rotation taking +z to ``v`` (3,) of length ``norm``."""
+    if not norm > 0.0:
+        return (1.0, 0.0, 0.0, 0.0)
+    x, y, z = (float(c) / norm for c in v)
+    w = 1.0 + z
+    if w < 1e-12:  # v along -z: half a turn about x
+        return (0.0, 1.0, 0.0, 0.0)
+    k = 1.0 / math.sqrt(w * w + x * x + y * y)
+    return (w * k, -y * k, x * k, 0.0)
+
+
+def _significant(x: float, digits: int = 4) -> str:
+    """``x`` with ``digits`` significant digits, plain notation where it reads well."""
+    if x == 0.0 or not math.isfinite(x):
+        return f"{x:g}"
+    if 1e-3 <= abs(x) < 1e5:
+        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
+        return f"{x:.{decimals}f}"
+    return f"{x:.{digits - 1}e}"
+
+
+def _small(x: float) -> str:
+    """A drift or residual with one significant digit (``0`` when exactly zero)."""
+    return "0" if x == 0.0 else f"{abs(x):.0e}"
+
+
+def log10_floor(x: Any) -> np.ndarray:
+    """``log10 |x|`` for the log plots, floored at -17 (an exact zero would be -inf)."""
+    with np.errstate(divide="ignore"):
+        return np.maximum(np.log10(np.abs(np.asarray(x, dtype=float))), _LOG_FLOOR)
+
+
+class RollingDiskScene(Scene):
+    """A thin disk on the ground: rolling without slip or frictionless sliding (core.contact)."""
+
+    name: ClassVar[str] = "rolling_disk"
+    title: ClassVar[str] = "Rolling disk (contact)"
+    order: ClassVar[int] = 80
+    help: ClassVar[str] = (
+        "A thin uniform disk (radius R, mass m, moments m R²/4 about a diameter and m R²/2 about "
+        "its axis) on the ground, as one body of the multibody System with one contact: its rim, a "
+        "torus of minor radius 0, on the ground plane.\n\n"
+        "- **Contact constraints**: the rim point and the ground point coincide (Eq. 8.90) and "
+        "the ground's normal is perpendicular to the rim's two tangents (Eqs. 8.91, 8.93-8.94), in "
+        "the body coordinates and the four surface parameters, which have no inertia. Adjoined "
+        "with multipliers in the augmented equations (Eqs. 8.95-8.106), C_sᵀλ = 0 leaves one "
+        "independent multiplier, the **normal force** (Eq. 8.107); C_s keeps full rank while "
+        "the disk stands on its rim (Eq. 8.109; it is lost when the disk lies flat).\n"
+        "- **Rolling without slip** adds the nonholonomic constraint that the rim's contact "
+        "point has zero velocity, v + ω × (r_P − R) = 0; **frictionless sliding** leaves the "
+        "horizontal velocity of the centre constant.\n"
+        "- **Critical upright spin**: upright rolling is stable for ω2² > g / (3 R) (rolling, "
+        "Routh) and ω2² > g / R (sliding); below it a small lean grows. The readout compares "
+        "the initial spin with it (it speaks of the upright disk: a leaning disk circles "
+        "instead).\n"
+        "- **Integration**: DOP853 (rtol 1e-6) in chunks of 0.5 s ahead of the clock, positions "
+        "and velocities projected onto the constraints after every step. The run stops where "
+        "the normal force reaches zero (the disk would leave the ground) or the disk falls flat.\n"
+        "- **Drawn**: the disk with a dark stripe (the spin), the contact point's track on the "
+        "ground (teal) and the ground's force on the disk (orange arrow, length 3 R |F| / "
+        "(|F| + m g)). *Follow the disk* moves the ground under a fixed disk.\n"
+        "- **Plots**: lean, log10 |E − E0| (energy is conserved: neither constraint does work), "
+        "log10 of the constraint residuals max |C| and max |dC/dt|, and the normal force. "
+        "*Download CSV* exports t, position, Euler parameters, lean, E, residuals and the normal "
+        "force of the plotted window."
+    )
+    # A 3/4 view from the front left, the disk left of the GUI panel.
+    camera_position: ClassVar[tuple[float, float, float]] = (0.32, -0.52, 0.27)
+    camera_look_at: ClassVar[tuple[float, float, float]] = (0.14, 0.1, 0.04)
+
+    def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
+        super().__init__(target, notify, context=context)
+        self.playback = Playback(PRESETS, controls=self.controls)
+        self.timeline = ChunkTimeline(self.executor, functools.partial(_compute_chunk, Model.from_inputs(_DEFAULT)),
+                                      chunk_time=_CHUNK_SIM_TIME, sequential=True, capacity=_CHUNKS_KEPT)
+        self.history = History()
+        self._refresh = PlotRefresh(("window", "readout", "lean", "energy", "residual", "normal"), _REFRESH_PERIOD)
+        # Owned by update() (the session loop thread).
+        self.model: Model | None = None
+        self.drawn_model: Model | None = None  # the model of the chunk drawn last
+        self.sim_time = 0.0
+        self.waiting = False  # the clock holds: the chunk it needs is not ready
+        self.ended = ""  # why the motion stopped (a final chunk was reached), else ""
+        self.energy0 = math.nan
+        self.columns = np.full(12, math.nan)  # the CSV columns at the computed sample nearest the clock
+        self.rates = np.full(4, math.nan)  # lean rate, spin, heading rate, speed at that sample
+        self.centre = np.zeros(3)  # m, as drawn (global)
+        self.contact_point = np.zeros(3)  # m, as drawn (global)
+        self.last_chunk: _Chunk | None = None
+        self._drawn: tuple[Any, ...] | None = None
+        self._refreshed_time = -1.0
+        self._plot_window: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros((0, 0)))
+        self._error_reported = False
+        self._end_reported = ""
+        self._track = np.zeros((0, 3))
+        self._track_time = -math.inf  # time of the newest sample in the track
+        self._track_changed = True
+        self._since_track = math.inf
+        self._track_sent_end: np.ndarray | None = None  # (3,) the newest track point sent
+        self._scale = math.nan  # radius the disk mesh is drawn at
+        self._arrow_length = 0.0  # m, length of the force arrow as sent
+        self.gui: _Gui | None = None
+
+    # -- build ------------------------------------------------------------------
+    def build(self) -> None:
+        scene = self.target.scene
+        root = self.root
+        self.make_root()
+        self.grid = self.add_ground_grid(width=_GRID_SIZE, height=_GRID_SIZE, position=(0.0, 0.0, 0.0),
+                                         cell_size=0.05, section_size=_GRID_SECTION)
+        # the ground frame carries what is fixed to the ground: it moves when the camera follows the disk
+        self.ground = scene.add_frame(f"{root}/ground", show_axes=False)
+        self.track = self.add_lines(
+            f"{root}/ground/track", np.zeros((_TRACK_CAPACITY, 2, 3), dtype=np.float32),
+            np.full((_TRACK_CAPACITY, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0,
+            thickness_units="screen",
+        )
+        # the newest stretch, from the last track point sent to the contact point
+        # drawn: one segment sent every frame (the whole track goes at 10 Hz)
+        self.track_head = self.add_lines(
+            f"{root}/ground/track_head", np.zeros((1, 2, 3), dtype=np.float32),
+            np.full((1, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0, thickness_units="screen",
+        )
+        ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        self.point = scene.add_frame(f"{root}/ground/point", show_axes=False)
+        self.point_mesh = scene.add_mesh_simple(f"{root}/ground/point/mesh", ball.vertices.astype(np.float32),
+                                                ball.faces.astype(np.uint32), color=_POINT_COLOR,
+                                                scale=_POINT_RADIUS * _DEFAULT.radius)
+        # the force arrow points along +z of its own frame at the contact point: the
+        # frame's pose turns it (a pose reaches the page with the other poses of
+        # the frame), its length changes only when it has changed by 2 %
+        self.force_frame = scene.add_frame(f"{root}/ground/point/force", show_axes=False)
+        self.force_arrow = self.add_arrows(
+            f"{root}/ground/point/force/arrow", np.array([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]], dtype=np.float32),
+            _FORCE_COLOR, shaft_radius=0.0035, head_radius=0.009, head_length=0.02,
+        )
+        self.disk = scene.add_frame(f"{root}/disk", show_axes=False, position=(0.0, 0.0, _DEFAULT.radius))
+        disk, stripe = _disk_meshes()
+        self.disk_mesh = scene.add_mesh_simple(f"{root}/disk/mesh", disk.vertices.astype(np.float32),
+                                               disk.faces.astype(np.uint32), color=_DISK_COLOR,
+                                               scale=_DEFAULT.radius)
+        self.disk_marker = scene.add_mesh_simple(f"{root}/disk/marker", stripe.vertices.astype(np.float32),
+                                                 stripe.faces.astype(np.uint32), color=_MARKER_COLOR,
+                                                 scale=_DEFAULT.radius)
+        self._scale = _DEFAULT.radius
+        self.point_label = self.add_label(f"{root}/ground/point/label", "contact point", position=(0.0, 0.0, 0.0),
+                                          anchor="top-left", scale=_LABEL_SCALE)
+        gui = self.target.gui
+        with self.make_folder():
+            legend = Legend(gui, (
+                (_DISK_COLOR, "disk (dark stripe: the spin)"),
+                (_TRACK_COLOR, "track of the contact point on the ground"),
+                (_FORCE_COLOR, "ground's force on the disk, at the contact point"),
+            ), "Colours:", presenter=self.presenter)
+            self.playback.add_gui()
+            readout = self.add_readout("Computing the motion…")
+            info = self.add_readout("")
+            self.playback.add_preset_buttons()
+            with gui.add_folder("Initial state (t = 0)"):
+                for spec in SLIDERS[:3]:
+                    self.controls.add(spec)
+            with gui.add_folder("Disk and contact"):
+                self.controls.add(Choice("contact", "Contact", options=CONTACTS, default=_DEFAULT.contact,
+                                         hint="Rolling without slip, or sliding on a frictionless ground"))
+                for spec in SLIDERS[3:]:
+                    self.controls.add(spec)
+            with gui.add_folder("Show"):
+                self.controls.add(Toggle("follow", "Follow the disk", default=True,
+                                         hint="Keep the disk in view: the ground moves under it"))
+                self.controls.add(Toggle("show_track", "Track", default=True))
+                self.controls.add(Toggle("show_force", "Contact force arrow", default=True))
+            with gui.add_folder("Plots"):
+                x_scale = {"x": {"time": False}}
+                empty = np.zeros(2)
+                plot_lean = gui.add_uplot(
+                    (empty, empty),
+                    ({"label": "t (s)"}, {"label": "lean θ (deg)", "stroke": "#2266dd", "width": 2}),
+                    title="lean θ(t)", scales=x_scale, aspect=1.6,
+                )
+                plot_energy = gui.add_uplot(
+                    (empty, np.full(2, _LOG_FLOOR)),
+                    ({"label": "t (s)"}, {"label": "log10 |E − E0| (J)", "stroke": "#b45309", "width": 2}),
+                    title="energy drift (log10)", scales=x_scale, aspect=1.6,
+                )
+                plot_residual = gui.add_uplot(
+                    (empty, np.full(2, _LOG_FLOOR), np.full(2, _LOG_FLOOR)),
+                    ({"label": "t (s)"}, {"label": "log10 max |C| (m)", "stroke": "#be185d", "width": 2},
+                     {"label": "log10 max |dC/dt| (m/s)", "stroke": "#7c3aed", "width": 2}),
+                    title="constraint residuals (log10)", scales=x_scale, aspect=1.6,
+                )
+                plot_normal = gui.add_uplot(
+                    (empty, empty, empty),
+                    ({"label": "t (s)"}, {"label": "N (N)", "stroke": "#0f766e", "width": 2},
+                     {"label": "m g", "stroke": "#888888", "dash": [6, 4]}),
+                    title="normal force N (Eq. 8.107)", scales=x_scale, aspect=1.6,
+                )
+            self.add_download("download_csv", "Download CSV", "rolling_disk.csv", self.csv_bytes,
+                              hint="t, position, Euler parameters, lean, E, residuals, normal force of the "
+                                   "plotted window")
+        self.gui = _Gui(readout, info, legend, plot_lean, plot_energy, plot_residual, plot_normal)
+
+    def on_presenter(self, on: bool) -> None:
+        if self.gui is not None:
+            self.gui.legend.set_presenter(on)
+
+    # -- requests (tests, notebooks) --------------------------------------------------
+    def request_reset(self) -> None:
+        """Restart the motion from t = 0 (cached chunks are reused)."""
+        self.playback.request_reset()
+
+    def apply_preset(self, name: str) -> None:
+        """Record preset ``name`` (one of :data:`PRESETS`); applied by ``update``."""
+        self.playback.request_preset(name)
+
+    @property
+    def playing(self) -> bool:
+        return self.playback.playing
+
+    @property
+    def chunks_computed(self) -> int:
+        """Chunks computed since the scene was built (all models)."""
+        return self.timeline.computed
+
+    @property
+    def inputs(self) -> Inputs:
+        values = self.controls.values()
+        return Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)})
+
+    @property
+    def track_points(self) -> np.ndarray:
+        """(n, 3) the contact point's track kept (global, m), oldest first."""
+        return self._track.copy()
+
+    # -- inputs ------------------------------------------------------------------------
+    def _apply_inputs(self, inputs: Inputs) -> None:
+        """Use ``inputs`` (restart), or refuse them with a notice and set the controls back."""
+        try:
+            model = Model.from_inputs(inputs)
+        except ValueError as exc:
+            kept = self.model if self.model is not None else Model.from_inputs(_DEFAULT)
+            self.notify("Invalid disk parameters", f"{exc}. Keeping the previous values.", "warning")
+            self.controls.set_many({"lean_deg": math.degrees(kept.lean), "spin": kept.spin,
+                                    "heading_rate": kept.heading_rate, "radius": kept.radius, "mass": kept.mass,
+                                    "contact": ROLLING if kept.rolling else SLIDING})
+            if self.model is not None:
+                return
+            model = kept
+        if model == self.model:
+            return
+        self.model = model
+        self._error_reported = False
+        if self.gui is not None:
+            self.gui.info.content = self._info(model)
+        self.timeline.reset(functools.partial(_compute_chunk, model))
+        self._restart()
+
+    def _restart(self) -> None:
+        self.sim_time = 0.0
+        self.ended = ""
+        self._end_reported = ""
+        self._track = np.zeros((0, 3))
+        self._track_time = -math.inf
+        self._track_changed = True
+        self._since_track = math.inf
+        self._track_sent_end = None
+        self.history.clear()
+        self._drawn = None
+        self._refreshed_time = -1.0
+        self._refresh.force()
+
+    # -- update --------------------------------------------------------------------------
+    def update(self, dt: float) -> None:
+        assert self.gui is not None
+        preset = self.playback.take_preset()
+        changed = self.controls.take_changes()
+        if preset is not None:
+            values = self.controls.values()
+            inputs = preset_inputs(preset, radius=float(values["radius"]), mass=float(values["mass"]),
+                                   contact=values["contact"])
+            self.controls.set_many(dataclasses.asdict(inputs))
+            self.playback.set_playing(True)
+        if self.model is None or preset is not None or changed & _MODEL_KEYS:
+            self._apply_inputs(self.inputs)
+        tick = self.playback.tick(dt)
+        if tick.reset:
+            ended = self.ended
+            self._restart()
+            if ended:  # the motion had stopped itself: play it again
+                self.playback.set_playing(True)
+        step = tick.step
+        # ask for the next chunk as soon as the clock enters a chunk (each
+        # continues from the one before, so none can be computed further ahead)
+        here = self.timeline.chunk_at(self.sim_time, ahead=0.0)
+        if here is not None and here.model == self.model and here.final:
+            step = min(step, max(0.0, float(here.t[-1]) - self.sim_time))  # the motion ends there
+        self.sim_time, chunk, self.waiting = self.timeline.advance(self.sim_time, step)
+        if self.timeline.error is not None and not self._error_reported:
+            self._error_reported = True
+            self.playback.set_playing(False)
+            error = self.timeline.error
+            self.notify("Simulation stopped",
+                        f"{type(error).__name__}: {error}. The motion stops at t = {self.sim_time:.2f} s; "
+                        "change a control or press Reset.", "warning")
+        if chunk is None or chunk.model != self.model:
+            if self.drawn_model != self.model:
+                self.gui.readout.content = "Computing the motion…"  # sent once
+            return
+        self._draw(chunk, dt)
+
+    def _draw(self, chunk: _Chunk, dt: float) -> None:
+        assert self.gui is not None and self.model is not None
+        follow = bool(self.controls.value("follow"))
+        show_track = bool(self.controls.value("show_track"))
+        show_force = bool(self.controls.value("show_force"))
+        due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
+        key = (self.sim_time, chunk.k, follow, show_track, show_force, chunk.model)
+        if key == self._drawn:
+            if due is not None:  # paused: the poses are on the page; only a last refresh may be due
+                with self.target.atomic():
+                    self._refresh_one(due)
+            return
+        self._drawn = key
+        self.energy0 = chunk.energy0
+        self.history.add(chunk.k, chunk.table)
+        # linear interpolation between the two samples around the clock
+        t = chunk.t
+        h = float(t[1] - t[0])
+        x = (self.sim_time - float(t[0])) / h if h > 0.0 else 0.0
+        j = min(max(int(x), 0), t.size - 2)
+        w = min(max(x - j, 0.0), 1.0)
+        frames = chunk.frames
+        row = frames[j] + w * (frames[j + 1] - frames[j])
+        near = j + 1 if w >= 0.5 else j  # conserved quantities at a computed sample
+        self.columns = chunk.table.columns[min(near, chunk.table.columns.shape[0] - 1)]
+        self.rates = chunk.rates[near]
+        centre, point, force = row[_CENTRE], row[_POINT], row[_FORCE]
+        p = row[_P]
+        p = p / math.sqrt(float(p @ p))  # nlerp
+        self.centre, self.contact_point = centre, point
+        # the track: every computed contact point the clock has passed (the
+        # rest of the chunk before, when the clock crossed into this one)
+        previous = self.last_chunk
+        sources = [previous, chunk] if previous is not None and previous.k == chunk.k - 1 else [chunk]
+        for source in sources:
+            new = (source.t > self._track_time) & (source.t <= self.sim_time)
+            if source.model == chunk.model and np.any(new):
+                for q in source.frames[new, _POINT]:
+                    self._add_track_point(q)
+                self._track_time = float(source.t[new][-1])
+        self._since_track += dt
+        send_track = show_track and self._track_changed and self._since_track >= _TRACK_PERIOD
+        self.last_chunk = chunk
+        self.drawn_model = chunk.model
+        offset = (float(centre[0]), float(centre[1])) if follow else (0.0, 0.0)
+        radius = chunk.model.radius
+        mg = chunk.model.mass * _GRAVITY
+        magnitude = math.sqrt(float(force @ force))
+        length = _ARROW_RADII * radius * magnitude / (magnitude + mg)
+        send_length = abs(length - self._arrow_length) > 0.02 * self._arrow_length or (length == 0.0) != (
+            self._arrow_length == 0.0)
+        with self.target.atomic():
+            if radius != self._scale:
+                self._scale = radius
+                self.disk_mesh.scale = radius
+                self.disk_marker.scale = radius
+                self.point_mesh.scale = _POINT_RADIUS * radius
+            set_pose(self.disk, position=(centre[0] - offset[0], centre[1] - offset[1], centre[2]), wxyz=p)
+            set_pose(self.ground, position=(-offset[0], -offset[1], 0.0))
+            set_pose(self.grid, position=(-math.fmod(offset[0], _GRID_SECTION), -math.fmod(offset[1], _GRID_SECTION),
+                                          0.0))
+            set_pose(self.point, position=(point[0], point[1], point[2] + _TRACK_LIFT))
+            if self.track.visible != show_track:
+                self.track.visible = show_track
+                self.track_head.visible = show_track
+            if send_track:
+                set_array(self.track, "points", trail_segments(self._track, _TRACK_CAPACITY))
+                self._since_track = 0.0
+                self._track_changed = False
+                self._track_sent_end = self._track[-1] if self._track.shape[0] else None
+            if show_track:
+                head = np.empty((1, 2, 3))
+                head[0, 1] = (point[0], point[1], point[2] + _TRACK_LIFT)
+                head[0, 0] = self._track_sent_end if self._track_sent_end is not None else head[0, 1]
+                set_array(self.track_head, "points", head)
+            if self.force_frame.visible != show_force:
+                self.force_frame.visible = show_force
+            if show_force:
+                set_pose(self.force_frame, wxyz=_wxyz_z_to(force, magnitude))
+                if send_length:
+                    self._arrow_length = length
+                    set_array(self.force_arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))
+            if due is not None:
+                self._refresh_one(due)
+        if chunk.final and self.sim_time >= float(chunk.t[-1]) and self._end_reported != chunk.end:
+            self._end_reported = chunk.end
+            self.ended = chunk.end
+            self.playback.set_playing(False)
+            self.notify("Rolling disk stopped", f"{chunk.end[0].upper()}{chunk.end[1:]}. "
+                        "Change a control, pick a preset or press Reset.", "warning")
+            self._refresh.force()
+
+    def _add_track_point(self, point: np.ndarray) -> None:
+        lifted = np.array([point[0], point[1], point[2] + _TRACK_LIFT])
+        self._track, added = extend_trail(self._track, lifted, min_step=_TRACK_MIN_STEP, capacity=_TRACK_CAPACITY)
+        self._track_changed |= added
+
+    # -- plots, readout, export ----------------------------------------------------------
+    def _window_start(self) -> float:
+        return max(0.0, self.sim_time - _WINDOW)
+
+    def _refresh_one(self, what: str) -> None:
+        assert self.gui is not None
+        if what == "window":
+            # each refresh cycle starts here: the readout and plots of the
+            # cycle (the next frames) show the window as it is now
+            self._refreshed_time = self.sim_time
+            self.history.trim(self._window_start())
+            self._plot_window = self.history.window(self._window_start(), self.sim_time)
+            return
+        if what == "readout":
+            self.gui.readout.content = self._readout()
+            return
+        t, columns = self._plot_window
+        if t.size == 0:
+            return
+        if what == "lean":
+            self.gui.plot_lean.data = (t, np.degrees(columns[:, _LEAN]))
+        elif what == "energy":
+            self.gui.plot_energy.data = (t, log10_floor(columns[:, _ENERGY] - self.energy0))
+        elif what == "residual":
+            self.gui.plot_residual.data = (t, log10_floor(columns[:, _RES_P]), log10_floor(columns[:, _RES_V]))
+        elif what == "normal" and self.drawn_model is not None:
+            self.gui.plot_normal.data = (t, columns[:, _NORMAL], np.full_like(t, self.drawn_model.mass * _GRAVITY))
+
+    def _info(self, model: Model) -> str:
+        """The critical upright spin of the model and the initial spin against it."""
+        critical = model.critical_spin
+        formula = "√(g / (3 R))" if model.rolling else "√(g / R)"
+        above = abs(model.spin) > critical
+        verdict = ("**above** it: upright motion is stable (a small lean wobbles)" if above else
+                   "**below** it: upright motion is unstable (a small lean grows)")
+        return (f"**Critical upright spin** {formula} = {_significant(critical, 3)} rad/s "
+                f"(speed {_significant(critical * model.radius, 3)} m/s, "
+                f"{'rolling' if model.rolling else 'sliding'}).  \n"
+                f"Initial spin |ω2| = {_significant(abs(model.spin), 3)} rad/s = "
+                f"{_significant(abs(model.spin) / critical, 3)} × critical: {verdict}.")
+
+    def _readout(self) -> str:
+        assert self.model is not None
+        c = self.columns
+        lean_rate, spin, heading_rate, speed = (float(x) for x in self.rates)
+        energy = float(c[_ENERGY])
+        lines = [
+            f"**t** = {self.sim_time:.2f} s · **lean** θ = {math.degrees(float(c[_LEAN])):.2f}° · "
+            f"**spin** ω2 = {_significant(spin, 3)} rad/s · dψ/dt = {_significant(heading_rate, 3)} rad/s · "
+            f"speed {_significant(speed, 3)} m/s",
+            f"**N** = {_significant(float(c[_NORMAL]), 4)} N · **E** = {_significant(energy, 6)} J, "
+            f"E − E0 = {_small(energy - self.energy0)} J · **max |C|** = {_small(float(c[_RES_P]))} m, "
+            f"max |dC/dt| = {_small(float(c[_RES_V]))} m/s",
+        ]
+        chunk = self.last_chunk
+        if chunk is not None and chunk.model == self.model and chunk.n_rhs:
+            lines.append(f"DOP853 rtol {RTOL:.0e}: {chunk.n_steps} steps, {chunk.n_rhs} right sides, "
+                         f"{chunk.cpu_seconds / _CHUNK_SIM_TIME:.2f} s CPU per simulated second")
+        if self.ended:
+            lines.append(f"*Stopped: {self.ended}.*")
+        elif self.waiting and self.playing:
+            lines.append("*computing the next chunk…*")
+        return "  \n".join(lines)
+
+    def csv_bytes(self) -> bytes:
+        """The CSV of the motion in the plot window, up to the displayed time."""
+        return self.history.csv(CSV_HEADER, self._window_start(), self.sim_time)

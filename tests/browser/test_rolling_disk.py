@@ -1,0 +1,97 @@
+"""Browser test of the rolling disk scene: headless Chromium drives the page.
+
+Switch to the rolling disk with the page's scene chooser; move the *Lean*
+slider from the keyboard and check that the server restarts the disk at the
+new lean (its pose and the lean plot) and that the 3-D view changes; click a
+preset in the page and check that the contact dropdown follows it and that
+the plots are on the page.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from app.scenes.rolling_disk import SLIDING, RollingDiskScene
+from core.rotations import matrix_from_euler_parameters
+from tests.browser._page import drawn_fraction, png_pixels
+from tests.helpers import wait_until
+
+
+def _slider_thumb(page, label: str):
+    """The thumb (role=slider) of the GUI slider labelled ``label``."""
+    row = page.locator(f"label:text-is('{label}')").first.locator(
+        "xpath=ancestor::div[contains(@class,'mantine-Flex-root')][1]"
+    )
+    return row.get_by_role("slider").first
+
+
+def _view(png: bytes) -> np.ndarray:
+    """The 3-D view of a page screenshot: the part left of the control panel."""
+    pixels = png_pixels(png)[..., :3]
+    return pixels[:, : int(0.6 * pixels.shape[1])]
+
+
+def _started(scene, lean_deg: float) -> bool:
+    """The model in use has ``lean_deg`` and its first chunk is drawn."""
+    return (scene.model is not None and math.isclose(scene.model.lean, math.radians(lean_deg), abs_tol=1e-12)
+            and scene.drawn_model == scene.model)
+
+
+def test_lean_slider_from_the_page_changes_the_pose_and_the_plot(scene_page) -> None:
+    _, page, scene = scene_page(RollingDiskScene)
+    wait_until(lambda: _started(scene, 10.0) and scene.sim_time > 0.2, timeout=60.0)
+    # paused, a new model is drawn at t = 0: the pose is the initial one
+    page.get_by_role("button", name="Pause", exact=True).click()
+    wait_until(lambda: not scene.playing)
+    wait_until(lambda: scene.gui.plot_lean.data[0].size > 2, timeout=30.0)
+    assert math.isclose(float(scene.gui.plot_lean.data[1][0]), 10.0, abs_tol=1e-9)  # lean at t = 0
+    thumb = _slider_thumb(page, "Lean (deg)")
+    wait_until(lambda: thumb.get_attribute("aria-valuenow") == "10")
+    page.wait_for_timeout(800)  # a few frames of the software renderer
+    before = _view(page.screenshot())
+
+    thumb.focus()
+    page.keyboard.press("End")  # the slider's maximum: 60 deg
+    wait_until(lambda: scene.controls.value("lean_deg") == 60.0)
+    wait_until(lambda: _started(scene, 60.0), timeout=60.0)
+    assert scene.sim_time == 0.0
+    # the disk's axis (body y) rises by the lean: A[2, 1] = sin(60 deg)
+    wait_until(lambda: abs(matrix_from_euler_parameters(np.array(scene.disk.wxyz))[2, 1]
+                           - math.sin(math.radians(60.0))) < 1e-6, timeout=30.0)
+    np.testing.assert_allclose(np.array(scene.disk.position)[2], 0.1 * math.cos(math.radians(60.0)), atol=1e-6)
+    # the lean plot starts again, at the new lean
+    wait_until(lambda: math.isclose(float(scene.gui.plot_lean.data[1][0]), 60.0, abs_tol=1e-9), timeout=30.0)
+    assert scene.gui.plot_lean.data[0][-1] == 0.0
+    page.wait_for_timeout(800)
+    after = _view(page.screenshot())
+    changed = np.any(np.abs(after - before) > 0.05, axis=-1)
+    assert changed.sum() > 300, f"only {changed.sum()} pixels of the 3-D view changed"
+
+    # playing again, the lean plot grows from t = 0
+    page.get_by_role("button", name="Play", exact=True).click()
+    wait_until(lambda: scene.playing and scene.sim_time > 0.3, timeout=60.0)
+    wait_until(lambda: scene.gui.plot_lean.data[0][-1] > 0.2, timeout=30.0)
+    assert drawn_fraction(page.locator("canvas").first.screenshot()) > 0.01
+
+
+def test_preset_and_contact_from_the_page(running_app, open_page) -> None:
+    app = running_app(scene=RollingDiskScene.name)  # opened on the scene (the chooser is tested above)
+    page = open_page(app)
+    scene = app.scene_for()
+    wait_until(lambda: _started(scene, 10.0), timeout=60.0)
+    page.get_by_role("button", name="Sliding coin", exact=True).click()
+    wait_until(lambda: scene.model is not None and not scene.model.rolling and scene.model.spin == 15.0,
+               timeout=30.0)
+    # the dropdown shows the preset's contact model
+    select = page.locator("label:text-is('Contact')").first.locator(
+        "xpath=ancestor::div[contains(@class,'mantine-Flex-root')][1]"
+    ).locator("input").first
+    wait_until(lambda: select.input_value() == SLIDING, timeout=30.0)
+    # the sliding disk's critical spin is sqrt(g / R)
+    wait_until(lambda: "√(g / R)" in scene.gui.info.content)
+    wait_until(lambda: scene.drawn_model == scene.model and scene.sim_time > 0.2, timeout=60.0)
+    title = page.locator(".u-title", has_text="normal force N").first
+    title.scroll_into_view_if_needed()
+    title.wait_for(state="visible", timeout=30_000)
