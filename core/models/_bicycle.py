@@ -59,6 +59,7 @@ __all__ = [
     "whipple_bicycle",
     "whipple_bicycle_reference",
     "whipple_linear_response",
+    "whipple_mode_names",
     "whipple_modes",
     "whipple_push",
     "whipple_ride",
@@ -565,6 +566,40 @@ def whipple_modes(model: Any, parameters: Any = "meijaard2007") -> tuple[Whipple
     th_fork = z[:, 3 * n + 3 * _FORK : 3 * n + 3 * _FORK + 3]
     lean = th_frame[:, 0]
     steer = (th_fork - th_frame) @ p.steer_axis
+    try:
+        names = whipple_mode_names(s)
+    except ValueError as exc:
+        raise ValueError(f"model: {exc}") from None
+    out = []
+    for k in range(4):
+        big = lean[k] if abs(lean[k]) >= abs(steer[k]) else steer[k]
+        big = big if big != 0 else 1.0
+        out.append(WhippleMode(str(names[k]), complex(s[k]), complex(lean[k] / big), complex(steer[k] / big),
+                               bool(s[k].real <= 0.0)))
+    order = {name: i for i, name in enumerate(WHIPPLE_MODE_NAMES)}
+    out.sort(key=lambda m: (order[m.name], -m.eigenvalue.imag, -m.eigenvalue.real))
+    return tuple(out)
+
+
+def whipple_mode_names(eigenvalues: Any) -> tuple[str, ...]:
+    """Names of the four eigenvalues of an upright bicycle, in their order (see :func:`whipple_modes`).
+
+    A complex pair is the weave; of the real ones the most negative is
+    castering, the next capsize, and when all four are real (below the
+    weave onset speed) the two largest are the weave's.
+
+    Parameters
+    ----------
+    eigenvalues : (4,) array_like of complex
+
+    Raises
+    ------
+    ValueError
+        Unless there are four eigenvalues, two or four of them real.
+    """
+    s = np.asarray(eigenvalues, dtype=complex).reshape(-1)
+    if s.size != 4:
+        raise ValueError(f"expected the 4 eigenvalues of the bicycle, got {s.size}")
     scale = max(float(np.max(np.abs(s))), 1e-300)
     oscillating = np.abs(s.imag) > 1e-8 * scale
     names = np.empty(4, dtype=object)
@@ -576,16 +611,8 @@ def whipple_modes(model: Any, parameters: Any = "meijaard2007") -> tuple[Whipple
     elif real.size == 2:
         names[real] = ("castering", "capsize")
     else:
-        raise ValueError(f"model: expected 2 or 4 real modes besides the weave pair, got {real.size}")
-    out = []
-    for k in range(4):
-        big = lean[k] if abs(lean[k]) >= abs(steer[k]) else steer[k]
-        big = big if big != 0 else 1.0
-        out.append(WhippleMode(str(names[k]), complex(s[k]), complex(lean[k] / big), complex(steer[k] / big),
-                               bool(s[k].real <= 0.0)))
-    order = {name: i for i, name in enumerate(WHIPPLE_MODE_NAMES)}
-    out.sort(key=lambda m: (order[m.name], -m.eigenvalue.imag, -m.eigenvalue.real))
-    return tuple(out)
+        raise ValueError(f"expected 2 or 4 real modes besides the weave pair, got {real.size}")
+    return tuple(str(x) for x in names)
 
 
 # ------------------------------------------------------------------ a push and the response

@@ -246,3 +246,14 @@ def test_linear_and_nonlinear_lean_agree_for_a_small_push():
     assert np.all(ratios > 4.0 * 0.95), ratios
     speed_ratios = np.array(speed_changes[:-1]) / np.array(speed_changes[1:])
     np.testing.assert_allclose(speed_ratios, 4.0, rtol=0.05)
+
+
+def test_mode_names_of_the_references_eigenvalues():
+    from core.models import whipple_mode_names
+
+    ref = whipple_bicycle_reference()
+    assert sorted(whipple_mode_names(ref.eigenvalues(0.5))) == ["capsize", "castering", "weave", "weave"]
+    s = ref.eigenvalues(5.0)  # sorted by real part: castering, weave, weave, capsize
+    assert whipple_mode_names(s) == ("castering", "weave", "weave", "capsize")
+    with pytest.raises(ValueError, match="expected the 4 eigenvalues"):
+        whipple_mode_names(s[:3])
