@@ -1,0 +1,482 @@
+"""Cam-follower scene (app/scenes/cam_follower.py) on a running rigidlab app.
+
+The session loop drives the scene at about 60 Hz; tests act as a browser
+does (values and clicks through the gate with ``send_value`` / ``click``) and
+check what the scene streams against closed forms written out here: the
+flat face and the roller on the eccentric cam (the lift, the follower's pose,
+the contact point, the readout's digits), the jump speed and the separation
+interval past it, refused values and refused cams (a roller that would
+undercut the cam, a flat face on a cam that would not be convex), the CSV of
+a revolution, the shareable state, presenter view, the framing of the
+default view, and the compliant run on the process pool: the follower leaves
+the cam and lands above the jump speed, and follows the closed form below
+it. A few tests build the scene on a bare server and drive ``frame``
+themselves (nothing is computed on the loop thread).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+import time
+
+import numpy as np
+import pytest
+
+from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
+from app.scenes.cam_follower import (
+    CSV_HEADER,
+    ECCENTRIC_RADIUS,
+    ECCENTRICITY,
+    FOLLOWERS,
+    GRAVITY,
+    PROFILES,
+    REVOLUTION_SAMPLES,
+    RUN_SAMPLES,
+    CamFollowerScene,
+    Inputs,
+    build_cam,
+    compute_chunk,
+    compute_revolution,
+)
+from tests.app._views import Camera, label_box, overlapping_pairs
+from tests.app.conftest import GatedExecutor
+from tests.helpers import click, send_value, wait_until
+
+R, E = ECCENTRIC_RADIUS, ECCENTRICITY
+RB = R - E  # base circle of the eccentric cam
+
+
+def flat_closed_form(theta, inputs: Inputs):
+    """Flat face on the eccentric cam: lift, s', s'' and the contact force (independent of core)."""
+    w = inputs.rpm * math.pi / 30.0
+    s, ds, dds = E * (1 - np.cos(theta)), E * np.sin(theta), E * np.cos(theta)
+    force = inputs.mass * w * w * dds + inputs.stiffness * s + inputs.preload + inputs.mass * GRAVITY
+    return s, ds, dds, force
+
+
+def roller_lift(theta, r):
+    """Roller of radius r without offset on the eccentric cam: the slider-crank, crank e, rod R + r."""
+    return np.sqrt((R + r) ** 2 - (E * np.sin(theta)) ** 2) - E * np.cos(theta) - (R + r - E)
+
+
+def flat_jump_speed(inputs: Inputs) -> float:
+    force = inputs.preload + inputs.mass * GRAVITY
+    return math.sqrt((2 * inputs.stiffness * E + force) / (inputs.mass * E))
+
+
+def notices_with(app, text):
+    return [n for n in app.session_for().notices if text in n[0] or text in n[1]]
+
+
+@pytest.fixture
+def cam_app(running_app):
+    """A shared app showing the cam-follower scene, its first revolution computed."""
+    app = running_app(scene="cam_follower")
+    scene = app.scene_for()
+    assert isinstance(scene, CamFollowerScene)
+    wait_until(lambda: scene.revolution is not None and scene.frames > 5, timeout=60.0)
+    return app, scene
+
+
+def pause(scene) -> None:
+    """Stop the cam (as the page's checkbox does) and wait until the readout shows the angle drawn."""
+    assert send_value(scene, "animate", False)
+    wait_until(lambda: scene.drawn_revision == scene.revision
+               and f"**θ** = {math.degrees(scene.cam_angle):.2f}°" in scene.gui.readout.content)
+
+
+def wait_for_inputs(scene, timeout=30.0, **fields):
+    wait_until(lambda: scene.revolution is not None
+               and all(getattr(scene.revolution.inputs, k) == v for k, v in fields.items())
+               and scene.drawn_revision == scene.revision, timeout=timeout)
+
+
+def numbers(text: str, label: str) -> str:
+    """The number printed after ``label = `` in a readout."""
+    match = re.search(re.escape(label) + r" = (-?[0-9.]+)", text)
+    assert match, f"{label!r} not in {text!r}"
+    return match.group(1)
+
+
+def test_scene_is_registered_after_the_multibody_scenes():
+    from app.scenes import discover_scenes
+
+    scenes = discover_scenes()
+    assert "cam_follower" in scenes and CamFollowerScene.order == 70
+    assert all(cls.order < 70 for cls in list(scenes.values())[: list(scenes).index("cam_follower")])
+
+
+def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_app):
+    app, scene = cam_app
+    # turning: every drawn frame puts the follower at the closed-form lift of the angle drawn
+    for _ in range(20):
+        with app.session_for().run_lock:
+            theta, z = scene.cam_angle, float(scene.follower_frame.position[2])
+            wxyz = np.array(scene.cam_frame.wxyz)
+        s = E * (1 - math.cos(theta))
+        assert z == pytest.approx(RB + s, abs=1e-15)
+        np.testing.assert_allclose(wxyz, [math.cos(theta / 2), 0, 0, math.sin(theta / 2)], atol=1e-15)
+        assert theta == pytest.approx(round(theta / (2 * math.pi / REVOLUTION_SAMPLES)) * 2 * math.pi
+                                      / REVOLUTION_SAMPLES, abs=1e-15)
+        time.sleep(0.03)
+    pause(scene)
+    with app.session_for().run_lock:
+        theta, text = scene.cam_angle, scene.gui.readout.content
+        z = float(scene.follower_frame.position[2])
+        point = np.array(scene.contact_point.position)
+        arrow = np.array(scene.arrow.points)[0]
+    inputs = scene.revolution.inputs
+    s, ds, dds, force = flat_closed_form(theta, inputs)
+    w = inputs.rpm * math.pi / 30.0
+    assert z == pytest.approx(RB + s, abs=1e-15)
+    # the readout prints the closed form at that angle, digit for digit
+    assert numbers(text, "**s**") == f"{1000 * s:.4f}"
+    assert numbers(text, "**v** = ω s′") == f"{w * ds:.4f}"
+    assert numbers(text, "**a** = ω² s″") == f"{w * w * dds:.2f}"
+    assert numbers(text, "**N**") == f"{force:.3f}"
+    assert scene.force == pytest.approx(force, rel=1e-14)
+    # the flat face touches the cam at x = s' (the support function's derivative), on top of it
+    np.testing.assert_allclose(point[[0, 2]], [ds, RB + s], atol=1e-12)
+    # the force arrow ends at the contact point, pointing up into the follower (N > 0)
+    np.testing.assert_allclose(arrow[1, [0, 2]], [ds, RB + s], atol=1e-6)
+    assert arrow[1, 2] > arrow[0, 2] and abs(arrow[1, 0] - arrow[0, 0]) < 1e-9
+
+
+def test_roller_follows_the_slider_crank_closed_form(cam_app):
+    app, scene = cam_app
+    assert send_value(scene, "follower", FOLLOWERS[1])
+    assert send_value(scene, "roller_mm", 15.0)
+    wait_for_inputs(scene, follower=FOLLOWERS[1], roller_mm=15.0)
+    wait_until(lambda: not scene.controls.handles["roller_mm"].disabled)
+    assert scene.controls.handles["rise_deg"].disabled  # no rise on the eccentric cam
+    pause(scene)
+    r = 0.015
+    with app.session_for().run_lock:
+        theta, z = scene.cam_angle, float(scene.follower_frame.position[2])
+        point = np.array(scene.contact_point.position)
+    s = roller_lift(theta, r)
+    assert z == pytest.approx(R + r - E + s, abs=1e-14)  # the roller's centre
+    assert numbers(scene.gui.readout.content, "**s**") == f"{1000 * s:.4f}"
+    # the contact point lies on the roller, r from its centre, and on the cam's circle
+    centre_cam = np.array([E * math.sin(theta), -E * math.cos(theta)])  # the circle's centre, turned by theta
+    assert math.hypot(point[0], point[2] - z) == pytest.approx(r, abs=1e-12)
+    assert math.hypot(point[0] - centre_cam[0], point[2] - centre_cam[1]) == pytest.approx(R, abs=1e-12)
+    # the roller's mesh is shown with its radius, the flat face hidden
+    wait_until(lambda: scene.roller_mesh.visible and not scene.follower_meshes["flat"].visible)
+    vertices = np.asarray(scene.roller_mesh.vertices)
+    assert np.max(np.hypot(vertices[:, 0], vertices[:, 2])) == pytest.approx(r, rel=1e-6)
+
+
+def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
+    app, scene = cam_app
+    inputs = scene.revolution.inputs
+    jump = flat_jump_speed(inputs)
+    assert scene.revolution.jump_speed == pytest.approx(jump, rel=1e-14)
+    wait_until(lambda: "jump speed = 1088.0 rpm" in scene.gui.info.content)
+    assert f"jump speed = {jump * 30 / math.pi:.1f} rpm" in scene.gui.info.content
+    assert "No separation" in scene.gui.info.content and not scene.separation_arc.visible
+    force_plot = scene.gui.plots["force"]
+    assert np.all(np.asarray(force_plot.data[4]) == 0.0)  # nothing shaded
+    # just below the jump speed: still no separation; just above: an interval around theta = pi
+    rpm_jump = jump * 30 / math.pi
+    assert send_value(scene, "rpm", math.floor(rpm_jump))
+    wait_for_inputs(scene, rpm=float(math.floor(rpm_jump)))
+    assert scene.revolution.separations == ()
+    assert send_value(scene, "rpm", 1300.0)
+    wait_for_inputs(scene, rpm=1300.0)
+    wait_until(lambda: "Separation" in scene.gui.info.content and scene.separation_arc.visible)
+    (start, end), = scene.revolution.separations
+    # N = 0 where m w^2 e cos(theta) + k e (1 - cos theta) + F = 0 (closed form, both roots)
+    w = 1300 * math.pi / 30
+    k, m, force = inputs.stiffness, inputs.mass, inputs.preload + inputs.mass * GRAVITY
+    root = math.acos(-(k * E + force) / (m * w * w * E - k * E))
+    assert start == pytest.approx(root, abs=1e-9) and end == pytest.approx(2 * math.pi - root, abs=1e-9)
+    assert f"θ = {math.degrees(root):.2f}° to {360 - math.degrees(root):.2f}°" in scene.gui.info.content
+    # shaded in the plots: the negative part of N, and the other curves over the same interval
+    wait_until(lambda: np.any(np.asarray(scene.gui.plots["force"].data[4]) < 0.0)
+               and np.any(np.asarray(scene.gui.plots["lift"].data[2]) > 0.0))
+    x, n, zero, at_jump, shaded = (np.asarray(a) for a in scene.gui.plots["force"].data)
+    inside = (np.radians(x) > root) & (np.radians(x) < 2 * math.pi - root)
+    assert np.all(shaded[inside] < 0) and np.all(shaded[~inside] == 0) and np.all(zero == 0)
+    # the dashed curve: the force at the jump speed touches zero at theta = pi
+    assert at_jump.min() == pytest.approx(0.0, abs=1e-9) and x[np.argmin(at_jump)] == pytest.approx(180.0)
+    lift_shade = np.asarray(scene.gui.plots["lift"].data[2])
+    assert np.all(lift_shade[~inside] == 0) and np.all(lift_shade[inside] > 0)
+    # the arc on the cam: contour points u of the interval, on the cam's front face (body frame)
+    segments = np.asarray(scene.separation_arc.points, dtype=float)
+    u = np.arange(720) * (2 * math.pi / 720)
+    contour = build_cam(inputs).cam_curve(u).point
+    nearest = np.argmin(np.linalg.norm(segments[:, 0, None, :2] - contour[None], axis=-1), axis=1)
+    assert np.all(np.linalg.norm(segments[:, 0, :2] - contour[nearest], axis=-1) < 1e-6)
+    assert np.all(u[nearest] >= root - 1e-9) and np.all(u[nearest] <= 2 * math.pi - root + 1e-9)
+    assert np.ptp(u[nearest]) > 2 * math.pi - 2 * root - 3 * (2 * math.pi / 720)  # the whole interval
+    assert np.all(segments[:, :, 2] > 0.006)  # in front of the cam's face
+    # pulling force drawn in purple when the angle shown is in the interval
+    pause(scene)
+    load = {"scene": "cam_follower", "values": {}, "cam_angle_deg": 180.0}
+    with app.session_for().run_lock:
+        assert scene.load_state(load) == []
+    wait_until(lambda: scene.index == REVOLUTION_SAMPLES // 2)
+    wait_until(lambda: "would have to pull" in scene.gui.readout.content)
+    assert scene.force < 0 and not np.array_equal(np.asarray(scene.arrow.colors)[0], [245, 140, 0])
+
+
+@pytest.mark.parametrize(("key", "raw"), [("rpm", 1e308), ("rpm", math.nan), ("mass", -1.0), ("stiffness", "abc"),
+                                          ("profile", "Square"), ("roller_mm", 0.0), ("turn_seconds", 1e6),
+                                          ("compliant", "yes")])
+def test_refused_values_never_reach_the_scene(cam_app, key, raw):
+    app, scene = cam_app
+    before = scene.controls.value(key)
+    revolution = scene.revolution
+    assert not send_value(scene, key, raw)
+    assert scene.controls.value(key) == before
+    assert scene.controls.handles[key].value == before
+    label = scene.controls.specs[key].label
+    wait_until(lambda: notices_with(app, f"Refused: {label}"))
+    frames = scene.frames
+    wait_until(lambda: scene.frames > frames + 10)  # frames keep streaming
+    assert scene.revolution is revolution and scene.paused_error is None
+
+
+def test_a_roller_that_would_undercut_the_cam_is_refused_and_set_back(cam_app):
+    app, scene = cam_app
+    assert send_value(scene, "profile", PROFILES[1])
+    assert send_value(scene, "follower", FOLLOWERS[1])
+    assert send_value(scene, "rise_deg", 40.0)
+    wait_for_inputs(scene, profile=PROFILES[1], follower=FOLLOWERS[1], rise_deg=40.0)
+    kept = scene.revolution
+    with pytest.raises(ValueError, match="roller_radius: expected less than"):
+        build_cam(Inputs(profile=PROFILES[1], follower=FOLLOWERS[1], rise_deg=40.0, roller_mm=30.0))
+    assert send_value(scene, "roller_mm", 30.0)  # in the slider's range, but the cam would be undercut
+    wait_until(lambda: notices_with(app, "Cam refused"))
+    assert notices_with(app, "roller_radius: expected less than the pitch curve's smallest convex radius")
+    assert notices_with(app, "the controls are set back")
+    wait_until(lambda: scene.controls.handles["roller_mm"].value == 10.0)
+    assert scene.controls.value("roller_mm") == 10.0 and scene.revolution is kept
+    assert scene.paused_error is None
+    frames = scene.frames
+    wait_until(lambda: scene.frames > frames + 10)
+    # a flat face on a cam that would not be convex names the base radius it needs
+    assert send_value(scene, "follower", FOLLOWERS[0])
+    wait_until(lambda: notices_with(app, "base_radius: a flat-faced follower needs a convex cam"))
+    wait_until(lambda: scene.controls.handles["follower"].value == FOLLOWERS[1])
+    assert scene.revolution is kept
+    # a valid change afterwards is taken as usual
+    assert send_value(scene, "roller_mm", 12.0)
+    wait_for_inputs(scene, roller_mm=12.0)
+
+
+def test_csv_export_is_one_revolution_of_the_closed_form(cam_app):
+    app, scene = cam_app
+    click(scene, "download_csv")  # served by the loop (sent to the browser that clicked)
+    with app.session_for().run_lock:
+        content = scene.csv_bytes()
+        inputs = scene.revolution.inputs
+    rows = list(csv.reader(io.StringIO(content.decode())))
+    assert ",".join(rows[0]) == CSV_HEADER
+    data = np.array(rows[1:], dtype=float)
+    assert data.shape == (REVOLUTION_SAMPLES, 5)
+    np.testing.assert_allclose(data[:, 0], np.arange(REVOLUTION_SAMPLES) * 0.25, atol=1e-12)
+    s, ds, dds, force = flat_closed_form(np.radians(data[:, 0]), inputs)
+    w = inputs.rpm * math.pi / 30.0
+    np.testing.assert_allclose(data[:, 1], s, rtol=1e-13, atol=1e-17)
+    np.testing.assert_allclose(data[:, 2], w * ds, rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(data[:, 3], w * w * dds, rtol=1e-13, atol=1e-12)
+    np.testing.assert_allclose(data[:, 4], force, rtol=1e-13)
+
+
+def test_state_round_trip_reproduces_the_cam_and_the_angle(running_app):
+    first = running_app(scene="cam_follower")
+    scene = first.scene_for()
+    wait_until(lambda: scene.revolution is not None)
+    for key, value in (("profile", PROFILES[3]), ("follower", FOLLOWERS[1]), ("roller_mm", 7.5), ("rpm", 640.0),
+                       ("stiffness", 3500.0), ("turn_seconds", 8.0), ("show_contact", False)):
+        assert send_value(scene, key, value)
+    wait_for_inputs(scene, profile=PROFILES[3], roller_mm=7.5, rpm=640.0, stiffness=3500.0)
+    pause(scene)
+    state = scene.state()
+    assert state["scene"] == "cam_follower" and state["values"]["profile"] == PROFILES[3]
+    assert state["values"]["animate"] is False and 0.0 <= state["cam_angle_deg"] < 360.0
+
+    second = running_app(scene="cam_follower")
+    other = second.scene_for()
+    wait_until(lambda: other.revolution is not None)
+    second.session_for().request_state(state)
+    wait_for_inputs(other, profile=PROFILES[3], roller_mm=7.5, rpm=640.0, stiffness=3500.0)
+    wait_until(lambda: other.index == scene.index)
+    assert other.revolution.inputs == scene.revolution.inputs
+    assert other.cam_angle == scene.cam_angle and not other.contact_frame.visible
+    assert other.follower_z == scene.follower_z and other.force == scene.force
+    assert other.csv_bytes() == scene.csv_bytes()
+    # refused entries are listed, the others applied
+    with second.session_for().run_lock:
+        refused = other.load_state({"scene": "cam_follower", "values": {"rpm": -5.0}, "cam_angle_deg": math.inf,
+                                    "extra": 1})
+    assert len(refused) == 3 and any("cam_angle_deg: expected a number from 0 to 360" in r for r in refused)
+
+
+def test_presenter_view_scales_labels_arrow_and_lines(cam_app):
+    app, scene = cam_app
+    base = scene.arrow.shaft_radius
+    label = scene.labels["cam"].font_screen_scale
+    thickness = scene.spring.thickness
+    app.session_for().set_presenter(True)
+    wait_until(lambda: scene.presenter)
+    assert scene.arrow.shaft_radius == pytest.approx(base * PRESENTER_ARROW_SCALE)
+    assert scene.labels["cam"].font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
+    assert scene.force_label.font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
+    assert scene.spring.thickness > thickness
+    assert "1.45em" in scene.gui.legend.html()
+    app.session_for().set_presenter(False)
+    wait_until(lambda: not scene.presenter)
+    assert scene.arrow.shaft_radius == pytest.approx(base)
+
+
+def test_help_cites_the_contact_equations_and_the_closed_forms():
+    text = CamFollowerScene.help
+    for eq in ("Eqs. 8.84-8.89", "Eqs. 8.90-8.94", "Eqs. 8.95-8.108", "Eq. 8.109"):
+        assert eq in text
+    assert "N = (m ω² s″ + k s + F0 + m g) / cos φ" in text
+    assert "ω_j = √((2 k e + F0 + m g) / (m e))" in text
+    assert not any(0x300 <= ord(ch) <= 0x36F for ch in text)  # no combining characters
+
+
+def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
+    app, scene = cam_app
+    assert send_value(scene, "rpm", 1300.0)
+    assert send_value(scene, "turn_seconds", 0.5)
+    wait_for_inputs(scene, rpm=1300.0)
+    assert send_value(scene, "compliant", True)
+    wait_until(lambda: scene.compliant and scene.run_chunk is not None, timeout=120.0)
+    chunk = scene.run_chunk
+    assert chunk.k == 0 and chunk.theta.size == RUN_SAMPLES + 1
+    assert scene.gui.run_plots["run_lift"].visible
+    # on the cam at first (the constraint), then in flight by over a millimetre, then landed
+    assert chunk.constraint[0] and chunk.separations.size >= 1 and chunk.landings.size >= 1
+    assert chunk.gap.max() > 1e-3
+    i = int(np.argmax(chunk.gap))
+    assert chunk.force[i] == 0.0  # no force in flight
+    # it leaves where the closed form turns negative (within two outputs of 2 deg)
+    inputs = scene.revolution.inputs
+    w = inputs.speed
+    force = inputs.preload + inputs.mass * GRAVITY
+    root = math.acos(-(inputs.stiffness * E + force) / (inputs.mass * w * w * E - inputs.stiffness * E))
+    assert w * chunk.separations[0] == pytest.approx(root, abs=math.radians(4.0))
+    # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
+    wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.gui.readout.content, timeout=60.0)
+    # the next revolution continues from the last state of this one
+    wait_until(lambda: scene.run_chunk is not None and scene.run_chunk.k >= 1, timeout=180.0)
+    assert scene.paused_error is None and not notices_with(app, "Compliant run stopped")
+    assert send_value(scene, "compliant", False)
+    wait_until(lambda: not scene.compliant and not scene.gui.run_plots["run_lift"].visible)
+
+
+def test_compliant_run_below_the_jump_speed_follows_the_closed_form():
+    inputs = Inputs(rpm=700.0)
+    chunk = compute_chunk(inputs, 0, None)
+    s, ds, dds, force = flat_closed_form(chunk.theta, inputs)
+    np.testing.assert_allclose(chunk.lift, s, atol=1e-10)
+    np.testing.assert_allclose(chunk.force, force, rtol=1e-7)
+    assert np.all(chunk.constraint) and chunk.separations.size == 0
+    revolution = compute_revolution(inputs)
+    # the System's contact point is the scene's closed-form contact point
+    np.testing.assert_allclose(chunk.point[:, 0], E * np.sin(chunk.theta), atol=1e-9)
+    np.testing.assert_allclose(chunk.point[:, 1], RB + s, atol=1e-9)
+    i = REVOLUTION_SAMPLES // 4  # 90 deg, also an output of the run (every 2 deg)
+    j = RUN_SAMPLES // 4
+    np.testing.assert_allclose(revolution.contact[i], chunk.point[j], atol=1e-9)
+    with pytest.raises(ValueError, match="previous: revolution 2 continues from revolution 1"):
+        compute_chunk(inputs, 2, chunk)
+
+
+def test_every_cam_and_follower_gives_a_closed_mesh_and_finite_tables():
+    for profile in PROFILES:
+        for follower in FOLLOWERS:
+            inputs = Inputs(profile=profile, follower=follower, rpm=2000.0)
+            rev = compute_revolution(inputs)
+            cam = build_cam(inputs)
+            theta = np.arange(REVOLUTION_SAMPLES + 1) * (2 * math.pi / REVOLUTION_SAMPLES)
+            np.testing.assert_array_equal(rev.lift, cam.kinematics(theta).lift)
+            np.testing.assert_array_equal(rev.force, cam.contact_force(theta, inputs.speed))
+            vertices, faces = rev.geometry.cam_mesh
+            assert faces.max() < vertices.shape[0] and np.all(np.isfinite(vertices))
+            # the contour drawn passes through every contact point (turned back into the cam frame)
+            c, s = np.cos(theta), np.sin(theta)
+            body = np.column_stack([c * rev.contact[:, 0] + s * rev.contact[:, 1],
+                                    -s * rev.contact[:, 0] + c * rev.contact[:, 1]])
+            np.testing.assert_allclose(body, cam.cam_curve(theta).point, atol=1e-12)
+            assert rev.jump_speed == pytest.approx(cam.jump_speed(), rel=1e-12)
+            assert rev.separations  # 2000 rpm is past every default cam's jump speed
+
+
+def test_extruded_contours_are_closed_with_outward_faces():
+    from app.scenes.cam_follower import _extrude
+
+    # star-shaped about the origin (fan caps) and a C shape that is not (ear clipping)
+    t = np.linspace(0, 2 * math.pi, 200, endpoint=False)
+    ellipse = np.column_stack([0.05 * np.cos(t), 0.03 * np.sin(t)])[::-1]  # clockwise, as cam_curve runs
+    arc = np.linspace(0.3, 2 * math.pi - 0.3, 60)
+    c_shape = np.concatenate([np.column_stack([np.cos(arc), np.sin(arc)]),
+                              np.column_stack([0.6 * np.cos(arc[::-1]), 0.6 * np.sin(arc[::-1])])]) + [0.2, 0.0]
+    for contour in (ellipse, c_shape):
+        x, y = contour[:, 0], contour[:, 1]
+        area = abs(0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+        mesh = _extrude(contour, -0.5, 0.5)
+        assert mesh.vertices.shape[0] == 4 * contour.shape[0] + 2
+        assert mesh.faces.shape[0] == 4 * contour.shape[0]  # same counts either way (buffers replaced in place)
+        # the prism's volume from its outward faces (divergence theorem) is area x height
+        v = mesh.vertices[mesh.faces]
+        volume = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6.0
+        assert volume == pytest.approx(area * 1.0, rel=1e-12)
+
+
+# -- a scene on a bare server, driven frame by frame ----------------------------
+@pytest.fixture
+def bare_scene(make_bare_scene):
+    return lambda executor=None: make_bare_scene(CamFollowerScene, executor)
+
+
+def test_nothing_is_computed_on_the_loop_and_the_frames_go_on(bare_scene):
+    executor = GatedExecutor()
+    scene, _ = bare_scene(executor)
+    for _ in range(20):
+        scene.frame(1 / 60)
+    assert scene.revolution is None and scene.paused_error is None  # waiting for the job
+    executor.open.set()
+    wait_until(lambda: scene._job is not None and scene._job[1].done())
+    for _ in range(10):
+        scene.frame(1 / 60)
+    assert scene.revolution is not None
+    # a stalled loop advances the cam by at most 0.1 s of wall time
+    angle = scene._angle
+    scene.frame(30.0)
+    turn = scene.controls.value("turn_seconds")
+    step = (scene._angle - angle) % (2 * math.pi)
+    assert 0 < step <= 2 * math.pi * 0.1 / turn + 1e-12
+
+
+def test_labels_are_framed_left_of_the_panel_and_do_not_overlap(bare_scene):
+    scene, _ = bare_scene()
+    wait_until(lambda: (scene.frame(1 / 60), scene.revolution is not None)[1])
+    camera = Camera(CamFollowerScene.camera_position, CamFollowerScene.camera_look_at)
+    assert send_value(scene, "animate", False)
+    for angle in (0.0, 90.0, 180.0, 270.0):
+        scene.load_state({"scene": "cam_follower", "values": {}, "cam_angle_deg": angle})
+        for _ in range(3):
+            scene.frame(1 / 60)
+        boxes = {}
+        for name, handle in (*scene.labels.items(), ("N", scene.force_label)):
+            x, y = camera.pixels(np.asarray(handle.position))
+            boxes[name] = label_box(x, y, _LABEL_TEXT[name], handle._impl.props.anchor, 1.3)
+            assert 0 < x < 0.62 * 1200 and 0 < y < 750, (name, x, y)
+        assert overlapping_pairs(boxes) == [], angle
+    # the mechanism fills a good part of the view, left of the panel
+    top = camera.pixels((0.0, 0.0, scene.geometry.spring_top))
+    bottom = camera.pixels((0.0, 0.0, -0.05))
+    assert 250 < bottom[1] - top[1] < 700 and top[0] < 0.62 * 1200
+
+
+_LABEL_TEXT = {"cam": "cam (turns at ω)", "follower": "follower", "spring": "spring k, F0", "N": "N"}

@@ -1,0 +1,89 @@
+"""Browser test of the cam-follower scene: headless Chromium drives the page.
+
+Open the page of an app showing the cam-follower; stop the cam with
+the page's checkbox; pick the roller in the *Follower* dropdown and move the
+*Roller radius* slider from the keyboard: the follower rises by the change of
+radius (its pose is the closed form) and the lift plot changes; then move
+the *Cam speed* slider past the jump speed: the force plot shows the
+separation interval and the rendered view changes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.scenes.cam_follower import ECCENTRIC_RADIUS, ECCENTRICITY, FOLLOWERS, CamFollowerScene
+from tests.browser._page import drawn_fraction, png_pixels
+from tests.helpers import wait_until
+
+
+_CLICK_MS = 120_000
+
+
+def _row(page, label: str):
+    """The GUI row labelled ``label``."""
+    return page.locator(f"label:text-is('{label}')").first.locator(
+        "xpath=ancestor::div[contains(@class,'mantine-Flex-root')][1]"
+    )
+
+
+def _view(png: bytes) -> np.ndarray:
+    """The 3-D view of a page screenshot: the part left of the control panel."""
+    pixels = png_pixels(png)[..., :3]
+    return pixels[:, : int(0.6 * pixels.shape[1])]
+
+
+def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_app, open_page) -> None:
+    app = running_app(scene=CamFollowerScene.name, run_unwatched=False)
+    page = open_page(app)
+    scene = app.scene_for()
+    assert isinstance(scene, CamFollowerScene)
+    wait_until(lambda: scene.revolution is not None and scene.frames > 10, timeout=60.0)
+
+    # stop the cam from the page: the pose then changes only when a control does
+    # (generous timeouts: the software renderer of a loaded machine can take seconds per frame)
+    _row(page, "Turn the cam").locator("input[type='checkbox']").first.click(timeout=_CLICK_MS)
+    wait_until(lambda: scene.controls.value("animate") is False)
+    page.wait_for_timeout(300)
+
+    # the roller, chosen in the page's dropdown
+    _row(page, "Follower").locator("input.mantine-Select-input").first.click(timeout=_CLICK_MS)
+    page.get_by_role("option", name=FOLLOWERS[1], exact=True).click(timeout=_CLICK_MS)
+    wait_until(lambda: scene.revolution.inputs.follower == FOLLOWERS[1] and scene.roller_mesh.visible, timeout=30.0)
+    wait_until(lambda: not scene.controls.handles["roller_mm"].disabled)
+    page.wait_for_timeout(500)
+    z_before = float(scene.follower_frame.position[2])
+    theta = scene.cam_angle
+    lift_before = np.array(scene.gui.plots["lift"].data[1])
+    view_before = _view(page.screenshot())
+
+    thumb = _row(page, "Roller radius (mm)").get_by_role("slider").first
+    wait_until(lambda: thumb.get_attribute("aria-disabled") != "true")
+    thumb.focus()
+    page.keyboard.press("End")  # the slider's maximum: 40 mm
+    wait_until(lambda: scene.controls.value("roller_mm") == 40.0)
+    wait_until(lambda: scene.revolution.inputs.roller_mm == 40.0
+               and not np.array_equal(np.asarray(scene.gui.plots["lift"].data[1]), lift_before), timeout=30.0)
+    wait_until(lambda: float(scene.follower_frame.position[2]) != z_before)
+    assert scene.cam_angle == theta  # the cam stands still
+    # the roller's centre: the slider-crank of crank e and rod R + r (closed form), 30 mm higher pitch
+    r, R, e = 0.04, ECCENTRIC_RADIUS, ECCENTRICITY
+    lift = np.sqrt((R + r) ** 2 - (e * np.sin(theta)) ** 2) - e * np.cos(theta) - (R + r - e)
+    assert float(scene.follower_frame.position[2]) == pytest.approx(R + r - e + lift, abs=1e-14)
+    page.wait_for_timeout(800)  # a few frames of the software renderer
+    view_roller = _view(page.screenshot())
+    changed = np.any(np.abs(view_roller - view_before) > 0.05, axis=-1)
+    assert changed.sum() > 300, f"only {changed.sum()} pixels of the 3-D view changed"
+
+    # the cam speed past the jump speed: the force plot shades the separation interval
+    force_before = np.array(scene.gui.plots["force"].data[1])
+    speed = _row(page, "Cam speed (rpm)").get_by_role("slider").first
+    speed.focus()
+    page.keyboard.press("End")  # 3000 rpm
+    wait_until(lambda: scene.revolution.inputs.rpm == 3000.0 and scene.separation_arc.visible, timeout=30.0)
+    wait_until(lambda: np.any(np.asarray(scene.gui.plots["force"].data[4]) < 0.0))
+    assert not np.array_equal(np.asarray(scene.gui.plots["force"].data[1]), force_before)
+    wait_until(lambda: "Separation" in scene.gui.info.content)
+    page.get_by_text("jump speed = ", exact=False).first.wait_for(state="visible", timeout=15000)
+    assert drawn_fraction(page.locator("canvas").first.screenshot()) > 0.01
