@@ -1,0 +1,231 @@
+"""Bicycle scene (app/scenes/bicycle.py) on a running rigidlab app.
+
+The session loop drives the scene at about 60 Hz; tests act as a browser does
+(values and clicks through the gate with ``send_value`` / ``click``) and check
+what the scene streams: the bodies' poses against the ride's lean, a push that
+the bicycle recovers from at 5 m/s and one it falls after at 2 m/s, the modes
+at the current speed against the paper's equations, the eigenvalue plot, the
+CSV export, refused input and the shareable state. The chunk job and the plot
+functions are also checked on their own.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from app.scenes.bicycle import (
+    CSV_HEADER,
+    PRESETS,
+    SWEEP_SPEEDS,
+    BicycleScene,
+    ModeRow,
+    Segment,
+    _compute_chunk,
+    _reference_job,
+    eigenvalue_svg,
+    stable_band,
+)
+from core.models import MEIJAARD_2007_EIGENVALUES, whipple_bicycle_reference
+from tests.helpers import click, send_value, wait_until
+
+RECOVERED = math.radians(1.0)  # |lean| below this: recovered
+FALLEN = 0.5  # rad: |lean| beyond this has fallen
+
+
+@pytest.fixture
+def bicycle(running_scene):
+    return running_scene(BicycleScene)
+
+
+def notices_with(app, text):
+    return [n for n in app.session_for().notices if text in n[0] or text in n[1]]
+
+
+def _window_leans(scene):
+    t, columns = scene.history.window(0.0, scene.sim_time, max_points=100000)
+    return t, np.radians(columns[:, 0]) if t.size else np.zeros(0)
+
+
+def test_scene_is_registered_last():
+    from app.scenes import discover_scenes
+
+    scenes = discover_scenes()
+    assert "bicycle" in scenes and BicycleScene.order == 90
+    assert list(scenes)[-1] == "bicycle" or all(s.order <= 90 for s in scenes.values())
+
+
+def test_first_ride_is_pushed_and_recovers(bicycle):
+    app, scene = bicycle
+    assert scene.pushes == 1  # the first ride starts with the slider's push
+    wait_until(lambda: scene.sim_time > 7.0, timeout=120.0)
+    t, lean = _window_leans(scene)
+    assert np.max(np.abs(lean)) > math.radians(1.0)  # it did lean
+    assert np.max(np.abs(lean)) < 0.2
+    assert abs(scene.lean) < RECOVERED and not scene.fallen
+
+
+def test_body_poses_follow_the_ride(bicycle):
+    app, scene = bicycle
+    wait_until(lambda: scene.sim_time > 0.5, timeout=60.0)
+    with app.session_for().run_lock:
+        wxyz = np.array(scene.bodies[1].wxyz)
+        lean = scene.lean
+        center = scene.center.copy()
+        world = np.array(scene.world.position)
+    heading, roll, _ = Rotation.from_quat(wxyz, scalar_first=True).as_euler("ZXY")
+    assert roll == pytest.approx(lean, abs=2e-3)  # the frame's lean about its heading (interpolated)
+    np.testing.assert_allclose(world[:2], -center, atol=1e-5)  # the view follows the bicycle
+
+
+def test_push_at_five_metres_a_second_recovers(bicycle):
+    app, scene = bicycle
+    wait_until(lambda: scene.sim_time > 6.0, timeout=120.0)
+    pushes = scene.pushes
+    send_value(scene, "impulse", -60.0)
+    click(scene, "push")
+    wait_until(lambda: scene.pushes == pushes + 1, timeout=10.0)
+    t_push = scene.segment.t0
+    wait_until(lambda: scene.sim_time > t_push + 1.0, timeout=60.0)
+    t, lean = _window_leans(scene)
+    after = t > t_push
+    assert np.min(lean[after]) < -math.radians(2.0)  # pushed to the left: it leans left
+    wait_until(lambda: scene.sim_time > t_push + 8.0, timeout=120.0)
+    t, lean = _window_leans(scene)
+    after = t > t_push
+    assert np.max(np.abs(lean[after])) < 0.25
+    # the weave has died out, the capsize mode (-0.32 /s) decays
+    assert abs(scene.lean) < 0.25 * np.max(np.abs(lean[after])) and not scene.fallen
+
+
+def test_push_at_two_metres_a_second_falls(bicycle):
+    app, scene = bicycle
+    send_value(scene, "speed", 2.0)
+    wait_until(lambda: scene.segment.speed == 2.0, timeout=10.0)
+    click(scene, "push")
+    wait_until(lambda: scene.fallen, timeout=120.0)
+    t, lean = _window_leans(scene)
+    assert np.max(np.abs(lean)) > FALLEN
+    assert notices_with(app, "The bicycle fell")
+    t_fall = scene.sim_time
+    wait_until(lambda: scene.frames > 0 and scene.sim_time == t_fall)  # the clock holds after the fall
+    click(scene, "push")  # a push after the fall asks for a reset
+    wait_until(lambda: notices_with(app, "has fallen"))
+    click(scene, "playback", "Reset")
+    wait_until(lambda: not scene.fallen and scene.sim_time < t_fall, timeout=10.0)
+
+
+def test_modes_at_the_current_speed_match_the_papers_equations(bicycle):
+    app, scene = bicycle
+    for speed in (5.0, 7.5):
+        send_value(scene, "speed", speed)
+        wait_until(lambda speed=speed: scene.modes is not None and scene.modes[0] == speed, timeout=120.0)
+        rows = scene.modes[1]
+        assert [m.name for m in rows] == ["weave", "weave", "capsize", "castering"]
+        got = np.array(sorted((m.eigenvalue for m in rows), key=lambda s: (s.real, s.imag)))
+        want = whipple_bicycle_reference().eigenvalues(speed)
+        np.testing.assert_allclose(got, want, rtol=1e-9)
+        html = scene.gui.modes_html.content
+        assert f"Modes at {speed:.2f} m/s" in html and "castering" in html
+    assert "×2 in" in scene.gui.modes_html.content  # capsize is unstable at 7.5 m/s
+    wait_until(lambda: scene.reference is not None and "<polyline" in scene.gui.eigen_plot.content, timeout=60.0)
+    np.testing.assert_allclose(scene.reference.band, [MEIJAARD_2007_EIGENVALUES["weave_speed"],
+                                                      MEIJAARD_2007_EIGENVALUES["capsize_speed"]], atol=1e-10)
+    ET.fromstring(scene.gui.eigen_plot.content)  # well-formed SVG
+
+
+def test_presets_set_speed_and_push(bicycle):
+    app, scene = bicycle
+    for i, (name, (speed, impulse)) in enumerate(PRESETS.items()):
+        click(scene, f"preset_{i}")
+        wait_until(lambda speed=speed, impulse=impulse: scene.segment.speed == speed
+                   and scene.segment.impulse == impulse and scene.segment.index == 0, timeout=10.0)
+        assert scene.controls.value("speed") == speed
+
+
+def test_refused_speed_keeps_the_ride(bicycle):
+    app, scene = bicycle
+    before = scene.segment
+    assert not send_value(scene, "speed", 25.0)
+    assert not send_value(scene, "speed", math.nan)
+    assert scene.controls.value("speed") == 5.0
+    assert scene.segment == before
+    assert scene.paused_error is None
+
+
+def test_csv_export_and_state(bicycle):
+    app, scene = bicycle
+    wait_until(lambda: scene.sim_time > 1.5, timeout=60.0)
+    text = scene.csv_bytes().decode()
+    rows = list(csv.reader(io.StringIO(text)))
+    assert ",".join(rows[0]) == CSV_HEADER
+    data = np.array(rows[1:], dtype=float)
+    assert data.shape[1] == 7 and data.shape[0] > 20
+    assert np.all(np.diff(data[:, 0]) > 0)
+    np.testing.assert_allclose(data[:, 6], 5.0, atol=0.2)  # the rear hub: 5 m/s and the lean's sway
+    send_value(scene, "speed", 6.5)
+    state = scene.state()
+    assert state["values"]["speed"] == 6.5
+    send_value(scene, "speed", 3.0)
+    assert scene.load_state(state) == []
+    wait_until(lambda: scene.segment.speed == 6.5, timeout=10.0)
+
+
+# ------------------------------------------------------------------ jobs and plot, on their own
+def test_chunks_continue_and_a_fall_holds():
+    pushed = Segment(0, 2.0, 0.0, impulse=40.0)
+    chunks = [_compute_chunk(pushed, 0, None)]
+    assert chunks[0].angles[3, 0] > 0  # pushed to the right: leans right
+    k = 1
+    while not chunks[-1].fallen and k < 12:
+        chunks.append(_compute_chunk(pushed, k, chunks[-1]))
+        k += 1
+    assert chunks[-1].fallen and "left the ground" in chunks[-1].end or "fell" in chunks[-1].end
+    for a, b in zip(chunks, chunks[1:]):
+        assert b.t[0] == pytest.approx(a.t[-1])  # each chunk starts where the one before ended
+        np.testing.assert_allclose(b.states[0], a.states[-1], atol=1e-9)
+    still = _compute_chunk(pushed, k, chunks[-1])
+    np.testing.assert_array_equal(still.poses[0], chunks[-1].poses[-1])
+    # a segment from a displayed state continues it (no jump)
+    j = 10
+    state = chunks[0].states[j]
+    later = Segment(1, 2.0, float(chunks[0].t[j]), tuple(state[:28]), tuple(state[28:]))
+    cont = _compute_chunk(later, 0, None)
+    np.testing.assert_allclose(cont.angles[0], chunks[0].angles[j], atol=1e-12)
+    np.testing.assert_allclose(cont.angles[5], chunks[0].angles[j + 5], atol=1e-4)
+
+
+def test_reference_curves_and_band():
+    ref = _reference_job()
+    assert ref.curves.shape == (5, ref.speeds.size)
+    i5 = int(np.argmin(np.abs(ref.speeds - 5.0)))
+    want = MEIJAARD_2007_EIGENVALUES["eigenvalues"][5.0]
+    np.testing.assert_allclose(ref.curves[3, i5], want[3].real, atol=1e-12)  # capsize
+    np.testing.assert_allclose(ref.curves[4, i5], want[0].real, atol=1e-12)  # castering
+    np.testing.assert_allclose(ref.curves[2, i5], want[2].imag, atol=1e-12)  # weave frequency
+
+
+def _rows(speed: float) -> tuple[ModeRow, ...]:
+    from core.models import whipple_mode_names
+
+    s = whipple_bicycle_reference().eigenvalues(speed)
+    return tuple(ModeRow(n, complex(x), 1.0, 1.0) for x, n in zip(s, whipple_mode_names(s)))
+
+
+def test_stable_band_from_grid_points():
+    points = {v: _rows(v) for v in SWEEP_SPEEDS}
+    lo, hi = stable_band(points)
+    assert abs(lo - MEIJAARD_2007_EIGENVALUES["weave_speed"]) < 0.01
+    assert abs(hi - MEIJAARD_2007_EIGENVALUES["capsize_speed"]) < 0.02
+    assert stable_band({1.0: _rows(1.0)}) is None
+    svg = eigenvalue_svg(_reference_job(), points, (5.0, _rows(5.0)))
+    root = ET.fromstring(svg)
+    assert root.tag.endswith("svg")
+    assert svg.count("<circle") >= len(SWEEP_SPEEDS) * 2
+    assert "self-stable" in svg
