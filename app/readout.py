@@ -1,8 +1,11 @@
 """Readouts: text panels that are sent only when they change and grow in presenter view.
 
 A readout is written in a small subset of Markdown (``**bold**``,
-```` `code` ````, fenced code blocks, ``- `` lists, blank lines between
-paragraphs, a line ending in two spaces or ``\\`` for a line break) and shown
+```` `code` ````, fenced code blocks, ``- `` lists, pipe tables (a header
+row, a ``|---|---:|`` row whose colons align the columns, then the rows;
+a ``|p| = 1`` line without such a rule row stays text),
+blank lines between paragraphs, a line ending in two spaces or ``\\`` for
+a line break) and shown
 as HTML (viser's ``add_html``), so presenter view can scale its font; viser's
 Markdown element is MDX, where ``{`` and ``<`` in a number readout would be
 read as code. Everything is HTML-escaped before the markup is applied.
@@ -24,6 +27,7 @@ _BOLD = re.compile(r"\*\*(.+?)\*\*")
 _CODE = re.compile(r"`([^`]+)`")
 _ITALIC = re.compile(r"(?<![\w*])\*([^*\s][^*]*?)\*(?![\w*])")
 _SUB = re.compile(r"&lt;sub&gt;(.+?)&lt;/sub&gt;")
+_TABLE_RULE = re.compile(r"^\s*:?-{3,}:?\s*$")
 
 
 @functools.lru_cache(maxsize=4096)
@@ -55,6 +59,14 @@ def markdown_to_html(text: str) -> str:
 
     while i < len(lines):
         line = lines[i]
+        if _is_table(lines, i):
+            flush()
+            rows = []
+            while i < len(lines) and lines[i].lstrip().startswith("|"):
+                rows.append(lines[i])
+                i += 1
+            out.append(_table(rows))
+            continue
         if line.startswith("```"):
             flush()
             block = []
@@ -79,6 +91,46 @@ def markdown_to_html(text: str) -> str:
         i += 1
     flush()
     return "".join(out)
+
+
+def _is_table(lines: list[str], i: int) -> bool:
+    """A table starts at line ``i``: a row of cells, then a rule row of as many ``---`` cells.
+
+    A line such as ``|p| = 1`` alone (a norm, not a table) stays text.
+    """
+    if not lines[i].lstrip().startswith("|") or i + 1 >= len(lines):
+        return False
+    rule = _cells(lines[i + 1])
+    return (lines[i + 1].lstrip().startswith("|") and len(rule) == len(_cells(lines[i]))
+            and all(_TABLE_RULE.match(cell) for cell in rule))
+
+
+def _cells(row: str) -> list[str]:
+    row = row.strip()
+    if row.startswith("|"):
+        row = row[1:]
+    if row.endswith("|"):
+        row = row[:-1]
+    return [cell.strip() for cell in row.split("|")]
+
+
+def _table(rows: list[str]) -> str:
+    """HTML of a pipe table: header row, ``|---|---:|`` rule (colons align), body rows."""
+    header = _cells(rows[0])
+    aligns = ["right" if c.endswith(":") and not c.startswith(":") else
+              "center" if c.startswith(":") and c.endswith(":") else "left" for c in _cells(rows[1])]
+    body = rows[2:]
+    pad = "padding:0.1em 0.45em"
+
+    def cell(tag: str, text: str, k: int, extra: str = "") -> str:
+        align = aligns[k] if k < len(aligns) else "left"
+        return f"<{tag} style='{pad};text-align:{align}{extra}'>{_inline(text)}</{tag}>"
+
+    head = "".join(cell("th", text, k, ";border-bottom:1px solid #c8ccd4;font-weight:600")
+                   for k, text in enumerate(header))
+    lines = ["<tr>" + "".join(cell("td", text, k) for k, text in enumerate(_cells(row))) + "</tr>" for row in body]
+    return ("<table style='border-collapse:collapse;margin:0 0 0.45em 0;font-variant-numeric:tabular-nums'>"
+            f"<thead><tr>{head}</tr></thead><tbody>{''.join(lines)}</tbody></table>")
 
 
 class Readout:
