@@ -1,0 +1,328 @@
+"""Drawing the bodies of a :class:`core.multibody.System`: rods, balls, boxes and springs, batched.
+
+A scene that shows a System describes each body by simple parts fixed in the
+body's frame (:class:`Parts`): rods (cylinders between two body points),
+balls (a joint, a point mass) and boxes, plus the springs between body
+points. :meth:`Parts.place` turns body poses ``(R, p)`` at many instants into
+the instance poses of every part at once (a pure function of arrays, run
+where the poses are computed, e.g. on the app's executor), and
+:class:`PartsView` draws them with one batched mesh per kind of part and one
+line-segment buffer for the springs, created once; a frame then sends a few
+arrays (:func:`app.nodes.set_arrays`).
+
+The rods of :mod:`app.scenes.linkages` follow the same rule: a unit cylinder
+along its z axis, scaled to ``(r, r, L)`` and turned with its body.
+
+Conventions: metres, global frame, Euler parameters scalar first (viser's
+``wxyz``); the ground is body index -1, its parts are given in the global
+frame.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from app.nodes import set_array, set_arrays
+from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
+
+__all__ = ["Parts", "Placed", "PartsView", "body_point", "spring_polyline"]
+
+#: Coils of a spring drawn as a zigzag (segments = 2 coils + 2 straight ends).
+SPRING_COILS = 8
+
+
+def _ro(a: Any, dtype: Any = float) -> np.ndarray:
+    out = np.array(a, dtype=dtype)
+    out.setflags(write=False)
+    return out
+
+
+def _z_to(direction: np.ndarray) -> np.ndarray:
+    """Euler parameters (4,) of the rotation that takes +z to ``direction`` (3,), any length > 0."""
+    d = direction / np.linalg.norm(direction)
+    axis = np.cross((0.0, 0.0, 1.0), d)
+    s = float(np.linalg.norm(axis))
+    if s < 1e-12:
+        return np.array([1.0, 0.0, 0.0, 0.0]) if d[2] > 0 else np.array([0.0, 1.0, 0.0, 0.0])
+    return np.asarray(euler_parameters_from_axis_angle(axis / s, math.atan2(s, float(d[2]))), dtype=float)
+
+
+def body_point(R: np.ndarray, P: np.ndarray, body: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Global points (..., k, 3) of body points ``u`` (k, 3) on bodies ``body`` (k,) (-1: ground, ``u`` global).
+
+    ``R`` (..., n, 3) centres of mass and ``P`` (..., n, 4) Euler parameters of the bodies.
+    """
+    body = np.asarray(body, dtype=np.intp)
+    u = np.asarray(u, dtype=float)
+    lead = R.shape[:-2]
+    out = np.broadcast_to(u, lead + u.shape).copy()
+    moving = body >= 0
+    if np.any(moving):
+        idx = body[moving]
+        out[..., moving, :] = R[..., idx, :] + rotate_vector(P[..., idx, :], u[moving])
+    return out
+
+
+def spring_polyline(a: np.ndarray, b: np.ndarray, *, width: float, coils: int = SPRING_COILS) -> np.ndarray:
+    """Segments (..., 2 coils + 2, 2, 3) of a zigzag spring from ``a`` to ``b`` (..., 3).
+
+    Straight ends of a tenth of the length, ``2 coils`` zigzag segments of
+    half-width ``width`` between them, in a plane through the spring's axis
+    and the global z axis (or x for a vertical spring). A spring of zero
+    length is drawn as segments of zero length.
+    """
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    axis = b - a
+    length = np.linalg.norm(axis, axis=-1, keepdims=True)
+    unit = np.divide(axis, length, out=np.zeros_like(axis), where=length > 0)
+    up = np.where(np.abs(unit[..., 2:3]) > 0.9, np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
+    side = up - np.sum(up * unit, axis=-1, keepdims=True) * unit
+    side /= np.linalg.norm(side, axis=-1, keepdims=True)
+    m = 2 * coils
+    fractions = np.concatenate([[0.0], 0.1 + 0.8 * np.arange(m + 1) / m, [1.0]])
+    offsets = np.zeros(fractions.size)
+    offsets[2:-2:2] = width
+    offsets[3:-2:2] = -width
+    offsets = offsets * np.minimum(1.0, length / (4.0 * width + 1e-300))  # flat when compressed to nothing
+    pts = a[..., None, :] + fractions[:, None] * axis[..., None, :] + offsets[..., :, None] * side[..., None, :]
+    return np.stack([pts[..., :-1, :], pts[..., 1:, :]], axis=-2)
+
+
+@dataclasses.dataclass(frozen=True)
+class Placed:
+    """Instance poses of :class:`Parts` at ``m`` instants (float32, read-only).
+
+    Attributes
+    ----------
+    rod_positions : (m, k_r, 3) rod centres (m)
+    rod_wxyzs : (m, k_r, 4) rod orientations (the unit rod's z along the rod)
+    ball_positions : (m, k_b, 3) ball centres (m)
+    box_positions : (m, k_x, 3) box centres (m)
+    box_wxyzs : (m, k_x, 4) box orientations (the body's)
+    springs : (m, s, 2 SPRING_COILS + 2, 2, 3) spring segments (m)
+    """
+
+    rod_positions: np.ndarray  # (m, k_r, 3)
+    rod_wxyzs: np.ndarray  # (m, k_r, 4)
+    ball_positions: np.ndarray  # (m, k_b, 3)
+    box_positions: np.ndarray  # (m, k_x, 3)
+    box_wxyzs: np.ndarray  # (m, k_x, 4)
+    springs: np.ndarray  # (m, s, segments, 2, 3)
+
+    @property
+    def n_times(self) -> int:
+        return int(self.rod_positions.shape[0])
+
+
+@dataclasses.dataclass(frozen=True)
+class Parts:
+    """Parts drawn for the bodies of a System, each fixed in its body's frame (read-only arrays).
+
+    Attributes
+    ----------
+    rod_body : (k_r,) body index of each rod
+    rod_ends : (k_r, 2, 3) the rod's two end points in its body's frame (m)
+    rod_radius : (k_r,) m
+    ball_body : (k_b,) body index of each ball (-1: fixed to the ground)
+    ball_center : (k_b, 3) centre in the body's frame (global for the ground), m
+    ball_radius : (k_b,) m
+    box_body : (k_x,) body index of each box (centred on the body's centre of mass)
+    box_size : (k_x, 3) edge lengths along the body axes (m)
+    spring_bodies : (s, 2) body indices of a spring's two ends (-1: ground)
+    spring_points : (s, 2, 3) the end points in those bodies' frames (m)
+    spring_width : float
+        Half-width of a spring's zigzag (m).
+    """
+
+    rod_body: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros(0), np.intp))
+    rod_ends: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros((0, 2, 3))))
+    rod_radius: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros(0)))
+    ball_body: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros(0), np.intp))
+    ball_center: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros((0, 3))))
+    ball_radius: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros(0)))
+    box_body: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros(0), np.intp))
+    box_size: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros((0, 3))))
+    spring_bodies: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros((0, 2)), np.intp))
+    spring_points: np.ndarray = dataclasses.field(default_factory=lambda: _ro(np.zeros((0, 2, 3))))
+    spring_width: float = 0.03
+
+    @classmethod
+    def build(
+        cls,
+        *,
+        rods: Sequence[tuple[int, Any, Any, float]] = (),
+        balls: Sequence[tuple[int, Any, float]] = (),
+        boxes: Sequence[tuple[int, Any]] = (),
+        springs: Sequence[tuple[int, Any, int, Any]] = (),
+        spring_width: float = 0.03,
+    ) -> Parts:
+        """Parts from lists: rods ``(body, start, end, radius)``, balls ``(body, centre, radius)``,
+        boxes ``(body, size)``, springs ``(body_i, point_i, body_j, point_j)`` (body frames, m)."""
+        return cls(
+            rod_body=_ro([r[0] for r in rods], np.intp),
+            rod_ends=_ro(np.array([[r[1], r[2]] for r in rods], dtype=float).reshape(-1, 2, 3)),
+            rod_radius=_ro([r[3] for r in rods]),
+            ball_body=_ro([b[0] for b in balls], np.intp),
+            ball_center=_ro(np.array([b[1] for b in balls], dtype=float).reshape(-1, 3)),
+            ball_radius=_ro([b[2] for b in balls]),
+            box_body=_ro([b[0] for b in boxes], np.intp),
+            box_size=_ro(np.array([b[1] for b in boxes], dtype=float).reshape(-1, 3)),
+            spring_bodies=_ro(np.array([[s[0], s[2]] for s in springs], dtype=np.intp).reshape(-1, 2)),
+            spring_points=_ro(np.array([[s[1], s[3]] for s in springs], dtype=float).reshape(-1, 2, 3)),
+            spring_width=float(spring_width),
+        )
+
+    @property
+    def counts(self) -> tuple[int, int, int, int]:
+        """(rods, balls, boxes, springs)."""
+        return (self.rod_body.size, self.ball_body.size, self.box_body.size, self.spring_bodies.shape[0])
+
+    def rod_scales(self) -> np.ndarray:
+        """(k_r, 3) scales ``(r, r, L)`` of the unit rod."""
+        lengths = np.linalg.norm(self.rod_ends[:, 1] - self.rod_ends[:, 0], axis=-1)
+        return np.stack([self.rod_radius, self.rod_radius, lengths], axis=-1)
+
+    def place(self, R: Any, P: Any) -> Placed:
+        """Instance poses of every part for bodies at ``R`` (m, n, 3) (m) and ``P`` (m, n, 4) (Euler parameters).
+
+        ``m`` instants of ``n`` bodies; the result is float32 (what viser stores).
+        """
+        R = np.asarray(R, dtype=float)
+        P = np.asarray(P, dtype=float)
+        if R.ndim != 3 or R.shape[-1] != 3 or P.shape != R.shape[:-1] + (4,):
+            raise ValueError(f"R, P: expected shapes (m, n, 3) and (m, n, 4), got {R.shape} and {P.shape}")
+        m = R.shape[0]
+        centres = self.rod_ends.mean(axis=1)
+        rod_positions = body_point(R, P, self.rod_body, centres)
+        if self.rod_body.size:
+            turn = np.array([_z_to(e[1] - e[0]) for e in self.rod_ends])
+            rod_wxyzs = quaternion_product(P[:, self.rod_body, :], turn)
+        else:
+            rod_wxyzs = np.zeros((m, 0, 4))
+        ball_positions = body_point(R, P, self.ball_body, self.ball_center)
+        box_positions = R[:, self.box_body, :] if self.box_body.size else np.zeros((m, 0, 3))
+        box_wxyzs = P[:, self.box_body, :] if self.box_body.size else np.zeros((m, 0, 4))
+        if self.spring_bodies.size:
+            a = body_point(R, P, self.spring_bodies[:, 0], self.spring_points[:, 0])
+            b = body_point(R, P, self.spring_bodies[:, 1], self.spring_points[:, 1])
+            springs = spring_polyline(a, b, width=self.spring_width)
+        else:
+            springs = np.zeros((m, 0, 2 * SPRING_COILS + 2, 2, 3))
+        return Placed(*(_ro(x, np.float32) for x in (rod_positions, rod_wxyzs, ball_positions, box_positions,
+                                                      box_wxyzs, springs)))
+
+
+class PartsView:
+    """The viser nodes that draw :class:`Parts`: batched rods, balls and boxes and one spring buffer.
+
+    Created once with room for ``capacity`` instances of each kind; parts
+    not in use are drawn at scale zero. :meth:`show` sets the scales of a
+    new set of parts (when the model changes), :meth:`move` the poses of
+    one instant (every frame). Everything goes under the frame ``name``.
+
+    Parameters
+    ----------
+    scene : viser.SceneApi
+    name : str
+        Node path of the parts (a frame is created there).
+    capacity : (rods, balls, boxes, springs)
+    rod_colors : (capacity_rods, 3) or (3,) uint8
+    ball_color, box_color, spring_color : (3,) uint8
+    opacity : float or None
+        A translucent copy (a ghost) with opacity < 1.
+    """
+
+    def __init__(self, scene: Any, name: str, *, capacity: tuple[int, int, int, int], rod_colors: Any,
+                 ball_color: Any, box_color: Any, spring_color: Any, opacity: float | None = None,
+                 spring_thickness: float = 2.5) -> None:
+        self.capacity = tuple(int(c) for c in capacity)
+        k_r, k_b, k_x, k_s = self.capacity
+        self.frame = scene.add_frame(name, show_axes=False)
+        identity = np.tile(np.array([1.0, 0.0, 0.0, 0.0], dtype=np.float32), (max(k_r, k_b, k_x), 1))
+        rod = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=20)
+        ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+        common = dict(lod="off", opacity=opacity, cast_shadow=opacity is None)
+        self.rods = scene.add_batched_meshes_simple(
+            f"{name}/rods", rod.vertices.astype(np.float32), rod.faces.astype(np.uint32),
+            batched_wxyzs=identity[:k_r], batched_positions=np.zeros((k_r, 3), dtype=np.float32),
+            batched_scales=np.zeros((k_r, 3), dtype=np.float32),
+            batched_colors=np.broadcast_to(np.asarray(rod_colors, dtype=np.uint8), (k_r, 3)).copy(), **common,
+        )
+        self.balls = scene.add_batched_meshes_simple(
+            f"{name}/balls", ball.vertices.astype(np.float32), ball.faces.astype(np.uint32),
+            batched_wxyzs=identity[:k_b], batched_positions=np.zeros((k_b, 3), dtype=np.float32),
+            batched_scales=np.zeros(k_b, dtype=np.float32), batched_colors=np.asarray(ball_color, dtype=np.uint8),
+            **common,
+        )
+        self.boxes = scene.add_batched_meshes_simple(
+            f"{name}/boxes", box.vertices.astype(np.float32), box.faces.astype(np.uint32),
+            batched_wxyzs=identity[:k_x], batched_positions=np.zeros((k_x, 3), dtype=np.float32),
+            batched_scales=np.zeros((k_x, 3), dtype=np.float32),
+            batched_colors=np.asarray(box_color, dtype=np.uint8), **common,
+        )
+        segments = 2 * SPRING_COILS + 2
+        self.springs = scene.add_line_segments(
+            f"{name}/springs", np.zeros((k_s * segments, 2, 3), dtype=np.float32),
+            np.asarray(spring_color, dtype=np.uint8), thickness=spring_thickness, thickness_units="screen",
+        )
+        self._rod_positions = np.zeros((k_r, 3), dtype=np.float32)
+        self._rod_wxyzs = identity[:k_r].copy()
+        self._ball_positions = np.zeros((k_b, 3), dtype=np.float32)
+        self._box_positions = np.zeros((k_x, 3), dtype=np.float32)
+        self._box_wxyzs = identity[:k_x].copy()
+        self._springs = np.zeros((k_s * segments, 2, 3), dtype=np.float32)
+        self.counts = (0, 0, 0, 0)
+
+    def show(self, parts: Parts) -> None:
+        """Use ``parts`` (scales of the instances; the others at scale zero).
+
+        Raises
+        ------
+        ValueError
+            If ``parts`` has more instances of a kind than the view's capacity.
+        """
+        counts = parts.counts
+        for what, n, cap in zip(("rods", "balls", "boxes", "springs"), counts, self.capacity, strict=True):
+            if n > cap:
+                raise ValueError(f"parts: expected at most {cap} {what}, got {n}")
+        k_r, k_b, k_x, _ = self.capacity
+        rod_scales = np.zeros((k_r, 3), dtype=np.float32)
+        rod_scales[: counts[0]] = parts.rod_scales()
+        ball_scales = np.zeros(k_b, dtype=np.float32)
+        ball_scales[: counts[1]] = parts.ball_radius
+        box_scales = np.zeros((k_x, 3), dtype=np.float32)
+        box_scales[: counts[2]] = parts.box_size
+        set_array(self.rods, "batched_scales", rod_scales)
+        set_array(self.balls, "batched_scales", ball_scales)
+        set_array(self.boxes, "batched_scales", box_scales)
+        if self._springs.any():  # the springs of the parts shown before go
+            self._springs[:] = 0.0
+            set_array(self.springs, "points", self._springs)
+        self.counts = counts
+
+    def move(self, placed: Placed, i: int) -> None:
+        """Poses of instant ``i`` of ``placed`` (float32 arrays: a few copies and messages)."""
+        n_r, n_b, n_x, n_s = self.counts
+        if n_r:
+            self._rod_positions[:n_r] = placed.rod_positions[i]
+            self._rod_wxyzs[:n_r] = placed.rod_wxyzs[i]
+            set_arrays(self.rods, batched_positions=self._rod_positions, batched_wxyzs=self._rod_wxyzs)
+        if n_b:
+            self._ball_positions[:n_b] = placed.ball_positions[i]
+            set_arrays(self.balls, batched_positions=self._ball_positions)
+        if n_x:
+            self._box_positions[:n_x] = placed.box_positions[i]
+            self._box_wxyzs[:n_x] = placed.box_wxyzs[i]
+            set_arrays(self.boxes, batched_positions=self._box_positions, batched_wxyzs=self._box_wxyzs)
+        if n_s:
+            segments = placed.springs.shape[2]
+            self._springs[: n_s * segments] = placed.springs[i].reshape(-1, 2, 3)
+            set_array(self.springs, "points", self._springs)
