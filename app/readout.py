@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import functools
 import html
+import math
 import re
 from typing import Any
 
-__all__ = ["Readout", "markdown_to_html", "PRESENTER_FONT_SCALE"]
+__all__ = ["Readout", "markdown_to_html", "one_digit", "significant", "PRESENTER_FONT_SCALE"]
 
 #: Font size of readouts in presenter view, relative to the panel's.
 PRESENTER_FONT_SCALE = 1.45
@@ -28,6 +29,21 @@ _CODE = re.compile(r"`([^`]+)`")
 _ITALIC = re.compile(r"(?<![\w*])\*([^*\s][^*]*?)\*(?![\w*])")
 _SUB = re.compile(r"&lt;sub&gt;(.+?)&lt;/sub&gt;")
 _TABLE_RULE = re.compile(r"^\s*:?-{3,}:?\s*$")
+
+
+def significant(x: float, digits: int = 4) -> str:
+    """``x`` with ``digits`` significant digits, plain notation where it reads well."""
+    if x == 0.0 or not math.isfinite(x):
+        return f"{x:g}"
+    if 1e-3 <= abs(x) < 1e5:
+        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
+        return f"{x:.{decimals}f}"
+    return f"{x:.{digits - 1}e}"
+
+
+def one_digit(x: float) -> str:
+    """A drift or residual with one significant digit (``0`` when exactly zero)."""
+    return "0" if x == 0.0 else f"{abs(x):.0e}"
 
 
 @functools.lru_cache(maxsize=4096)

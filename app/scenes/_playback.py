@@ -30,7 +30,7 @@ from typing import Any
 from app.controls import Button, ButtonGroup, Slider
 from app.panel import ControlPanel
 
-__all__ = ["Playback", "Tick", "TIME_SCALE_RANGE", "MAX_SIM_STEP", "PLAYBACK_OPTIONS"]
+__all__ = ["Playback", "PlaybackRequests", "Tick", "TIME_SCALE_RANGE", "MAX_SIM_STEP", "PLAYBACK_OPTIONS"]
 
 TIME_SCALE_RANGE = (0.05, 4.0)
 """Limits of the time-scale slider (simulated seconds per wall second)."""
@@ -178,3 +178,32 @@ class Playback:
                 self._preset_keys[key] = name
                 buttons[name] = self.controls.add(Button(key, name))
         return buttons
+
+
+class PlaybackRequests:
+    """Requests of a scene with a :class:`Playback` and a chunk timeline (tests, notebooks).
+
+    A mixin for scenes that set ``self.playback`` (a :class:`Playback`) and
+    ``self.timeline`` (an :class:`app.worker.ChunkTimeline`); what is
+    requested is applied by the scene's next ``update``.
+    """
+
+    playback: Playback
+    timeline: Any
+
+    def request_reset(self) -> None:
+        """Restart the motion from t = 0 (cached chunks are reused)."""
+        self.playback.request_reset()
+
+    def apply_preset(self, name: str) -> None:
+        """Record preset ``name`` (one of the scene's presets); applied by ``update``."""
+        self.playback.request_preset(name)
+
+    @property
+    def playing(self) -> bool:
+        return self.playback.playing
+
+    @property
+    def chunks_computed(self) -> int:
+        """Chunks computed since the scene was built (all parameter sets)."""
+        return self.timeline.computed

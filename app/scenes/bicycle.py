@@ -50,7 +50,7 @@ import trimesh
 from app.controls import Button, Slider, Toggle
 from app.nodes import set_array, set_pose
 from app.readout import PRESENTER_FONT_SCALE
-from app.scenes._playback import Playback
+from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
 from app.scenes._trail import extend_trail, trail_segments
 from app.scenes.base import Scene
@@ -584,7 +584,7 @@ class _Gui:
     plot_legend: Legend
 
 
-class BicycleScene(Scene):
+class BicycleScene(PlaybackRequests, Scene):
     """The Whipple bicycle: self-stability between the weave and capsize speeds."""
 
     name: ClassVar[str] = "bicycle"
@@ -742,21 +742,6 @@ class BicycleScene(Scene):
     def request_push(self, impulse: float | None = None) -> None:
         """Push at the next frame (``impulse`` N s, default the slider's)."""
         self._push_request = impulse if impulse is not None else float(self.controls.value("impulse"))
-
-    def apply_preset(self, name: str) -> None:
-        """Record preset ``name`` (one of :data:`PRESETS`); applied by ``update``."""
-        self.playback.request_preset(name)
-
-    def request_reset(self) -> None:
-        self.playback.request_reset()
-
-    @property
-    def playing(self) -> bool:
-        return self.playback.playing
-
-    @property
-    def chunks_computed(self) -> int:
-        return self.timeline.computed
 
     # -- restarts and pushes -------------------------------------------------------------------
     def _restart(self, impulse: float = 0.0) -> None:

@@ -45,7 +45,8 @@ import trimesh
 
 from app.controls import Choice, Slider
 from app.nodes import set_array, set_pose
-from app.scenes._playback import Playback
+from app.readout import significant
+from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
 from app.scenes._trail import extend_trail, trail_segments
 from app.scenes.base import Scene
@@ -246,15 +247,6 @@ def _ellipsoid_segments(semi_axes: np.ndarray, axes: np.ndarray, scale: float) -
     return np.concatenate([np.stack([p[:-1], p[1:]], axis=1) for p in pts]).astype(np.float32)
 
 
-def _significant(x: float, digits: int = 4) -> str:
-    """``x`` with ``digits`` significant digits, plain notation where it reads well."""
-    if x == 0.0 or not math.isfinite(x):
-        return f"{x:g}"
-    if 1e-3 <= abs(x) < 1e5:
-        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
-        return f"{x:.{decimals}f}"
-    return f"{x:.{digits - 1}e}"
-
 
 # -- per-model constants (computed once per parameter set, on the executor) ----
 @dataclasses.dataclass(frozen=True)
@@ -298,16 +290,16 @@ def _setup(body: str, omega: tuple[float, float, float]) -> _Setup:
     elif math.isinf(period):
         motion = "**Motion**: on the separatrix (ω period infinite)"
     else:
-        motion = f"**Motion**: {solution.kind}, ω period {_significant(period, 3)} s"
+        motion = f"**Motion**: {solution.kind}, ω period {significant(period, 3)} s"
     lines = [
         motion + f"; plots show the last {window:.3g} s",
-        "**Principal moments** " + ", ".join(_significant(float(m), 3) for m in g.moments) + " kg m²",
+        "**Principal moments** " + ", ".join(significant(float(m), 3) for m in g.moments) + " kg m²",
     ]
     if g.L_norm > 0:
         ratio = 2.0 * g.energy * float(g.moments[1]) / g.L_norm**2
         side = "major" if ratio < 1.0 else "minor" if ratio > 1.0 else "intermediate"
         lines.append(
-            f"**E** = {_significant(g.energy)} J, **|L|** = {_significant(g.L_norm)} kg m²/s (constant); "
+            f"**E** = {significant(g.energy)} J, **|L|** = {significant(g.L_norm)} kg m²/s (constant); "
             f"2E J2/|L|² = {ratio:.4f}: the polhode circles the {side} axis"
         )
     for a in (w0, p0, L_global):
@@ -446,7 +438,7 @@ class _Gui:
     plot_drift: Any
 
 
-class FreeBodyScene(Scene):
+class FreeBodyScene(PlaybackRequests, Scene):
     """Torque-free rigid body from the exact solution, with a numerical ghost."""
 
     name: ClassVar[str] = "free_body"
@@ -617,25 +609,12 @@ class FreeBodyScene(Scene):
         if self.gui is not None:
             self.gui.legend.set_presenter(on)
 
-    # -- requests (tests, notebooks) ---------------------------------------------
-    def request_reset(self) -> None:
-        """Restart from t = 0 (cached chunks are reused)."""
-        self.playback.request_reset()
-
-    def apply_preset(self, name: str) -> None:
-        """Record preset ``name`` (one of :data:`PRESETS`); applied by ``update``."""
-        self.playback.request_preset(name)
-
+    # -- read by tests and notebooks ---------------------------------------------
     @property
     def inputs(self) -> Inputs:
         """The values of the controls in use."""
         values = self.controls.values()
         return Inputs(**{key: values[key] for key in _INPUT_KEYS})
-
-    @property
-    def chunks_computed(self) -> int:
-        """Chunks computed since the scene was built (all parameter sets)."""
-        return self.timeline.computed
 
     @property
     def window(self) -> float:

@@ -40,7 +40,8 @@ import trimesh
 
 from app.controls import Slider, Toggle
 from app.nodes import set_array, set_pose
-from app.scenes._playback import Playback
+from app.readout import one_digit, significant
+from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
 from app.scenes._trail import extend_trail, trail_segments
 from app.scenes.base import Scene
@@ -214,19 +215,6 @@ def drift_log10(drift: np.ndarray) -> np.ndarray:
         return np.maximum(np.log10(np.abs(drift)), DRIFT_FLOOR_LOG10)
 
 
-def _significant(x: float, digits: int = 4) -> str:
-    """``x`` with ``digits`` significant digits, plain notation where it reads well."""
-    if x == 0.0 or not math.isfinite(x):
-        return f"{x:g}"
-    if 1e-3 <= abs(x) < 1e5:
-        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
-        return f"{x:.{decimals}f}"
-    return f"{x:.{digits - 1}e}"
-
-
-def _drift_text(x: float) -> str:
-    """A drift with one significant digit (``0`` when exactly zero)."""
-    return "0" if x == 0.0 else f"{abs(x):.0e}"
 
 
 # -- the model: what one setting of the sliders asks the core for -------------
@@ -286,20 +274,20 @@ def _analysis(model: _Model) -> _Analysis:
     window = window_seconds(period, fallback=_WINDOW_FALLBACK, cap=_WINDOW_CAP)
     spin = state0[5] + state0[3] * math.cos(state0[1])
     lines = [
-        f"**Spin** ω3 = dψ/dt + dφ/dt cos θ = {_significant(spin, 3)} rad/s; "
-        f"sleeping top critical spin {_significant(sleeping_top_critical_spin(p), 3)} rad/s",
+        f"**Spin** ω3 = dψ/dt + dφ/dt cos θ = {significant(spin, 3)} rad/s; "
+        f"sleeping top critical spin {significant(sleeping_top_critical_spin(p), 3)} rad/s",
     ]
     if prediction is not None:
         nu = prediction
         theta_min, theta_max = math.degrees(float(nu.theta_min)), math.degrees(float(nu.theta_max))
         if math.isinf(period):
             lines.append(f"**Nutation** (Eq. 8.21): none, θ stays at {theta_min:.2f}°; "
-                         f"dφ/dt = {_significant(float(nu.mean_precession_rate), 3)} rad/s")
+                         f"dφ/dt = {significant(float(nu.mean_precession_rate), 3)} rad/s")
         else:
             lines.append(
                 f"**Nutation** (Eq. 8.21): θ from {theta_min:.2f}° to {theta_max:.2f}°, "
-                f"period {_significant(period, 3)} s; mean dφ/dt "
-                f"{_significant(float(nu.mean_precession_rate), 3)} rad/s"
+                f"period {significant(period, 3)} s; mean dφ/dt "
+                f"{significant(float(nu.mean_precession_rate), 3)} rad/s"
             )
         lines.append(f"Plots show the last {window:.3g} s" + (
             f" ({window / period:.1f} nutation periods)." if math.isfinite(period) else "."))
@@ -427,7 +415,7 @@ class _Gui:
     plot_drift: Any
 
 
-class GyroscopeScene(Scene):
+class GyroscopeScene(PlaybackRequests, Scene):
     """Rotor in a cardan suspension: precession, nutation, spin (ZXZ)."""
 
     name: ClassVar[str] = "gyroscope"
@@ -575,24 +563,7 @@ class GyroscopeScene(Scene):
         if self.gui is not None:
             self.gui.legend.set_presenter(on)
 
-    # -- requests (tests, notebooks) -----------------------------------------------
-    def request_reset(self) -> None:
-        """Restart the motion from the initial state (cached chunks are reused)."""
-        self.playback.request_reset()
-
-    def apply_preset(self, name: str) -> None:
-        """Record preset ``name`` (one of :data:`PRESETS`); applied by ``update``."""
-        self.playback.request_preset(name)
-
-    @property
-    def playing(self) -> bool:
-        return self.playback.playing
-
-    @property
-    def chunks_computed(self) -> int:
-        """Chunks computed since the scene was built (all parameter sets)."""
-        return self.timeline.computed
-
+    # -- read by tests and notebooks -----------------------------------------------
     @property
     def window(self) -> float:
         """Length of the plot window (s) of the model in use."""
@@ -781,9 +752,9 @@ class GyroscopeScene(Scene):
             else "drift since t = 0 (round-off)"
         lines = [
             f"**t** = {self.sim_time:.2f} s · θ = {math.degrees(self.angles[1]):.2f}° · "
-            f"dφ/dt = {_significant(float(self.rates[0]), 3)} rad/s",
-            f"**d1** = {_significant(d1)} kg m²/s, **d2** = {_significant(d2)} kg m²/s, "
-            f"**E** = {_significant(energy)} J  \n{change}: {_drift_text(c1)}, {_drift_text(c2)}, {_drift_text(c3)}",
+            f"dφ/dt = {significant(float(self.rates[0]), 3)} rad/s",
+            f"**d1** = {significant(d1)} kg m²/s, **d2** = {significant(d2)} kg m²/s, "
+            f"**E** = {significant(energy)} J  \n{change}: {one_digit(c1)}, {one_digit(c2)}, {one_digit(c3)}",
         ]
         if self.waiting and self.playing:
             lines.insert(1, "*computing the next chunk…*")

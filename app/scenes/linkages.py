@@ -43,7 +43,8 @@ import trimesh
 
 from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_arrays, set_pose
-from app.scenes._playback import Playback
+from app.readout import one_digit, significant
+from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
@@ -505,19 +506,6 @@ class _Gui:
     plot_residual: Any
 
 
-def _significant(x: float, digits: int = 5) -> str:
-    """``x`` with ``digits`` significant digits, plain notation where it reads well."""
-    if x == 0.0 or not math.isfinite(x):
-        return f"{x:g}"
-    if 1e-3 <= abs(x) < 1e5:
-        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
-        return f"{x:.{decimals}f}"
-    return f"{x:.{digits - 1}e}"
-
-
-def _small(x: float) -> str:
-    """A drift or residual with one significant digit (``0`` when exactly zero)."""
-    return "0" if x == 0.0 else f"{abs(x):.0e}"
 
 
 def log10_floor(x: np.ndarray) -> np.ndarray:
@@ -526,7 +514,7 @@ def log10_floor(x: np.ndarray) -> np.ndarray:
         return np.maximum(np.log10(np.abs(np.asarray(x, dtype=float))), _LOG_FLOOR)
 
 
-class LinkagesScene(Scene):
+class LinkagesScene(PlaybackRequests, Scene):
     """Constrained multibody systems: chain, spatial double pendulum, slider-crank, heavy top."""
 
     name: ClassVar[str] = "linkages"
@@ -717,20 +705,7 @@ class LinkagesScene(Scene):
         if self.gui is not None:
             self.gui.legend.set_presenter(on)
 
-    # -- requests (tests, notebooks) --------------------------------------------------
-    def request_reset(self) -> None:
-        """Restart the motion from t = 0 (cached chunks are reused)."""
-        self.playback.request_reset()
-
-    @property
-    def playing(self) -> bool:
-        return self.playback.playing
-
-    @property
-    def chunks_computed(self) -> int:
-        """Chunks computed since the scene was built (all models)."""
-        return self.timeline.computed
-
+    # -- read by tests and notebooks --------------------------------------------------
     @property
     def visible_links(self) -> int:
         """Rods drawn (instances of the rod batch with a nonzero scale)."""
@@ -972,20 +947,20 @@ class LinkagesScene(Scene):
     def _readout(self) -> str:
         assert self.setup is not None and self.model is not None
         setup = self.setup
-        lines = [f"**t** = {self.sim_time:.2f} s · **E** = {_significant(self.energy)} J"]
+        lines = [f"**t** = {self.sim_time:.2f} s · **E** = {significant(self.energy, 5)} J"]
         if setup.conserved:
-            lines[0] += f" · E − E0 = {_small(self.energy - setup.energy0)} J"
+            lines[0] += f" · E − E0 = {one_digit(self.energy - setup.energy0)} J"
         else:
             lines[0] += " (the motor does work)"
-        lines.append(f"**max |C|** = {_small(self.residual)} now, {_small(self.max_residual)} since t = 0 "
+        lines.append(f"**max |C|** = {one_digit(self.residual)} now, {one_digit(self.max_residual)} since t = 0 "
                      f"(bound {RESIDUAL_BOUND:.0e})")
         if setup.check == "slider":
-            lines.append(f"slider x − closed form: {_small(self.check)} m")
+            lines.append(f"slider x − closed form: {one_digit(self.check)} m")
         elif setup.check == "top":
-            lines.append(f"attitude difference to the closed form: {_small(self.check)} rad")
+            lines.append(f"attitude difference to the closed form: {one_digit(self.check)} rad")
         if self.forces.size:
             i = int(np.argmax(self.forces))
-            lines.append(f"largest joint force {_significant(float(self.forces[i]), 3)} N ({setup.joint_names[i]})")
+            lines.append(f"largest joint force {significant(float(self.forces[i]), 3)} N ({setup.joint_names[i]})")
         chunk = self.last_chunk
         if chunk is not None and chunk.setup == setup:
             lines.append(f"{self.model.integrator_text()}: {chunk.n_steps} steps, {chunk.n_rhs} right sides, "

@@ -49,7 +49,8 @@ import trimesh
 
 from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_pose
-from app.scenes._playback import Playback
+from app.readout import one_digit, significant
+from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
 from app.scenes._trail import extend_trail, trail_segments
 from app.scenes.base import Scene
@@ -458,19 +459,6 @@ def _wxyz_z_to(v: np.ndarray, norm: float) -> tuple[float, float, float, float]:
     return (w * k, -y * k, x * k, 0.0)
 
 
-def _significant(x: float, digits: int = 4) -> str:
-    """``x`` with ``digits`` significant digits, plain notation where it reads well."""
-    if x == 0.0 or not math.isfinite(x):
-        return f"{x:g}"
-    if 1e-3 <= abs(x) < 1e5:
-        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
-        return f"{x:.{decimals}f}"
-    return f"{x:.{digits - 1}e}"
-
-
-def _small(x: float) -> str:
-    """A drift or residual with one significant digit (``0`` when exactly zero)."""
-    return "0" if x == 0.0 else f"{abs(x):.0e}"
 
 
 def log10_floor(x: Any) -> np.ndarray:
@@ -479,7 +467,7 @@ def log10_floor(x: Any) -> np.ndarray:
         return np.maximum(np.log10(np.abs(np.asarray(x, dtype=float))), _LOG_FLOOR)
 
 
-class RollingDiskScene(Scene):
+class RollingDiskScene(PlaybackRequests, Scene):
     """A thin disk on the ground: rolling without slip or frictionless sliding (core.contact)."""
 
     name: ClassVar[str] = "rolling_disk"
@@ -652,24 +640,7 @@ class RollingDiskScene(Scene):
         if self.gui is not None:
             self.gui.legend.set_presenter(on)
 
-    # -- requests (tests, notebooks) --------------------------------------------------
-    def request_reset(self) -> None:
-        """Restart the motion from t = 0 (cached chunks are reused)."""
-        self.playback.request_reset()
-
-    def apply_preset(self, name: str) -> None:
-        """Record preset ``name`` (one of :data:`PRESETS`); applied by ``update``."""
-        self.playback.request_preset(name)
-
-    @property
-    def playing(self) -> bool:
-        return self.playback.playing
-
-    @property
-    def chunks_computed(self) -> int:
-        """Chunks computed since the scene was built (all models)."""
-        return self.timeline.computed
-
+    # -- read by tests and notebooks --------------------------------------------------
     @property
     def inputs(self) -> Inputs:
         values = self.controls.values()
@@ -888,11 +859,11 @@ class RollingDiskScene(Scene):
         above = abs(model.spin) > critical
         verdict = ("**above** it: upright motion is stable (a small lean wobbles)" if above else
                    "**below** it: upright motion is unstable (a small lean grows)")
-        return (f"**Critical upright spin** {formula} = {_significant(critical, 3)} rad/s "
-                f"(speed {_significant(critical * model.radius, 3)} m/s, "
+        return (f"**Critical upright spin** {formula} = {significant(critical, 3)} rad/s "
+                f"(speed {significant(critical * model.radius, 3)} m/s, "
                 f"{'rolling' if model.rolling else 'sliding'}).  \n"
-                f"Initial spin |ω2| = {_significant(abs(model.spin), 3)} rad/s = "
-                f"{_significant(abs(model.spin) / critical, 3)} × critical: {verdict}.")
+                f"Initial spin |ω2| = {significant(abs(model.spin), 3)} rad/s = "
+                f"{significant(abs(model.spin) / critical, 3)} × critical: {verdict}.")
 
     def _readout(self) -> str:
         assert self.model is not None
@@ -901,11 +872,11 @@ class RollingDiskScene(Scene):
         energy = float(c[_ENERGY])
         lines = [
             f"**t** = {self.sim_time:.2f} s · **lean** θ = {math.degrees(float(c[_LEAN])):.2f}° · "
-            f"**spin** ω2 = {_significant(spin, 3)} rad/s · dψ/dt = {_significant(heading_rate, 3)} rad/s · "
-            f"speed {_significant(speed, 3)} m/s",
-            f"**N** = {_significant(float(c[_NORMAL]), 4)} N · **E** = {_significant(energy, 6)} J, "
-            f"E − E0 = {_small(energy - self.energy0)} J · **max |C|** = {_small(float(c[_RES_P]))} m, "
-            f"max |dC/dt| = {_small(float(c[_RES_V]))} m/s",
+            f"**spin** ω2 = {significant(spin, 3)} rad/s · dψ/dt = {significant(heading_rate, 3)} rad/s · "
+            f"speed {significant(speed, 3)} m/s",
+            f"**N** = {significant(float(c[_NORMAL]), 4)} N · **E** = {significant(energy, 6)} J, "
+            f"E − E0 = {one_digit(energy - self.energy0)} J · **max |C|** = {one_digit(float(c[_RES_P]))} m, "
+            f"max |dC/dt| = {one_digit(float(c[_RES_V]))} m/s",
         ]
         chunk = self.last_chunk
         if chunk is not None and chunk.model == self.model and chunk.n_rhs:
