@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, real_number, short_repr
+from core._validation import float_array, short_repr
 
 from ._surfaces import Surface, _call_user, _call_user_tensor, _ContourDerivatives, _positive, _trig_cycle
 
@@ -99,7 +99,11 @@ class PlanarCurve(Surface):
             out = []
             for k, f in enumerate((point,) + given[:order]):
                 try:
-                    a, b_ = np.asarray(f(x), dtype=float).reshape(2).tolist()
+                    v = f(x)
+                    if type(v) is np.ndarray and v.shape == (2,) and v.dtype == np.float64:
+                        a, b_ = v.tolist()  # (the common case, without a conversion)
+                    else:
+                        a, b_ = np.asarray(v, dtype=float).reshape(2).tolist()
                 except Exception as exc:  # noqa: BLE001 - reported with the argument's name
                     raise ValueError(f"{names[k]}: the function failed at s={x!r}: {type(exc).__name__}: {exc}") from exc
                 if not (math.isfinite(a) and math.isfinite(b_)):

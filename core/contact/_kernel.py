@@ -21,8 +21,9 @@ plane of ``b``, so the two points face each other along the common normal
 constraint manifold these are four of the five constraints, so ``s(q)`` is
 the chapter's solution for the non-generalized coordinates; off it the
 fifth, the gap ``g = n_i . (r_j - r_i)`` (``n_i`` the unit outward normal
-of surface i), is the residual. ``s(q)`` is found by Newton's method from
-the last value (or a global search), to round-off.
+of surface i), is the residual. ``s(q)`` is found by Newton's method, to
+round-off, from the solution a run tracked along its accepted steps (or
+continued from it in sub-steps, or, when that fails, a global search).
 
 Augmented equations. With ``C_q`` (5 x 6n, Newton-Euler velocities) and
 ``C_s`` (5 x 4, Eq. 8.97) the chapter's augmented equations (Eqs.
@@ -44,6 +45,7 @@ then the normal force (N, positive while pressing) and the row's value
 
 from __future__ import annotations
 
+import bisect
 import math
 from typing import Any
 
@@ -107,6 +109,8 @@ class _Group:
         self.bi = np.array([ground if c.body_i.index < 0 else c.body_i.index for c in contacts], dtype=np.intp)
         self.bj = np.array([ground if c.body_j.index < 0 else c.body_j.index for c in contacts], dtype=np.intp)
         self.swap = np.array([bool(c.surface_j.degenerate_tangents) for c in contacts], dtype=bool)
+        self.rim_i = np.array([bool(c.surface_i.degenerate_tangents) for c in contacts], dtype=bool)
+        self.rim_j = self.swap
         self.surf_i = [c.surface_i for c in contacts]
         self.surf_j = [c.surface_j for c in contacts]
         L = np.array([min(c.surface_i.length_scale, c.surface_j.length_scale) for c in contacts], dtype=float)
@@ -203,12 +207,20 @@ def _column_scales(group: _Group, gi: _Geo, gj: _Geo) -> np.ndarray:
 
 
 def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, order: int, *,
-                     t: float | None = None, max_iter: int = _MAX_ITER, damped: bool = False):
+                     t: float | None = None, max_iter: int = _MAX_ITER, damped: bool = False,
+                     outward: bool = False):
     """Newton on the extremal conditions from ``s`` (k, 2p); returns ``(s, gi, gj, raw_i, raw_j, E, Es)``.
 
     ``order`` is the surface derivative order of the returned geometry
     (2 or 3). Charts of spheres and ellipsoids are re-centred (in place in
     ``charts``) when the point leaves the central region of its chart.
+    ``outward`` (a search afresh): also refuse a rim point whose normal
+    field ``cos(psi) e_r + sin(psi) e_y`` points into the disk (``cos psi
+    <= 0``): the rim's far side, which faces the other surface with a
+    flipped normal and would otherwise pass as the largest gap. A followed
+    contact is not refused there: its ``psi`` crosses ``pi / 2`` only as
+    the disk passes through lying flat, which the sign of ``det E_s``
+    reports (Eq. 8.109).
 
     Raises
     ------
@@ -244,10 +256,13 @@ def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, or
         if done.all():
             s = s + ds
             facing = np.einsum("ki,ki->k", gi.n, gj.n) < 0.0
+            if outward and p == 2:
+                facing &= ~(group.rim_i & ~(np.cos(s[:, 1]) > 0.0)) & ~(group.rim_j & ~(np.cos(s[:, 3]) > 0.0))
             if not facing.all():
                 bad = int(np.argmin(facing))
                 raise ContactError(_lost(group.contacts[bad], t, "Newton reached a pair of points whose normals are "
-                                         "not opposed (the far sides of the surfaces)"), t=t)
+                                         "not opposed (the far sides of the surfaces, or a rim's normal pointing "
+                                         "into the disk)"), t=t)
             return s, gi, gj, raw_i, raw_j, E, Es
         s = s + ds
     worst = int(np.argmax(step))
@@ -438,8 +453,55 @@ class _Static:
         L = min(contact.surface_i.length_scale, contact.surface_j.length_scale)
         self.L = float(L) if math.isfinite(L) else 1.0
         self.rolling = bool(contact.rolling)
+        self.charted = bool(contact.surface_i.charted or contact.surface_j.charted)
         self.bi = n if contact.body_i.index < 0 else contact.body_i.index
         self.bj = n if contact.body_j.index < 0 else contact.body_j.index
+
+
+class _Entry:
+    """One tracked solution: time, chart parameters, charts, body-frame points, sign of det E_s, state."""
+
+    __slots__ = ("t", "s", "charts", "points", "sign", "y")
+
+    def __init__(self, t, s, charts, points, sign, y):
+        self.t, self.s, self.charts, self.points, self.sign, self.y = t, s, charts, points, sign, y
+
+
+class _Track:
+    """The surface parameters a run tracked for one contact, in time order (see ContactKernel.evaluate)."""
+
+    __slots__ = ("times", "entries")
+
+    def __init__(self):
+        self.times: list[float] = []
+        self.entries: list[_Entry] = []
+
+    def add(self, t: float, s, charts, points, sign, y) -> None:
+        k = bisect.bisect_right(self.times, t)
+        self.times.insert(k, t)
+        self.entries.insert(k, _Entry(t, s, charts, points, sign, y))
+
+    def nearest(self, t: float) -> _Entry:
+        k = bisect.bisect_left(self.times, t)
+        if k >= len(self.times) or (k > 0 and t - self.times[k - 1] <= self.times[k] - t):
+            k -= 1
+        return self.entries[k]
+
+    def start(self, t: float):
+        """Parameters and charts at ``t``: the entry at ``t``, or linear in time between its neighbours."""
+        k = bisect.bisect_right(self.times, t)
+        if k == 0:
+            e = self.entries[0]
+            return np.array(e.s), list(e.charts)
+        a = self.entries[k - 1]
+        if a.t == t or k == len(self.entries):
+            return np.array(a.s), list(a.charts)
+        b = self.entries[k]
+        if a.charts[0] is b.charts[0] and a.charts[1] is b.charts[1] and b.t > a.t:
+            w = (t - a.t) / (b.t - a.t)
+            return a.s + w * (b.s - a.s), list(a.charts)
+        e = a if t - a.t <= b.t - t else b
+        return np.array(e.s), list(e.charts)
 
 
 class ContactKernel:
@@ -478,10 +540,19 @@ class ContactKernel:
         return {"s": s, "charts": charts, "mode": mode}
 
     @staticmethod
-    def copy_state(state: dict) -> dict:
-        """A copy of the warm-start data (without the evaluation cache and the prediction rates)."""
-        return {"s": [np.array(x) for x in state["s"]], "charts": [list(ch) for ch in state["charts"]],
-                "mode": np.array(state["mode"])}
+    def copy_state(state: dict, *, track: dict | None = None) -> dict:
+        """A copy of the warm-start data (without the evaluation cache, the prediction rates and the track).
+
+        ``track``: the contact track of a finished run (see :meth:`evaluate`);
+        the copy then *replays* it: evaluations inside the run's time span
+        start from the run's own solution and add nothing to the track.
+        """
+        out = {"s": [np.array(x) for x in state["s"]], "charts": [list(ch) for ch in state["charts"]],
+               "mode": np.array(state["mode"])}
+        if track is not None:
+            out["track"] = track
+            out["replay"] = True
+        return out
 
     # ------------------------------------------------------------ evaluation
     def evaluate(self, y: np.ndarray, A: np.ndarray, level: int, state: dict, *, t: float | None = None,
@@ -498,13 +569,31 @@ class ContactKernel:
         a time on floats.
 
         Warm start: Newton starts from the *committed* parameters of
-        ``state`` (moved by ``s_dot (t - t_committed)`` when that is small)
-        or else from the last evaluation. ``commit`` makes the result the
-        new committed start: a run commits only at its accepted, projected
-        states, so a stage of a rejected step never moves it. When the warm
-        start fails the contact is searched afresh; with ``strict`` (a
-        run's accepted states) a point found that way far from the
-        committed one is a jump of the contact point and an error.
+        ``state`` (moved by ``s_dot (t - t_committed)``) or else from the
+        last evaluation. ``commit`` makes the result the new committed
+        start: a run commits only at its accepted, projected states, so a
+        stage of a rejected step never moves it. Commits are ordered in
+        time: a committed evaluation earlier than the committed start (an
+        output or an event inside the last step, projected from the dense
+        output) does not move it.
+
+        Track: when ``state`` has a ``"track"`` dict (a run's), every
+        committed evaluation is kept in it per contact, with its time,
+        parameters, charts and configuration, in time order. An evaluation
+        at a time inside the track starts from the track (its entry at that
+        time, or linear in time between the entries around it); a run's
+        outputs and its history (:meth:`copy_state` with ``track``) thus
+        follow the one solution that was tracked along the steps, whatever
+        the output density.
+
+        When Newton from the warm start fails (a long step, a trial stage
+        far away), the solution is *continued* from the nearest tracked
+        configuration to this one in sub-steps (positions linear, Euler
+        parameters normalized linear), halved down to 1/1024 of the way;
+        only when that fails too is the contact searched afresh. With
+        ``strict`` (a run's accepted states) a point found afresh far from
+        the tracked one nearest in time is a jump of the contact point and
+        an error, and so is a change of sign of ``det E_s`` (Eq. 8.109).
 
         Raises
         ------
@@ -528,20 +617,36 @@ class ContactKernel:
             raise ContactError(
                 f"contact {c.name!r}: C_s lost rank{when} (Eq. 8.109; scaled volume {res['rank'][c.index]:.1e}): "
                 "the surfaces touch along a line or over an area, where the contact point is not unique", t=t)
-        state["cache"] = (np.array(y), level, batched, res)
+        state["cache"] = (np.array(y), level, batched, res, A)
         if commit:
             self._commit_last(state, t, res, y, A, strict)
         return res
 
+    def commit_cached(self, state: dict, t: float, *, strict: bool = False) -> None:
+        """Commit the last evaluation, as ``evaluate(..., commit=True)`` at its own state would.
+
+        For a projection that accepts the state of the step's last stage
+        without evaluating it again: that stage's contact parameters are
+        then the step's, and the track must hold them.
+        """
+        cached = state.get("cache")
+        if cached is not None:
+            self._commit_last(state, t, cached[3], cached[0], cached[4], strict)
+
     def _start(self, state: dict, q: int, t: float | None):
         """Start parameters and a copy of the charts for contact ``q`` (see :meth:`evaluate`).
 
-        From the committed parameters or those of the last evaluation,
-        whichever is nearer in time, moved by the last known ``s_dot`` over
-        the time between (a wheel rolling at ``omega`` turns its rim
-        parameter by ``omega dt`` in a step, beyond the reach of Newton's
-        method when a long step is not extrapolated).
+        Inside the track's time span: the tracked solution at ``t`` (linear
+        in time between the entries around it when they share their
+        charts). Beyond it: from the committed parameters or those of the
+        last evaluation, whichever is nearer in time, moved by the last
+        known ``s_dot`` over the time between (a wheel rolling at ``omega``
+        turns its rim parameter by ``omega dt`` in a step, beyond the reach
+        of Newton's method when a long step is not extrapolated).
         """
+        track = state.get("track", {}).get(q)
+        if track is not None and t is not None and track.times and t <= track.times[-1]:
+            return track.start(t)
         s0 = state["s"][q]
         charts = state["charts"][q]
         pred = state.get("rate", {}).get(q)
@@ -550,15 +655,30 @@ class ContactKernel:
         t_last = state.get("t_last", {}).get(q)
         if last is not None and (t is None or t_c is None or (t_last is not None and abs(t - t_last) < abs(t - t_c))):
             s0, charts, t_c = last[0], last[1], t_last
-        if pred is not None and t is not None and t_c is not None and pred[2] is charts[0] and pred[3] is charts[1]:
-            dt = t - t_c
-            return (np.asarray(s0) + np.asarray(pred[1]) * dt if dt else np.array(s0)), list(charts)
-        return np.array(s0), list(charts)
+        if t is None or t_c is None or t == t_c:
+            return np.array(s0), list(charts)
+        rate = None
+        if pred is not None and pred[0] == t_c and pred[2] is charts[0] and pred[3] is charts[1]:
+            rate = np.asarray(pred[1])  # s_dot at the start's own state (a trial stage's may be anything)
+        elif track is not None and len(track.times) >= 2:
+            a, b = track.entries[-2], track.entries[-1]
+            if b.t == t_c and b.t > a.t and a.charts[0] is charts[0] and a.charts[1] is charts[1] and (
+                    b.charts[0] is charts[0] and b.charts[1] is charts[1]):
+                rate = (b.s - a.s) / (b.t - a.t)  # the secant of the last two tracked states
+        if rate is None:
+            return np.array(s0), list(charts)
+        return np.asarray(s0) + rate * (t - t_c), list(charts)
 
     def _commit_last(self, state: dict, t, res: dict, y: np.ndarray, A: np.ndarray, strict: bool) -> None:
-        """Make the last evaluation's parameters the committed warm start (checking for jumps when strict)."""
+        """Make the last evaluation's parameters the committed warm start (checking for jumps when strict).
+
+        The jump and rank-sign checks compare with the tracked solution
+        nearest in time (else the committed one). An evaluation earlier
+        than the committed start is kept in the track only.
+        """
         last = state.get("last", {})
-        n = self.n
+        tracks = state.get("track")
+        replay = bool(state.get("replay"))
         for c in self.contacts:
             q = c.index
             if q not in last:
@@ -569,38 +689,51 @@ class ContactKernel:
                 b = body.index
                 x = res[key][q]
                 u.append(x if b < 0 else A[b].T @ (x - y[3 * b : 3 * b + 3]))
-            prev = state.setdefault("points", {}).get(q)
+            tr = None if tracks is None else tracks.get(q)
+            near = tr.nearest(t) if tr is not None and t is not None and tr.times else None
+            if near is not None:
+                t0, prev, old_sign = near.t, near.points, near.sign
+            else:
+                t0 = state.get("t_committed", {}).get(q)
+                prev = state.setdefault("points", {}).get(q)
+                old_sign = state.setdefault("signs", {}).get(q)
             if strict and restarted and prev is not None:
                 L = self.static[q].L
                 jump = max(float(np.linalg.norm(u[0] - prev[0])), float(np.linalg.norm(u[1] - prev[1])))
                 if jump > 0.25 * L:
                     when = "" if t is None else f" at t={t:.6g}"
+                    since = "" if t0 is None or t is None else f" since t={t0:.6g}"
                     raise ContactError(
-                        f"contact {c.name!r}: the contact point jumped by {jump:.3g} m on a body{when}: the nearest "
-                        "points of the surfaces moved discontinuously (a surface about to lie flat on the other, a "
-                        "non-convex profile, or a step too large to follow them)", t=t)
-            old_sign = state.setdefault("signs", {}).get(q)
+                        f"contact {c.name!r}: the contact point jumped by {jump:.3g} m on a body{when}{since}: it "
+                        "could not be continued from the tracked one, and the nearest points of the surfaces are "
+                        "elsewhere (a surface about to lie flat on the other, or a non-convex profile)", t=t)
             if strict and old_sign is not None and sign != old_sign:
-                t0 = state.get("t_committed", {}).get(q)
-                between = "" if t is None or t0 is None else f" between t={t0:.6g} and t={t:.6g}"
+                between = "" if t is None or t0 is None else f" between t={min(t0, t):.6g} and t={max(t0, t):.6g}"
                 raise ContactError(
                     f"contact {c.name!r}: the contact passed a configuration where C_s loses rank (Eq. 8.109)"
                     f"{between}: the surfaces lay along each other there (e.g. a disk or a wheel lying flat), "
                     "and the contact point is no longer the nearest one", t=t)
-            state["s"][q] = np.array(s)
-            state["charts"][q] = list(charts)
-            state.setdefault("t_committed", {})[q] = t
-            state["points"][q] = (u[0], u[1])
-            state["signs"][q] = sign
+            t_c = state.get("t_committed", {}).get(q)
+            if t is None or t_c is None or t >= t_c:
+                state["s"][q] = np.array(s)
+                state["charts"][q] = list(charts)
+                state.setdefault("t_committed", {})[q] = t
+                state.setdefault("points", {})[q] = (u[0], u[1])
+                state.setdefault("signs", {})[q] = sign
+            if tracks is not None and not replay and t is not None:
+                if tr is None:
+                    tr = tracks[q] = _Track()
+                tr.add(t, np.array(s), list(charts), (u[0], u[1]), sign, np.array(y))
             last[q] = (s, charts, False, sign)
 
-    def _empty(self, level: int) -> dict:
+    def _empty(self, level: int, *, floats: bool = False) -> dict:
+        """Result arrays of an evaluation; ``floats``: without the (k,) and (k, 3) ones, which the float path
+        builds from its lists (``value``, ``gap``, ``normal``, ``point_i``, ``point_j``, ``rank``)."""
         k, n = self.k, self.n
-        res = {
-            "value": np.zeros(k), "gap": np.zeros(k), "normal": np.zeros((k, 3)), "point_i": np.zeros((k, 3)),
-            "point_j": np.zeros((k, 3)), "N": np.full((k, 5), np.nan), "rank": np.zeros(k),
-            "s": np.full((k, 4), np.nan),
-        }
+        res = {"N": _nan((k, 5)), "s": _nan((k, 4))}
+        if not floats:
+            res.update({"value": np.zeros(k), "gap": np.zeros(k), "normal": np.zeros((k, 3)),
+                        "point_i": np.zeros((k, 3)), "point_j": np.zeros((k, 3)), "rank": np.zeros(k)})
         if level >= 1:
             res["D"] = np.zeros((k, 6 * n))
             res["Dr"] = np.zeros((k, 2, 6 * n))
@@ -608,52 +741,83 @@ class ContactKernel:
             res["gamma"] = np.zeros(k)
             res["gamma_r"] = np.zeros((k, 2))
             res["rate"] = np.zeros(k)
-            res["gamma_c"] = np.full((k, 5), np.nan)
+            res["gamma_c"] = _nan((k, 5))
         return res
 
     def _evaluate_floats(self, y, A, level, state, t):
-        from ._scalar import Frames1, evaluate_one, newton_one
-
+        Frames1, evaluate_one, newton_one, ground_A = _scalar.Frames1, _scalar.evaluate_one, _scalar.newton_one, \
+            _scalar.IDENTITY
         n = self.n
-        res = self._empty(level)
-        At = A.tolist()
+        if not self.static:
+            return self._empty(level)
+        res = self._empty(level, floats=True)
+        # per body (ground last): rotation matrix, position and (level 2) velocity and global omega as tuples
+        zero = (0.0, 0.0, 0.0)
+        A_rows = [tuple(map(tuple, Am)) for Am in A.tolist()] + [ground_A]
         Rl = y[: 3 * n].tolist()
-        from ._scalar import IDENTITY as ground_A
+        R_b = [tuple(Rl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
         if level >= 2:
             Vl = y[7 * n : 10 * n].tolist()
-            Wl = np.einsum("kab,kb->ka", A, y[10 * n :].reshape(n, 3)).ravel().tolist()
+            Wl = y[10 * n :].tolist()  # omega_body; its global components A omega_body
+            V_b = [tuple(Vl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
+            W_b = [_scalar._rot(A_rows[b], Wl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
         order = 3 if level >= 2 else 2
+        qkey = y[: 7 * n].tobytes()
+        geom = state.setdefault("geom", {})  # per contact: the last solution and the configuration it is of
+        last_all = state.setdefault("last", {})
+        t_last_all = state.setdefault("t_last", {})
+        rate_all = state.setdefault("rate", {}) if level >= 2 and t is not None else None
+        res_N, res_s = res["N"], res["s"]
+        if level >= 1:
+            res_D, res_Dr = res["D"], res["Dr"]
+        if level >= 2:
+            res_gamma, res_rate, res_gamma_c, res_gamma_r = res["gamma"], res["rate"], res["gamma_c"], res["gamma_r"]
         vals, gaps, normals, pis, pjs, ranks = [], [], [], [], [], []
         for cs in self.static:
             fr = Frames1()
-            for side, b in (("i", cs.bi), ("j", cs.bj)):
-                if b < n:
-                    Am = At[b]
-                    setattr(fr, "A" + side, (tuple(Am[0]), tuple(Am[1]), tuple(Am[2])))
-                    setattr(fr, "R" + side, tuple(Rl[3 * b : 3 * b + 3]))
-                    if level >= 2:
-                        setattr(fr, "V" + side, tuple(Vl[3 * b : 3 * b + 3]))
-                        setattr(fr, "W" + side, tuple(Wl[3 * b : 3 * b + 3]))
-                else:
-                    setattr(fr, "A" + side, ground_A)
-                    setattr(fr, "R" + side, (0.0, 0.0, 0.0))
-                    setattr(fr, "V" + side, (0.0, 0.0, 0.0))
-                    setattr(fr, "W" + side, (0.0, 0.0, 0.0))
+            bi, bj = cs.bi, cs.bj
+            fr.Ai, fr.Aj = A_rows[bi], A_rows[bj]
+            fr.Ri, fr.Rj = R_b[bi], R_b[bj]
+            if level >= 2:
+                fr.Vi, fr.Vj = V_b[bi], V_b[bj]
+                fr.Wi, fr.Wj = W_b[bi], W_b[bj]
+            else:  # (the ground's velocities, as its frame; a moving body's are not known below level 2)
+                if bi >= n:
+                    fr.Vi = fr.Wi = zero
+                if bj >= n:
+                    fr.Vj = fr.Wj = zero
             q = cs.contact.index
-            s0, charts = self._start(state, q, t)
-            restarted = False
-            try:
-                s, gi, gj, _, Es = newton_one(cs, fr, s0.tolist(), charts, order, t=t)
-            except ContactError:
-                s, gi, gj, Es, charts = self._restart_one(cs, fr, order, t)
-                restarted = True
-            state.setdefault("last", {})[q] = (np.array(s), charts, restarted, _det_sign(Es))
-            state.setdefault("t_last", {})[q] = t
+            hit = geom.get(q)
+            if hit is not None and hit[0] == qkey:
+                # the same configuration as an evaluation before (a projection's last iterate, then its
+                # velocities projected): the surface parameters depend on q only, Newton has nothing to do
+                _, s, charts, gi, gj, Es, done, restarted = hit
+                if done < order:  # the third derivatives for gamma, at the converged parameters
+                    gi, gj = _scalar.geometry_one(cs, fr, s, charts, order)
+            else:
+                s0, charts = self._start(state, q, t)
+                restarted = False
+                try:
+                    s, gi, gj, _, Es = newton_one(cs, fr, s0.tolist(), charts, order, t=t)
+                    known = self._tracked_sign(state, q, t)
+                    if known is not None and _det_sign(Es) != known:  # another branch: continue the tracked one
+                        raise ContactError("another branch of the extremal conditions", t=t)
+                except ContactError:
+                    found = self._continue_one(cs, state, y, t)
+                    if found is not None:
+                        s, charts = found
+                        s, gi, gj, _, Es = newton_one(cs, fr, s, charts, order, t=t)
+                    else:
+                        s, gi, gj, Es, charts = self._restart_one(cs, fr, order, t)
+                        restarted = True
+            geom[q] = (qkey, s, charts, gi, gj, Es, order, restarted)
+            last_all[q] = (np.array(s), charts, restarted, _det_sign(Es))
+            t_last_all[q] = t
             out = evaluate_one(cs, fr, gi, gj, Es, level, rank=level < 2)  # checked at the projections
-            if level >= 2 and t is not None:
+            if rate_all is not None:
                 sd = out["sdot"]
                 speed = max(abs(x) for x in sd) if sd else 0.0
-                state.setdefault("rate", {})[q] = (t, sd, charts[0], charts[1], speed)
+                rate_all[q] = (t, sd, charts[0], charts[1], speed)
             p = cs.p
             r = 2 * p + 1
             vals.append(out["value"])
@@ -662,27 +826,111 @@ class ContactKernel:
             pis.append(out["point_i"])
             pjs.append(out["point_j"])
             ranks.append(out["rank"])
-            res["N"][q, :r] = out["N"]
-            res["s"][q, 0:p] = s[:p]
-            res["s"][q, 2 : 2 + p] = s[p:]
+            res_N[q, :r] = out["N"]
+            res_s[q, 0:p] = s[:p]
+            res_s[q, 2 : 2 + p] = s[p:]
             if level >= 1:
-                self._scatter_one(res["D"][q], cs, out["J"], fr)
+                self._scatter_one(res_D[q], cs, out["J"], fr)
                 if cs.rolling:
                     for m in range(p):
-                        self._scatter_one(res["Dr"][q, m], cs, out["Jr"][m], fr)
+                        self._scatter_one(res_Dr[q, m], cs, out["Jr"][m], fr)
             if level >= 2:
-                res["gamma"][q] = out["gamma"]
-                res["rate"][q] = out["rate"]
-                res["gamma_c"][q, :r] = out["gamma_c"]
+                res_gamma[q] = out["gamma"]
+                res_rate[q] = out["rate"]
+                res_gamma_c[q, :r] = out["gamma_c"]
                 if cs.rolling:
-                    res["gamma_r"][q, :p] = out["gamma_r"]
-        res["value"][:] = vals
-        res["gap"][:] = gaps
-        res["normal"][:] = normals
-        res["point_i"][:] = pis
-        res["point_j"][:] = pjs
-        res["rank"][:] = ranks
+                    res_gamma_r[q, :p] = out["gamma_r"]
+        res["value"] = np.array(vals, dtype=float)
+        res["gap"] = np.array(gaps, dtype=float)
+        res["normal"] = np.array(normals, dtype=float)
+        res["point_i"] = np.array(pis, dtype=float)
+        res["point_j"] = np.array(pjs, dtype=float)
+        res["rank"] = np.array(ranks, dtype=float)
         return res
+
+    def _pose_frames(self, cs, y: np.ndarray):
+        """Rotation matrices and positions of the bodies of contact ``cs`` at state ``y`` (floats)."""
+        from ._scalar import IDENTITY, Frames1
+
+        n = self.n
+        fr = Frames1()
+        for side, b in (("i", cs.bi), ("j", cs.bj)):
+            if b < n:
+                e0, e1, e2, e3 = (float(x) for x in y[3 * n + 4 * b : 3 * n + 4 * b + 4])
+                h = 1.0 / math.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+                e0, e1, e2, e3 = e0 * h, e1 * h, e2 * h, e3 * h
+                A = ((1.0 - 2.0 * (e2 * e2 + e3 * e3), 2.0 * (e1 * e2 - e0 * e3), 2.0 * (e1 * e3 + e0 * e2)),
+                     (2.0 * (e1 * e2 + e0 * e3), 1.0 - 2.0 * (e1 * e1 + e3 * e3), 2.0 * (e2 * e3 - e0 * e1)),
+                     (2.0 * (e1 * e3 - e0 * e2), 2.0 * (e2 * e3 + e0 * e1), 1.0 - 2.0 * (e1 * e1 + e2 * e2)))
+                setattr(fr, "A" + side, A)  # Eq. 8.48
+                setattr(fr, "R" + side, tuple(float(x) for x in y[3 * b : 3 * b + 3]))
+            else:
+                setattr(fr, "A" + side, IDENTITY)
+                setattr(fr, "R" + side, (0.0, 0.0, 0.0))
+        return fr
+
+    @staticmethod
+    def _tracked_sign(state: dict, q: int, t: float | None) -> float | None:
+        """Sign of det E_s of the solution tracked nearest in time (else the committed one; None: unknown)."""
+        tracks = state.get("track")
+        tr = None if tracks is None or t is None else tracks.get(q)
+        if tr is not None and tr.times:
+            return tr.entries[-1].sign if t >= tr.times[-1] else tr.nearest(t).sign
+        return state.get("signs", {}).get(q)
+
+    def _continue_one(self, cs, state: dict, y: np.ndarray, t: float | None):
+        """Continue contact ``cs``'s tracked solution to state ``y``: ``(s, charts)``, or None when it fails.
+
+        From the tracked entry nearest in time, along configurations between
+        its state and ``y`` (positions linear, Euler parameters linear then
+        normalized), by Newton's method in sub-steps of at most a quarter of
+        the way, halved on failure down to 1/1024; each sub-step starts from
+        the last two solutions extrapolated.
+        """
+        from ._scalar import newton_one
+
+        tracks = state.get("track")
+        tr = None if tracks is None or t is None else tracks.get(cs.contact.index)
+        if tr is None or not tr.times:
+            return None
+        e = tr.nearest(t)
+        n = self.n
+        y0 = e.y
+        y1 = np.array(y, dtype=float)
+        P0 = y0[3 * n : 7 * n].reshape(n, 4)
+        P1 = y1[3 * n : 7 * n].reshape(n, 4)
+        flip = np.where(np.einsum("ij,ij->i", P0, P1) < 0.0, -1.0, 1.0)[:, None]  # the nearer of +-p
+        s = list(e.s)
+        charts = list(e.charts)
+        sign = e.sign
+        prev = None
+        lam, dl = 0.0, 0.25
+        while lam < 1.0:
+            l1 = min(1.0, lam + dl)
+            yl = (1.0 - l1) * y0 + l1 * y1
+            yl[3 * n : 7 * n] = ((1.0 - l1) * P0 + l1 * flip * P1).ravel()
+            fr = self._pose_frames(cs, yl)
+            guess = s if prev is None else [a + (a - b) * (dl / prev[1]) for a, b in zip(s, prev[0])]
+            trial = list(charts)
+            try:
+                s_new, _, _, _, Es = newton_one(cs, fr, guess, trial, 2, t=t, max_iter=12)
+                # another branch: a sub-step too long, unless it persists in the shortest (a fold, Eq. 8.109,
+                # which the commit reports)
+                if _det_sign(Es) != sign and dl >= 1.0 / 1024.0:
+                    raise ContactError("another branch of the extremal conditions", t=t)
+            except ContactError:
+                dl *= 0.5
+                if dl < 1.0 / 2048.0:
+                    return None
+                continue
+            sign = _det_sign(Es)
+            if trial[0] is not charts[0] or trial[1] is not charts[1]:
+                prev = None  # re-charted: the last solution is in another chart
+            else:
+                prev = (s, l1 - lam)
+            s, charts, lam = list(s_new), trial, l1
+            dl = min(0.25, 2.0 * dl)
+        return s, charts
 
     def _restart_one(self, cs, fr, order, t):
         """The warm start failed: search the contact point afresh (sampling and damped Newton)."""
@@ -712,15 +960,21 @@ class ContactKernel:
         return np.stack(s0), charts
 
     def _scatter_one(self, row: np.ndarray, cs, J, fr) -> None:
-        from ._scalar import _rotT
-
+        _rotT = _scalar._rotT
         n = self.n
-        if cs.bi < n:
-            b = cs.bi
+        bi, bj = cs.bi, cs.bj
+        if bi < n and bj < n and bi != bj:  # two bodies: the four blocks are disjoint, one assignment each
+            row[3 * bi : 3 * bi + 3] = J[0]
+            row[3 * n + 3 * bi : 3 * n + 3 * bi + 3] = _rotT(fr.Ai, J[1])
+            row[3 * bj : 3 * bj + 3] = J[2]
+            row[3 * n + 3 * bj : 3 * n + 3 * bj + 3] = _rotT(fr.Aj, J[3])
+            return
+        if bi < n:
+            b = bi
             row[3 * b : 3 * b + 3] += J[0]
             row[3 * n + 3 * b : 3 * n + 3 * b + 3] += _rotT(fr.Ai, J[1])
-        if cs.bj < n:
-            b = cs.bj
+        if bj < n:
+            b = bj
             row[3 * b : 3 * b + 3] += J[2]
             row[3 * n + 3 * b : 3 * n + 3 * b + 3] += _rotT(fr.Aj, J[3])
 
@@ -747,10 +1001,20 @@ class ContactKernel:
             restarted = False
             try:
                 s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
-            except ContactError:  # the warm start failed: search every contact of the group afresh
-                s0, charts = self._restart_group(g, fr, t)
-                s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
-                restarted = True
+                known = [self._tracked_sign(state, c, t) for c in g.pos]
+                got = np.sign(np.linalg.det(Es))
+                if any(k is not None and k != x for k, x in zip(known, got)):  # another branch
+                    raise ContactError("another branch of the extremal conditions", t=t)
+            except ContactError:  # the warm start failed: continue the tracked solutions, else search afresh
+                found = [self._continue_one(self.static[c], state, y, t) for c in g.pos]
+                if all(f is not None for f in found):
+                    s0 = np.array([f[0] for f in found], dtype=float)
+                    charts = [f[1] for f in found]
+                    s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
+                else:
+                    s0, charts = self._restart_group(g, fr, t)
+                    s, gi, gj, _, _, _, Es = solve_parameters(g, fr, s0, charts, order, t=t)
+                    restarted = True
             signs = np.sign(np.linalg.det(Es))
             for q, c in enumerate(g.pos):
                 state.setdefault("last", {})[c] = (np.array(s[q]), charts[q], restarted, float(signs[q]))
@@ -820,3 +1084,14 @@ class ContactKernel:
             F = np.where(pen, np.maximum(val, 0.0), 0.0)
         Q = -(F @ res["D"]) if pen.any() else np.zeros(6 * self.n)
         return F, Q
+
+
+def _nan(shape: tuple) -> np.ndarray:
+    """``np.full(shape, nan)`` without its Python-level overhead (small arrays, built per evaluation)."""
+    a = np.empty(shape)
+    a.fill(math.nan)
+    return a
+
+
+# The float path (one contact at a time) uses this module's constants, so it is imported last, once.
+from . import _scalar  # noqa: E402

@@ -14,7 +14,7 @@ from typing import Any
 
 from ._kernel import _CHART_LIMIT, _MAX_ITER, _STEP_TOL, ContactError, _lost
 
-__all__ = ["evaluate_one", "newton_one"]
+__all__ = ["evaluate_one", "geometry_one", "newton_one"]
 
 
 # ------------------------------------------------------------------ 3-vectors as tuples
@@ -102,8 +102,9 @@ def _glob(D: dict, Dn, A, p: int, order: int, normal_order: int = 2, third: bool
         G = D
     else:
         (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = A
-        G = {k: (a00 * v[0] + a01 * v[1] + a02 * v[2], a10 * v[0] + a11 * v[1] + a12 * v[2],
-                 a20 * v[0] + a21 * v[1] + a22 * v[2]) for k, v in D.items() if keep3 or sum(k) < 3}
+        items = D.items() if keep3 else [kv for kv in D.items() if sum(kv[0]) < 3]
+        G = {k: (a00 * v0 + a01 * v1 + a02 * v2, a10 * v0 + a11 * v1 + a12 * v2, a20 * v0 + a21 * v1 + a22 * v2)
+             for k, (v0, v1, v2) in items}
     g.rho = G[(0,) * p]
     g.T = [G[k] for k in _K1[p]]
     g.T2 = [[G[k] for k in row] for row in _K2[p]] if order >= 2 else None
@@ -229,8 +230,12 @@ def _extremal(cs, fr: Frames1, gi: _G, gj: _G):
 
 
 def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float | None = None,
-               max_iter: int = _MAX_ITER, damped: bool = False):
-    """Newton on the extremal conditions of one contact; returns ``(s, gi, gj, E, Es)`` (see ``_kernel``)."""
+               max_iter: int = _MAX_ITER, damped: bool = False, outward: bool = False):
+    """Newton on the extremal conditions of one contact; returns ``(s, gi, gj, E, Es)`` (see ``_kernel``).
+
+    ``outward``: also refuse a rim point whose normal points into the disk
+    (see ``_kernel.solve_parameters``).
+    """
     p = cs.p
     s = list(s)
     L = cs.L
@@ -238,10 +243,13 @@ def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float |
     # iterate on second derivatives; the third (for gamma) only once the step is small
     cur = min(order, 2)
     a_is_i = not cs.swap
+    charted = getattr(cs, "charted", True)
+    derivs_i, derivs_j = cs.surf_i._derivs_float, cs.surf_j._derivs_float
     for _ in range(max_iter):
-        _rechart(cs, s, charts)  # before the geometry: the returned s, geometry and s_dot share one chart
-        Di, Dni = cs.surf_i._derivs_float(tuple(s[:p]), cur, charts[0])
-        Dj, Dnj = cs.surf_j._derivs_float(tuple(s[p:]), cur, charts[1])
+        if charted:
+            _rechart(cs, s, charts)  # before the geometry: the returned s, geometry and s_dot share one chart
+        Di, Dni = derivs_i(tuple(s[:p]), cur, charts[0])
+        Dj, Dnj = derivs_j(tuple(s[p:]), cur, charts[1])
         gi = _glob(Di, Dni, fr.Ai, p, cur, 2 if a_is_i else 0, not a_is_i)
         gj = _glob(Dj, Dnj, fr.Aj, p, cur, 0 if a_is_i else 2, a_is_i)
         E, Es, _ = _extremal(cs, fr, gi, gj)
@@ -268,15 +276,28 @@ def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float |
             if cur < order:  # one more evaluation, with the third derivatives
                 cur = order
                 continue
-            if not _dot(gi.n, gj.n) < 0.0:
+            if not _dot(gi.n, gj.n) < 0.0 or (outward and ((cs.rim_i and not math.cos(s[1]) > 0.0) or (
+                    cs.rim_j and not math.cos(s[p + 1]) > 0.0))):
                 raise ContactError(_lost(cs.contact, t, "Newton reached a pair of points whose normals are not "
-                                         "opposed (the far sides of the surfaces)"), t=t)
+                                         "opposed (the far sides of the surfaces, or a rim's normal pointing "
+                                         "into the disk)"), t=t)
             return s, gi, gj, E, Es
         if step <= 1e-5:
             cur = order
     raise ContactError(_lost(cs.contact, t, f"Newton on the contact point did not converge in {max_iter} iterations "
                                             f"(last step {step:.2e} of the length scale): the contact point jumped"),
                        t=t)
+
+
+def geometry_one(cs, fr: Frames1, s: list, charts: list, order: int):
+    """``(gi, gj)``: the global geometry of both sides at converged parameters ``s`` (in ``charts``) up to
+    ``order``, as the last iteration of :func:`newton_one` forms it (Eqs. 8.84-8.89)."""
+    p = cs.p
+    a_is_i = not cs.swap
+    Di, Dni = cs.surf_i._derivs_float(tuple(s[:p]), order, charts[0])
+    Dj, Dnj = cs.surf_j._derivs_float(tuple(s[p:]), order, charts[1])
+    return (_glob(Di, Dni, fr.Ai, p, order, 2 if a_is_i else 0, not a_is_i),
+            _glob(Dj, Dnj, fr.Aj, p, order, 0 if a_is_i else 2, a_is_i))
 
 
 def _rechart(cs, s: list, charts: list) -> None:

@@ -78,7 +78,8 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
         charts = [[ch_i, ch_j]]
         s0 = np.concatenate([l_i, l_j])[None]
         try:
-            s, gi, gj, _, _, _, Es = solve_parameters(group, fr, s0, charts, 2, max_iter=60, damped=True)
+            s, gi, gj, _, _, _, Es = solve_parameters(group, fr, s0, charts, 2, max_iter=60, damped=True,
+                                                      outward=True)
         except ContactError as exc:  # no convergence, or points that do not face each other
             errors.append(str(exc))
             continue

@@ -53,6 +53,7 @@ by one GEMM with ``diag(A_k)``.
 from __future__ import annotations
 
 import copy
+import math
 from typing import Any
 
 import numpy as np
@@ -222,7 +223,6 @@ class _Engine:
                  contact_starts=()):
         n = len(bodies)
         self.n = n
-        g = n  # ground index in the extended (n + 1) body arrays
         self.bodies = tuple(bodies)
         self.joints = tuple(joints)
         self.motors = tuple(motors)
@@ -372,6 +372,8 @@ class _Engine:
         m_tab = len(rows.a)
         self.m_tab = m_tab
         self.aux_motor = np.array(aux_motor, dtype=np.intp).reshape(-1, 2)
+        self._aux_motor12 = np.concatenate([self.aux_motor[:, 0], self.aux_motor[:, 1]])  # P1 rows, then P2
+        self._aux_motor_pair = tuple(int(i) for i in self.aux_motor[0]) if len(ang) == 1 else None
         self.aux_rs = np.array(aux_rs, dtype=np.intp).reshape(-1, 2)
         self.motor_rows = {}
         for k, mt in enumerate(disp):
@@ -441,6 +443,7 @@ class _Engine:
         self.cross_a = np.array(cross_a, dtype=np.intp)
         self.cross_u = np.array(cross_u, dtype=np.intp)
         self.cross_sign = np.array(cross_sign, dtype=float).reshape(-1, 1)
+        self._cross_au = np.concatenate([self.cross_a, self.cross_u])  # one gather for both partners
         self.sel_springs = len(sel)
         for side in ("u_i", "u_j"):
             sel += [vec(_ext(getattr(sp, "body_" + side[-1]), g), sp._local[side], 1.0) for sp in springs]
@@ -514,6 +517,11 @@ class _Engine:
                 m += p
         self.nonholonomic_rows = np.arange(self.m_holo, m, dtype=np.intp)
         self.m = m
+        # per constraint-model contact: (index, normal row, rolling rows or None)
+        self._contact_rows = tuple(
+            (c.index, int(self.contact_row[c.index]),
+             self.rolling_rows[c.index] if self.rolling_rows[c.index].size else None)
+            for c in self.contacts if self.contact_row[c.index] >= 0)
         if self.contacts:
             from core.contact._kernel import ContactKernel
 
@@ -553,6 +561,10 @@ class _Engine:
             self.sp_k = np.array([s.stiffness for s in springs])
             self.sp_c = np.array([s.damping for s in springs])
             self.sp_L0 = np.array([s.free_length for s in springs])
+            self._sp_tiny = 1e-12 * np.maximum(self.sp_L0, 1e-300)  # a length below it: coincident points
+            self._sp_pos = self.sp_L0 > 0
+            self._sp_lin = (self.sp_L0 == 0.0)[:, None]  # zero free length: the linear force -k d - c d_dot
+            self._sp_mixed = bool(self._sp_lin.any())
             inc = np.zeros((n + 1, 2 * ns))
             for k, sp in enumerate(springs):
                 inc[_ext(sp.body_i, g), k] -= 1.0
@@ -651,7 +663,9 @@ class _Engine:
         Phi = np.einsum("ri,ri->r", a9[:, 0:3], b9[:, 0:3])
         gam = np.einsum("ri,ri->r", a9, b9 @ _GAMMA_MAP) if level >= 2 else None
         if level >= 1 and m:
-            c = cross(Y[self.cross_a, 0:3], Y[self.cross_u, 0:3] * self.cross_sign)
+            k = self.cross_a.size
+            Yau = Y[self._cross_au, 0:3]
+            c = cross(Yau[:k], Yau[k:] * self.cross_sign)
             self.Dw.flat[self.flat_w] = c.ravel()
             if self.rows_dot2.size:
                 self.Dt_full.flat[self.flat_R] = (Y[self.R_rows, 0:3] * self.R_sign).ravel()
@@ -700,22 +714,24 @@ class _Engine:
             if gamma is not None:
                 gamma[:mm] = g0
         res = self.contact_eval
-        mode = self.contact_state["mode"]
-        for c in self.contacts:
-            r = self.contact_row[c.index]
-            if r < 0 or mode[c.index] != 0:
+        mode = self.contact_state["mode"].tolist()
+        value = res["value"]
+        if D is not None:
+            res_D, res_Dr = res["D"], res["Dr"]
+        if gamma is not None:
+            res_gamma, res_gamma_r = res["gamma"], res["gamma_r"]
+        for q, r, rr in self._contact_rows:
+            if mode[q] != 0:
                 continue
-            C[r] = res["value"][c.index]
+            C[r] = value[q]
             if D is not None:
-                D[r] = res["D"][c.index]
-                rr = self.rolling_rows[c.index]
-                if rr.size:
-                    D[rr] = res["Dr"][c.index, : rr.size]
+                D[r] = res_D[q]
+                if rr is not None:
+                    D[rr] = res_Dr[q, : rr.size]
             if gamma is not None:
-                gamma[r] = res["gamma"][c.index]
-                rr = self.rolling_rows[c.index]
-                if rr.size:
-                    gamma[rr] = res["gamma_r"][c.index, : rr.size]
+                gamma[r] = res_gamma[q]
+                if rr is not None:
+                    gamma[rr] = res_gamma_r[q, : rr.size]
         return C, D, Ct, gamma
 
     def _joint_motor_rows(self, t: float, Y, Phi, gam, *, level: int):
@@ -746,27 +762,49 @@ class _Engine:
             Ct[rr] = -fv[:, 1]
             if gamma is not None:
                 gamma[rr] += fv[:, 2]
-        if self.angle_motors:
+        if len(self.angle_motors) == 1:  # one motor (the common case): the same operations on floats
+            f, fd, fdd = np.array(self.angle_motors[0].values(t), dtype=float).reshape(3).tolist()
+            cf, sf = float(np.cos(f)), float(np.sin(f))
+            i1, i2 = self._aux_motor_pair
+            P1, P2 = float(Phi[i1]), float(Phi[i2])
+            c = P1 * cf - P2 * sf
+            C[m_dir] = c
+            cosd = P2 * cf + P1 * sf  # cos(theta - f)
+            Ct[m_dir] = -fd * cosd
+            if level >= 1:
+                D = np.empty((m, 6 * self.n))
+                D[:m_dir] = self.Dt[:m_dir]
+                np.subtract(cf * self.Dt[i1], sf * self.Dt[i2], out=D[m_dir])
+            if gamma is not None:
+                dP1, dP2 = self.rates(Y, self._aux_motor12).tolist()
+                gamma[m_dir] = ((cf * float(gam[i1]) - sf * float(gam[i2])) + 2.0 * fd * (sf * dP1 + cf * dP2)
+                                + fdd * cosd + fd * fd * c)
+        elif self.angle_motors:
             fv = np.array([mt.values(t) for mt in self.angle_motors]).reshape(-1, 3)
             f, fd, fdd = fv[:, 0], fv[:, 1], fv[:, 2]
             cf, sf = np.cos(f), np.sin(f)
-            p1, p2 = self.aux_motor[:, 0], self.aux_motor[:, 1]
-            P1, P2 = Phi[p1], Phi[p2]
+            k = len(self.angle_motors)
+            p12 = self._aux_motor12
+            P12 = Phi[p12]
+            P1, P2 = P12[:k], P12[k:]
             C[m_dir:] = P1 * cf - P2 * sf
             cosd = P2 * cf + P1 * sf  # cos(theta - f)
             Ct[m_dir:] = -fd * cosd
             if level >= 1:
                 D = np.empty((m, 6 * self.n))
                 D[:m_dir] = self.Dt[:m_dir]
-                D[m_dir:] = cf[:, None] * self.Dt[p1] - sf[:, None] * self.Dt[p2]
+                D12 = self.Dt[p12]
+                D[m_dir:] = cf[:, None] * D12[:k] - sf[:, None] * D12[k:]
             if gamma is not None:
-                dP1, dP2 = self.rates(Y, p1), self.rates(Y, p2)
+                dP12 = self.rates(Y, p12)
+                dP1, dP2 = dP12[:k], dP12[k:]
+                g12 = gam[p12]
                 # C_dd = D a - (cf g1 - sf g2) - 2 fd (sf dP1 + cf dP2) - fdd cosd - fd^2 C = 0
-                gamma[m_dir:] = ((cf * gam[p1] - sf * gam[p2]) + 2.0 * fd * (sf * dP1 + cf * dP2)
+                gamma[m_dir:] = ((cf * g12[:k] - sf * g12[k:]) + 2.0 * fd * (sf * dP1 + cf * dP2)
                                  + fdd * cosd + fd * fd * C[m_dir:])
         elif level >= 1:
             D = self.Dt[:m_dir]
-        if not np.all(np.isfinite(C)):
+        if not math.isfinite(C.sum()) and not np.all(np.isfinite(C)):
             raise ValueError(f"motor: a driving function returned a non-finite value at t={t:.6g}")
         return C, D, Ct, gamma
 
@@ -825,7 +863,7 @@ class _Engine:
                 Tg[b] += _call_load(item, t, state, "torque")
         if Tg is not None:
             Tb += np.einsum("nij,nj->ni", At, Tg)
-        if self.contact_kernel is not None and np.any(self.contact_state["mode"] != 0):
+        if self.contact_kernel is not None and self.contact_state["mode"].any():
             _, Qc = self.contact_kernel.compliant_forces(self.contact_eval, self.contact_state["mode"])
             Q += Qc
         return Q
@@ -834,21 +872,23 @@ class _Engine:
         """Forces on the j points (n_sp, 3) repeated for both ends (2 n_sp, 3), and the arms of all ends."""
         ns = self.n_sp
         s0 = self.sel_springs
-        d = Y[s0 + ns : s0 + 2 * ns, 0:3] - Y[s0 : s0 + ns, 0:3]
-        dd = Y[s0 + ns : s0 + 2 * ns, 3:6] - Y[s0 : s0 + ns, 3:6]
+        d6 = Y[s0 + ns : s0 + 2 * ns, 0:6] - Y[s0 : s0 + ns, 0:6]
+        d = d6[:, 0:3]
+        dd = d6[:, 3:6]
         L = np.sqrt(np.einsum("ki,ki->k", d, d))
-        zero = L <= 1e-12 * np.maximum(self.sp_L0, 1e-300)
-        if np.any(zero & (self.sp_L0 > 0)):
-            k = int(np.argmax(zero & (self.sp_L0 > 0)))
+        zero = L <= self._sp_tiny
+        if zero.any() and np.any(zero & self._sp_pos):
+            k = int(np.argmax(zero & self._sp_pos))
             raise SingularSystemError(
                 f"spring_damper '{self.springs[k].name}': its two points coincide at t={t:.6g}, "
                 "the direction of its force is undefined (free_length > 0)", t=t)
-        Ls = np.where(zero, 1.0, L)
+        Ls = np.where(zero, 1.0, L) if zero.any() else L
         e = d / Ls[:, None]
         Ldot = np.einsum("ki,ki->k", e, dd)
         mag = self.sp_k * (L - self.sp_L0) + self.sp_c * Ldot
-        lin = (self.sp_L0 == 0.0)[:, None]
-        Fj = np.where(lin, -self.sp_k[:, None] * d - self.sp_c[:, None] * dd, -mag[:, None] * e)
+        Fj = -mag[:, None] * e
+        if self._sp_mixed:
+            Fj = np.where(self._sp_lin, -self.sp_k[:, None] * d - self.sp_c[:, None] * dd, Fj)
         return np.concatenate([Fj, Fj]), Y[s0 + 2 * ns : s0 + 4 * ns, 0:3]
 
     def spring_lengths(self, Y: np.ndarray) -> np.ndarray:

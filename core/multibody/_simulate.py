@@ -73,6 +73,9 @@ class _Dynamics:
         self._n3, self._n7, self._n10 = 3 * n, 7 * n, 10 * n
         self.output_times: frozenset = frozenset()
         self.residuals: dict[float, tuple[np.ndarray, float, float]] = {}
+        # per output time (contacts only): (state, mode, lambda, D, contact evaluation, charts) of the
+        # level-2 evaluation after the output's projection, shared by the multipliers and the energy
+        self.outputs: dict[float, tuple] = {}
         # With a regular, diagonal M the projection metric is M, so D M^-1 D^T of
         # the last right-hand side (its Cholesky factor) serves the projection.
         self._reuse = (stabilization == "projection" and eng.mass_regular and eng.minv_sqrt is not None
@@ -244,6 +247,9 @@ class _Dynamics:
                     factor = (Dk * eng.winv_diag if eng.winv_diag is not None else eng.winv_apply(Dk.T).T, factor[1])
             res = float(np.max(np.abs(C)))
             if res <= tol or (it and res <= 1e-8 and res > 0.25 * prev):
+                if it == 0 and factor is not None and eng.contact_kernel is not None:
+                    # the step's last stage is accepted as it is: its contact parameters are the step's
+                    eng.contact_kernel.commit_cached(eng.contact_state, t, strict=eng.contact_strict)
                 break  # converged, or at the round-off floor
             if it == 9 or not math.isfinite(res):
                 raise IntegrationError(
@@ -287,7 +293,33 @@ class _Dynamics:
         if t in self.output_times:
             rv = float(np.max(np.abs(D @ v + Ct)))
             self.residuals[t] = (y.copy(), res, rv)
+            if eng.contact_kernel is not None:
+                self._record_output(t, y)
         return y
+
+    def _record_output(self, t: float, y: np.ndarray) -> None:
+        """The level-2 evaluation at a projected output state, kept for the multipliers and the energy.
+
+        Only the velocities changed since the projection's last iterate, so
+        the contacts' surface parameters are those of that iterate (the
+        kernel reuses them, see ``ContactKernel.evaluate``); the warm-start
+        prediction of the run's next step is left as it was.
+        """
+        eng = self.eng
+        st = eng.contact_state
+        rate = dict(st.get("rate", {}))
+        _, lam, _, D, _ = self.accelerations(t, y, commit=False)
+        st["rate"] = rate
+        last = st.get("last", {})
+        charts = [list(last[c.index][1]) if c.index in last else None for c in eng.contacts]
+        self.outputs[t] = (y.copy(), st["mode"].copy(), lam, np.array(D), eng.contact_eval, charts)
+
+    def output_hit(self, t: float, y: np.ndarray, mode: np.ndarray | None):
+        """The kept evaluation of output ``(t, y)`` in contact modes ``mode`` (see :meth:`_record_output`), or None."""
+        hit = self.outputs.get(t)
+        if hit is None or not np.array_equal(hit[0], y) or (mode is not None and not np.array_equal(hit[1], mode)):
+            return None
+        return hit
 
 
 def _position_rows(eng: _Engine):
@@ -319,11 +351,14 @@ def _recheck_rank(eng: _Engine, t: float, y: np.ndarray) -> None:
 
 # ------------------------------------------------------------------ outputs
 def _energy(eng: _Engine, states: np.ndarray, modes: np.ndarray | None = None,
-            ts: np.ndarray | None = None, start: dict | None = None) -> np.ndarray:
+            ts: np.ndarray | None = None, start: dict | None = None, track: dict | None = None,
+            model: _Dynamics | None = None) -> np.ndarray:
     """Kinetic + gravitational + spring (+ compliant contact) energy (N,) of states (N, 13n).
 
     Batched over the outputs; a contact in the compliant model adds ``k
-    delta^(e+1) / (e + 1)`` while the bodies overlap by ``delta``.
+    delta^(e+1) / (e + 1)`` while the bodies overlap by ``delta`` (the
+    contact followed along the run's ``track``; the gap from the evaluation
+    kept at the output's projection when ``model`` has it).
     """
     n = eng.n
     N = states.shape[0]
@@ -358,11 +393,17 @@ def _energy(eng: _Engine, states: np.ndarray, modes: np.ndarray | None = None,
             e += 0.5 * eng.rs_k[k] * d**2
     if modes is not None and np.any(modes == 1):
         ker = eng.contact_kernel
-        st = ker.copy_state(start if start is not None else eng.contact_state)
+        st = None
         for idx in np.flatnonzero(np.any(modes == 1, axis=1)):
             y = states[idx]
-            res = ker.evaluate(y, matrices(y[3 * n : 7 * n].reshape(n, 4)), 0, st,
-                               t=None if ts is None else float(ts[idx]))
+            hit = None if model is None or ts is None else model.output_hit(float(ts[idx]), y, modes[idx])
+            if hit is not None:
+                res = hit[4]
+            else:
+                if st is None:
+                    st = ker.copy_state(start if start is not None else eng.contact_state, track=track)
+                res = ker.evaluate(y, matrices(y[3 * n : 7 * n].reshape(n, 4)), 0, st,
+                                   t=None if ts is None else float(ts[idx]))
             delta = np.maximum(-res["gap"], 0.0)
             on = (modes[idx] == 1) & (delta > 0.0)
             if on.any():
@@ -384,7 +425,8 @@ def _separation(system: Any, eng: _Engine, event: tuple):
 
     t, c, y, action = event
     res = eng.contact_kernel.evaluate(y, matrices(y[3 * eng.n : 7 * eng.n].reshape(eng.n, 4)), 0,
-                                      eng.contact_kernel.copy_state(eng.contact_state), t=t)
+                                      eng.contact_kernel.copy_state(eng.contact_state,
+                                                                    track=eng.contact_state.get("track")), t=t)
     point = _ro(res["point_i"][c])
     normal = _ro(res["normal"][c])
     return Separation(eng.contacts[c], float(t), point, normal, _make_state(system, t, y), action)
@@ -465,18 +507,26 @@ def set_contact_modes(eng: _Engine, mode: np.ndarray | None, t: float, y: np.nda
 
 
 def _restart_contacts(model: _Dynamics) -> None:
-    """Follow the contacts from the start of the run again (a pass over the outputs)."""
+    """Follow the contacts from the start of the run again (a pass over the outputs).
+
+    The pass replays the run's track: the surface parameters at an output
+    start from those tracked along the steps of the run (see
+    ``ContactKernel.evaluate``), not from the previous output, so the
+    history does not depend on the output density.
+    """
     eng = model.eng
     start = getattr(model, "contact_start", None)
     if start is None or eng.contact_kernel is None:
         return
-    state = eng.contact_kernel.copy_state(start)
+    state = eng.contact_kernel.copy_state(start, track=getattr(model, "contact_track", None))
     state["mode"] = eng.contact_state["mode"]
     eng.contact_state = state
 
 
-def _contact_record(eng: _Engine, lam: np.ndarray, res: dict, data: dict, idx: int) -> None:
-    """Fill output ``idx`` of the per-contact arrays from a level-2 evaluation and the multipliers."""
+def _contact_record(eng: _Engine, lam: np.ndarray, res: dict, data: dict, idx: int,
+                    charts: list | None = None) -> None:
+    """Fill output ``idx`` of the per-contact arrays from a level-2 evaluation and the multipliers
+    (``charts``: per contact those of the evaluation; default the committed ones)."""
     mode = eng.contact_state["mode"]
     F_comp, _ = eng.contact_kernel.compliant_forces(res, mode)
     for c in eng.contacts:
@@ -491,10 +541,10 @@ def _contact_record(eng: _Engine, lam: np.ndarray, res: dict, data: dict, idx: i
         data["normal"][idx, q] = normal
         data["gap"][idx, q] = res["gap"][q]
         data["constraint"][idx, q] = on
-        charts = eng.contact_state["charts"][q]
+        ch = charts[q] if charts is not None and charts[q] is not None else eng.contact_state["charts"][q]
         for side, surf, off in ((0, c.surface_i, 0), (1, c.surface_j, 2)):
             loc = res["s"][q, off : off + p]
-            data["surface_parameters"][idx, q, off : off + p] = surf._chart_parameters(loc, charts[side])
+            data["surface_parameters"][idx, q, off : off + p] = surf._chart_parameters(loc, ch[side])
         Ft = np.zeros(3)
         rr = eng.rolling_rows[q]
         if on and rr.size:
@@ -533,10 +583,15 @@ def _multipliers_and_reactions(model: _Dynamics, ts: np.ndarray, states: np.ndar
     for idx in range(N):
         if modes is not None:
             set_contact_modes(eng, modes[idx], float(ts[idx]), states[idx])
-        _, lam, _, D, _ = model.accelerations(float(ts[idx]), states[idx])
+        hit = model.output_hit(float(ts[idx]), states[idx], None if modes is None else modes[idx]) if kc else None
+        if hit is not None:  # kept from the output's projection
+            _, _, lam, D, res, charts = hit
+        else:
+            _, lam, _, D, _ = model.accelerations(float(ts[idx]), states[idx])
+            res, charts = eng.contact_eval, None
         lam_out[idx] = lam
         if kc:
-            _contact_record(eng, lam, eng.contact_eval, data, idx)
+            _contact_record(eng, lam, res, data, idx, charts)
         if k_items and m:
             G = -(tabs["inc"] * lam) @ D  # (k, 6n) generalized constraint forces per item
             F[idx] = G[rows, tabs["fcols"]]
@@ -890,6 +945,8 @@ def simulate(
 
     shared = system._engine()
     eng = shared.workspace()  # this run's own work arrays: simulations may run in parallel threads
+    if eng.contact_kernel is not None:
+        eng.contact_state["track"] = {}  # the run's tracked contact parameters (ContactKernel.evaluate)
     n = eng.n
     if n == 0:
         raise ValueError("system: has no bodies to simulate (add_body first)")
@@ -1023,6 +1080,8 @@ def simulate(
         if adaptive:
             break
     eng.contact_strict = False
+    if kc:
+        model.contact_track = eng.contact_state.get("track")
     tt_out = np.array(out_t, dtype=float)
     states = np.array(out_y).reshape(len(out_y), y0.size)
     modes = np.array(out_mode) if kc else None
@@ -1034,7 +1093,8 @@ def simulate(
         t=_ro(tt_out),
         q=_ro(states[:, : 7 * n]),
         v=_ro(states[:, 7 * n :]),
-        energy=_ro(_energy(eng, states, modes, tt_out, getattr(model, "contact_start", None))),
+        energy=_ro(_energy(eng, states, modes, tt_out, getattr(model, "contact_start", None),
+                           getattr(model, "contact_track", None), model)),
         residual_position=_ro(res_p),
         residual_velocity=_ro(res_v),
         method=method,
