@@ -29,10 +29,13 @@ from __future__ import annotations
 import collections
 import concurrent.futures
 import concurrent.futures.process
+import copy
+import hashlib
 import logging
 import math
 import multiprocessing
 import os
+import pickle
 import queue
 import threading
 from collections.abc import Callable, Iterable
@@ -100,7 +103,10 @@ class _Dispatcher(concurrent.futures.Executor):
     20 ms. The future stays pending until the pool's result is in, so
     :meth:`Future.cancel` still drops a job that has not started. A pool
     broken by a worker that died (killed, out of memory) fails the jobs it
-    had and is replaced, so the next job runs again.
+    had and is replaced, so the next job runs again. Identical jobs (the
+    same function and pickled arguments: sessions on the same scene and
+    parameters) run once, each submitter getting its own copy of the result
+    (:meth:`_forward`).
     """
 
     def __init__(self, make_pool: Callable[[], concurrent.futures.Executor], *, name: str) -> None:
@@ -109,10 +115,15 @@ class _Dispatcher(concurrent.futures.Executor):
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._held: collections.deque = collections.deque()
         self._closed = False
+        self.completed = 0  # jobs finished with a result (benchmarks report it)
+        self.shared = 0  # submits answered by an identical job in flight or done (benchmarks report it)
+        self._memo: collections.OrderedDict[bytes, concurrent.futures.Future] = collections.OrderedDict()
+        self._memo_lock = threading.Lock()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> concurrent.futures.Future:
+        """A future of ``fn(*args, **kwargs)`` run on the pool; identical jobs run once (see :meth:`_forward`)."""
         if self._closed:
             raise RuntimeError("cannot schedule new jobs after shutdown")
         outer: concurrent.futures.Future = concurrent.futures.Future()
@@ -140,8 +151,35 @@ class _Dispatcher(concurrent.futures.Executor):
                 self._forward(*self._held.popleft())
 
     def _forward(self, outer: concurrent.futures.Future, fn: Callable[..., Any], args: Any, kwargs: Any) -> None:
+        """Hand one held job to the pool, or to an identical job already in flight or done (dispatcher thread).
+
+        Sessions showing the same scene with the same parameters ask for the
+        same chunks (a class that has just opened the default preset): the
+        job runs once and every submitter's future gets its own deep copy of
+        the result, so no session sees another's changes; cancelling one
+        future cancels the job only when every submitter of it cancelled.
+        The last :data:`MEMO_SIZE` finished jobs are kept. The job's key (a
+        digest of its pickle, :func:`_job_key`) is computed here, off the
+        loop thread.
+        """
         if outer.cancelled():
             return
+        key = _job_key(fn, args, kwargs)
+        if key is not None:
+            with self._memo_lock:
+                job = self._memo.get(key)
+                if job is not None and not (job.cancelled() or (job.done() and job.exception() is not None)):
+                    self._memo.move_to_end(key)
+                    self.shared += 1
+                    _follow(job, outer)
+                    return
+                job = concurrent.futures.Future()  # the job itself, never handed out
+                job.followers = []  # type: ignore[attr-defined]
+                self._memo[key] = job
+                while len(self._memo) > MEMO_SIZE:
+                    self._memo.popitem(last=False)
+            _follow(job, outer)
+            outer = job
         try:
             inner = self._pool.submit(fn, *args, **kwargs)
         except concurrent.futures.process.BrokenProcessPool as exc:
@@ -161,6 +199,8 @@ class _Dispatcher(concurrent.futures.Executor):
         exc = inner.exception()
         if isinstance(exc, concurrent.futures.process.BrokenProcessPool):
             self._replace_pool()
+        if exc is None:
+            self.completed += 1  # only this thread's callbacks write it
         _finish(outer, None if exc is not None else inner.result(), exc)
 
     def _replace_pool(self) -> None:
@@ -169,6 +209,49 @@ class _Dispatcher(concurrent.futures.Executor):
         broken, self._pool = self._pool, self._make_pool()
         _log.error("the worker pool broke (a worker process died); a new pool takes over")
         broken.shutdown(wait=False, cancel_futures=True)
+
+
+#: Finished jobs a dispatcher keeps to answer identical submits (see ``_Dispatcher.submit``).
+MEMO_SIZE = 64
+
+
+def _job_key(fn: Callable[..., Any], args: tuple, kwargs: dict) -> bytes | None:
+    """A digest of the pickled job (a module-level function and its arguments), None if it does not pickle.
+
+    Jobs are pure functions of their pickled arguments (they run in other
+    processes), so equal pickles mean equal results.
+    """
+    try:
+        data = pickle.dumps((fn, args, sorted(kwargs.items())), protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # a lambda, a lock, ...: run it, unshared
+        return None
+    return hashlib.blake2b(data, digest_size=20).digest()
+
+
+def _follow(job: concurrent.futures.Future, outer: concurrent.futures.Future) -> None:
+    """Make a submitter's future ``outer`` follow ``job``: its outcome, the result deep-copied (each its own).
+
+    ``job`` is cancelled when every follower is cancelled before it is done.
+    """
+    followers = job.followers  # type: ignore[attr-defined]
+    followers.append(outer)
+
+    def on_outer(o: concurrent.futures.Future) -> None:
+        if o.cancelled() and all(f.cancelled() for f in followers) and not job.done():
+            job.cancel()
+
+    def on_job(j: concurrent.futures.Future) -> None:
+        if j.cancelled():
+            outer.cancel()
+            return
+        exc = j.exception()
+        if exc is not None:
+            _finish(outer, None, exc)
+            return
+        _finish(outer, copy.deepcopy(j.result()), None)
+
+    outer.add_done_callback(on_outer)
+    job.add_done_callback(on_job)
 
 
 def _finish(future: concurrent.futures.Future, result: Any, exc: BaseException | None) -> None:

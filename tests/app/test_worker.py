@@ -31,13 +31,14 @@ def test_held_jobs_run_without_a_flush(executor) -> None:
 
 
 def test_a_cancelled_job_that_has_not_started_is_dropped(executor) -> None:
-    busy = [executor.submit(_jobs.nap, 0.5) for _ in range(4)]  # more than the workers
+    naps = [0.5 + 0.001 * i for i in range(4)]  # distinct jobs (identical ones would run once), more than the workers
+    busy = [executor.submit(_jobs.nap, s) for s in naps]
     waiting = executor.submit(_jobs.square, 5.0)
     executor.flush()
     time.sleep(0.1)
     assert waiting.cancel()
     assert waiting.cancelled()
-    assert [f.result(timeout=30) for f in busy] == [0.5] * 4
+    assert [f.result(timeout=30) for f in busy] == naps
 
 
 def test_a_broken_pool_fails_its_jobs_and_is_replaced(executor) -> None:
@@ -64,3 +65,57 @@ def test_chunk_timeline_on_the_process_executor(executor) -> None:
         time.sleep(0.01)
     assert timeline.chunk_at(2.5) == (2, 1)
 
+
+
+# -- identical jobs run once (sessions of a class on the same preset) ---------------------------
+
+
+def test_identical_jobs_run_once_and_every_submitter_gets_its_own_copy(executor) -> None:
+    shared = executor.shared
+    futures = [executor.submit(_jobs.stamped, "same", 0.2) for _ in range(5)]
+    executor.flush()
+    results = [f.result(timeout=30) for f in futures]
+    assert executor.shared - shared == 4
+    assert all(r == results[0] for r in results)  # one run: the same process and time stamp
+    assert len({id(r) for r in results}) == 5 and len({id(r["values"]) for r in results}) == 5
+    results[0]["values"].append(3.0)  # one session changing its result changes no other
+    later = executor.submit(_jobs.stamped, "same", 0.2).result(timeout=30)  # kept: not run again
+    assert later == results[1] and later["values"] == [1.0, 2.0]
+    other = executor.submit(_jobs.stamped, "other").result(timeout=30)  # other arguments: another run
+    assert other["label"] == "other" and other["at"] > results[0]["at"]
+
+
+def test_a_shared_job_is_cancelled_only_when_every_submitter_cancels(executor) -> None:
+    blockers = [executor.submit(_jobs.nap, 0.6 + 0.001 * i) for i in range(4)]  # keep the workers busy
+    a = executor.submit(_jobs.stamped, "cancel-one")
+    b = executor.submit(_jobs.stamped, "cancel-one")
+    executor.flush()
+    assert a.cancel()
+    assert b.result(timeout=30)["label"] == "cancel-one"  # b still gets it
+    c = executor.submit(_jobs.stamped, "cancel-all")
+    d = executor.submit(_jobs.stamped, "cancel-all")
+    executor.flush()
+    assert c.cancel() and d.cancel()
+    again = executor.submit(_jobs.stamped, "cancel-all")  # the cancelled job is not reused
+    assert again.result(timeout=30)["label"] == "cancel-all"
+    [f.result(timeout=30) for f in blockers]
+
+
+def test_a_failed_job_fails_every_submitter_and_is_not_kept(executor) -> None:
+    futures = [executor.submit(_jobs.fail, "boom") for _ in range(2)]
+    executor.flush()
+    for f in futures:
+        with pytest.raises(ValueError, match="boom"):
+            f.result(timeout=30)
+    shared = executor.shared
+    with pytest.raises(ValueError, match="boom"):
+        executor.submit(_jobs.fail, "boom").result(timeout=30)  # run again, not answered from the failure
+    assert executor.shared == shared
+
+
+def test_jobs_that_do_not_pickle_by_name_are_not_shared() -> None:
+    from app.worker import _job_key
+
+    assert _job_key(_jobs.square, (2.0,), {}) == _job_key(_jobs.square, (2.0,), {})
+    assert _job_key(_jobs.square, (2.0,), {}) != _job_key(_jobs.square, (3.0,), {})
+    assert _job_key(lambda x: x, (2.0,), {}) is None
