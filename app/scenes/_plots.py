@@ -30,16 +30,20 @@ from app.readout import PRESENTER_FONT_SCALE
 
 __all__ = [
     "History",
+    "LOG_FLOOR",
     "Legend",
     "PlotRefresh",
     "Table",
     "format_rows",
     "hex_color",
+    "log10_floor",
     "window_seconds",
 ]
 
-#: Most points sent per plotted series.
-PLOT_POINTS = 400
+#: Most points sent per plotted series: a sidebar plot is about 300 px wide, and a
+#: window of at least two periods keeps some 55 points per period. viser re-sends a
+#: plot's data whole (float64, uncompressed), so each series costs ~1 kB per refresh.
+PLOT_POINTS = 120
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,6 +96,16 @@ def window_seconds(period: float, *, periods: float = 2.2, minimum: float = 6.0,
     return float(min(max(periods * period, minimum), cap))
 
 
+#: log10 of an exact zero in the log plots.
+LOG_FLOOR = -17.0
+
+
+def log10_floor(x: Any) -> np.ndarray:
+    """``log10 |x|`` for the log plots, floored at :data:`LOG_FLOOR` (an exact zero would be -inf)."""
+    with np.errstate(divide="ignore"):
+        return np.maximum(np.log10(np.abs(np.asarray(x, dtype=float))), LOG_FLOOR)
+
+
 class History:
     """Tables of the chunks the display clock has reached, by chunk index.
 
@@ -117,6 +131,11 @@ class History:
         """Forget tables that end before ``t_start``."""
         for k in [k for k, tab in self._tables.items() if tab.t[-1] < t_start]:
             del self._tables[k]
+
+    def trimmed_window(self, t_start: float, t_end: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`trim` to ``t_start``, then the :meth:`window` ``[t_start, t_end]``: a plot refresh cycle's data."""
+        self.trim(t_start)
+        return self.window(t_start, t_end)
 
     def _slices(self, t_start: float, t_end: float) -> list[tuple[Table, int, int]]:
         """``(table, i0, i1)``: samples ``t_start <= t <= t_end``, each time once."""

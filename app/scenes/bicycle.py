@@ -29,9 +29,10 @@ The scene holds no physics and does no long work on the loop thread:
 Per frame the loop thread interpolates one sample and streams five poses:
 the four bodies under a *world* frame whose position keeps the bicycle in
 view, and the ground grid shifted by the same offset modulo its cells (so
-it moves under the wheels). The rear and front wheels' tracks are
-fixed-size line-segment buffers sent a few times a second; the lean and
-steer plot is refreshed at about 5 Hz.
+it moves under the wheels). The rear and front wheels' tracks are rings of
+small line-segment chunks whose newest chunk is sent ten times a second (a
+finished chunk is never sent again); the lean and steer plot is refreshed at
+about 5 Hz.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ from app.nodes import set_array, set_pose
 from app.readout import PRESENTER_FONT_SCALE
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
-from app.scenes._trail import extend_trail, trail_segments
+from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.models import (
@@ -536,6 +537,7 @@ def _steer_point(height: float) -> np.ndarray:
     return np.array([p.wheelbase + p.trail - height * math.tan(lam), 0.0, height])
 
 
+@functools.cache  # one set per process, shared by every session: read them, never modify them
 def _meshes() -> dict[str, trimesh.Trimesh]:
     """Meshes in each body's frame (origin at its centre of mass, axes global at the reference)."""
     p = _PARAMETERS
@@ -650,8 +652,6 @@ class BicycleScene(PlaybackRequests, Scene):
         self._svg_background: tuple[Any, str] = (None, "")
         self._svg_dots: dict[float, str] = {}
         self._table_due = True
-        self._tracks = [np.zeros((0, 3)), np.zeros((0, 3))]
-        self._tracks_changed = False
         self._track_ends: np.ndarray | None = None  # (2, 3) the tracks' last points sent
         self._since_track = math.inf
         self._drawn: tuple[float, int, int] | None = None
@@ -685,9 +685,8 @@ class BicycleScene(PlaybackRequests, Scene):
         self.rider = scene.add_mesh_simple(f"{root}/world/frame/rider", meshes["rider"].vertices,
                                            meshes["rider"].faces, color=_RIDER_COLOR, opacity=0.55)
         self.tracks = [
-            self.add_lines(f"{root}/world/{name}", _with_far(np.zeros((_TRACK_CAPACITY, 2, 3))),
-                           np.full((_TRACK_CAPACITY + 2, 2, 3), color, dtype=np.uint8), thickness=3.0,
-                           thickness_units="screen")
+            ChunkedTrail(self, f"{root}/world/{name}", color, thickness=3.0, thickness_units="screen",
+                         capacity=_TRACK_CAPACITY, min_step=_TRACK_MIN_STEP)
             for name, color in (("rear_track", _REAR_TRACK), ("front_track", _FRONT_TRACK))
         ]
         # from each track's last point to the wheel's contact point now (sent every frame: two segments)
@@ -750,8 +749,8 @@ class BicycleScene(PlaybackRequests, Scene):
         self._start_segment(Segment(0, speed, 0.0, impulse=impulse))
         self.sim_time = 0.0
         self.history.clear()
-        self._tracks = [np.zeros((0, 3)), np.zeros((0, 3))]
-        self._tracks_changed = True
+        for track in self.tracks:
+            track.clear()
         self._track_ends = None
         self._refreshed_time = -1.0
         self._refresh.force()
@@ -865,12 +864,10 @@ class BicycleScene(PlaybackRequests, Scene):
         center = 0.5 * (contacts[0, :2] + contacts[1, :2])
         self.center = center
         grid_shift = -(center - _GRID_SECTION * np.round(center / _GRID_SECTION))
-        for i in range(2):
-            self._tracks[i], added = extend_trail(self._tracks[i], contacts[i] + (0.0, 0.0, 0.003),
-                                                  min_step=_TRACK_MIN_STEP, capacity=_TRACK_CAPACITY)
-            self._tracks_changed |= added
+        for i, track in enumerate(self.tracks):
+            track.add(contacts[i] + (0.0, 0.0, 0.003))
         self._since_track += dt
-        send_tracks = show_tracks and self._tracks_changed and self._since_track >= _TRACK_PERIOD
+        send_tracks = show_tracks and any(t.pending for t in self.tracks) and self._since_track >= _TRACK_PERIOD
         with self.target.atomic():
             set_pose(self.world, position=(-float(center[0]), -float(center[1]), 0.0))
             set_pose(self.grid, position=(float(grid_shift[0]), float(grid_shift[1]), 0.0))
@@ -884,16 +881,16 @@ class BicycleScene(PlaybackRequests, Scene):
             if self.rider.visible != show_rider:
                 self.rider.visible = show_rider
             if send_tracks:
-                for i, track in enumerate(self.tracks):
-                    set_array(track, "points", _with_far(trail_segments(self._tracks[i], _TRACK_CAPACITY)))
-                self._track_ends = np.array([self._tracks[0][-1], self._tracks[1][-1]])
+                for track in self.tracks:
+                    track.flush()  # the newest chunk only
+                ends = [track.newest for track in self.tracks]
+                self._track_ends = None if any(e is None for e in ends) else np.array(ends)
                 self._since_track = 0.0
-                self._tracks_changed = False
             if show_tracks:
                 now = contacts + (0.0, 0.0, 0.003)
                 start = self._track_ends if self._track_ends is not None else now
                 set_array(self.track_heads, "points", _with_far(np.stack([start, now], axis=1)))
-            elif due is not None:
+            if due is not None:
                 self._refresh_one(due)
 
     # -- background jobs: modes at the current speed and the sweep ------------------------------
@@ -985,8 +982,7 @@ class BicycleScene(PlaybackRequests, Scene):
         assert self.gui is not None
         if what == "window":
             self._refreshed_time = self.sim_time
-            self.history.trim(self._window_start())
-            self._plot_window = self.history.window(self._window_start(), self.sim_time)
+            self._plot_window = self.history.trimmed_window(self._window_start(), self.sim_time)
             return
         if what == "readout":
             self.gui.readout.content = self._readout()

@@ -48,7 +48,7 @@ from app.nodes import set_array, set_pose
 from app.readout import significant
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
-from app.scenes._trail import extend_trail, trail_segments
+from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, IntegrationError, integrate
@@ -89,7 +89,7 @@ _CHUNK_SIM_TIME = 1.0  # s of simulated time per chunk
 _SAMPLE_DT = 1.0 / 60.0  # s: ghost samples (and CSV rows) per simulated second: 60
 _EXACT_SAMPLES_PER_ROW = 4  # without a ghost the exact body is sampled at 240 Hz, exported at 60 Hz
 _CHUNKS_KEPT = 8  # chunks the timeline keeps for a replay (the history keeps the window's tables)
-_REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes (~5 Hz)
+_REFRESH_PERIOD = 0.25  # s of wall time between plot / readout refreshes (4 Hz; bytes: docs/app.md)
 _TRACE_PERIOD = 0.05  # s of wall time between polhode / label updates
 _LOG_FLOOR = 1e-17  # plotted on log axes: exact zeros shown at this floor
 _WINDOW_CAP = 120.0  # s: longest plot window
@@ -487,7 +487,6 @@ class FreeBodyScene(PlaybackRequests, Scene):
         self.ghost_failed = False
         self._error_reported = False
         self.arrow_points = np.zeros((3, 2, 3), dtype=np.float32)
-        self._polhode = np.zeros((0, 3))
         self._since_trace = math.inf
         self._trace_due = False
         self._trace_part = 0
@@ -527,10 +526,8 @@ class FreeBodyScene(PlaybackRequests, Scene):
             f"{root}/momentum/ellipsoid", np.zeros((7 * _ELLIPSE_SEGMENTS, 2, 3), dtype=np.float32),
             _ELLIPSOID_COLOR, thickness=0.008,
         )
-        self.polhode = self.add_lines(
-            f"{root}/momentum/polhode", np.zeros((_POLHODE_CAPACITY, 2, 3), dtype=np.float32),
-            _POLHODE_COLOR, thickness=0.025,
-        )
+        self.polhode = ChunkedTrail(self, f"{root}/momentum/polhode", _POLHODE_COLOR, thickness=0.025,
+                                    capacity=_POLHODE_CAPACITY, min_step=_POLHODE_MIN_STEP)
         self.L_point = scene.add_icosphere(f"{root}/momentum/L", radius=0.05, color=_L_COLOR)
         # 3-D labels, in static places (a label in a turning frame would orbit
         # with it): below the exact body, above the ghost's L arrow, above the
@@ -643,7 +640,7 @@ class FreeBodyScene(PlaybackRequests, Scene):
 
     def _restart(self) -> None:
         self.sim_time = 0.0
-        self._polhode = np.zeros((0, 3))
+        self.polhode.clear()
         self._trace_due = True
         self._since_trace = math.inf
         self.history.clear()
@@ -720,9 +717,7 @@ class FreeBodyScene(PlaybackRequests, Scene):
         # body-frame angular momentum on the momentum sphere (polhode)
         L_norm = setup.geometry.L_norm
         point = (setup.inertia @ w) * (_SPHERE_RADIUS / L_norm) if L_norm > 0 else np.zeros(3)
-        self._polhode, added = extend_trail(self._polhode, point, min_step=_POLHODE_MIN_STEP,
-                                            capacity=_POLHODE_CAPACITY)
-        self._trace_due |= added
+        self._trace_due |= self.polhode.add(point)
         arrows = self._arrow_points(setup, omega_global, ghost_L)
         finite = bool(np.all(np.isfinite(arrows)))  # never send a non-finite point
         if finite:
@@ -755,10 +750,11 @@ class FreeBodyScene(PlaybackRequests, Scene):
             self._since_trace = 0.0
             self._trace_due = False
         if part == 0:
-            set_array(self.polhode, "points", trail_segments(self._polhode, _POLHODE_CAPACITY))
+            self.polhode.flush()  # the newest chunk of the polhode only
         elif part == 1:
-            if self._polhode.shape[0]:
-                set_pose(self.L_point, position=self._polhode[-1])
+            newest = self.polhode.newest
+            if newest is not None:
+                set_pose(self.L_point, position=newest)
         else:
             tip = self.arrow_points[1, 1]
             omega_shown = bool(np.any(tip != self.arrow_points[1, 0]))
@@ -796,8 +792,7 @@ class FreeBodyScene(PlaybackRequests, Scene):
             # the readout opens each refresh cycle: the plots of the cycle
             # (the next frames) show the window as it is now
             self._refreshed_time = self.sim_time
-            self.history.trim(self._window_start())
-            self._plot_window = self.history.window(self._window_start(), self.display_time)
+            self._plot_window = self.history.trimmed_window(self._window_start(), self.display_time)
             self.gui.readout.content = self._readout()
             return
         if what in ("error", "drift") and not self.config.ghost:

@@ -7,7 +7,7 @@ Three nested bodies on a base, each turned by its own ZXZ Euler angle:
 * the rotor spins about its axis Z3 by ``psi``.
 
 The nodes are nested frames, so each frame streams one pose: three poses per
-frame. The rotor-axis tip leaves a trail (a capped line-segment buffer) on a
+frame. The rotor-axis tip leaves a trail (chunks of segments, only the newest re-sent) on a
 sphere, showing nutation loops, waves or cusps. Arrows from the fixed point
 show the angular velocity, the angular momentum and the torque, in colours
 that are not the red / green / blue of frame axes, with labels and a legend.
@@ -43,7 +43,7 @@ from app.nodes import set_array, set_pose
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
-from app.scenes._trail import extend_trail, trail_segments
+from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.gyroscope import (
@@ -75,7 +75,7 @@ _BASE_Z = -1.6
 _TRAIL_CAPACITY = 400  # line segments kept in the trail buffer
 _TRAIL_MIN_STEP = 0.004  # do not add a trail point closer than this (m)
 DRIFT_FLOOR_LOG10 = -17.0  # below double-precision round-off of O(1) invariants
-_REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes (~5 Hz)
+_REFRESH_PERIOD = 0.25  # s of wall time between plot / readout refreshes (4 Hz; bytes: docs/app.md)
 _TRAIL_PERIOD = 0.05  # s of wall time between trail buffer updates
 _CHUNK_SIM_TIME = 2.0  # s of simulated time per computed chunk
 _CHUNK_SAMPLES = 481  # samples per chunk (240 per simulated second)
@@ -364,6 +364,7 @@ def _cylinder_between(a, b, radius: float) -> trimesh.Trimesh:
     return trimesh.creation.cylinder(radius=radius, segment=np.array([a, b], dtype=float), sections=20)
 
 
+@functools.cache  # one set per process, shared by every session: read them, never modify them
 def _meshes() -> dict[str, trimesh.Trimesh]:
     base = trimesh.util.concatenate([
         trimesh.creation.cylinder(radius=0.55, height=0.1, sections=48,
@@ -465,8 +466,6 @@ class GyroscopeScene(PlaybackRequests, Scene):
         self._label_next = 0  # the arrow label moved in the next frame (one per frame)
         self._drawn: tuple[float, int, bool, bool] | None = None
         self.arrow_points = np.zeros((3, 2, 3), dtype=np.float32)
-        self._trail = np.zeros((0, 3))
-        self._trail_changed = True
         self._since_trail = math.inf
         self._refreshed_time = -1.0
         self._error_reported = False
@@ -499,11 +498,8 @@ class GyroscopeScene(PlaybackRequests, Scene):
             self.add_label(f"{root}/{node}/label", text, position=position, anchor=anchor, scale=_LABEL_SCALE)
             for node, text, position, anchor in BODY_LABELS
         ]
-        self.trail = self.add_lines(
-            f"{root}/trail", np.zeros((_TRAIL_CAPACITY, 2, 3), dtype=np.float32),
-            np.full((_TRAIL_CAPACITY, 2, 3), _TRAIL_COLOR, dtype=np.uint8), thickness=3.0,
-            thickness_units="screen",
-        )
+        self.trail = ChunkedTrail(self, f"{root}/trail", _TRAIL_COLOR, thickness=3.0, thickness_units="screen",
+                                  capacity=_TRAIL_CAPACITY, min_step=_TRAIL_MIN_STEP)
         self.vectors_frame = scene.add_frame(f"{root}/vectors", show_axes=False)
         self.arrows = self.add_arrows(
             f"{root}/vectors/arrows", np.zeros((3, 2, 3), dtype=np.float32), _ARROW_COLORS,
@@ -595,8 +591,7 @@ class GyroscopeScene(PlaybackRequests, Scene):
 
     def _restart(self) -> None:
         self.sim_time = 0.0
-        self._trail = np.zeros((0, 3))
-        self._trail_changed = True
+        self.trail.clear()
         self._since_trail = math.inf
         self.history.clear()
         self._drawn = None
@@ -668,10 +663,9 @@ class GyroscopeScene(PlaybackRequests, Scene):
         self.current_invariants = chunk.invariants[j + 1 if w >= 0.5 else j]
         self.angles, self.rates, self.method = angles, rates, chunk.method
         wxyz = [euler_parameters_from_axis_angle(axis, float(angle)) for axis, angle in zip(_AXES, angles)]
-        self._trail, added = extend_trail(self._trail, tip, min_step=_TRAIL_MIN_STEP, capacity=_TRAIL_CAPACITY)
-        self._trail_changed |= added
+        self.trail.add(tip)
         self._since_trail += dt
-        send_trail = show_trail and self._trail_changed and self._since_trail >= _TRAIL_PERIOD
+        send_trail = show_trail and self.trail.pending and self._since_trail >= _TRAIL_PERIOD
         arrows = _arrow_points(vectors)
         finite = bool(np.all(np.isfinite(arrows)))  # never send a non-finite point
         if finite:
@@ -683,9 +677,8 @@ class GyroscopeScene(PlaybackRequests, Scene):
             set_pose(self.rotor_frame, wxyz=wxyz[2])
             self.trail.visible = show_trail
             if send_trail:
-                set_array(self.trail, "points", trail_segments(self._trail, _TRAIL_CAPACITY))
+                self.trail.flush()  # the newest chunk of the trail only
                 self._since_trail = 0.0
-                self._trail_changed = False
             self.vectors_frame.visible = show_arrows and finite
             if show_arrows and finite:
                 set_array(self.arrows, "points", arrows)
@@ -722,8 +715,7 @@ class GyroscopeScene(PlaybackRequests, Scene):
             # the readout opens each refresh cycle: the plots of the cycle
             # (the next frames) show the window as it is now
             self._refreshed_time = self.sim_time
-            self.history.trim(self._window_start())
-            self._plot_window = self.history.window(self._window_start(), self.sim_time)
+            self._plot_window = self.history.trimmed_window(self._window_start(), self.sim_time)
             self.gui.readout.content = self._readout()
             return
         t, columns = self._plot_window

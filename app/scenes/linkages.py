@@ -45,7 +45,7 @@ from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_arrays, set_pose
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import History, Legend, PlotRefresh, Table
+from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.gyroscope import RotorParams, top_motion
@@ -111,9 +111,8 @@ _TOP_MASS = 1.0
 _CHUNK_SIM_TIME = 1.0  # s of simulated time per chunk
 _SAMPLES = 60  # samples per chunk (60 per simulated second), plus the chunk's start
 _CHUNKS_KEPT = 8
-_REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes
+_REFRESH_PERIOD = 0.25  # s of wall time between plot / readout refreshes (4 Hz; bytes: docs/app.md)
 _WINDOW = 10.0  # s of simulated time in the plots and the CSV
-_LOG_FLOOR = -17.0  # log10 of an exact zero in the log plots
 
 # Drawing (metres). Every model hangs in its own frame ("model"), placed so
 # that all four fit the one default view.
@@ -508,11 +507,6 @@ class _Gui:
 
 
 
-def log10_floor(x: np.ndarray) -> np.ndarray:
-    """``log10 |x|`` for the log plots, floored at -17 (an exact zero would be -inf)."""
-    with np.errstate(divide="ignore"):
-        return np.maximum(np.log10(np.abs(np.asarray(x, dtype=float))), _LOG_FLOOR)
-
 
 class LinkagesScene(PlaybackRequests, Scene):
     """Constrained multibody systems: chain, spatial double pendulum, slider-crank, heavy top."""
@@ -678,17 +672,17 @@ class LinkagesScene(PlaybackRequests, Scene):
                     title="energy E(t)", scales=x_scale, aspect=1.6,
                 )
                 plot_drift = gui.add_uplot(
-                    (empty, np.full(2, _LOG_FLOOR)),
+                    (empty, np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 |E − E0| (J)", "stroke": "#b45309", "width": 2}),
                     title="energy drift (log10)", scales=x_scale, aspect=1.6,
                 )
                 plot_check = gui.add_uplot(
-                    (empty, np.full(2, _LOG_FLOOR)),
+                    (empty, np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 difference", "stroke": "#7c3aed", "width": 2}),
                     title="difference from the closed form (log10)", scales=x_scale, aspect=1.6,
                 )
                 plot_residual = gui.add_uplot(
-                    (empty, np.full(2, _LOG_FLOOR), np.full(2, math.log10(RESIDUAL_BOUND)),
+                    (empty, np.full(2, LOG_FLOOR), np.full(2, math.log10(RESIDUAL_BOUND)),
                      np.full(2, math.log10(POSITION_TOL))),
                     ({"label": "t (s)"}, {"label": "log10 max |C|", "stroke": "#be185d", "width": 2},
                      {"label": "bound 1e-8", "stroke": "#888888", "dash": [6, 4]},
@@ -905,8 +899,7 @@ class LinkagesScene(PlaybackRequests, Scene):
             # each refresh cycle starts here: the readout and plots of the
             # cycle (the next frames) show the window as it is now
             self._refreshed_time = self.sim_time
-            self.history.trim(self._window_start())
-            self._plot_window = self.history.window(self._window_start(), self.sim_time)
+            self._plot_window = self.history.trimmed_window(self._window_start(), self.sim_time)
             t, columns = self._plot_window
             if t.size:
                 self.max_residual = max(self.max_residual, float(np.max(columns[:, 7 * setup.n_bodies + 1])))

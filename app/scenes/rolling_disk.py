@@ -29,9 +29,10 @@ that instant with a notice.
 Per frame the loop thread interpolates one row of samples and streams poses:
 the disk (one mesh with a marker, created once and scaled when the radius
 changes), the contact point, the contact-force arrow and, when the camera
-follows the disk, the ground's offset. The contact point's track is a
-fixed-size line-segment buffer (:mod:`app.scenes._trail`) sent ten times a
-second, and its newest segment, up to the contact point drawn, every frame.
+follows the disk, the ground's offset. The contact point's track is a ring
+of small line-segment chunks (:class:`app.scenes._trail.ChunkedTrail`) whose
+newest chunk is sent ten times a second (a finished chunk is never sent
+again), and its newest segment, up to the contact point drawn, every frame.
 """
 
 from __future__ import annotations
@@ -51,8 +52,8 @@ from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_pose
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import History, Legend, PlotRefresh, Table
-from app.scenes._trail import extend_trail, trail_segments
+from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
+from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.contact import ContactError
@@ -108,13 +109,12 @@ _GRAVITY = 9.81
 _CHUNK_SIM_TIME = 0.5  # s of simulated time per chunk
 _SAMPLES = 30  # samples per chunk (60 per simulated second), plus the chunk's start
 _CHUNKS_KEPT = 24
-_REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes (~5 Hz)
+_REFRESH_PERIOD = 0.25  # s of wall time between plot / readout refreshes (4 Hz; bytes: docs/app.md)
 _TRACK_PERIOD = 0.1  # s of wall time between track buffer updates (~10 Hz)
 _TRACK_CAPACITY = 1000  # line segments of the contact point's track
 _TRACK_MIN_STEP = 0.002  # m: a track point closer than this to the last one is not added
 _TRACK_LIFT = 0.0015  # m above the ground, so the grid does not cover the track
 _WINDOW = 10.0  # s of simulated time in the plots and the CSV
-_LOG_FLOOR = -17.0  # log10 of an exact zero in the log plots
 _GRID_SECTION = 0.25  # m: the grid repeats with this period (so a shift by it is invisible)
 _GRID_SIZE = 4.0  # m
 _DISK_THICKNESS = 0.06  # of the radius: the unit disk's thickness
@@ -461,11 +461,6 @@ def _wxyz_z_to(v: np.ndarray, norm: float) -> tuple[float, float, float, float]:
 
 
 
-def log10_floor(x: Any) -> np.ndarray:
-    """``log10 |x|`` for the log plots, floored at -17 (an exact zero would be -inf)."""
-    with np.errstate(divide="ignore"):
-        return np.maximum(np.log10(np.abs(np.asarray(x, dtype=float))), _LOG_FLOOR)
-
 
 class RollingDiskScene(PlaybackRequests, Scene):
     """A thin disk on the ground: rolling without slip or frictionless sliding (core.contact)."""
@@ -529,9 +524,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self._plot_window: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros((0, 0)))
         self._error_reported = False
         self._end_reported = ""
-        self._track = np.zeros((0, 3))
         self._track_time = -math.inf  # time of the newest sample in the track
-        self._track_changed = True
         self._since_track = math.inf
         self._track_sent_end: np.ndarray | None = None  # (3,) the newest track point sent
         self._scale = math.nan  # radius the disk mesh is drawn at
@@ -547,13 +540,10 @@ class RollingDiskScene(PlaybackRequests, Scene):
                                          cell_size=0.05, section_size=_GRID_SECTION)
         # the ground frame carries what is fixed to the ground: it moves when the camera follows the disk
         self.ground = scene.add_frame(f"{root}/ground", show_axes=False)
-        self.track = self.add_lines(
-            f"{root}/ground/track", np.zeros((_TRACK_CAPACITY, 2, 3), dtype=np.float32),
-            np.full((_TRACK_CAPACITY, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0,
-            thickness_units="screen",
-        )
+        self.track = ChunkedTrail(self, f"{root}/ground/track", _TRACK_COLOR, thickness=3.0,
+                                  thickness_units="screen", capacity=_TRACK_CAPACITY, min_step=_TRACK_MIN_STEP)
         # the newest stretch, from the last track point sent to the contact point
-        # drawn: one segment sent every frame (the whole track goes at 10 Hz)
+        # drawn: one segment sent every frame (the track's newest chunk goes at 10 Hz)
         self.track_head = self.add_lines(
             f"{root}/ground/track_head", np.zeros((1, 2, 3), dtype=np.float32),
             np.full((1, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0, thickness_units="screen",
@@ -615,12 +605,12 @@ class RollingDiskScene(PlaybackRequests, Scene):
                     title="lean θ(t)", scales=x_scale, aspect=1.6,
                 )
                 plot_energy = gui.add_uplot(
-                    (empty, np.full(2, _LOG_FLOOR)),
+                    (empty, np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 |E − E0| (J)", "stroke": "#b45309", "width": 2}),
                     title="energy drift (log10)", scales=x_scale, aspect=1.6,
                 )
                 plot_residual = gui.add_uplot(
-                    (empty, np.full(2, _LOG_FLOOR), np.full(2, _LOG_FLOOR)),
+                    (empty, np.full(2, LOG_FLOOR), np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 max |C| (m)", "stroke": "#be185d", "width": 2},
                      {"label": "log10 max |dC/dt| (m/s)", "stroke": "#7c3aed", "width": 2}),
                     title="constraint residuals (log10)", scales=x_scale, aspect=1.6,
@@ -648,8 +638,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
 
     @property
     def track_points(self) -> np.ndarray:
-        """(n, 3) the contact point's track kept (global, m), oldest first."""
-        return self._track.copy()
+        """(n, 3) the contact point's track drawn (global, m, lifted over the ground), oldest first."""
+        return self.track.points
 
     # -- inputs ------------------------------------------------------------------------
     def _apply_inputs(self, inputs: Inputs) -> None:
@@ -678,9 +668,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.sim_time = 0.0
         self.ended = ""
         self._end_reported = ""
-        self._track = np.zeros((0, 3))
+        self.track.clear()
         self._track_time = -math.inf
-        self._track_changed = True
         self._since_track = math.inf
         self._track_sent_end = None
         self.history.clear()
@@ -768,7 +757,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
                     self._add_track_point(q)
                 self._track_time = float(source.t[new][-1])
         self._since_track += dt
-        send_track = show_track and self._track_changed and self._since_track >= _TRACK_PERIOD
+        send_track = show_track and self.track.pending and self._since_track >= _TRACK_PERIOD
         self.last_chunk = chunk
         self.drawn_model = chunk.model
         offset = (float(centre[0]), float(centre[1])) if follow else (0.0, 0.0)
@@ -793,10 +782,9 @@ class RollingDiskScene(PlaybackRequests, Scene):
                 self.track.visible = show_track
                 self.track_head.visible = show_track
             if send_track:
-                set_array(self.track, "points", trail_segments(self._track, _TRACK_CAPACITY))
+                self.track.flush()  # the newest chunk only
                 self._since_track = 0.0
-                self._track_changed = False
-                self._track_sent_end = self._track[-1] if self._track.shape[0] else None
+                self._track_sent_end = self.track.newest
             if show_track:
                 head = np.empty((1, 2, 3))
                 head[0, 1] = (point[0], point[1], point[2] + _TRACK_LIFT)
@@ -820,9 +808,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
             self._refresh.force()
 
     def _add_track_point(self, point: np.ndarray) -> None:
-        lifted = np.array([point[0], point[1], point[2] + _TRACK_LIFT])
-        self._track, added = extend_trail(self._track, lifted, min_step=_TRACK_MIN_STEP, capacity=_TRACK_CAPACITY)
-        self._track_changed |= added
+        self.track.add(np.array([point[0], point[1], point[2] + _TRACK_LIFT]))
 
     # -- plots, readout, export ----------------------------------------------------------
     def _window_start(self) -> float:
@@ -834,8 +820,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
             # each refresh cycle starts here: the readout and plots of the
             # cycle (the next frames) show the window as it is now
             self._refreshed_time = self.sim_time
-            self.history.trim(self._window_start())
-            self._plot_window = self.history.window(self._window_start(), self.sim_time)
+            self._plot_window = self.history.trimmed_window(self._window_start(), self.sim_time)
             return
         if what == "readout":
             self.gui.readout.content = self._readout()

@@ -131,8 +131,9 @@ def test_modes_at_the_current_speed_match_the_papers_equations(bicycle):
         got = np.array(sorted((m.eigenvalue for m in rows), key=lambda s: (s.real, s.imag)))
         want = whipple_bicycle_reference().eigenvalues(speed)
         np.testing.assert_allclose(got, want, rtol=1e-9)
-        html = scene.gui.modes_html.content
-        assert f"Modes at {speed:.2f} m/s" in html and "castering" in html
+        # the table follows at the scene's next panel refresh
+        wait_until(lambda speed=speed: f"Modes at {speed:.2f} m/s" in scene.gui.modes_html.content, timeout=10.0)
+        assert "castering" in scene.gui.modes_html.content
     assert "×2 in" in scene.gui.modes_html.content  # capsize is unstable at 7.5 m/s
     wait_until(lambda: scene.reference is not None and "<polyline" in scene.gui.eigen_plot.content, timeout=60.0)
     np.testing.assert_allclose(scene.reference.band, [MEIJAARD_2007_EIGENVALUES["weave_speed"],

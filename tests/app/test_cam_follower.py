@@ -322,13 +322,15 @@ def test_presenter_view_scales_labels_arrow_and_lines(cam_app):
     app, scene = cam_app
     base = scene.arrow.shaft_radius
     label = scene.labels["cam"].font_screen_scale
-    thickness = scene.spring.thickness
+    wire = scene.spring_wire_radius
+    extent = np.ptp(np.array(scene.spring.vertices)[:, 0])
     app.session_for().set_presenter(True)
     wait_until(lambda: scene.presenter)
     assert scene.arrow.shaft_radius == pytest.approx(base * PRESENTER_ARROW_SCALE)
     assert scene.labels["cam"].font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
     assert scene.force_label.font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
-    assert scene.spring.thickness > thickness
+    assert scene.spring_wire_radius > wire
+    assert np.ptp(np.array(scene.spring.vertices)[:, 0]) > extent  # the wire's mesh was sent again
     assert "1.45em" in scene.gui.legend.html()
     app.session_for().set_presenter(False)
     wait_until(lambda: not scene.presenter)

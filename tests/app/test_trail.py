@@ -1,10 +1,14 @@
-"""Traced-curve buffers shared by the free-body and gyroscope scenes (app/scenes/_trail.py)."""
+"""Traced curves (app/scenes/_trail.py): capped point lists, and chunked trails sent incrementally."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
-from app.scenes._trail import extend_trail, trail_segments
+from app.scenes._trail import ChunkedTrail, extend_trail, trail_segments
+from tests.app._wire import Recorder
+from tests.helpers import wait_until
 
 
 def test_extend_trail_skips_close_points_and_keeps_the_newest() -> None:
@@ -37,3 +41,118 @@ def test_segments_join_consecutive_points_and_collapse_the_rest() -> None:
     # a full buffer: every segment is a real one
     full = rng.normal(size=(5, 3))
     np.testing.assert_allclose(trail_segments(full, 4)[:, 1], full[1:], rtol=1e-6)
+
+
+# -- ChunkedTrail: a curve sent incrementally, whole for a late joiner ---------------------------
+
+
+class _Owner:
+    """What ChunkedTrail needs of a scene: its target and ``add_lines``."""
+
+    def __init__(self, server) -> None:
+        self.target = server
+
+    def add_lines(self, name, points, colors, *, thickness, **kwargs):
+        return self.target.scene.add_line_segments(name, points, colors, thickness=thickness, **kwargs)
+
+
+def _curve(n: int, offset: float = 0.0) -> np.ndarray:
+    """``n`` points of a helix (m), 0.05 m apart or more."""
+    u = np.arange(n) * 0.1 + offset
+    return np.column_stack([np.cos(u), np.sin(u), 0.01 * u])
+
+
+def _trail_updates(recorder, path: str) -> list[tuple[str, int, tuple[int, ...]]]:
+    """(node, bytes, shape of the points) of every points update of the chunk nodes under ``path``."""
+    out = []
+    for message, size in recorder.received():
+        if message.get("type") == "SceneNodeUpdateMessage" and message["name"].startswith(path + "/") \
+                and "points" in message["updates"]:
+            out.append((message["name"], size, message["updates"]["points"].shape))
+    return out
+
+
+def test_chunked_trail_sends_only_the_newest_chunk(server) -> None:
+    recorder = Recorder(f"ws://127.0.0.1:{server.get_port()}")
+    try:
+        trail = ChunkedTrail(_Owner(server), "/trail_incremental", (200, 100, 0), thickness=2.0, capacity=64,
+                             min_step=0.01, chunk_segments=8)
+        assert trail.chunks == 9  # 64 segments in chunks of 8, and one more for the ring
+        points = _curve(200)
+        for p in points:  # one point and one flush per frame
+            assert trail.add(p)
+            assert not trail.add(p + 0.001)  # closer than min_step: not added
+            with server.atomic():
+                trail.flush()
+            time.sleep(0.002)
+        assert not trail.pending
+
+        def arrived() -> bool:  # the newest chunk as the server holds it has reached the page
+            nodes = recorder.nodes()
+            return all(np.array_equal(np.asarray(nodes[h.name]["props"]["points"]).reshape(-1, 2, 3), h.points)
+                       for h in trail.nodes if h.name in nodes)
+
+        wait_until(arrived)
+        updates = _trail_updates(recorder, "/trail_incremental")
+        # at most one small chunk per frame (viser may merge a node's updates that were not
+        # sent yet), never the whole curve: 8 segments and the two far ones
+        assert 20 <= len(updates) <= 200
+        assert {shape for _, _, shape in updates} == {(10 * 2 * 3,)}  # flat float32 buffers as received
+        per_frame = max(size for _, size, _ in updates)
+        assert per_frame < 10 * 24 + 200  # bytes: the chunk's points and the message around them
+        # a finished chunk is not sent again until the ring reuses its node: each node's updates
+        # come in runs of at most 8 (its segments), one run per time it is the newest chunk
+        names = [name for name, _, _ in updates]
+        runs = [1]
+        for a, b in zip(names, names[1:]):
+            runs[-1:] = [runs[-1] + 1] if a == b else [runs[-1], 1]
+        assert max(runs) <= 8 + 1  # the first chunk also carries the first point
+        # the curve drawn is the newest points, at least `capacity` segments of them
+        drawn = trail.points
+        assert 64 + 1 <= drawn.shape[0] <= 72 + 1
+        np.testing.assert_allclose(drawn, points[-drawn.shape[0]:], rtol=1e-6, atol=1e-6)
+    finally:
+        recorder.close()
+
+
+def test_a_late_joiner_sees_the_whole_chunked_curve(server) -> None:
+    trail = ChunkedTrail(_Owner(server), "/trail_late", (0, 150, 140), thickness=2.0, capacity=40,
+                         min_step=0.01, chunk_segments=8)
+    points = _curve(130, offset=1.0)  # the ring has wrapped more than twice
+    for p in points:
+        trail.add(p)
+        with server.atomic():
+            trail.flush()
+    late = Recorder(f"ws://127.0.0.1:{server.get_port()}")
+    try:
+        nodes = late.nodes()
+        chunks = {name: node for name, node in nodes.items() if name.startswith("/trail_late/")}
+        assert len(chunks) == trail.chunks
+        # the late joiner holds each chunk node exactly as the server does
+        for handle in trail.nodes:
+            node = chunks[handle.name]
+            np.testing.assert_array_equal(np.asarray(node["props"]["points"]).reshape(-1, 2, 3), handle.points)
+            assert node["visible"] == handle.visible
+        # and its visible chunks draw the whole curve: every segment joins consecutive added points
+        segments = np.concatenate([np.asarray(node["props"]["points"]).reshape(-1, 2, 3)[:-2]
+                                   for node in chunks.values() if node["visible"]])
+        segments = segments[np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1) > 0]  # drop collapsed ones
+        drawn = trail.points
+        assert segments.shape[0] == drawn.shape[0] - 1
+        expected = {tuple(np.round(a, 5)) + tuple(np.round(b, 5)) for a, b in zip(drawn[:-1], drawn[1:])}
+        got = {tuple(np.round(a, 5)) + tuple(np.round(b, 5)) for a, b in segments}
+        assert got == expected
+        np.testing.assert_allclose(drawn, points[-drawn.shape[0]:], rtol=1e-6, atol=1e-6)
+        # clearing hides every chunk; a browser joining then sees no curve
+        trail.clear()
+        with server.atomic():
+            trail.flush()
+        assert trail.points.shape == (0, 3)
+        assert not any(handle.visible for handle in trail.nodes)
+    finally:
+        late.close()
+    empty = Recorder(f"ws://127.0.0.1:{server.get_port()}")
+    try:
+        assert not any(node["visible"] for name, node in empty.nodes().items() if name.startswith("/trail_late/"))
+    finally:
+        empty.close()
