@@ -1299,15 +1299,9 @@ class ModesScene(Scene):
         count = min(len(solution.groups), MAX_MODES)
         if solution.params == self.params and int(self.controls.value("mode")) > count:
             self.controls.set("mode", str(count))  # a mode beyond this model's: the last one
-        self.solution, self.clip = solution, clip
-        self._phase = 0.0
-        self.sim_time = 0.0
-        self._drawn = None
-        with self.target.atomic():
-            if new_model:
-                self._apply_geometry(solution)
-            self._draw(clip.still)
-            self._label()
+        # The panel updates are staged before the new solution is assigned, so that a
+        # reader on another thread never sees the new solution with ``panel_current``
+        # true while the panel still shows the old one (they run in later frames).
         if new_model and self._send_ghost not in self._staged:
             self._staged.appendleft(self._send_ghost)  # the ghost in the next frame
         self._stage(self._send_status)
@@ -1318,6 +1312,15 @@ class ModesScene(Scene):
         self._stage(self._send_plane)
         if new_solution and solution.params.sweep_field is not None:
             self._stage(self._send_sweep)
+        self.solution, self.clip = solution, clip
+        self._phase = 0.0
+        self.sim_time = 0.0
+        self._drawn = None
+        with self.target.atomic():
+            if new_model:
+                self._apply_geometry(solution)
+            self._draw(clip.still)
+            self._label()
         return True
 
     def _stage(self, fn: Callable[[], None]) -> None:
@@ -1498,8 +1501,8 @@ class ModesScene(Scene):
         if outcome is not None:
             self._set_progress(None)
             if self.sweep is not outcome:
+                self._stage(self._send_sweep)  # staged first: see _show
                 self.sweep = outcome
-                self._stage(self._send_sweep)
             return
         if run is None and key not in self._sweep_errors:
             run = self._run = _SweepRun(key, self.executor)

@@ -234,6 +234,7 @@ def test_rotor_whirl_and_campbell_diagram_match_the_closed_form(modes):
     np.testing.assert_allclose(omegas, np.sort(np.r_[[math.sqrt(2 * k / m)] * 3, whirl(400.0)]), rtol=1e-9)
     wait_until(lambda: scene.sweep is not None and scene.sweep.key == solution.params.sweep_key(), timeout=120.0)
     outcome = scene.sweep
+    wait_until(lambda: scene.panel_current)  # the caption follows the sweep in a later frame
     f = np.abs(outcome.eigenvalues.imag) / (2 * math.pi)
     for i, spin in enumerate(outcome.values):
         expected = np.sort(np.r_[[math.sqrt(2 * k / m)] * 6, np.repeat(whirl(spin), 2)] / (2 * math.pi))
