@@ -5,7 +5,9 @@ Examples
 ``rigidlab serve``
     Serve every scene on http://127.0.0.1:8080 (loopback only).
 ``rigidlab serve --host 0.0.0.0 --mode per-client``
-    Serve a classroom LAN; every browser gets its own state.
+    Serve a classroom LAN; every browser gets its own state, the browsers
+    spread over one worker process per core (``--workers N`` to choose;
+    :mod:`app.workers`).
 ``rigidlab serve --present --state demo.json``
     Start in presenter view from a saved scene state (Share > Download state).
 ``rigidlab bench``
@@ -19,10 +21,13 @@ from __future__ import annotations
 import argparse
 import errno
 import logging
+import os
+import signal
 import socket
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -79,9 +84,83 @@ def _port_free(host: str, port: int) -> OSError | None:
     return None
 
 
+def _positive_workers(text: str) -> int:
+    """argparse type of ``--workers``: an integer from 1 to 64."""
+    try:
+        count = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer from 1 to 64, got {text!r}") from None
+    if not 1 <= count <= 64:
+        raise argparse.ArgumentTypeError(f"expected an integer from 1 to 64, got {count}")
+    return count
+
+
+def _worker_index(text: str) -> tuple[int, int]:
+    """argparse type of the internal ``--worker-index I/N``."""
+    try:
+        i, n = (int(x) for x in text.split("/"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected I/N, got {text!r}") from None
+    if not 1 <= i <= n:
+        raise argparse.ArgumentTypeError(f"expected I/N with 1 <= I <= N, got {text!r}")
+    return i, n
+
+
+def _exit_with_parent() -> None:
+    """A worker stops when its supervisor is gone (killed without the chance to stop it)."""
+    import os
+
+    parent = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent:
+                os.kill(os.getpid(), signal.SIGINT)
+                return
+
+    threading.Thread(target=watch, name="rigidlab-parent-watch", daemon=True).start()
+
+
+def _lan_notes(host: str, port: int, mode: str) -> None:
+    """For a host other than loopback: the LAN addresses to open, and the no-password warning."""
+    if _is_loopback(host):
+        return
+    for address in _lan_addresses():
+        print(f"rigidlab: on the LAN: http://{address}:{port}", flush=True)
+    warning = (f"rigidlab: warning: serving on {host}: anyone who can reach this address can "
+               "open the page, with no password")
+    if mode == "shared":
+        warning += (", and every browser drives the same scene; for a class of students exploring "
+                    "on their own, use --mode per-client")
+    print(warning + ".", file=sys.stderr, flush=True)
+
+
 def _serve(args: argparse.Namespace) -> int:
     from app import state as state_codec
     from app.server import create_app
+    from app.workers import default_workers, serve_workers
+
+    worker = args.worker_index
+    workers = args.workers
+    if args.mode == "shared" and workers is not None and workers > 1:
+        print("rigidlab serve: --workers: shared mode runs one process (its scene state is one); "
+              "use --mode per-client to spread browsers over several workers", file=sys.stderr)
+        return 2
+    if worker is None and args.mode == "per-client":
+        workers = default_workers() if workers is None else workers
+        if workers > 1:
+            if args.state is not None:  # refuse a bad file once, not in every worker
+                try:
+                    state_codec.load_file(args.state)
+                except state_codec.StateError as exc:
+                    print(f"rigidlab serve: --state: {exc}", file=sys.stderr)
+                    return 2
+            passed = [] if args.scene is None else ["--scene", args.scene]
+            passed += ["--present"] if args.present else []
+            passed += [] if args.state is None else ["--state", args.state]
+            return serve_workers(host=args.host, port=args.port, count=workers, worker_args=passed,
+                                 on_ready=lambda port: _lan_notes(args.host, port, "per-client"))
 
     state = None
     if args.state is not None:
@@ -90,7 +169,7 @@ def _serve(args: argparse.Namespace) -> int:
         except state_codec.StateError as exc:
             print(f"rigidlab serve: --state: {exc}", file=sys.stderr)
             return 2
-    busy = _port_free(args.host, args.port)
+    busy = None if worker is not None else _port_free(args.host, args.port)  # a worker shares the port
     if busy is not None:
         reason = "is in use" if busy.errno == errno.EADDRINUSE else f"cannot be used ({busy.strerror or busy})"
         print(f"rigidlab serve: port {args.port} on {args.host} {reason}; choose another with --port "
@@ -98,7 +177,7 @@ def _serve(args: argparse.Namespace) -> int:
         return 2
     try:
         app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
-                         presenter=args.present, state=state)
+                         presenter=args.present, state=state, reuse_port=worker is not None)
     except ValueError as exc:
         print(f"rigidlab serve: {exc}", file=sys.stderr)
         return 2
@@ -110,18 +189,21 @@ def _serve(args: argparse.Namespace) -> int:
         print(f"rigidlab serve: port {args.port} on {args.host} is in use; choose another with --port",
               file=sys.stderr)
         return 2
+    if worker is not None:
+        _exit_with_parent()
+        print(f"rigidlab: worker ready (pid {os.getpid()}, {worker[0]} of {worker[1]}, port {app.port})",
+              flush=True)
+        try:
+            threading.Event().wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            app.stop()
+        return 0
     print(f"rigidlab: serving {', '.join(app.scene_names)} ({app.mode} mode"
           f"{', presenter view' if args.present else ''})")
     print(f"rigidlab: open {app.url}")
-    if not _is_loopback(args.host):
-        for address in _lan_addresses():
-            print(f"rigidlab: on the LAN: http://{address}:{app.port}")
-        warning = (f"rigidlab: warning: serving on {args.host}: anyone who can reach this address can "
-                   "open the page, with no password")
-        if app.mode == "shared":
-            warning += (", and every browser drives the same scene; for a class of students exploring "
-                        "on their own, use --mode per-client")
-        print(warning + ".", file=sys.stderr, flush=True)
+    _lan_notes(args.host, app.port, app.mode)
     print("rigidlab: press Ctrl-C to stop", flush=True)
     try:
         threading.Event().wait()
@@ -191,6 +273,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="scene shown first: " + ", ".join(scene_names) + " (default: the first)")
     serve.add_argument("--mode", choices=MODES, default="shared",
                        help="shared: one state for everyone; per-client: one per browser")
+    serve.add_argument("--workers", type=_positive_workers, default=None, metavar="N",
+                       help="per-client mode: worker processes sharing the port, the browsers spread over "
+                            "them (default: one per core); shared mode is one process")
+    serve.add_argument("--worker-index", type=_worker_index, default=None, help=argparse.SUPPRESS)
     serve.add_argument("--present", action="store_true",
                        help="start in presenter view (large labels, thick arrows, large readouts)")
     serve.add_argument("--state", default=None, metavar="FILE",

@@ -676,12 +676,18 @@ class RigidlabApp:
             if self._stop.is_set():
                 return
             self._sessions[client.client_id] = session
+            count = len(self._sessions)
+        _log.info("browser %d connected (%d session%s in this process)", client.client_id, count,
+                  "" if count == 1 else "s")
 
     def _on_disconnect(self, client: viser.ClientHandle) -> None:
         with self._lock:
             session = self._sessions.pop(client.client_id, None)
+            count = len(self._sessions)
         if session is not None:
             session.close(client_gone=True)
+            _log.info("browser %d left (%d session%s in this process)", client.client_id, count,
+                      "" if count == 1 else "s")
 
     def stop(self) -> None:
         """Stop the loop, close the scenes and stop the viser server."""
@@ -705,6 +711,31 @@ class RigidlabApp:
             sys.setswitchinterval(self._switch_interval)
 
 
+def _listen_with_reuse_port() -> None:
+    """Make viser's websocket server listen with ``SO_REUSEPORT`` in this process (idempotent).
+
+    viser 1.1.1 starts ``websockets.asyncio.server.serve(handler, host,
+    port, ...)`` without a way to pass socket options; ``serve`` forwards
+    extra keywords to ``loop.create_server``, so a subclass that adds
+    ``reuse_port=True`` is installed in its place. Only worker processes
+    call this (``create_app(reuse_port=True)``).
+    """
+    import websockets.asyncio.server as ws_server
+
+    original = ws_server.serve
+    if getattr(original, "rigidlab_reuse_port", False):
+        return
+
+    class serve(original):  # type: ignore[misc, valid-type]
+        rigidlab_reuse_port = True
+
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            kwargs.setdefault("reuse_port", True)
+            super().__init__(*args, **kwargs)
+
+    ws_server.serve = serve
+
+
 def create_app(
     *,
     host: str = "127.0.0.1",
@@ -715,6 +746,7 @@ def create_app(
     run_unwatched: bool = False,
     presenter: bool = False,
     state: dict[str, Any] | None = None,
+    reuse_port: bool = False,
 ) -> RigidlabApp:
     """Start a viser server with every registered scene and the session loop.
 
@@ -739,6 +771,10 @@ def create_app(
         Start in presenter view (large labels, thick arrows, large readouts).
     state : dict or None
         A scene state (:mod:`app.state`) every session starts from.
+    reuse_port : bool
+        Listen with ``SO_REUSEPORT``: several processes share ``port`` and
+        the kernel spreads connections over them (the per-client workers of
+        :mod:`app.workers`). The port must then be given (not 0).
 
     Returns
     -------
@@ -772,6 +808,10 @@ def create_app(
     elif scene not in scene_classes:
         raise ValueError(f"scene: expected one of {list(scene_classes)}, got {scene!r}")
 
+    if reuse_port:
+        if not port:
+            raise ValueError("port: reuse_port shares a given port; expected a port from 1 to 65535, got 0")
+        _listen_with_reuse_port()
     executor = make_executor(processes=True, preload=[cls.__module__ for cls in scene_classes.values()])
     try:
         server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)

@@ -27,9 +27,24 @@ subprotocol ``viser-v<version>`` and is registered only after its first
 ``type`` key; each server frame is ``[u64 inner size][u64 compressed size]``
 + zstd-compressed msgpack ``{"messages": [...], ...}`` + raw numpy buffers.
 
+Per-client rows (``--per-client``): ``rigidlab serve --mode per-client
+--workers W --scene NAME`` with N browsers, each its own live scene (the
+dynamic scenes play on their own), nothing sent by the clients after the
+first camera message. Per row: frames per second per browser (median and
+min), kB/s per browser on the wire (median and max; websocket payload
+bytes), the CPU of the whole server process tree (supervisor, workers and
+their process pools) in % of one core and per core of the machine, the
+browsers whose connection dropped, and the load time of a late joiner (a
+browser that connects after the measured window: time from connecting to
+the first pose of its own scene, i.e. its session built, its scene sent and
+moving). These clients only count frames and bytes
+(they decompress nothing after the initial replay), so the benchmark's own
+CPU stays small beside the server's.
+
 Usage::
 
     python bench/app_stream.py                      # full run: 20 s per row
+    python bench/app_stream.py --per-client --clients 10,20,40,60 --workers 1,2 --scenes gyroscope,free_body
     python bench/app_stream.py --duration 3 --clients 1,10
     python bench/app_stream.py --profile --clients 30 --scenes manipulator
 
@@ -425,6 +440,198 @@ def run_case(spec: DriveSpec, n_clients: int, duration: float, *, profile: bool,
             print_profile(server.profile_path, f"{spec.label}, {n_clients} clients")
 
 
+# -- per-client rows: every browser its own live scene ----------------------------
+
+#: Scenes that move on their own (the per-client rows' default set).
+DYNAMIC_SCENES = ("gyroscope", "free_body", "linkages", "cam_follower", "rolling_disk", "modes", "bicycle")
+TARGET_KBPS = 100.0
+
+
+#: Messages that move a node: the first one a new browser receives means its scene is built and live.
+_POSE_MESSAGES = {"SetOrientationMessage", "SetPositionMessage"}
+
+
+@dataclasses.dataclass
+class PerClientStats:
+    frames_in_window: int = 0
+    bytes_in_window: int = 0
+    replay_done: float | None = None  # perf_counter when viser's replay ended
+    built: float | None = None  # perf_counter when the browser's session sent its panel
+    live: float | None = None  # perf_counter of the first pose after that: its own scene built and moving
+    closed_early: bool = False
+    error: str | None = None
+
+
+async def run_counting_client(url: str, stats: PerClientStats, window: Window, stop: asyncio.Event) -> None:
+    """One browser: register, decode frames only until the replay is done, then only count frames and bytes."""
+    import websockets
+
+    decompressor = zstandard.ZstdDecompressor()
+    try:
+        async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None, compression=None,
+                                      ping_interval=None, open_timeout=CONNECT_TIMEOUT_S) as ws:
+            await ws.send(camera_message())
+
+            async def receive() -> None:
+                async for frame in ws:
+                    now = time.perf_counter()
+                    if window.start <= now < window.end:
+                        stats.frames_in_window += 1
+                        stats.bytes_in_window += len(frame)
+                    if stats.live is None:  # decode until the session's scene is built and moving
+                        kinds = {m.get("type") for m in decode_frame(frame, decompressor)}
+                        if stats.replay_done is None and "ReplayDoneMessage" in kinds:
+                            stats.replay_done = now
+                        if stats.built is None and "GuiDropdownMessage" in kinds:  # the session's scene chooser
+                            stats.built = now
+                        elif stats.built is not None and kinds & _POSE_MESSAGES:
+                            stats.live = now
+                if not stop.is_set():
+                    stats.closed_early = True
+
+            task = asyncio.create_task(receive())
+            await stop.wait()
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+    except Exception as exc:  # reported in the table, never silently
+        stats.error = f"{type(exc).__name__}: {exc}"
+
+
+def tree_cpu_seconds(pid: int) -> float:
+    """CPU seconds of ``pid`` and all its descendants alive now (``/proc``)."""
+    total, todo, seen = 0.0, [pid], set()
+    while todo:
+        p = todo.pop()
+        if p in seen:
+            continue
+        seen.add(p)
+        try:
+            total += cpu_seconds(p)
+            for task in Path(f"/proc/{p}/task").iterdir():
+                todo += [int(c) for c in (task / "children").read_text().split()]
+        except (OSError, ValueError):
+            continue
+    return total
+
+
+@dataclasses.dataclass
+class PerClientResult:
+    scene: str
+    clients: int
+    workers: int
+    fps_median: float
+    fps_min: float
+    kbps_median: float
+    kbps_max: float
+    server_cpu: float  # % of one core, whole process tree
+    bench_cpu: float
+    dropped: int
+    join_s: float | None
+    errors: list[str]
+
+
+def start_per_client_server(scene: str, workers: int, workdir: Path) -> Server:
+    port = free_port()
+    command = [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--scene",
+               scene, "--mode", "per-client", "--workers", str(workers)]
+    log_path = workdir / f"serve-{scene}-{port}.log"
+    log = open(log_path, "w")
+    process = subprocess.Popen(command, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, text=True)
+    log.close()
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while time.monotonic() < deadline:
+        if process.poll() is not None:
+            raise RuntimeError(f"rigidlab serve exited with {process.returncode}:\n{log_path.read_text()}")
+        if "rigidlab: open " in log_path.read_text():
+            return Server(process, f"ws://127.0.0.1:{port}", log_path, None)
+        time.sleep(0.05)
+    stop_server(Server(process, "", log_path, None))
+    raise RuntimeError(f"rigidlab serve did not start within {STARTUP_TIMEOUT_S} s")
+
+
+async def _run_per_client(scene: str, n: int, workers: int, duration: float, server: Server) -> PerClientResult:
+    window = Window()
+    stop = asyncio.Event()
+    browsers = [PerClientStats() for _ in range(n)]
+    tasks = []
+    for stats in browsers:  # a classroom joining: a few browsers a second, not all at once
+        tasks.append(asyncio.create_task(run_counting_client(server.url, stats, window, stop)))
+        await asyncio.sleep(0.05)
+    deadline = time.monotonic() + CONNECT_TIMEOUT_S + 0.1 * n
+    while time.monotonic() < deadline and not all(s.live or s.error for s in browsers):
+        await asyncio.sleep(0.05)
+    errors = sorted({s.error for s in browsers if s.error})
+    if not all(s.live for s in browsers) and not errors:
+        errors.append(f"{sum(not s.live for s in browsers)} of {n} browsers never got a live scene")
+    join_s = None
+    if not errors:
+        now = time.perf_counter()
+        window.start = now + WARMUP_S
+        window.end = window.start + duration
+        await asyncio.sleep(WARMUP_S)
+        cpu0, bench0, t0 = tree_cpu_seconds(server.process.pid), own_cpu_seconds(), time.perf_counter()
+        await asyncio.sleep(max(0.0, window.end - time.perf_counter()))
+        cpu1, bench1, t1 = tree_cpu_seconds(server.process.pid), own_cpu_seconds(), time.perf_counter()
+        # a late joiner while the others stream
+        late, late_stop = PerClientStats(), asyncio.Event()
+        started = time.perf_counter()
+        late_task = asyncio.create_task(run_counting_client(server.url, late, Window(), late_stop))
+        while late.live is None and late.error is None and time.perf_counter() - started < 30.0:
+            await asyncio.sleep(0.01)
+        join_s = None if late.live is None else late.live - started
+        late_stop.set()
+        await asyncio.gather(late_task, return_exceptions=True)
+    stop.set()
+    try:
+        await asyncio.wait_for(asyncio.gather(*tasks, return_exceptions=True), timeout=30.0)
+    except asyncio.TimeoutError:
+        errors.append("clients did not close within 30 s")
+    if errors:
+        return PerClientResult(scene, n, workers, 0, 0, 0, 0, math.nan, math.nan, 0, None, errors)
+    fps = [s.frames_in_window / duration for s in browsers]
+    kbps = [s.bytes_in_window / duration / 1e3 for s in browsers]
+    wall = t1 - t0
+    return PerClientResult(
+        scene=scene, clients=n, workers=workers, fps_median=statistics.median(fps), fps_min=min(fps),
+        kbps_median=statistics.median(kbps), kbps_max=max(kbps), server_cpu=100.0 * (cpu1 - cpu0) / wall,
+        bench_cpu=100.0 * (bench1 - bench0) / wall, dropped=sum(s.closed_early for s in browsers), join_s=join_s,
+        errors=[],
+    )
+
+
+def run_per_client(scene: str, n: int, workers: int, duration: float, workdir: Path) -> PerClientResult:
+    server = start_per_client_server(scene, workers, workdir)
+    try:
+        return asyncio.run(_run_per_client(scene, n, workers, duration, server))
+    finally:
+        stop_server(server)
+
+
+def print_per_client_table(results: list[PerClientResult]) -> None:
+    cores = os.cpu_count() or 1
+    header = (f"{'scene':<13} {'N':>3} {'workers':>7} {'fps med':>7} {'fps min':>7} {'kB/s med':>8} "
+              f"{'kB/s max':>8} {'server CPU%':>11} {'per core':>8} {'dropped':>7} {'join s':>6} "
+              f"{'bench CPU%':>10}")
+    print(header)
+    print("-" * len(header))
+    for r in results:
+        if r.errors:
+            print(f"{r.scene:<13} {r.clients:>3} {r.workers:>7} error: {'; '.join(r.errors)}")
+            continue
+        print(f"{r.scene:<13} {r.clients:>3} {r.workers:>7} {r.fps_median:>7.1f} {r.fps_min:>7.1f} "
+              f"{r.kbps_median:>8.1f} {r.kbps_max:>8.1f} {r.server_cpu:>11.0f} {r.server_cpu / cores:>7.0f}% "
+              f"{r.dropped:>7} {_fmt(r.join_s, '6.2f')} {r.bench_cpu:>10.0f}")
+    print(
+        f"\nper-client mode: every browser its own live scene; fps: websocket frames per second per browser"
+        f"\n(median, min); kB/s: websocket payload bytes per browser per second (median, max); server CPU:"
+        f"\nthe whole server process tree (supervisor, workers, their pools), % of one core, and per core of"
+        f"\nthe {cores} here; dropped: browsers whose connection closed; join: a late joiner's time to the"
+        f"\nfirst pose of its own live scene; bench CPU: this process (all the clients)."
+        f"\ntargets: 40 browsers >= 40 fps median (gyroscope, free_body); 60 browsers >= 30 fps with 2 workers;"
+        f"\n<= {TARGET_KBPS:g} kB/s per browser; late joiner < 1 s at 40 browsers; no drops."
+    )
+
+
 # -- profiling inside the server subprocess -------------------------------------
 
 
@@ -578,6 +785,17 @@ def print_table(results: list[RunResult]) -> None:
     )
 
 
+def _integers(parser: argparse.ArgumentParser, option: str, text: str, lo: int, hi: int) -> list[int]:
+    """A comma-separated list of integers from ``lo`` to ``hi`` (the parser's error otherwise)."""
+    try:
+        values = [int(c) for c in text.split(",") if c]
+    except ValueError:
+        parser.error(f"{option}: expected comma-separated integers, got {text!r}")
+    if not values or any(v < lo or v > hi for v in values):
+        parser.error(f"{option}: expected integers from {lo} to {hi}, got {text!r}")
+    return values
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "--profiled-serve":
@@ -592,13 +810,14 @@ def main(argv: list[str] | None = None) -> int:
         help=f"comma-separated cases from {sorted(SPECS)}",
     )
     parser.add_argument("--profile", action="store_true", help="profile the server (inflates its CPU)")
+    parser.add_argument("--per-client", action="store_true",
+                        help="per-client rows: every browser its own live scene (--scenes from "
+                             f"{list(DYNAMIC_SCENES)}, default all of them; --workers)")
+    parser.add_argument("--workers", default="1,2", help="per-client rows: comma-separated worker counts")
     args = parser.parse_args(argv)
-    try:
-        counts = [int(c) for c in args.clients.split(",") if c]
-    except ValueError:
-        parser.error(f"--clients: expected comma-separated integers, got {args.clients!r}")
-    if not counts or any(c < 1 or c > 200 for c in counts):
-        parser.error(f"--clients: expected counts from 1 to 200, got {args.clients!r}")
+    if args.per_client:
+        return main_per_client(parser, args)
+    counts = _integers(parser, "--clients", args.clients, 1, 200)
     if not 0.5 <= args.duration <= 600:
         parser.error(f"--duration: expected 0.5 to 600 seconds, got {args.duration}")
     cases = [c for c in args.scenes.split(",") if c]
@@ -618,6 +837,33 @@ def main(argv: list[str] | None = None) -> int:
           f"driven at {RATE_HZ:.0f} Hz{' (server profiled: CPU inflated)' if args.profile else ''}\n")
     print_table(results)
     out = OUT_DIR / "app_stream.json"
+    out.write_text(json.dumps([dataclasses.asdict(r) for r in results], indent=2))
+    print(f"\nwrote {out.relative_to(ROOT)}")
+    return 0 if all(not r.errors for r in results) else 1
+
+
+def main_per_client(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    counts = _integers(parser, "--clients", args.clients, 1, 200)
+    workers = _integers(parser, "--workers", args.workers, 1, 16)
+    scenes = list(DYNAMIC_SCENES) if args.scenes == parser.get_default("scenes") else \
+        [c for c in args.scenes.split(",") if c]
+    unknown = [c for c in scenes if c not in DYNAMIC_SCENES]
+    if unknown:
+        parser.error(f"--scenes: expected names from {list(DYNAMIC_SCENES)}, got {unknown}")
+    OUT_DIR.mkdir(parents=True, exist_ok=True)
+    results: list[PerClientResult] = []
+    with tempfile.TemporaryDirectory(prefix="app_stream-") as tmp:
+        for scene in scenes:
+            for w in workers:
+                for n in counts:
+                    print(f"running per-client {scene}, {n} browser(s), {w} worker(s), {args.duration:g} s ...",
+                          flush=True)
+                    results.append(run_per_client(scene, n, w, args.duration, Path(tmp)))
+    print()
+    print(f"app_stream per-client: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}, "
+          f"{args.duration:g} s per row\n")
+    print_per_client_table(results)
+    out = OUT_DIR / "app_stream_per_client.json"
     out.write_text(json.dumps([dataclasses.asdict(r) for r in results], indent=2))
     print(f"\nwrote {out.relative_to(ROOT)}")
     return 0 if all(not r.errors for r in results) else 1

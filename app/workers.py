@@ -1,0 +1,273 @@
+"""Per-client mode on every core: one port served by N worker processes.
+
+``rigidlab serve --mode per-client --workers N`` starts this supervisor. It
+reserves the port, starts N copies of ``rigidlab serve`` (each a whole app:
+viser server, session loop, process pool) that all listen on that port with
+``SO_REUSEPORT``, and watches them:
+
+* **Balancing** is the kernel's: with ``SO_REUSEPORT`` every new TCP
+  connection goes to one of the listening sockets (a hash of the addresses,
+  so spread evenly over many browsers, not in turn). A browser's page and
+  its websocket may reach different workers; its session lives in the
+  worker that holds its websocket. Nothing in between copies bytes.
+* **Isolation**: a worker is a separate process; a crash takes its own
+  browsers' sessions only. Its listening socket closes with it, so the
+  kernel no longer hands it connections: the viser client reconnects on its
+  own (or on reload) and lands on a live worker, with a new session.
+* **Reporting and restarts**: a worker that ends unexpectedly is reported
+  (exit status or signal) and started again; one that fails again within
+  :data:`CRASH_WINDOW` seconds of its start three times in a row is left
+  stopped, with a message.
+
+Shared mode stays one process: its state is one. Beyond one machine, the
+same workers sit behind a standard reverse proxy (docs/app.md, docs/nginx.conf).
+
+Linux (and other kernels with ``SO_REUSEPORT`` load balancing) only; on a
+system without it ``--workers`` above 1 is refused with a message.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import TextIO
+
+__all__ = ["default_workers", "reuse_port_supported", "serve_workers", "CRASH_WINDOW"]
+
+#: A worker that ends this soon (s) after it started counts as a failed start.
+CRASH_WINDOW = 10.0
+#: Failed starts in a row after which a worker slot is left stopped.
+MAX_FAILED_STARTS = 3
+#: First characters of the lines of viser's start-up banner (not repeated per worker).
+_BANNER = ("\u256d", "\u2502", "\u2570")
+#: Seconds a worker gets to print its ready line.
+STARTUP_TIMEOUT = 120.0
+
+
+def default_workers() -> int:
+    """The default ``--workers`` of per-client mode: the number of cores this process may use."""
+    with contextlib.suppress(AttributeError, OSError):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def reuse_port_supported() -> bool:
+    """Whether sockets here can share a port with ``SO_REUSEPORT`` (Linux >= 3.9, the BSDs)."""
+    if not hasattr(socket, "SO_REUSEPORT"):
+        return False
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+    except OSError:
+        return False
+    return True
+
+
+def reserve_port(host: str, port: int) -> socket.socket:
+    """A bound, not listening ``SO_REUSEPORT`` socket on ``host:port`` (port 0: a free one).
+
+    It keeps the port for the workers (they bind with ``SO_REUSEPORT`` too)
+    and never receives connections: the kernel balances only over listening
+    sockets.
+
+    Raises
+    ------
+    OSError
+        When the port is in use by a socket without ``SO_REUSEPORT`` or
+        cannot be bound.
+    """
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+        sock.bind((host, port))
+    except BaseException:
+        sock.close()
+        raise
+    return sock
+
+
+@dataclass
+class _Worker:
+    """One worker slot: its process, when it started and how often it failed to start."""
+
+    index: int
+    process: subprocess.Popen | None = None
+    started: float = 0.0
+    failed_starts: int = 0
+    ready: threading.Event = field(default_factory=threading.Event)
+    stopped: bool = False  # left stopped after repeated failures
+
+
+def _exit_text(code: int) -> str:
+    if code < 0:
+        with contextlib.suppress(ValueError):
+            return f"was killed by {signal.Signals(-code).name}"
+        return f"was killed by signal {-code}"
+    return f"exited with status {code}"
+
+
+class Supervisor:
+    """Starts, watches and stops the worker processes of one port (see the module docstring)."""
+
+    def __init__(self, worker_args: Sequence[str], count: int, *, out: TextIO = sys.stdout) -> None:
+        self.worker_args = list(worker_args)
+        self.workers = [_Worker(i) for i in range(count)]
+        self.out = out
+        self._print_lock = threading.Lock()
+        self._stop = threading.Event()
+
+    def say(self, text: str) -> None:
+        with self._print_lock:
+            print(text, file=self.out, flush=True)
+
+    def _command(self, worker: _Worker) -> list[str]:
+        return [sys.executable, "-m", "app.cli", "serve", *self.worker_args,
+                "--worker-index", f"{worker.index + 1}/{len(self.workers)}"]
+
+    def start(self, worker: _Worker) -> None:
+        worker.ready.clear()
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        worker.process = subprocess.Popen(
+            self._command(worker), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+            start_new_session=True,  # Ctrl-C reaches the supervisor only; it stops the workers in order
+        )
+        worker.started = time.monotonic()
+        threading.Thread(target=self._forward, args=(worker, worker.process), daemon=True,
+                         name=f"rigidlab-worker-{worker.index + 1}-log").start()
+
+    def _forward(self, worker: _Worker, process: subprocess.Popen) -> None:
+        """Print the worker's output with its number; notice its ready line."""
+        assert process.stdout is not None
+        for line in process.stdout:
+            line = line.rstrip("\n")
+            if line.startswith("rigidlab: worker ready"):
+                worker.ready.set()
+            if line[:1] in _BANNER or not line.strip():
+                continue  # viser's boxed address banner, the same in every worker
+            self.say(f"[worker {worker.index + 1}] {line}")
+
+    def wait_ready(self, timeout: float = STARTUP_TIMEOUT) -> list[int]:
+        """Wait until every worker printed its ready line; the (1-based) numbers of those that did not."""
+        deadline = time.monotonic() + timeout
+        missing = []
+        for worker in self.workers:
+            while not worker.ready.wait(0.1):
+                if worker.process is None or worker.process.poll() is not None or time.monotonic() > deadline:
+                    missing.append(worker.index + 1)
+                    break
+        return missing
+
+    def watch(self) -> None:
+        """Until :meth:`stop`: report a worker that ends and start it again (see the module docstring)."""
+        while not self._stop.wait(0.2):
+            for worker in self.workers:
+                process = worker.process
+                if worker.stopped or process is None or process.poll() is None:
+                    continue
+                code = process.returncode
+                alive = sum(1 for w in self.workers if w.process is not None and w.process.poll() is None)
+                self.say(f"rigidlab: worker {worker.index + 1} (pid {process.pid}) {_exit_text(code)}; its "
+                         f"browsers lost their sessions and reconnect to a live worker ({alive} running) "
+                         "when the page reloads")
+                if time.monotonic() - worker.started < CRASH_WINDOW:
+                    worker.failed_starts += 1
+                else:
+                    worker.failed_starts = 0
+                if worker.failed_starts >= MAX_FAILED_STARTS:
+                    worker.stopped = True
+                    self.say(f"rigidlab: worker {worker.index + 1} failed {MAX_FAILED_STARTS} times within "
+                             f"{CRASH_WINDOW:g} s of starting; it stays stopped (see its output above)")
+                    continue
+                self.start(worker)
+                self.say(f"rigidlab: worker {worker.index + 1} restarted (pid {worker.process.pid})")
+            if all(w.stopped for w in self.workers):
+                self.say("rigidlab: no worker is running; stopping")
+                return
+
+    def stop(self, timeout: float = 20.0) -> None:
+        """Ask every worker to stop (SIGINT, as Ctrl-C), then kill the ones still running after ``timeout``.
+
+        A second Ctrl-C while waiting kills the workers at once.
+        """
+        self._stop.set()
+        running = [w.process for w in self.workers if w.process is not None and w.process.poll() is None]
+        for process in running:
+            with contextlib.suppress(ProcessLookupError):
+                process.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + timeout
+        try:
+            for process in running:
+                try:
+                    process.wait(timeout=max(0.1, deadline - time.monotonic()))
+                except subprocess.TimeoutExpired:
+                    process.kill()
+        except KeyboardInterrupt:
+            self.say("rigidlab: stopping the workers now")
+        for process in running:
+            if process.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    process.kill()
+                with contextlib.suppress(subprocess.TimeoutExpired, KeyboardInterrupt):
+                    process.wait(timeout=10.0)
+
+
+def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str], out: TextIO = sys.stdout,
+                  err: TextIO = sys.stderr, on_ready: Callable[[int], None] | None = None) -> int:
+    """Run ``count`` per-client workers on ``host:port`` until Ctrl-C or SIGTERM; the exit status.
+
+    ``worker_args`` are the ``rigidlab serve`` options every worker gets
+    besides ``--host``, ``--port`` and ``--mode per-client``; ``on_ready``
+    is called with the port once the workers serve (the LAN notes).
+    """
+    if not reuse_port_supported():
+        print("rigidlab serve: --workers above 1 needs SO_REUSEPORT, which this system does not offer; "
+              "use --workers 1", file=err)
+        return 2
+    try:
+        reservation = reserve_port(host, port)
+    except OSError as exc:
+        print(f"rigidlab serve: cannot listen on {host}:{port}: {exc.strerror or exc}; choose another "
+              "with --port (--port 0 picks a free one)", file=err)
+        return 2
+    with reservation:
+        bound = reservation.getsockname()[1]
+        args = ["--host", host, "--port", str(bound), "--mode", "per-client", *worker_args]
+        supervisor = Supervisor(args, count, out=out)
+        stop_signal = threading.Event()
+        previous = signal.signal(signal.SIGTERM, lambda *_: stop_signal.set()) \
+            if threading.current_thread() is threading.main_thread() else None
+        try:
+            for worker in supervisor.workers:
+                supervisor.start(worker)
+            missing = supervisor.wait_ready()
+            if len(missing) == count:
+                supervisor.stop()
+                print("rigidlab serve: no worker started (see their output above)", file=err)
+                return 1
+            shown = "127.0.0.1" if host in ("0.0.0.0", "", "::") else host
+            supervisor.say(f"rigidlab: {count - len(missing)} of {count} workers serve port {bound} "
+                           "(per-client mode; the kernel spreads the browsers over them)")
+            supervisor.say(f"rigidlab: open http://{shown}:{bound}")
+            if on_ready is not None:
+                on_ready(bound)
+            supervisor.say("rigidlab: press Ctrl-C to stop")
+            watcher = threading.Thread(target=supervisor.watch, name="rigidlab-supervisor", daemon=True)
+            watcher.start()
+            while watcher.is_alive() and not stop_signal.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            supervisor.say("\nrigidlab: stopping")
+        finally:
+            supervisor.stop()
+            if previous is not None:
+                signal.signal(signal.SIGTERM, previous)
+    return 0

@@ -1,0 +1,132 @@
+"""Per-client mode on several worker processes (``rigidlab serve --workers N``, :mod:`app.workers`).
+
+The multi-worker test starts the real command in a subprocess: two workers
+share one port, plain websocket clients connect until both workers hold
+browsers, one worker is killed by SIGKILL, and the other keeps serving its
+browsers and takes new ones while the supervisor reports the loss and
+starts the worker again.
+"""
+
+from __future__ import annotations
+
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from app import cli
+from app.workers import reuse_port_supported
+from tests.app.conftest import WsClient
+from tests.helpers import wait_until
+
+ROOT = Path(__file__).resolve().parents[2]
+
+pytestmark = pytest.mark.skipif(not reuse_port_supported(), reason="needs SO_REUSEPORT (Linux)")
+
+
+class _Output:
+    """The supervisor's output, read by a thread (lines kept in order)."""
+
+    def __init__(self, process: subprocess.Popen) -> None:
+        self.lines: list[str] = []
+        self._lock = threading.Lock()
+        threading.Thread(target=self._read, args=(process,), daemon=True).start()
+
+    def _read(self, process: subprocess.Popen) -> None:
+        assert process.stdout is not None
+        for line in process.stdout:
+            with self._lock:
+                self.lines.append(line.rstrip("\n"))
+
+    def text(self) -> str:
+        with self._lock:
+            return "\n".join(self.lines)
+
+    def count(self, pattern: str) -> int:
+        return len(re.findall(pattern, self.text(), flags=re.MULTILINE))
+
+
+def _connections(out: _Output, worker: int) -> int:
+    return out.count(rf"^\[worker {worker}\] .*browser \d+ connected")
+
+
+def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
+    process = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "--mode", "per-client", "--workers", "2", "--port", "0",
+         "--scene", "gyroscope"],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    out = _Output(process)
+    clients: list[WsClient] = []
+    try:
+        wait_until(lambda: "rigidlab: open " in out.text() or process.poll() is not None, timeout=120.0)
+        assert process.poll() is None, out.text()
+        url = re.search(r"rigidlab: open (\S+)", out.text()).group(1)
+        pids: dict[int, int] = {}
+        for pid, index in re.findall(r"worker ready \(pid (\d+), (\d) of 2", out.text()):
+            pids[int(index)] = int(pid)
+        assert sorted(pids) == [1, 2], out.text()
+
+        # Connect one browser at a time (so each log line names its worker) until both hold some.
+        where: list[int] = []
+        for _ in range(24):
+            before = [_connections(out, 1), _connections(out, 2)]
+            clients.append(WsClient(url))
+            wait_until(lambda: _connections(out, 1) + _connections(out, 2) > sum(before), timeout=30.0)
+            where.append(1 if _connections(out, 1) > before[0] else 2)
+            if 1 in where and 2 in where and len(where) >= 4:
+                break
+        assert 1 in where and 2 in where, f"the kernel gave every browser to one worker: {where}"
+
+        # Browsers of both workers stream the live scene.
+        counts = [c.frames for c in clients]
+        time.sleep(1.0)
+        assert all(c.frames > n for c, n in zip(clients, counts)), "a browser received no frames"
+
+        # Kill worker 1: reported, its browsers' sockets close, worker 2's keep streaming.
+        process_1 = pids[1]
+        subprocess.run(["kill", "-KILL", str(process_1)], check=True)
+        wait_until(lambda: f"worker 1 (pid {process_1}) was killed by SIGKILL" in out.text(), timeout=20.0)
+        survivors = [c for c, w in zip(clients, where) if w == 2]
+        lost = [c for c, w in zip(clients, where) if w == 1]
+        wait_until(lambda: all(not c._thread.is_alive() for c in lost), timeout=20.0)
+        counts = [c.frames for c in survivors]
+        time.sleep(1.0)
+        assert all(c.frames > n for c, n in zip(survivors, counts)), "worker 2 stopped serving"
+
+        # A browser that reloads connects to a live worker and gets a scene.
+        again = WsClient(url)
+        clients.append(again)
+        wait_until(lambda: again.frames > 5, timeout=30.0)
+        # ... and the supervisor starts worker 1 again.
+        wait_until(lambda: "worker 1 restarted" in out.text(), timeout=20.0)
+        wait_until(lambda: out.count(r"worker ready \(pid \d+, 1 of 2") == 2, timeout=120.0)
+    finally:
+        for client in clients:
+            client.close()
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=30.0)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait(timeout=10.0)
+    assert process.returncode == 0, out.text()
+    assert "Traceback" not in out.text(), out.text()
+
+
+def test_shared_mode_refuses_several_workers(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["serve", "--mode", "shared", "--workers", "2"]) == 2
+    assert "shared mode runs one process" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "two", "65"])
+def test_bad_worker_counts_are_refused(value: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["serve", "--mode", "per-client", "--workers", value])
+    assert exc.value.code == 2
+    assert "--workers" in capsys.readouterr().err
