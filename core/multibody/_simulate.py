@@ -13,6 +13,7 @@ constraints (mass-weighted); Baumgarte's feedback is the compared option.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 from collections.abc import Mapping
@@ -25,7 +26,7 @@ from scipy.linalg import lapack
 from scipy.optimize import brentq
 
 from core._validation import float_array, positive_integer, real_number, short_repr
-from core.integrators import MAX_STEPS, IntegrationError, integrate
+from core.integrators import MAX_STEPS, DriftReport, IntegrationError, Trajectory, integrate
 
 from ._analysis import (
     AssemblyError,
@@ -39,10 +40,23 @@ from ._elements import Body, Joint, Motor
 from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, matrices, parameter_rates
 from ._system import State, _make_state
 
-__all__ = ["ADAPTIVE_METHODS", "FIXED_STEP_METHODS", "SEPARATION_ACTIONS", "STABILIZATIONS", "MultibodyTrajectory"]
+__all__ = [
+    "ADAPTIVE_METHODS",
+    "FIXED_STEP_METHODS",
+    "KINEMATIC_METHOD",
+    "SEPARATION_ACTIONS",
+    "STABILIZATIONS",
+    "MultibodyTrajectory",
+]
 
 #: scipy's adaptive Runge-Kutta methods, stepped one accepted step at a time.
 ADAPTIVE_METHODS = ("DOP853", "RK45")
+#: Kinematic analysis instead of integration, for a System whose constraints
+#: fix every coordinate (zero degrees of freedom, e.g. a driven mechanism or a
+#: cam turned by a motor with its follower on the cam).
+KINEMATIC_METHOD = "kinematic"
+#: Integrator of a kinematic run after a separation gave it a degree of freedom.
+KINEMATIC_CONTINUATION = "DOP853"
 #: The project's fixed-step methods, run through :func:`core.integrators.integrate`.
 FIXED_STEP_METHODS = ("rk4", "midpoint")
 #: Constraint stabilization options of :func:`simulate`.
@@ -86,6 +100,9 @@ class _Dynamics:
         self.separation_tol = 0.0
         self.events: list[tuple[float, int, np.ndarray, str]] = []
         self._lam_last: tuple | None = None  # (t, lambda) of the last right-hand side
+        self._acc_key: tuple | None = None  # (t, y, modes) of the kept accelerations (see accelerations)
+        self._acc_last: tuple | None = None
+        self.applied_last: np.ndarray | None = None
         self._nu_prev: tuple | None = None  # (t, normal forces) at the end of the last step
         if not any(c.model == "constraint" for c in eng.contacts):
             self.stop_time = None
@@ -107,8 +124,17 @@ class _Dynamics:
                     "are independent: the constrained mass matrix is singular there", t=t) from None
 
     def accelerations(self, t: float, y: np.ndarray, *, commit: bool = True):
-        """``(a (6n,), lambda (m,), C, D, C_t)`` at ``(t, y)``."""
+        """``(a (6n,), lambda (m,), C, D, C_t)`` at ``(t, y)``.
+
+        The last result is kept with its applied forces (``self.applied_last``)
+        and returned again for the same ``t``, ``y`` and contact modes (an
+        output's evaluation serves the separation test's force scale and the
+        kinematic steps' rates).
+        """
         eng = self.eng
+        key = (t, y.tobytes(), eng.contact_state["mode"].tobytes() if eng.contacts else b"")
+        if self._acc_key == key:
+            return self._acc_last
         At, Y, Phi, gam = eng.table(t, y, level=2, commit=commit)
         C, D, Ct, gamma = eng.constraint_rows(t, Y, Phi, gam, level=2)
         if self.alpha:
@@ -119,7 +145,8 @@ class _Dynamics:
             a, lam = self._solve(t, y, D, Q, gamma)
         else:
             a, lam = eng.solve(t, np.zeros((0, 6 * eng.n)), Q, np.zeros(0))
-        return a, lam, C, D, Ct
+        self._acc_key, self._acc_last, self.applied_last = key, (a, lam, np.array(C), np.array(D), np.array(Ct)), Q
+        return self._acc_last
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """``y_dot = [R_dot, p_dot = G_bar^T omega_body / 2, a]`` (Eqs. 8.51-8.54)."""
@@ -828,10 +855,158 @@ class MultibodyTrajectory:
         n = self.t.size
         if not -n <= index < n:
             raise ValueError(f"index: expected -{n} <= index < {n}, got {index}")
-        return _make_state(self._owner, float(self.t[index]), np.concatenate([self.q[index], self.v[index]]))
+        state = _make_state(self._owner, float(self.t[index]), np.concatenate([self.q[index], self.v[index]]))
+        track = getattr(self._model, "contact_track", None)
+        contacts = self._model.eng.contacts
+        if contacts and track is not None and all(c.index in track and track[c.index].times for c in contacts):
+            known = []
+            for c in contacts:
+                s, charts = track[c.index].start(state.t)
+                known.append((s, charts[0], charts[1]))
+            state = dataclasses.replace(state, _contacts=tuple(known))
+        return state
 
 
 # ------------------------------------------------------------------ simulate
+def _check_kinematic(eng: _Engine, t: float) -> None:
+    """``method="kinematic"``: refuse a System whose constraints do not fix every coordinate at ``t``."""
+    if eng.nonholonomic_rows.size:
+        raise ValueError(
+            "method: 'kinematic' solves positions from the constraints, but this System has rolling contacts "
+            "(velocity constraints: its positions must be integrated); use 'DOP853'")
+    free = 6 * eng.n - int(eng.rank if eng.rank is not None else eng.m)
+    if free > 0:
+        raise ValueError(
+            f"method: 'kinematic' needs a System whose constraints fix every coordinate (0 degrees of freedom); "
+            f"this one has {free} at t={t:g} (6 x {eng.n} body coordinates, {6 * eng.n - free} independent "
+            "constraint rows); use 'DOP853', or add motors for the free coordinates")
+
+
+#: Longest kinematic step, as a multiple of the last one: the extrapolated start
+#: of Newton's method stays close (its error grows as the step to the fourth).
+_KINEMATIC_GROWTH = 3.0
+#: Halvings of a kinematic step whose projection failed before the run gives up.
+_KINEMATIC_HALVINGS = 12
+
+
+def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple | None, tq: float) -> np.ndarray:
+    """Start of the projection at ``tq``: the positions of ``y`` (at ``t``) extrapolated.
+
+    With the solved point before, ``hist = (t_p, y_p, f_p, f)``, the cubic
+    Hermite polynomial through both points and their position rates (an
+    error of order h^4 for a smooth motion); at the first step, Taylor's
+    ``R + h v + h^2 a / 2``, ``p + h p_dot``. The Euler parameters are
+    normalized; the velocities are left to the projection (which solves
+    ``D v = -C_t`` exactly when ``D`` is square).
+    """
+    n7 = 7 * n
+    z = np.array(y, dtype=float)
+    if hist is None:
+        return z
+    t_p, y_p, f_p, f = hist
+    if t_p is None:
+        h = tq - t
+        z[:n7] = y[:n7] + h * f[:n7]
+        z[: 3 * n] += 0.5 * h * h * f[n7 : n7 + 3 * n]
+    else:
+        H = t - t_p
+        u = (tq - t_p) / H
+        u2, u3 = u * u, u * u * u
+        z[:n7] = ((2 * u3 - 3 * u2 + 1) * y_p[:n7] + (u3 - 2 * u2 + u) * H * f_p[:n7]
+                  + (-2 * u3 + 3 * u2) * y[:n7] + (u3 - u2) * H * f[:n7])
+    P = z[3 * n : n7].reshape(n, 4)
+    P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
+    return z
+
+
+def _kinematic_rates(model: _Dynamics, t: float, y: np.ndarray) -> np.ndarray:
+    """``y_dot`` at a solved state (as ``model.rhs``), from the accelerations the output kept when there is one."""
+    n = model.eng.n
+    a, lam, _, _, _ = model.accelerations(t, y, commit=False)
+    model._lam_last = (t, lam)
+    n3, n7, n10 = 3 * n, 7 * n, 10 * n
+    return np.concatenate([y[n7:n10], parameter_rates(y[n3:n7].reshape(n, 4), y[n10:].reshape(n, 3)).ravel(), a])
+
+
+def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarray, max_steps: int) -> Trajectory:
+    """Kinematic analysis of a System with zero degrees of freedom at the times ``t_eval``.
+
+    Every step ends at the next output time (at most :data:`_KINEMATIC_GROWTH`
+    times the last step): positions by Newton's method on ``C(q, t) = 0``
+    from an extrapolated start, velocities from ``D v = -C_t``, accelerations
+    and multipliers from the augmented equations (Eqs. 8.105-8.107) by
+    ``model.rhs``: no integration error, only the Newton tolerance. A
+    projection that fails halves the step. The separation check runs at every
+    step's end (``model.stop_time``); a crossing is located by Brent's method
+    on the normal force of kinematic solutions inside the step. Returns what
+    :func:`core.integrators.integrate` returns (``t[0] = t0``).
+    """
+    n = model.eng.n
+    pending = [float(x) for x in t_eval if x > t0]
+    t_rec = [t0] * int(np.count_nonzero(t_eval <= t0))
+    y_rec = [np.array(y0)] * len(t_rec)
+    f_a = _kinematic_rates(model, t0, y0)
+    n_rhs, n_steps = 1, 0
+    t_a, y_a, t_p, y_p, f_p = t0, np.array(y0), None, None, None
+    h_last = math.inf
+    stopped = None
+    k = 0
+    while k < len(pending):
+        target = pending[k]
+        if target <= t_a:
+            t_rec.append(target)
+            y_rec.append(np.array(y_a))
+            k += 1
+            continue
+        h = min(target - t_a, _KINEMATIC_GROWTH * h_last)
+        for halving in range(_KINEMATIC_HALVINGS + 1):
+            t_new = target if h == target - t_a else t_a + h
+            try:
+                y_new = model.project(t_new, _kinematic_prediction(n, y_a, t_a, (t_p, y_p, f_p, f_a), t_new))
+                if not np.all(np.isfinite(y_new)):
+                    raise IntegrationError(f"the kinematic solution at t={t_new:.6g} is not finite", t=t_new)
+                break
+            except (IntegrationError, ValueError):
+                if halving == _KINEMATIC_HALVINGS:
+                    raise
+                h *= 0.5
+        if n_rhs >= max_steps:
+            raise IntegrationError(
+                f"kinematic: stopped at t={t_a:.6g} after max_steps={max_steps} evaluations of the accelerations; "
+                "pass a larger max_steps", t=t_a)
+        f_new = _kinematic_rates(model, t_new, y_new)
+        n_rhs += 1
+        n_steps += 1
+        if model.stop_time is not None:
+            t_lo, y_lo, f_lo = t_a, y_a, f_a
+
+            def dense(te, t_lo=t_lo, y_lo=y_lo, f_lo=f_lo, t_new=t_new, y_new=y_new, f_new=f_new):
+                if te == t_new:
+                    return np.array(y_new)
+                return model.project(te, _kinematic_prediction(n, y_new, t_new, (t_lo, y_lo, f_lo, f_new), te))
+
+            te = model.stop_time(t_a, y_a, t_new, np.array(y_new), dense)
+            if te is not None:
+                te = float(te)
+                y_stop = dense(te)
+                while k < len(pending) and pending[k] <= te:
+                    t_rec.append(pending[k])
+                    y_rec.append(dense(pending[k]))
+                    k += 1
+                stopped = (te, y_stop)
+                break
+        t_p, y_p, f_p = t_a, y_a, f_a
+        t_a, y_a, f_a = t_new, np.array(y_new), f_new
+        h_last = h
+        if t_new == target:
+            t_rec.append(target)
+            y_rec.append(np.array(y_new))
+            k += 1
+    states = np.array(y_rec).reshape(len(y_rec), y0.size)
+    return Trajectory(np.array(t_rec), states, KINEMATIC_METHOD, n_steps, n_rhs, DriftReport(),
+                      None if stopped is None else stopped[0], None if stopped is None else stopped[1])
+
+
 def _times(t: Any) -> np.ndarray:
     tt = float_array(t, "t", expected="a 1-D array of output times", copy=True)
     if tt.ndim == 0:
@@ -873,9 +1048,24 @@ def simulate(
         ``"DOP853"`` (default, order 8) or ``"RK45"`` (order 5): scipy's
         adaptive methods, stepped one accepted step at a time, outputs by
         dense output; ``"rk4"`` or ``"midpoint"``: fixed steps of at most
-        ``dt`` through :func:`core.integrators.integrate`.
+        ``dt`` through :func:`core.integrators.integrate`;
+        ``"kinematic"``: for a System whose constraints fix every
+        coordinate (zero degrees of freedom: a driven mechanism, a cam
+        turned by a motor with its follower on it), no integration: at
+        every output the positions are solved from ``C(q, t) = 0``
+        (Newton to ``position_tol``), the velocities from ``D v = -C_t``
+        and the accelerations and multipliers from the augmented equations
+        (Eqs. 8.105-8.107), so the results carry only the Newton tolerance.
+        Separations are checked at the outputs (give outputs as fine as the
+        shortest contact loss to be seen) and located by Brent's method on
+        solved states; a contact that continues in the compliant model
+        gives the System a degree of freedom, and the run goes on with
+        DOP853 at ``rtol``/``atol``. A System with degrees of freedom,
+        rolling contacts or ``stabilization`` other than ``"projection"``
+        is refused.
     rtol, atol : float, keyword-only
-        Adaptive methods: scipy's tolerances (default 1e-8 and 1e-10).
+        Adaptive methods: scipy's tolerances (default 1e-8 and 1e-10);
+        ``"kinematic"``: those of its DOP853 continuation.
     dt : float, keyword-only
         Fixed-step methods: the largest step (required).
     stabilization : str, keyword-only
@@ -913,9 +1103,11 @@ def simulate(
         integrator fails.
     """
     tt = _times(t)
-    if not isinstance(method, str) or method not in ADAPTIVE_METHODS + FIXED_STEP_METHODS:
-        raise ValueError(f"method: expected one of {list(ADAPTIVE_METHODS + FIXED_STEP_METHODS)}, got {short_repr(method)}")
-    adaptive = method in ADAPTIVE_METHODS
+    methods = ADAPTIVE_METHODS + FIXED_STEP_METHODS + (KINEMATIC_METHOD,)
+    if not isinstance(method, str) or method not in methods:
+        raise ValueError(f"method: expected one of {list(methods)}, got {short_repr(method)}")
+    kinematic = method == KINEMATIC_METHOD
+    adaptive = method in ADAPTIVE_METHODS or kinematic
     if adaptive:
         if dt is not None:
             raise ValueError(f"dt: adaptive method '{method}' takes rtol/atol, not dt (got dt={dt!r})")
@@ -933,6 +1125,9 @@ def simulate(
             raise ValueError(f"dt: expected a finite step dt > 0, got {dt!r}")
     if not isinstance(stabilization, str) or stabilization not in STABILIZATIONS:
         raise ValueError(f"stabilization: expected one of {list(STABILIZATIONS)}, got {short_repr(stabilization)}")
+    if kinematic and stabilization != "projection":
+        raise ValueError(f"stabilization: method 'kinematic' solves the constraints at every output (it is the "
+                         f"projection); expected 'projection', got {short_repr(stabilization)}")
     baumgarte = real_number(baumgarte, "baumgarte", expected="a finite rate > 0 (rad/s)")
     if not baumgarte > 0:
         raise ValueError(f"baumgarte: expected a finite rate > 0 (rad/s), got {baumgarte!r}")
@@ -977,6 +1172,8 @@ def simulate(
     else:
         eng.analyzed = True
     check_constrained_mass(eng, t0, y0)
+    if kinematic:
+        _check_kinematic(eng, t0)
     model = _Dynamics(system, eng, stabilization=stabilization, baumgarte=baumgarte, position_tol=position_tol)
     if model.project is not None:
         model.output_times = frozenset(float(x) for x in tt)
@@ -1005,9 +1202,8 @@ def simulate(
     pending_event = None
     if model.stop_time is not None:
         # force scale of the separation test; a contact that pulls already at t0 separates there
-        At0, Y0, Phi0, _ = eng.table(t0, y0, level=2)
-        Q0 = eng.applied(t0, y0, At0, Y0, Phi0, model._state)
-        _, lam0, _, _, _ = model.accelerations(t0, y0)
+        _, lam0, _, _, _ = model.accelerations(t0, y0)  # (kept from the output at t0)
+        Q0 = model.applied_last
         nu0 = model.normal_forces(t0, y0, lam0)
         finite = nu0[np.isfinite(nu0)]
         scale = max(float(np.max(np.abs(finite))) if finite.size else 0.0, float(np.max(np.abs(Q0[: 3 * n]))),
@@ -1042,6 +1238,7 @@ def simulate(
     idx = first.size
     t_cur, y_cur = t0, y0
     stopped = False
+    continued = False
     while True:
         if pending_event is not None:
             te, c, ye, action = pending_event
@@ -1051,10 +1248,16 @@ def simulate(
                 break
             _switch_to_compliant(eng, c, te, ye)
             model._nu_prev = None
+            continued = True  # a compliant contact is free to leave: integrated from here on
         if idx >= tt.size:
             break
-        if adaptive:
-            res = integrate(model, y_cur, (t_cur, float(tt[-1])), method=method, rtol=rtol, atol=atol,
+        if kinematic and not continued:
+            res = _run_kinematic(model, y_cur, t_cur, np.concatenate([[t_cur], tt[idx:]]), max_steps)
+            record(res.t[1:], res.states[1:])
+            idx += res.t.size - 1
+        elif adaptive:
+            res = integrate(model, y_cur, (t_cur, float(tt[-1])),
+                            method=KINEMATIC_CONTINUATION if kinematic else method, rtol=rtol, atol=atol,
                             t_eval=np.concatenate([[t_cur], tt[idx:]]), max_steps=max_steps)
             record(res.t[1:], res.states[1:])
             idx += res.t.size - 1

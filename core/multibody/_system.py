@@ -158,6 +158,9 @@ class State:
     q: np.ndarray = field(repr=False)  # (7n,)
     v: np.ndarray = field(repr=False)  # (6n,)
     _owner: Any = field(repr=False, compare=False)
+    # surface parameters and charts of the contacts at this state, per contact (s, chart_i, chart_j), when
+    # known (a trajectory's state): set_state makes them the warm start of the next run's contact Newton
+    _contacts: Any = field(default=None, repr=False, compare=False)
 
     @property
     def n_bodies(self) -> int:
@@ -394,6 +397,16 @@ class System:
         y[3 * n : 7 * n] = (P / np.linalg.norm(P, axis=1)[:, None]).ravel()
         self._y = y
         self._t = float(state.t)
+        known = state._contacts
+        if known is not None and len(known) == len(self._contacts):
+            # the surface parameters at this state (the non-generalized coordinates of the contacts):
+            # the next run's Newton starts from them instead of from an older configuration's
+            self._contact_start = [(np.array(sq), ci, cj) for sq, ci, cj in known]
+            eng = self._engine_cache
+            if eng is not None and eng.contact_kernel is not None:
+                start = eng.contact_kernel.initial_state(self._contact_start)
+                start["mode"] = np.array(eng.contact_state["mode"])
+                eng.contact_state = start
 
     def __repr__(self) -> str:
         return (
