@@ -778,6 +778,7 @@ class CamFollower:
         contact_exponent: float = 1.5,
         rtol: float = 1e-10,
         atol: float = 1e-12,
+        method: str | None = None,
     ) -> CamMotion:
         """Run the cam at constant ``speed`` on :class:`core.multibody.System` (see :meth:`build_system`).
 
@@ -801,13 +802,21 @@ class CamFollower:
             The Hunt-Crossley law (see :meth:`build_system`).
         rtol, atol : float, keyword-only
             DOP853's tolerances.
+        method : str or None, keyword-only
+            ``System.simulate``'s method. Default: ``"kinematic"`` for the
+            constraint model (the motor turns the cam and the contact holds
+            the follower on it: no degree of freedom is left, so every
+            output is a kinematic analysis with the contact force from the
+            multiplier, exact to the Newton tolerance; a separation
+            continued in the compliant model is integrated by DOP853 at
+            ``rtol``, ``atol``), ``"DOP853"`` for the compliant model.
 
         Returns
         -------
         CamMotion
         """
         return _simulate(self, speed, t, model, on_separation, contact_stiffness, contact_damping,
-                         contact_exponent, rtol, atol)
+                         contact_exponent, rtol, atol, method)
 
     def _max_ratio(self) -> tuple[float, float]:
         """``max over theta of -m s'' / (k s + F_0 + m g)`` and its angle."""
@@ -1266,13 +1275,15 @@ def _gap_crossings(t: np.ndarray, speed: float, gap: np.ndarray, compliant: np.n
 
 
 def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: Any, contact_stiffness: Any,
-              contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any) -> CamMotion:
+              contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any, method: Any = None) -> CamMotion:
     times = float_array(t, "t", expected="non-decreasing output times (s)")
     if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
         raise ValueError(f"t: expected a non-empty 1-d array of finite non-decreasing times (s), got shape "
                          f"{times.shape}")
     built = _build_system(cam, speed, float(times[0]), model, contact_stiffness, contact_damping, contact_exponent)
-    traj = built.system.simulate(times, rtol=rtol, atol=atol, on_separation=on_separation)
+    if method is None:
+        method = "kinematic" if model == "constraint" else "DOP853"
+    traj = built.system.simulate(times, method=method, rtol=rtol, atol=atol, on_separation=on_separation)
     history = traj.contact(built.contact)
     follower = built.system.bodies.index(built.follower)
     z = traj.q[:, 3 * follower + 2]

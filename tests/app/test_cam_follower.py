@@ -392,6 +392,17 @@ def test_compliant_run_below_the_jump_speed_follows_the_closed_form():
     np.testing.assert_allclose(revolution.contact[i], chunk.point[j], atol=1e-9)
     with pytest.raises(ValueError, match="previous: revolution 2 continues from revolution 1"):
         compute_chunk(inputs, 2, chunk)
+    # on the cam throughout: the next revolution repeats this one a period later, not computed again;
+    # a run of the System over that revolution (kinematic, as the chunk's) is the same motion
+    period = 2.0 * math.pi / inputs.speed
+    second = compute_chunk(inputs, 1, chunk)
+    assert second.k == 1 and second.t0 == pytest.approx(period, rel=1e-15)
+    np.testing.assert_allclose(second.theta, chunk.theta + 2.0 * math.pi, rtol=0, atol=1e-12)
+    cam = build_cam(inputs)
+    direct = cam.simulate(inputs.speed, period * (1.0 + np.arange(RUN_SAMPLES + 1) / RUN_SAMPLES))
+    # both are solved from the constraints to the Newton tolerance (1e-12 m, about 1e-10 of the lift)
+    np.testing.assert_allclose(second.lift, direct.lift, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(second.force, direct.contact_force, rtol=1e-10)
 
 
 def test_every_cam_and_follower_gives_a_closed_mesh_and_finite_tables():

@@ -23,13 +23,20 @@ def test_table_of_a_short_cam_and_disk_run():
     lines = []
     rows, summary = bench.build_table(rtols=(1e-8,), revolutions=0.25, t_end=0.25, compliant=False,
                                       mujoco_timesteps=(), repeats=1, log=lines.append)
-    assert [(r["engine"], r["formulation"]) for r in rows] == [("reference", "-"), ("rigidlab", "constraint")] * 2
+    # the cam: DOP853, then the kinematic analysis (it has no degree of freedom); the disk: DOP853
+    assert [(r["engine"], r["formulation"]) for r in rows] == [("reference", "-"), ("rigidlab", "constraint"),
+                                                              ("rigidlab", "constraint"), ("reference", "-"),
+                                                              ("rigidlab", "constraint")]
     for row in rows:
         assert set(bench.COLUMNS) <= set(row)
-    cam, disk = rows[1], rows[3]
+    cam, kinematic, disk = rows[1], rows[2], rows[4]
+    assert cam["setting"] == "DOP853 rtol 1e-08" and kinematic["setting"].startswith("kinematic analysis")
     assert cam["cpu_s"] > 0.0 and cam["position_m"] < 1e-9 and cam["force_rel"] < 1e-8
+    # solved to the Newton tolerance (see tests/core/test_kinematic.py): no integration error
+    assert kinematic["cpu_s"] > 0.0 and kinematic["position_m"] < 1e-12 and kinematic["force_rel"] < 1e-10
     assert disk["cpu_s"] > 0.0 and disk["position_m"] < 1e-6 and disk["force_rel"] < 1e-6
     assert summary["cases"]["cam"]["constraint"]["1e-08"]["force_rel"] == cam["force_rel"]
+    assert summary["cases"]["cam"]["kinematic"]["force_rel"] == kinematic["force_rel"]
     table = bench.format_table(rows)
     assert table.splitlines()[0] == "| " + " | ".join(bench.COLUMNS) + " |"
     assert table.count("\n") == len(rows) + 1
