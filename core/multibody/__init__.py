@@ -34,12 +34,20 @@ from ._elements import (
 )
 from ._engine import SingularSystemError
 from ._evaluation import Evaluation
-from ._simulate import ADAPTIVE_METHODS, FIXED_STEP_METHODS, SEPARATION_ACTIONS, STABILIZATIONS, MultibodyTrajectory
+from ._simulate import (
+    ADAPTIVE_METHODS,
+    FIXED_STEP_METHODS,
+    KINEMATIC_METHOD,
+    SEPARATION_ACTIONS,
+    STABILIZATIONS,
+    MultibodyTrajectory,
+)
 from ._system import INERTIA_TRIANGLE_TOL, PERPENDICULAR_TOL, State, System
 
 __all__ = [
     "ADAPTIVE_METHODS",
     "FIXED_STEP_METHODS",
+    "KINEMATIC_METHOD",
     "INERTIA_TRIANGLE_TOL",
     "JOINT_KINDS",
     "PERPENDICULAR_TOL",

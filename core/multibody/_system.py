@@ -1125,9 +1125,15 @@ class System:
             ``"DOP853"`` (default, order 8) or ``"RK45"`` (order 5): scipy's
             adaptive methods stepped one accepted step at a time, outputs by
             dense output; ``"rk4"`` or ``"midpoint"``: fixed steps of at
-            most ``dt`` through :func:`core.integrators.integrate`.
+            most ``dt`` through :func:`core.integrators.integrate`;
+            ``"kinematic"``: a System without a degree of freedom (a driven
+            mechanism, a cam on its motor with the follower held on it) is
+            solved at every output from its constraints, positions,
+            velocities, accelerations and multipliers (Eqs. 8.105-8.107),
+            without integration error (see ``core.multibody._simulate.simulate``).
         rtol, atol : float, keyword-only
-            Adaptive methods: scipy's tolerances (defaults 1e-8, 1e-10).
+            Adaptive methods: scipy's tolerances (defaults 1e-8, 1e-10);
+            ``"kinematic"``: those of DOP853 after a compliant continuation.
         dt : float, keyword-only
             Fixed-step methods: the largest step (required).
         stabilization : str, keyword-only
