@@ -234,7 +234,9 @@ def test_plot_window_spans_two_omega_periods_and_plots_only_what_runs(free):
     assert scene.window >= 2 * period and scene.window <= 120.0
     assert send_value(scene, "time_scale", 4.0)
     wait_until(lambda: scene.sim_time > 6.0, timeout=20.0)
-    wait_until(locked(app, lambda: np.asarray(scene.gui.plot_omega.data[0]).size > 100))
+    # the plots refresh in turn (one per refresh, a few Hz): wait for both
+    wait_until(locked(app, lambda: np.asarray(scene.gui.plot_omega.data[0]).size > 100
+                      and np.asarray(scene.gui.plot_error.data[0]).size > 100))
     with app.session_for().run_lock:
         t, wx, wy, wz = (np.asarray(a) for a in scene.gui.plot_omega.data)
         err_t = np.asarray(scene.gui.plot_error.data[0])
