@@ -102,6 +102,7 @@ class _Dynamics:
         self._lam_last: tuple | None = None  # (t, lambda) of the last right-hand side
         self._acc_key: tuple | None = None  # (t, y, modes) of the kept accelerations (see accelerations)
         self._acc_last: tuple | None = None
+        self._acc_eval: Any = None
         self.applied_last: np.ndarray | None = None
         self._nu_prev: tuple | None = None  # (t, normal forces) at the end of the last step
         if not any(c.model == "constraint" for c in eng.contacts):
@@ -134,6 +135,7 @@ class _Dynamics:
         eng = self.eng
         key = (t, y.tobytes(), eng.contact_state["mode"].tobytes() if eng.contacts else b"")
         if self._acc_key == key:
+            eng.contact_eval = self._acc_eval  # as the evaluation would leave it (callers read it)
             return self._acc_last
         At, Y, Phi, gam = eng.table(t, y, level=2, commit=commit)
         C, D, Ct, gamma = eng.constraint_rows(t, Y, Phi, gam, level=2)
@@ -146,6 +148,7 @@ class _Dynamics:
         else:
             a, lam = eng.solve(t, np.zeros((0, 6 * eng.n)), Q, np.zeros(0))
         self._acc_key, self._acc_last, self.applied_last = key, (a, lam, np.array(C), np.array(D), np.array(Ct)), Q
+        self._acc_eval = eng.contact_eval
         return self._acc_last
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
