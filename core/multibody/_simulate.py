@@ -38,7 +38,7 @@ from ._analysis import (
 )
 from ._elements import Body, Joint, Motor
 from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, matrices, parameter_rates
-from ._system import State, _make_state
+from ._system import State, _make_state, exp_parameters, quaternion_products
 
 __all__ = [
     "ADAPTIVE_METHODS",
@@ -890,6 +890,54 @@ def _check_kinematic(eng: _Engine, t: float) -> None:
 _KINEMATIC_GROWTH = 3.0
 #: Halvings of a kinematic step whose projection failed before the run gives up.
 _KINEMATIC_HALVINGS = 12
+#: A kinematic step is accepted when Newton moved the extrapolated positions by at
+#: most this fraction of the step's own motion (or by round-off): the solution is
+#: then the one the motion continues to, not another assembly of the mechanism.
+_KINEMATIC_TRUST = 0.5
+_CONTACT_KEYS = ("s", "charts", "t_committed", "points", "signs", "last", "t_last", "rate")
+
+
+def _contact_snapshot(eng: _Engine):
+    """What a projection may change of the contacts' warm start and track (restored when a step is rejected)."""
+    if eng.contact_kernel is None:
+        return None
+    st = eng.contact_state
+    saved = {key: (list(st[key]) if isinstance(st[key], list) else dict(st[key])) for key in _CONTACT_KEYS
+             if key in st}
+    lengths = {q: len(tr.times) for q, tr in st.get("track", {}).items()}
+    return saved, lengths
+
+
+def _contact_restore(eng: _Engine, snap) -> None:
+    if snap is None:
+        return
+    saved, lengths = snap
+    st = eng.contact_state
+    for key in _CONTACT_KEYS:
+        if key in saved:
+            st[key] = saved[key]
+        else:
+            st.pop(key, None)
+    tracks = st.get("track", {})
+    for q in list(tracks):
+        keep = lengths.get(q, 0)
+        if keep == 0:
+            del tracks[q]
+        else:
+            del tracks[q].times[keep:]
+            del tracks[q].entries[keep:]
+    st.pop("cache", None)
+
+
+def _trusted(n: int, y_a: np.ndarray, z: np.ndarray, y_new: np.ndarray) -> bool:
+    """The Newton correction ``y_new - z`` is small against the step's motion ``y_new - y_a`` (see
+    :data:`_KINEMATIC_TRUST`), for the positions and the Euler parameters separately."""
+    for lo, hi, floor in ((0, 3 * n, 1e-9 * (1.0 + float(np.max(np.abs(y_new[: 3 * n]))))), (3 * n, 7 * n, 1e-9)):
+        corr = float(np.max(np.abs(y_new[lo:hi] - z[lo:hi])))
+        moved = float(np.max(np.abs(y_new[lo:hi] - y_a[lo:hi])))
+        if corr > floor and corr > _KINEMATIC_TRUST * moved:
+            return False
+    return True
 
 
 def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple | None, tq: float) -> np.ndarray:
@@ -909,8 +957,10 @@ def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple | None, t
     t_p, y_p, f_p, f = hist
     if t_p is None:
         h = tq - t
-        z[:n7] = y[:n7] + h * f[:n7]
-        z[: 3 * n] += 0.5 * h * h * f[n7 : n7 + 3 * n]
+        z[: 3 * n] = y[: 3 * n] + h * f[: 3 * n] + 0.5 * h * h * f[n7 : n7 + 3 * n]
+        # the rotation at constant body angular velocity: p exp(omega_body h / 2) (Eqs. 8.69-8.72)
+        z[3 * n : n7] = quaternion_products(y[3 * n : n7].reshape(n, 4),
+                                            exp_parameters(h * y[10 * n :].reshape(n, 3))).ravel()
     else:
         H = t - t_p
         u = (tq - t_p) / H
@@ -937,9 +987,12 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
     Every step ends at the next output time (at most :data:`_KINEMATIC_GROWTH`
     times the last step): positions by Newton's method on ``C(q, t) = 0``
     from an extrapolated start, velocities from ``D v = -C_t``, accelerations
-    and multipliers from the augmented equations (Eqs. 8.105-8.107) by
-    ``model.rhs``: no integration error, only the Newton tolerance. A
-    projection that fails halves the step. The separation check runs at every
+    and multipliers from the augmented equations (Eqs. 8.105-8.107): no
+    integration error, only the Newton tolerance. A projection that fails,
+    or whose correction is not small against the step's motion (Newton may
+    then have found another assembly of the mechanism, see
+    :data:`_KINEMATIC_TRUST`), halves the step; the contacts' warm start and
+    track are put back as they were before it. The separation check runs at every
     step's end (``model.stop_time``); a crossing is located by Brent's method
     on the normal force of kinematic solutions inside the step. Returns what
     :func:`core.integrators.integrate` returns (``t[0] = t0``).
@@ -964,14 +1017,21 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
         h = min(target - t_a, _KINEMATIC_GROWTH * h_last)
         for halving in range(_KINEMATIC_HALVINGS + 1):
             t_new = target if h == target - t_a else t_a + h
+            snap = _contact_snapshot(model.eng)
             try:
-                y_new = model.project(t_new, _kinematic_prediction(n, y_a, t_a, (t_p, y_p, f_p, f_a), t_new))
+                z = _kinematic_prediction(n, y_a, t_a, (t_p, y_p, f_p, f_a), t_new)
+                y_new = model.project(t_new, z)
                 if not np.all(np.isfinite(y_new)):
                     raise IntegrationError(f"the kinematic solution at t={t_new:.6g} is not finite", t=t_new)
+                if not _trusted(n, y_a, z, y_new):
+                    raise IntegrationError(
+                        f"kinematic: the extrapolation to t={t_new:.6g} is too far from the solution to trust that "
+                        "Newton found the configuration the motion continues to; give closer output times", t=t_new)
                 break
             except (IntegrationError, ValueError):
                 if halving == _KINEMATIC_HALVINGS:
                     raise
+                _contact_restore(model.eng, snap)
                 h *= 0.5
         if n_rhs >= max_steps:
             raise IntegrationError(
