@@ -39,6 +39,7 @@ import logging
 import threading
 import time
 import traceback
+import warnings
 from collections.abc import Callable
 from typing import Any, Literal
 
@@ -55,6 +56,13 @@ from app.worker import make_executor
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
 
 _log = logging.getLogger(__name__)
+
+# viser marks a leaving browser's connection closed before it calls
+# on_client_disconnect, so a per-client session's frame that runs in between
+# queues its poses on the closed connection and viser warns that they will
+# never be delivered. Nothing is lost (nobody is left to see them) and the
+# session is closed by the callback right after: the warning is noise.
+warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection", category=UserWarning)
 
 MODES = ("shared", "per-client")
 Mode = Literal["shared", "per-client"]
