@@ -1173,7 +1173,9 @@ def simulate(
     adaptive = method in ADAPTIVE_METHODS or kinematic
     if adaptive:
         if dt is not None:
-            raise ValueError(f"dt: adaptive method '{method}' takes rtol/atol, not dt (got dt={dt!r})")
+            what = ("method 'kinematic' solves at the output times (rtol/atol are its DOP853 continuation's)"
+                    if kinematic else f"adaptive method '{method}' takes rtol/atol")
+            raise ValueError(f"dt: {what}, not dt (got dt={dt!r})")
         rtol = 1e-8 if rtol is None else real_number(rtol, "rtol", expected="a finite tolerance > 0")
         atol = 1e-10 if atol is None else real_number(atol, "atol", expected="a finite tolerance > 0")
         if not (rtol > 0 and atol > 0):

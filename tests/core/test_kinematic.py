@@ -124,6 +124,8 @@ def test_refusals():
         model.system.simulate([0.0, 0.1], method="kinematic", stabilization="baumgarte")
     with pytest.raises(ValueError, match="method: expected one of .*'kinematic'"):
         model.system.simulate([0.0, 0.1], method="kinematics")
+    with pytest.raises(ValueError, match=r"dt: method 'kinematic' solves at the output times .*not dt \(got dt=0.1\)"):
+        model.system.simulate([0.0, 0.1], method="kinematic", dt=0.1)
 
 
 def test_sparse_outputs_stay_on_the_mechanisms_assembly():
