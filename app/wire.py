@@ -9,12 +9,13 @@ are plain msgpack dicts with a ``type`` key (``viser/infra/_infra.py``).
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 import msgpack
 import viser
 
-__all__ = ["SUBPROTOCOL", "camera_message", "gui_value_message"]
+__all__ = ["SUBPROTOCOL", "browser_connection", "camera_message", "frame_payload", "gui_value_message"]
 
 SUBPROTOCOL = f"viser-v{viser.__version__}"
 """The websocket subprotocol the server accepts."""
@@ -46,3 +47,30 @@ def gui_value_message(uuid: str, value: Any) -> bytes:
         {"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}},
         use_bin_type=True,
     )
+
+
+def frame_payload(frame: bytes, decompressor: Any) -> tuple[dict[str, Any], int]:
+    """The msgpack payload of one server frame (``messages``, ``binaryBufferLengths``) and the
+    compressed size of that payload (bytes).
+
+    A frame is ``[u64 inner size][u64 compressed size]``, the zstd-compressed
+    msgpack payload, then its binary buffers aligned to 8 bytes (viser
+    1.1.1's ``_message_producer``); ``decompressor`` is a
+    ``zstandard.ZstdDecompressor``.
+    """
+    inner_size = int.from_bytes(frame[0:8], "little")
+    compressed_size = int.from_bytes(frame[8:16], "little")
+    inner = decompressor.decompress(frame[16 : 16 + compressed_size], max_output_size=inner_size)
+    return msgpack.unpackb(inner, raw=False), compressed_size
+
+
+@contextlib.asynccontextmanager
+async def browser_connection(url: str, *, open_timeout: float | None = None):
+    """A websocket to a viser server registered as a browser (its camera message sent first), without
+    compression or pings (benchmark clients that count every byte)."""
+    import websockets
+
+    async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None, compression=None,
+                                  ping_interval=None, open_timeout=open_timeout) as ws:
+        await ws.send(camera_message())
+        yield ws

@@ -72,11 +72,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import msgpack
 import numpy as np
 import zstandard
 
-from app.wire import SUBPROTOCOL, camera_message, gui_value_message
+from app.wire import browser_connection, frame_payload, gui_value_message
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT_DIR = ROOT / "bench" / "out"
@@ -167,10 +166,7 @@ SPECS = {
 
 def decode_frame(frame: bytes, decompressor: zstandard.ZstdDecompressor) -> list[dict]:
     """Messages of one server frame (binary buffers after the msgpack are skipped)."""
-    inner_size = int.from_bytes(frame[0:8], "little")
-    compressed_size = int.from_bytes(frame[8:16], "little")
-    inner = decompressor.decompress(frame[16 : 16 + compressed_size], max_output_size=inner_size)
-    return msgpack.unpackb(inner, raw=False)["messages"]
+    return frame_payload(frame, decompressor)[0]["messages"]
 
 
 @dataclasses.dataclass
@@ -202,19 +198,9 @@ async def run_client(
     outbox: asyncio.Queue | None = None,
 ) -> None:
     """One websocket client: register, then count and decode every frame until ``stop``."""
-    import websockets
-
     decompressor = zstandard.ZstdDecompressor()
     try:
-        async with websockets.connect(
-            url,
-            subprotocols=[SUBPROTOCOL],
-            max_size=None,
-            compression=None,
-            ping_interval=None,
-            open_timeout=CONNECT_TIMEOUT_S,
-        ) as ws:
-            await ws.send(camera_message())
+        async with browser_connection(url, open_timeout=CONNECT_TIMEOUT_S) as ws:
             sender = None
             if outbox is not None:
 
@@ -464,13 +450,9 @@ class PerClientStats:
 
 async def run_counting_client(url: str, stats: PerClientStats, window: Window, stop: asyncio.Event) -> None:
     """One browser: register, decode frames only until the replay is done, then only count frames and bytes."""
-    import websockets
-
     decompressor = zstandard.ZstdDecompressor()
     try:
-        async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None, compression=None,
-                                      ping_interval=None, open_timeout=CONNECT_TIMEOUT_S) as ws:
-            await ws.send(camera_message())
+        async with browser_connection(url, open_timeout=CONNECT_TIMEOUT_S) as ws:
 
             async def receive() -> None:
                 async for frame in ws:

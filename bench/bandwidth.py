@@ -52,7 +52,7 @@ from typing import Any
 import msgpack
 import zstandard
 
-from app.wire import SUBPROTOCOL, camera_message, gui_value_message
+from app.wire import browser_connection, frame_payload, gui_value_message
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT_DIR = ROOT / "bench" / "out"
@@ -82,15 +82,6 @@ DRAG: dict[str, tuple[str, float]] = {
 
 
 # -- viser's wire format (viser/infra/_infra.py, _message_producer) ------------
-
-
-def decode_frame(frame: bytes, decompressor: zstandard.ZstdDecompressor) -> tuple[dict[str, Any], int]:
-    """The msgpack payload of one server frame (``messages``, ``binaryBufferLengths``)
-    and the compressed size of that payload (bytes)."""
-    inner_size = int.from_bytes(frame[0:8], "little")
-    compressed_size = int.from_bytes(frame[8:16], "little")
-    inner = decompressor.decompress(frame[16:16 + compressed_size], max_output_size=inner_size)
-    return msgpack.unpackb(inner, raw=False), compressed_size
 
 
 def _buffer_indices(value: Any) -> list[int]:
@@ -210,17 +201,13 @@ def _strip_tags(text: str) -> str:
 
 async def run_client(url: str, client: Client, stop: asyncio.Event, outbox: asyncio.Queue) -> None:
     """Register, then decode and tally every frame until ``stop``; send what ``outbox`` gets."""
-    import websockets
-
     decompressor = zstandard.ZstdDecompressor()
     try:
-        async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None, compression=None,
-                                      ping_interval=None, open_timeout=CONNECT_TIMEOUT_S) as ws:
-            await ws.send(camera_message())
+        async with browser_connection(url, open_timeout=CONNECT_TIMEOUT_S) as ws:
 
             async def receive() -> None:
                 async for frame in ws:
-                    payload, compressed = decode_frame(frame, decompressor)
+                    payload, compressed = frame_payload(frame, decompressor)
                     for message in payload["messages"]:
                         client.learn(message)
                         client.relabel(message)

@@ -19,16 +19,13 @@ import msgpack
 import numpy as np
 import zstandard
 
-from app.wire import SUBPROTOCOL, camera_message
+from app.wire import SUBPROTOCOL, camera_message, frame_payload
 
 
 def decode_frame(frame: bytes, decompressor: zstandard.ZstdDecompressor) -> list[tuple[dict[str, Any], int]]:
     """The messages of one server frame, arrays restored, each with its size on the wire
     (its own msgpack bytes before compression plus its binary buffers)."""
-    inner_size = int.from_bytes(frame[0:8], "little")
-    compressed_size = int.from_bytes(frame[8:16], "little")
-    payload = msgpack.unpackb(
-        decompressor.decompress(frame[16:16 + compressed_size], max_output_size=inner_size), raw=False)
+    payload, compressed_size = frame_payload(frame, decompressor)
     buffers = []
     offset = 16 + compressed_size
     for length in payload.get("binaryBufferLengths", ()):
