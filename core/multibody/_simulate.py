@@ -940,7 +940,7 @@ def _trusted(n: int, y_a: np.ndarray, z: np.ndarray, y_new: np.ndarray) -> bool:
     return True
 
 
-def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple | None, tq: float) -> np.ndarray:
+def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple, tq: float) -> np.ndarray:
     """Start of the projection at ``tq``: the positions of ``y`` (at ``t``) extrapolated.
 
     With the solved point before, ``hist = (t_p, y_p, f_p, f)``, the cubic
@@ -952,8 +952,6 @@ def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple | None, t
     """
     n7 = 7 * n
     z = np.array(y, dtype=float)
-    if hist is None:
-        return z
     t_p, y_p, f_p, f = hist
     if t_p is None:
         h = tq - t
