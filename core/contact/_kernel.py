@@ -604,7 +604,9 @@ class ContactKernel:
         if batched is None:
             batched = self.k > SCALAR_MAX
         cached = state.get("cache")
-        if cached is not None and cached[1] >= level and cached[2] == batched and np.array_equal(cached[0], y):
+        modes = state["mode"].tobytes()  # (a compliant contact is evaluated without its gamma)
+        if cached is not None and cached[1] >= level and cached[2] == batched and cached[5] == modes and (
+                np.array_equal(cached[0], y)):
             if commit:
                 self._commit_last(state, t, cached[3], y, A, strict)
             return cached[3]
@@ -617,7 +619,7 @@ class ContactKernel:
             raise ContactError(
                 f"contact {c.name!r}: C_s lost rank{when} (Eq. 8.109; scaled volume {res['rank'][c.index]:.1e}): "
                 "the surfaces touch along a line or over an area, where the contact point is not unique", t=t)
-        state["cache"] = (np.array(y), level, batched, res, A)
+        state["cache"] = (np.array(y), level, batched, res, A, modes)
         if commit:
             self._commit_last(state, t, res, y, A, strict)
         return res
@@ -761,7 +763,8 @@ class ContactKernel:
             Wl = y[10 * n :].tolist()  # omega_body; its global components A omega_body
             V_b = [tuple(Vl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
             W_b = [_scalar._rot(A_rows[b], Wl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
-        order = 3 if level >= 2 else 2
+        order_all = 3 if level >= 2 else 2
+        modes = state.get("mode")
         qkey = y[: 7 * n].tobytes()
         geom = state.setdefault("geom", {})  # per contact: the last solution and the configuration it is of
         last_all = state.setdefault("last", {})
@@ -787,6 +790,10 @@ class ContactKernel:
                 if bj >= n:
                     fr.Vj = fr.Wj = zero
             q = cs.contact.index
+            # a compliant contact's force needs the gap, the normal, the row and its rate, not gamma: its
+            # surfaces' third derivatives are not formed
+            light = level >= 2 and modes is not None and modes[q] == COMPLIANT
+            order = 2 if light else order_all
             hit = geom.get(q)
             if hit is not None and hit[0] == qkey:
                 # the same configuration as an evaluation before (a projection's last iterate, then its
@@ -813,7 +820,7 @@ class ContactKernel:
             geom[q] = (qkey, s, charts, gi, gj, Es, order, restarted)
             last_all[q] = (np.array(s), charts, restarted, _det_sign(Es))
             t_last_all[q] = t
-            out = evaluate_one(cs, fr, gi, gj, Es, level, rank=level < 2)  # checked at the projections
+            out = evaluate_one(cs, fr, gi, gj, Es, level, rank=level < 2, gamma=not light)  # (rank: at projections)
             if rate_all is not None:
                 sd = out["sdot"]
                 speed = max(abs(x) for x in sd) if sd else 0.0
@@ -835,8 +842,10 @@ class ContactKernel:
                     for m in range(p):
                         self._scatter_one(res_Dr[q, m], cs, out["Jr"][m], fr)
             if level >= 2:
-                res_gamma[q] = out["gamma"]
                 res_rate[q] = out["rate"]
+                if light:
+                    continue
+                res_gamma[q] = out["gamma"]
                 res_gamma_c[q, :r] = out["gamma_c"]
                 if cs.rolling:
                     res_gamma_r[q, :p] = out["gamma_r"]

@@ -311,10 +311,13 @@ def _rechart(cs, s: list, charts: list) -> None:
             s[off : off + p] = [float(x) for x in s_new]
 
 
-def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank: bool = True) -> dict:
+def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank: bool = True,
+                 gamma: bool = True) -> dict:
     """Reduced row, rolling rows and their terms for one contact (see ``_kernel.contact_rows``).
 
-    ``rank``: also the scaled volume of the columns of C_s (Eq. 8.109); nan otherwise.
+    ``rank``: also the scaled volume of the columns of C_s (Eq. 8.109); nan otherwise. ``gamma``
+    (level 2): also the acceleration terms; without it level 2 adds only ``sdot`` and ``rate`` (a
+    compliant contact's force needs no more, and ``gi``/``gj`` may then lack third derivatives).
     """
     p = cs.p
     swap = cs.swap
@@ -404,6 +407,10 @@ def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank:
         raise ContactError(_lost(cs.contact, None, "the extremal conditions are singular"))
     sd = [-x for x in sd]
     out["sdot"] = sd
+    J = out["J"]
+    out["rate"] = _dot(J[0], Vi) + _dot(J[1], Wi) + _dot(J[2], Vj) + _dot(J[3], Wj)
+    if not gamma:
+        return out
     sd_i, sd_j = sd[:p], sd[p:]
     sd_a, sd_b = (sd_j, sd_i) if swap else (sd_i, sd_j)
     Td_i = _ZERO
@@ -446,8 +453,6 @@ def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank:
     gamma_c = [-x for x in hp + hn]
     out["gamma_c"] = gamma_c
     out["gamma"] = sum(N[x] * gamma_c[x] for x in range(r))
-    J = out["J"]
-    out["rate"] = _dot(J[0], Vi) + _dot(J[1], Wi) + _dot(J[2], Vj) + _dot(J[3], Wj)
     if cs.rolling:
         wi = _cross(Wi, _add(_cross(Wi, gi.rho), Td_i))
         wj = _cross(Wj, _add(_cross(Wj, gj.rho), Td_j))

@@ -31,6 +31,7 @@ import pytest
 
 from core.contact import Ellipsoid, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
 from core.contact._scalar import _glob, _sub, _add, _dot
+from core.contact._kernel import COMPLIANT, CONSTRAINT
 from core.multibody import System
 from core.multibody._engine import matrices
 from core.multibody._system import retract
@@ -147,6 +148,7 @@ def _evaluate(system, y, level, state=None, t=None):
     ker = eng.contact_kernel
     n = eng.n
     st = ker.copy_state(eng.contact_state if state is None else state)
+    st["mode"][:] = CONSTRAINT  # every row and gamma (a compliant contact's evaluation leaves out gamma)
     res = ker.evaluate(y, matrices(y[3 * n : 7 * n].reshape(n, 4)), level, st, t=t)
     return res, st, ker
 
@@ -274,14 +276,46 @@ def test_float_and_batched_paths_agree(pair):
     ker = eng.contact_kernel
     n = eng.n
     A = matrices(y0[3 * n : 7 * n].reshape(n, 4))
-    a = ker.evaluate(y0, A, 2, ker.copy_state(eng.contact_state), batched=False)
-    b = ker.evaluate(y0, A, 2, ker.copy_state(eng.contact_state), batched=True)
+
+    def fresh():
+        st = ker.copy_state(eng.contact_state)
+        st["mode"][:] = CONSTRAINT  # every row and gamma (the batched path has no compliant shortcut)
+        return st
+
+    a = ker.evaluate(y0, A, 2, fresh(), batched=False)
+    b = ker.evaluate(y0, A, 2, fresh(), batched=True)
     for key in ("value", "gap", "normal", "point_i", "point_j", "N", "D", "Dr", "gamma", "gamma_r", "rate",
                 "gamma_c"):
         x, z = np.nan_to_num(a[key]), np.nan_to_num(b[key])
         np.testing.assert_allclose(x, z, atol=1e-11 * max(1.0, float(np.max(np.abs(x)))), err_msg=key)
     # the rank indicator (Eq. 8.109) is computed below level 2 (the projections) by the float path
-    a = ker.evaluate(y0, A, 1, ker.copy_state(eng.contact_state), batched=False)
-    b = ker.evaluate(y0, A, 1, ker.copy_state(eng.contact_state), batched=True)
+    a = ker.evaluate(y0, A, 1, fresh(), batched=False)
+    b = ker.evaluate(y0, A, 1, fresh(), batched=True)
     np.testing.assert_allclose(a["rank"], b["rank"], rtol=1e-9)
     assert np.all(a["rank"] > 1e-3)
+
+
+@pytest.mark.parametrize("pair", PAIRS, ids=[p[0] for p in PAIRS])
+def test_a_compliant_contact_gets_what_its_force_needs_without_gamma(pair):
+    """Level 2 for a compliant contact leaves out gamma (and the third derivatives); the gap, normal, row
+    and its rate, which the Hunt-Crossley force is made of, are those of the full evaluation."""
+    rng = np.random.default_rng(SEED + 5)
+    system, c = _build(pair, rng, gap=-1e-4)  # pressed in
+    y0 = np.array(system._y)
+    eng = system._engine().workspace()
+    ker = eng.contact_kernel
+    n = eng.n
+    A = matrices(y0[3 * n : 7 * n].reshape(n, 4))
+    full_state = ker.copy_state(eng.contact_state)
+    full_state["mode"][:] = CONSTRAINT
+    full = ker.evaluate(y0, A, 2, full_state, batched=False)
+    light_state = ker.copy_state(eng.contact_state)
+    assert light_state["mode"][c.index] == COMPLIANT
+    light = ker.evaluate(y0, A, 2, light_state, batched=False)
+    for key in ("value", "gap", "normal", "point_i", "point_j", "D", "rate"):
+        np.testing.assert_allclose(light[key], full[key], rtol=0, atol=1e-13 * max(1.0, np.max(np.abs(full[key]))),
+                                   err_msg=key)
+    assert light["gap"][c.index] < 0.0
+    assert np.all(np.isnan(light["gamma_c"][c.index])) and not np.all(np.isnan(full["gamma_c"][c.index]))
+    F, Q = ker.compliant_forces(light, light_state["mode"])
+    assert F[c.index] > 0.0 and np.all(np.isfinite(Q))
