@@ -1189,9 +1189,18 @@ def _cam_planar_curve(cam: CamFollower):
             last[0], last[1] = key, values
         return values
 
-    return PlanarCurve(lambda s: evaluate(s)[0], first=lambda s: evaluate(s)[1], second=lambda s: evaluate(s)[2],
-                       third=lambda s: evaluate(s)[3], bounds=(-math.pi, math.pi),
-                       length_scale=cam.profile.base_radius)
+    curve = PlanarCurve(lambda s: evaluate(s)[0], first=lambda s: evaluate(s)[1], second=lambda s: evaluate(s)[2],
+                        third=lambda s: evaluate(s)[3], bounds=(-math.pi, math.pi),
+                        length_scale=cam.profile.base_radius)
+    curve_float = cam._curve_float
+
+    def derivs_float(x: float, order: int) -> list[tuple[float, float]]:
+        # one point on floats, straight from the closed form (the kernel's float path calls this)
+        (p0, p1), (a0, a1), d2, (b0, b1) = curve_float(-x)
+        return [(p0, p1), (-a0, -a1), d2, (-b0, -b1)][: order + 1]
+
+    curve._derivs_2d = derivs_float
+    return curve
 
 
 def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_stiffness: Any,
