@@ -929,12 +929,19 @@ def _contact_restore(eng: _Engine, snap) -> None:
     st.pop("cache", None)
 
 
-def _trusted(n: int, y_a: np.ndarray, z: np.ndarray, y_new: np.ndarray) -> bool:
-    """The Newton correction ``y_new - z`` is small against the step's motion ``y_new - y_a`` (see
-    :data:`_KINEMATIC_TRUST`), for the positions and the Euler parameters separately."""
-    for lo, hi, floor in ((0, 3 * n, 1e-9 * (1.0 + float(np.max(np.abs(y_new[: 3 * n]))))), (3 * n, 7 * n, 1e-9)):
+def _trusted(n: int, y_a: np.ndarray, z: np.ndarray, y_new: np.ndarray, h: float, f_a: np.ndarray) -> bool:
+    """The Newton correction ``y_new - z`` is small against the step's motion (see
+    :data:`_KINEMATIC_TRUST`), for the positions and the Euler parameters separately.
+
+    The motion is the larger of the displacement ``y_new - y_a`` and ``h``
+    times the rates at the step's start: a coordinate that goes and comes
+    back within the step (a follower over a turning point) has moved,
+    although its displacement is small.
+    """
+    n3, n7 = 3 * n, 7 * n
+    for lo, hi, floor in ((0, n3, 1e-9 * (1.0 + float(np.max(np.abs(y_new[:n3]))))), (n3, n7, 1e-9)):
         corr = float(np.max(np.abs(y_new[lo:hi] - z[lo:hi])))
-        moved = float(np.max(np.abs(y_new[lo:hi] - y_a[lo:hi])))
+        moved = max(float(np.max(np.abs(y_new[lo:hi] - y_a[lo:hi]))), h * float(np.max(np.abs(f_a[lo:hi]))))
         if corr > floor and corr > _KINEMATIC_TRUST * moved:
             return False
     return True
@@ -1021,7 +1028,7 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
                 y_new = model.project(t_new, z)
                 if not np.all(np.isfinite(y_new)):
                     raise IntegrationError(f"the kinematic solution at t={t_new:.6g} is not finite", t=t_new)
-                if not _trusted(n, y_a, z, y_new):
+                if not _trusted(n, y_a, z, y_new, t_new - t_a, f_a):
                     raise IntegrationError(
                         f"kinematic: the extrapolation to t={t_new:.6g} is too far from the solution to trust that "
                         "Newton found the configuration the motion continues to; give closer output times", t=t_new)
