@@ -193,6 +193,7 @@ def _serve(args: argparse.Namespace) -> int:
         _exit_with_parent()
         print(f"rigidlab: worker ready (pid {os.getpid()}, {worker[0]} of {worker[1]}, port {app.port})",
               flush=True)
+        _sigterm_as_interrupt()  # (a service manager may signal the whole group)
         try:
             threading.Event().wait()
         except KeyboardInterrupt:
@@ -205,13 +206,28 @@ def _serve(args: argparse.Namespace) -> int:
     print(f"rigidlab: open {app.url}")
     _lan_notes(args.host, app.port, app.mode)
     print("rigidlab: press Ctrl-C to stop", flush=True)
+    previous = _sigterm_as_interrupt()
     try:
         threading.Event().wait()
     except KeyboardInterrupt:
         print("\nrigidlab: stopping")
     finally:
         app.stop()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     return 0
+
+
+def _sigterm_as_interrupt():
+    """SIGTERM (a service manager's stop) stops the server as Ctrl-C does, so its process pool is shut
+    down instead of left to the interpreter's exit; the previous handler, or None off the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    return signal.signal(signal.SIGTERM, interrupt)
 
 
 def _bench(args: argparse.Namespace) -> int:

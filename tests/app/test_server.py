@@ -357,6 +357,41 @@ def test_rigidlab_serve_prints_url_warns_off_loopback_and_stops_on_ctrl_c(host: 
             process.wait()
 
 
+def test_rigidlab_serve_stops_cleanly_on_sigterm() -> None:
+    """A service manager's SIGTERM stops the server as Ctrl-C does: exit status 0, and the process pool is
+    shut down (killed outright, it left its semaphores to the resource tracker's warning)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    process = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())",
+         "serve", "--port", "0", "--scene", "cam_follower"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        deadline = time.monotonic() + 60
+        lines = []
+        while time.monotonic() < deadline:
+            line = process.stdout.readline()  # type: ignore[union-attr]
+            if not line:
+                break
+            lines.append(line)
+            if line.startswith("rigidlab: press Ctrl-C"):
+                break
+        assert lines and lines[-1].startswith("rigidlab: press Ctrl-C"), "".join(lines)
+        process.send_signal(signal.SIGTERM)
+        rest, _ = process.communicate(timeout=30)
+        output = "".join(lines) + rest
+        assert process.returncode == 0, output
+        assert "rigidlab: stopping" in output and "leaked semaphore" not in output, output
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
 def test_registry_skips_a_module_that_fails_to_import(monkeypatch: Any) -> None:
     import importlib
 
