@@ -315,33 +315,39 @@ def test_cli_busy_port_and_bad_state_file_give_one_line_and_status_2(tmp_path: A
     assert "cannot read" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(
-    ("host", "warned"), [("127.0.0.1", False), ("0.0.0.0", True)], ids=["loopback", "all-interfaces"]
-)
-def test_rigidlab_serve_prints_url_warns_off_loopback_and_stops_on_ctrl_c(host: str, warned: bool) -> None:
+def _serve_until_ready(*args: str):
+    """``rigidlab serve --port 0 *args`` in a subprocess, read until it says how to stop it (60 s at most):
+    ``(process, lines)``."""
     import os
-    import signal
     import subprocess
     import sys
 
     process = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())",
-         "serve", "--port", "0", "--scene", "sandbox", "--host", host],
+        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())", "serve", "--port", "0",
+         *args],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
+    deadline = time.monotonic() + 60
+    lines = []
+    while time.monotonic() < deadline:
+        line = process.stdout.readline()  # type: ignore[union-attr]
+        if not line:
+            break
+        lines.append(line)
+        if line.startswith("rigidlab: press Ctrl-C"):
+            break
+    return process, lines
+
+
+@pytest.mark.parametrize(
+    ("host", "warned"), [("127.0.0.1", False), ("0.0.0.0", True)], ids=["loopback", "all-interfaces"]
+)
+def test_rigidlab_serve_prints_url_warns_off_loopback_and_stops_on_ctrl_c(host: str, warned: bool) -> None:
+    import signal
+
+    process, lines = _serve_until_ready("--scene", "sandbox", "--host", host)
     try:
-        url = None
-        deadline = time.monotonic() + 60
-        lines = []
-        while time.monotonic() < deadline:
-            line = process.stdout.readline()  # type: ignore[union-attr]
-            if not line:
-                break
-            lines.append(line)
-            if line.startswith("rigidlab: open http://127.0.0.1:"):
-                url = line.split()[-1]
-            if line.startswith("rigidlab: press Ctrl-C"):
-                break
+        url = next((line.split()[-1] for line in lines if line.startswith("rigidlab: open http://127.0.0.1:")), None)
         output = "".join(lines)
         assert url is not None, output
         assert ("warning: serving on 0.0.0.0" in output) is warned, output
@@ -360,26 +366,10 @@ def test_rigidlab_serve_prints_url_warns_off_loopback_and_stops_on_ctrl_c(host: 
 def test_rigidlab_serve_stops_cleanly_on_sigterm() -> None:
     """A service manager's SIGTERM stops the server as Ctrl-C does: exit status 0, and the process pool is
     shut down (killed outright, it left its semaphores to the resource tracker's warning)."""
-    import os
     import signal
-    import subprocess
-    import sys
 
-    process = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())",
-         "serve", "--port", "0", "--scene", "cam_follower"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
+    process, lines = _serve_until_ready("--scene", "cam_follower")
     try:
-        deadline = time.monotonic() + 60
-        lines = []
-        while time.monotonic() < deadline:
-            line = process.stdout.readline()  # type: ignore[union-attr]
-            if not line:
-                break
-            lines.append(line)
-            if line.startswith("rigidlab: press Ctrl-C"):
-                break
         assert lines and lines[-1].startswith("rigidlab: press Ctrl-C"), "".join(lines)
         process.send_signal(signal.SIGTERM)
         rest, _ = process.communicate(timeout=30)
