@@ -1090,6 +1090,7 @@ class CamFollowerScene(Scene):
             self._angle = 0.0
             for plot in self.gui.run_plots.values():
                 plot.visible = compliant
+            self._pending.add("info")  # (its advice on the toggle)
         playing = bool(self.controls.value("animate"))
         turn = float(self.controls.value("turn_seconds"))
         wall = min(max(dt, 0.0), _MAX_FRAME_DT) if playing else 0.0
@@ -1284,8 +1285,10 @@ class CamFollowerScene(Scene):
             f"{inputs.rpm:g} rpm, {100.0 * rev.speed / rev.jump_speed:.1f} % of it.",
         ]
         if rev.separations:
+            then = ("The compliant run (its plots below) shows the follower leave the cam and land."
+                    if self.compliant else "Turn on *Compliant contact* to see the follower jump.")
             lines.append(f"**Separation**: N < 0 from {_interval_text(rev.separations)} (shaded); the contact "
-                         "would have to pull. Turn on *Compliant contact* to see the follower jump.")
+                         f"would have to pull. {then}")
         else:
             n_min, at = rev.min_force
             lines.append(f"**No separation**: N > 0 all round (smallest {n_min:.3f} N at θ = {_deg(at):.2f}°).")

@@ -188,6 +188,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     assert send_value(scene, "rpm", 1300.0)
     wait_for_inputs(scene, rpm=1300.0)
     wait_until(lambda: "Separation" in scene.gui.info.content and scene.separation_arc.visible)
+    assert "Turn on *Compliant contact* to see the follower jump." in scene.gui.info.content
     (start, end), = scene.revolution.separations
     # N = 0 where m w^2 e cos(theta) + k e (1 - cos theta) + F = 0 (closed form, both roots)
     w = 1300 * math.pi / 30
@@ -356,6 +357,9 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     chunk = scene.run_chunk
     assert chunk.k == 0 and chunk.theta.size == RUN_SAMPLES + 1
     assert scene.gui.run_plots["run_lift"].visible
+    # the separation's advice follows the toggle
+    wait_until(lambda: "The compliant run (its plots below) shows the follower" in scene.gui.info.content)
+    assert "Turn on *Compliant contact*" not in scene.gui.info.content
     # on the cam at first (the constraint), then in flight by over a millimetre, then landed
     assert chunk.constraint[0] and chunk.separations.size >= 1 and chunk.landings.size >= 1
     assert chunk.gap.max() > 1e-3
