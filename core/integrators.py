@@ -809,6 +809,52 @@ def _run_adaptive(
 _STALE_DERIVATIVE_TOL = 1e-3
 
 
+#: Retries of an adaptive step whose trial stage the model could not evaluate (see :func:`_step_retrying`).
+STAGE_RETRIES = 12
+
+
+def _step_retrying(solver: Any, model: Any, *, retried: bool = False) -> str | None:
+    """``solver.step()``; a right-hand side that raises an exception with a true ``retry_shorter``
+    attribute (a trial stage the model cannot evaluate, e.g. a contact pressed in deeper than its surfaces
+    allow, far from the accepted states) rejects the step: it is retried with a quarter of the step size,
+    at most :data:`STAGE_RETRIES` times (the solver's state is that of the last accepted step meanwhile).
+    Before a retry ``model.stage_rejected()`` is called when the model has it (to drop what it kept of the
+    failed stages). After a retried step (``retried``: the caller's) the next one starts no longer, as after a
+    step the solver rejected itself."""
+    for retry in range(STAGE_RETRIES + 1):
+        try:
+            message = solver.step()
+            if (retry or retried) and solver.h_previous is not None:
+                solver.h_abs = min(solver.h_abs, abs(solver.h_previous))
+            return message
+        except Exception as exc:
+            if not getattr(exc, "retry_shorter", False) or retry == STAGE_RETRIES:
+                raise
+            solver.h_abs *= 0.25
+            forget = getattr(model, "stage_rejected", None)
+            if forget is not None:
+                forget()
+    return None  # (not reached)
+
+
+def _solver_state(solver: Any) -> tuple:
+    """What a step of scipy's explicit Runge-Kutta solver changes (to undo it, :func:`_restore_solver_state`)."""
+    K = getattr(solver, "K_extended", solver.K)
+    y_old = None if solver.y_old is None else solver.y_old.copy()
+    return (solver.t, solver.y.copy(), solver.f.copy(), solver.h_abs, solver.t_old, solver.h_previous, K.copy(),
+            y_old)
+
+
+def _restore_solver_state(solver: Any, saved: tuple, factor: float) -> None:
+    """Put the solver back to ``saved`` with ``factor`` times the step size it had then."""
+    t, y, f, h_abs, t_old, h_previous, K, y_old = saved
+    solver.t, solver.y, solver.f, solver.t_old, solver.h_previous = t, y.copy(), f.copy(), t_old, h_previous
+    solver.y_old = None if y_old is None else y_old.copy()
+    solver.status = "running"  # (the undone step may have reached t_bound)
+    solver.h_abs = h_abs * factor
+    getattr(solver, "K_extended", solver.K)[...] = K
+
+
 def _run_adaptive_projected(
     model: Any,
     y0: np.ndarray,
@@ -858,18 +904,31 @@ def _run_adaptive_projected(
     try:
         solver = solvers[method](counter.rhs, t0, y0, t1, rtol=rtol, atol=atol)
         while solver.status == "running":
-            message = solver.step()
-            if solver.status == "failed":
-                raise IntegrationError(
-                    f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1, t=solver.t
-                )
+            for attempt in range(STAGE_RETRIES + 1):
+                saved = _solver_state(solver)
+                message = _step_retrying(solver, model, retried=attempt > 0)
+                if solver.status == "failed":
+                    raise IntegrationError(
+                        f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1,
+                        t=solver.t
+                    )
+                dense = None
+                if check is None and not (k_next < pending.size and pending[k_next] < float(solver.t)):
+                    break
+                try:  # of the unprojected step (solver.y and .f are reset below); its extra stages are new states
+                    dense = solver.dense_output()
+                    break
+                except Exception as exc:  # an accepted step whose interpolant the model cannot evaluate: shorter
+                    if not getattr(exc, "retry_shorter", False) or attempt == STAGE_RETRIES:
+                        raise
+                    _restore_solver_state(solver, saved, 0.25)
+                    forget = getattr(model, "stage_rejected", None)
+                    if forget is not None:
+                        forget()
             n_steps += 1
             t_new = float(solver.t)
             y_raw = solver.y
             y_new = project(t_new, y_raw)
-            dense = None
-            if k_next < pending.size and pending[k_next] < t_new:
-                dense = solver.dense_output()  # of the unprojected step: solver.y and .f are reset below
             if not np.all(np.isfinite(y_new)):
                 raise DivergenceError(
                     f"run diverged: non-finite state at step {n_steps} (t={t_new:.6g}); tighten the tolerances",
@@ -877,8 +936,6 @@ def _run_adaptive_projected(
                     t=t_new,
                 )
             if check is not None:
-                if dense is None:
-                    dense = solver.dense_output()
 
                 def dense_state(te, dense=dense, t_new=t_new, y_new=y_new):
                     return np.array(y_new) if te == t_new else project(te, dense(te))

@@ -80,7 +80,15 @@ def _det_sign(M: list) -> float:
 
 
 class ContactError(ValueError):
-    """Contact geometry that cannot be followed (no contact point, rank loss); ``t`` says when."""
+    """Contact geometry that cannot be followed (no contact point, rank loss); ``t`` says when.
+
+    Raised at a trial stage of an adaptive step (a state far from the
+    accepted ones), it makes the integrator retry the step shorter
+    (``retry_shorter``, see ``core.integrators``); at an accepted state it
+    stops the run.
+    """
+
+    retry_shorter = True
 
     def __init__(self, message: str, *, t: float | None = None):
         super().__init__(message)
@@ -530,6 +538,7 @@ class ContactKernel:
         self.damping = np.array([c.damping for c in self.contacts])
         self.exponent = np.array([c.exponent for c in self.contacts])
         self.static = [_Static(c, n) for c in self.contacts]
+        self._L = np.array([cs.L for cs in self.static], dtype=float)  # (a compliant contact's deepest press)
 
     # ------------------------------------------------------------ state
     def initial_state(self, starts: list) -> dict:
@@ -623,6 +632,13 @@ class ContactKernel:
         if commit:
             self._commit_last(state, t, res, y, A, strict)
         return res
+
+    @staticmethod
+    def forget_trials(state: dict) -> None:
+        """Drop the warm starts of uncommitted evaluations (a rejected step's stages): the next evaluation
+        starts from the committed parameters and the track."""
+        for key in ("last", "t_last", "geom", "cache"):
+            state.pop(key, None)
 
     def commit_cached(self, state: dict, t: float, *, strict: bool = False) -> None:
         """Commit the last evaluation, as ``evaluate(..., commit=True)`` at its own state would.
@@ -1087,6 +1103,14 @@ class ContactKernel:
         delta = -res["gap"]
         pen = on & (delta > 0.0)
         if pen.any():
+            deep = pen & (delta > self._L)
+            if deep.any():
+                q = int(np.argmax(deep))
+                raise ContactError(
+                    f"contact {self.contacts[q].name!r}: pressed in by {delta[q]:.3g} m, more than the surfaces' "
+                    f"length scale {self._L[q]:.3g} m: the Hunt-Crossley force law has no meaning there (a step "
+                    "too long, which the integrator retries shorter, or a contact too soft for the impact: raise "
+                    "its stiffness)")
             dl = np.where(pen, delta, 0.0)
             rate = res["rate"]
             val = self.stiffness * dl ** self.exponent * (1.0 + 1.5 * self.damping * rate)

@@ -108,6 +108,14 @@ class _Dynamics:
         if not any(c.model == "constraint" for c in eng.contacts):
             self.stop_time = None
 
+    def stage_rejected(self) -> None:
+        """A step's trial stage could not be evaluated (see ``core.integrators``): the retried step's
+        contacts start again from the accepted states, not from the failed stages' parameters."""
+        if self.eng.contact_kernel is not None:
+            self.eng.contact_kernel.forget_trials(self.eng.contact_state)
+        self._acc_key = None
+        self._last = None
+
     def _state(self, t: float, y: np.ndarray) -> State:
         return _make_state(self.system, t, y)
 
