@@ -684,13 +684,16 @@ class _ContourDerivatives:
             z = z.reshape(shape + (N * N, 2))
         arg = z if p > 1 else z[..., 0]
         vals = _call_user(self.f, arg, name, self.dim, arg.shape[: arg.ndim - (p > 1)], complex_ok=True)
-        if not np.any(vals.imag):
-            # a function that drops the imaginary part returns f(Re z), which varies round the circle
-            spread = np.ptp(vals.real, axis=-2) if p == 1 else np.ptp(vals.real, axis=-2)
-            if np.any(spread > 1e-14 * (1.0 + np.abs(vals.real).max())):
-                raise ValueError(
-                    f"{name}: the function dropped the imaginary part of complex parameters, so its derivatives "
-                    "cannot come from complex steps; pass first=, second= and third=")
+        # a component that drops the imaginary part returns f(Re z) (or |z|, ...), real and varying round the
+        # circle; an analytic one that is real all round the circle is constant (component by component)
+        dropped = ~np.any(vals.imag != 0.0, axis=-2) & (
+            np.ptp(vals.real, axis=-2) > 1e-14 * (1.0 + np.abs(vals.real).max()))
+        if np.any(dropped):
+            which = sorted({int(i) for i in np.nonzero(dropped)[-1]})
+            raise ValueError(
+                f"{name}: the function dropped the imaginary part of complex parameters (component"
+                f"{'s' if len(which) > 1 else ''} {', '.join(map(str, which))} of its value), so its derivatives "
+                "cannot come from complex steps; pass first=, second= and third=")
         if p == 1:
             vals = vals.reshape(shape + (N, self.dim))
         else:

@@ -247,6 +247,13 @@ def test_charts_describe_the_same_surface():
     (lambda: ParametricSurface(lambda s: s, bounds=((0, 1), (0, 1))), r"point: expected values of shape"),
     (lambda: ParametricSurface(lambda s: np.real(_saddle(s)), bounds=((0, 1), (0, 1))),
      r"point: the function dropped the imaginary part"),
+    # one component only: its derivatives would be half the true ones (the mean round the circle's real part)
+    (lambda: ParametricSurface(lambda s: np.stack([s[..., 0], s[..., 1], np.real(s[..., 0]) ** 2], -1),
+                               bounds=((-1, 1), (-1, 1))),
+     r"point: the function dropped the imaginary part of complex parameters \(component 2 of its value\)"),
+    (lambda: ParametricSurface(lambda s: np.stack([s[..., 0], s[..., 1], np.abs(s[..., 0])], -1),
+                               bounds=((-1, 1), (-1, 1))),
+     r"point: the function dropped the imaginary part of complex parameters \(component 2 of its value\)"),
     (lambda: ParametricSurface(lambda s: [math.sin(x) for x in s], bounds=((0, 1), (0, 1))),
      r"point: the function raised"),
     (lambda: ParametricSurface(_saddle, first=lambda s: np.zeros((3, 2)), bounds=((0, 1), (0, 1))),
