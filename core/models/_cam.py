@@ -803,7 +803,8 @@ class CamFollower:
         rtol, atol : float, keyword-only
             DOP853's tolerances.
         method : str or None, keyword-only
-            ``System.simulate``'s method. Default: ``"kinematic"`` for the
+            ``System.simulate``'s method: ``"kinematic"``, ``"DOP853"`` or
+            ``"RK45"`` (the fixed-step ones would need a ``dt``). Default: ``"kinematic"`` for the
             constraint model (the motor turns the cam and the contact holds
             the follower on it: no degree of freedom is left, so every
             output is a kinematic analysis with the contact force from the
@@ -1283,6 +1284,10 @@ def _gap_crossings(t: np.ndarray, speed: float, gap: np.ndarray, compliant: np.n
     return result[0], result[1]
 
 
+#: Methods of :meth:`CamFollower.simulate`: the adaptive ones and the kinematic analysis.
+_CAM_METHODS = ("kinematic", "DOP853", "RK45")
+
+
 def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: Any, contact_stiffness: Any,
               contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any, method: Any = None) -> CamMotion:
     times = float_array(t, "t", expected="non-decreasing output times (s)")
@@ -1292,6 +1297,9 @@ def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: A
     built = _build_system(cam, speed, float(times[0]), model, contact_stiffness, contact_damping, contact_exponent)
     if method is None:
         method = "kinematic" if model == "constraint" else "DOP853"
+    elif method not in _CAM_METHODS:
+        raise ValueError(f"method: expected one of {', '.join(map(repr, _CAM_METHODS))} or None (the cam's run "
+                         f"takes rtol and atol, not a fixed step), got {method!r}")
     traj = built.system.simulate(times, method=method, rtol=rtol, atol=atol, on_separation=on_separation)
     history = traj.contact(built.contact)
     follower = built.system.bodies.index(built.follower)

@@ -685,3 +685,11 @@ def test_simulate_backwards_and_at_rest(speed):
     assert motion.status == "completed"
     np.testing.assert_allclose(motion.lift, cam.kinematics(motion.cam_angle).lift, rtol=0, atol=1e-11)
     np.testing.assert_allclose(motion.contact_force, cam.contact_force(motion.cam_angle, speed), rtol=1e-8)
+
+
+@pytest.mark.parametrize("method", ["rk4", "midpoint", "LSODA", 3])
+def test_simulate_names_the_methods_it_takes(method):
+    cam = CamFollower(CamProfile.eccentric())
+    with pytest.raises(ValueError, match=r"method: expected one of 'kinematic', 'DOP853', 'RK45' or None \(the "
+                                         r"cam's run takes rtol and atol, not a fixed step\), got"):
+        cam.simulate(50.0, np.linspace(0.0, 0.01, 3), method=method)
