@@ -65,6 +65,8 @@ def float_array(x: Any, name: str, *, expected: str = "an array of real numbers"
         raise ValueError(f"{name}: expected {expected}, got {short_repr(x)}") from None
     if _is_complex(arr):
         raise ValueError(f"{name}: expected real numbers, got complex (dtype {arr.dtype}): {short_repr(x)}")
+    if arr.dtype.kind in "USV":  # text is not a number here (numpy would parse "1e-3")
+        raise ValueError(f"{name}: expected {expected}, got text {short_repr(x)}")
     try:
         return np.array(arr, dtype=np.float64) if copy else np.asarray(arr, dtype=np.float64)
     except (TypeError, ValueError):

@@ -120,7 +120,8 @@ def _check_name(name: Any, taken: set[str], what: str) -> str:
     if not isinstance(name, str) or not name:
         raise ValueError(f"name: expected a non-empty string, got {short_repr(name)}")
     if name in taken:
-        raise ValueError(f"name: a {what} named {name!r} already exists in this System")
+        raise ValueError(f"name: {'an' if what[0] in 'aeiou' else 'a'} {what} named {name!r} already exists in "
+                         "this System")
     return name
 
 

@@ -79,6 +79,9 @@ def test_body_names_and_vectors():
         system.add_body("ground", mass=1.0, inertia=(1.0, 1.0, 1.0))
     with pytest.raises(ValueError, match=r"name: expected a non-empty string"):
         system.add_body("", mass=1.0, inertia=(1.0, 1.0, 1.0))
+    system.add_torque(system.bodies[0], lambda state: (0.0, 0.0, 0.0), name="s")
+    with pytest.raises(ValueError, match=r"name: an item named 's' already exists in this System"):
+        system.add_torque(system.bodies[0], lambda state: (0.0, 0.0, 0.0), name="s")
     with pytest.raises(ValueError, match=r"position: expected shape \(3,\)"):
         system.add_body("b", mass=1.0, inertia=(1.0, 1.0, 1.0), position=(0.0, 1.0))
     with pytest.raises(ValueError, match=r"velocity: expected finite values"):
@@ -385,7 +388,8 @@ def test_simulate_options_are_validated(kwargs, message):
 @pytest.mark.parametrize(
     ("t", "message"),
     [([], r"t: expected a non-empty 1-D array"), ([0.0, 1.0, 0.5], r"t: expected non-decreasing times"),
-     ([0.0, math.nan], r"t: expected finite times"), ([0.0, 1.0 + 0j], r"t: expected real numbers, got complex")],
+     ([0.0, math.nan], r"t: expected finite times"), ([0.0, 1.0 + 0j], r"t: expected real numbers, got complex"),
+     (["0", "1"], r"t: expected a 1-D array of output times, got text \['0', '1'\]")],
 )
 def test_simulate_times_are_validated(t, message):
     with pytest.raises(ValueError, match=message):
