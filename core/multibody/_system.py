@@ -986,6 +986,12 @@ class System:
             raise ValueError(
                 "surface_i, surface_j: two rims (tori with minor_radius 0) meet edge to edge, where neither "
                 "surface has a tangent plane; give one of them a minor radius > 0")
+        for other in self._contacts:
+            if (other.body_i, other.surface_i, other.body_j, other.surface_j) in (
+                    (bi, surface_i, bj, surface_j), (bj, surface_j, bi, surface_i)):
+                raise ValueError(
+                    f"surface_i, surface_j: these surfaces of {bi.name!r} and {bj.name!r} already touch in contact "
+                    f"{other.name!r}; a second contact would repeat its constraint (and carry no force)")
         name = self._item_name(name, "contact")
         Ri, Ai = self._frame(bi)
         Rj, Aj = self._frame(bj)

@@ -44,6 +44,18 @@ def test_bodies_that_do_not_touch_or_penetrate():
         system.add_contact(system.ground, Plane(), ball, Sphere(0.1), model="compliant", stiffness=1e5)
 
 
+def test_the_same_contact_twice_is_refused():
+    system, ball = _ball_system()
+    plane, sphere = Plane(), Sphere(0.1)
+    c = system.add_contact(system.ground, plane, ball, sphere)
+    for args in ((system.ground, plane, ball, sphere), (ball, sphere, system.ground, plane)):
+        with pytest.raises(ValueError, match=r"surface_i, surface_j: these surfaces of '(ground|ball)' and "
+                                             r"'(ball|ground)' already touch in contact 'contact1'"):
+            system.add_contact(*args)
+    assert system.contacts == (c,)
+    system.add_contact(system.ground, Plane(), ball, sphere, model="compliant", stiffness=1e5)  # another surface
+
+
 def test_line_contact_is_refused_with_what_to_do():
     system, body = _ball_system(z=0.1)
     cyl = ParametricSurface(_cylinder, bounds=((-0.5, 0.5), (-math.pi, math.pi)))
