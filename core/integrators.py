@@ -809,32 +809,9 @@ def _run_adaptive(
 _STALE_DERIVATIVE_TOL = 1e-3
 
 
-#: Retries of an adaptive step whose trial stage the model could not evaluate (see :func:`_step_retrying`).
+#: Retries of an adaptive step whose trial stage the model could not evaluate (see
+#: :func:`_run_adaptive_projected`).
 STAGE_RETRIES = 12
-
-
-def _step_retrying(solver: Any, model: Any, *, retried: bool = False) -> str | None:
-    """``solver.step()``; a right-hand side that raises an exception with a true ``retry_shorter``
-    attribute (a trial stage the model cannot evaluate, e.g. a contact pressed in deeper than its surfaces
-    allow, far from the accepted states) rejects the step: it is retried with a quarter of the step size,
-    at most :data:`STAGE_RETRIES` times (the solver's state is that of the last accepted step meanwhile).
-    Before a retry ``model.stage_rejected()`` is called when the model has it (to drop what it kept of the
-    failed stages). After a retried step (``retried``: the caller's) the next one starts no longer, as after a
-    step the solver rejected itself."""
-    for retry in range(STAGE_RETRIES + 1):
-        try:
-            message = solver.step()
-            if (retry or retried) and solver.h_previous is not None:
-                solver.h_abs = min(solver.h_abs, abs(solver.h_previous))
-            return message
-        except Exception as exc:
-            if not getattr(exc, "retry_shorter", False) or retry == STAGE_RETRIES:
-                raise
-            solver.h_abs *= 0.25
-            forget = getattr(model, "stage_rejected", None)
-            if forget is not None:
-                forget()
-    return None  # (not reached)
 
 
 def _solver_state(solver: Any) -> tuple:
@@ -904,27 +881,36 @@ def _run_adaptive_projected(
     try:
         solver = solvers[method](counter.rhs, t0, y0, t1, rtol=rtol, atol=atol)
         while solver.status == "running":
+            # A right-hand side that raises an exception with a true ``retry_shorter`` attribute (a trial
+            # stage, or a stage of the step's interpolant, that the model cannot evaluate: a contact pressed
+            # in deeper than its surfaces allow, far from the accepted states) rejects the step: it is undone
+            # and retried at a quarter of its size, at most STAGE_RETRIES times, after
+            # ``model.stage_rejected()`` (when the model has it) dropped what it kept of the failed stages.
+            # The step after a retried one starts no longer, as after a step the solver rejected itself.
             for attempt in range(STAGE_RETRIES + 1):
                 saved = _solver_state(solver)
-                message = _step_retrying(solver, model, retried=attempt > 0)
-                if solver.status == "failed":
-                    raise IntegrationError(
-                        f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1,
-                        t=solver.t
-                    )
-                dense = None
-                if check is None and not (k_next < pending.size and pending[k_next] < float(solver.t)):
-                    break
-                try:  # of the unprojected step (solver.y and .f are reset below); its extra stages are new states
-                    dense = solver.dense_output()
-                    break
-                except Exception as exc:  # an accepted step whose interpolant the model cannot evaluate: shorter
+                try:
+                    message = solver.step()
+                    dense = None  # of the unprojected step (solver.y and .f are reset below)
+                    if solver.status != "failed" and (
+                            check is not None or (k_next < pending.size and pending[k_next] < float(solver.t))):
+                        dense = solver.dense_output()
+                except Exception as exc:
                     if not getattr(exc, "retry_shorter", False) or attempt == STAGE_RETRIES:
                         raise
                     _restore_solver_state(solver, saved, 0.25)
                     forget = getattr(model, "stage_rejected", None)
                     if forget is not None:
                         forget()
+                    continue
+                if attempt and solver.h_previous is not None:
+                    solver.h_abs = min(solver.h_abs, abs(solver.h_previous))
+                break
+            if solver.status == "failed":
+                raise IntegrationError(
+                    f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1,
+                    t=solver.t
+                )
             n_steps += 1
             t_new = float(solver.t)
             y_raw = solver.y
