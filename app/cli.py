@@ -191,23 +191,23 @@ def _serve(args: argparse.Namespace) -> int:
         return 2
     if worker is not None:
         _exit_with_parent()
-        print(f"rigidlab: worker ready (pid {os.getpid()}, {worker[0]} of {worker[1]}, port {app.port})",
-              flush=True)
         _sigterm_as_interrupt()  # (a service manager may signal the whole group)
         try:
+            print(f"rigidlab: worker ready (pid {os.getpid()}, {worker[0]} of {worker[1]}, port {app.port})",
+                  flush=True)
             threading.Event().wait()
         except KeyboardInterrupt:
             pass
         finally:
             app.stop()
         return 0
-    print(f"rigidlab: serving {', '.join(app.scene_names)} ({app.mode} mode"
-          f"{', presenter view' if args.present else ''})")
-    print(f"rigidlab: open {app.url}")
-    _lan_notes(args.host, app.port, app.mode)
-    print("rigidlab: press Ctrl-C to stop", flush=True)
-    previous = _sigterm_as_interrupt()
+    previous = _sigterm_as_interrupt()  # (before saying how to stop: a SIGTERM right after it is handled)
     try:
+        print(f"rigidlab: serving {', '.join(app.scene_names)} ({app.mode} mode"
+              f"{', presenter view' if args.present else ''})")
+        print(f"rigidlab: open {app.url}")
+        _lan_notes(args.host, app.port, app.mode)
+        print("rigidlab: press Ctrl-C to stop", flush=True)
         threading.Event().wait()
     except KeyboardInterrupt:
         print("\nrigidlab: stopping")
