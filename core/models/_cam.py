@@ -100,11 +100,41 @@ def _trig_stack(theta: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
 
 # The same rules on Python floats (lists of derivatives), for one parameter
 # value: the contact kernel evaluates the cam contour at one point at a time.
+# The contours use stacks of 4 and 5 derivatives; those are written out (the
+# general loops cost a quarter of a roller follower's flight in the Cam-follower
+# scene). tests/core/test_cam.py checks them against the loops.
 def _mul_f(a: list[float], b: list[float]) -> list[float]:
+    m = min(len(a), len(b))
+    if m == 4 or m == 5:
+        a0, a1, a2, a3 = a[0], a[1], a[2], a[3]
+        b0, b1, b2, b3 = b[0], b[1], b[2], b[3]
+        out = [a0 * b0, a0 * b1 + a1 * b0, a0 * b2 + 2.0 * a1 * b1 + a2 * b0,
+               a0 * b3 + 3.0 * (a1 * b2 + a2 * b1) + a3 * b0]
+        if m == 5:
+            out.append(a0 * b[4] + 4.0 * (a1 * b3 + a3 * b1) + 6.0 * a2 * b2 + a[4] * b0)
+        return out
+    return _mul_f_loops(a, b)
+
+
+def _mul_f_loops(a: list[float], b: list[float]) -> list[float]:
     return [sum(_BINOMIAL[n][k] * a[k] * b[n - k] for k in range(n + 1)) for n in range(min(len(a), len(b)))]
 
 
 def _sqrt_f(a: list[float]) -> list[float]:
+    m = len(a)
+    if m == 4 or m == 5:
+        g0 = math.sqrt(a[0])
+        h = 0.5 / g0
+        g1 = a[1] * h
+        g2 = (a[2] - 2.0 * g1 * g1) * h
+        g3 = (a[3] - 6.0 * g1 * g2) * h
+        if m == 4:
+            return [g0, g1, g2, g3]
+        return [g0, g1, g2, g3, (a[4] - 8.0 * g1 * g3 - 6.0 * g2 * g2) * h]
+    return _sqrt_f_loops(a)
+
+
+def _sqrt_f_loops(a: list[float]) -> list[float]:
     g = [math.sqrt(a[0])]
     for n in range(1, len(a)):
         g.append((a[n] - sum(_BINOMIAL[n][k] * g[k] * g[n - k] for k in range(1, n))) / (2.0 * g[0]))
@@ -112,6 +142,16 @@ def _sqrt_f(a: list[float]) -> list[float]:
 
 
 def _reciprocal_f(a: list[float]) -> list[float]:
+    if len(a) == 4:
+        a0, a1, a2, a3 = a
+        g0 = 1.0 / a0
+        g1 = -a1 * g0 * g0
+        g2 = -(2.0 * a1 * g1 + a2 * g0) * g0
+        return [g0, g1, g2, -(3.0 * (a1 * g2 + a2 * g1) + a3 * g0) * g0]
+    return _reciprocal_f_loops(a)
+
+
+def _reciprocal_f_loops(a: list[float]) -> list[float]:
     g = [1.0 / a[0]]
     for n in range(1, len(a)):
         g.append(-sum(_BINOMIAL[n][k] * a[k] * g[n - k] for k in range(1, n + 1)) / a[0])
@@ -941,19 +981,13 @@ class CamFollower:
                 (rho1 * t_[0] - rho * n_[0], rho1 * t_[1] - rho * n_[1]),
                 ((rho2 - rho) * t_[0] - 2.0 * rho1 * n_[0], (rho2 - rho) * t_[1] - 2.0 * rho1 * n_[1]),
             )
-        y = h
-        y[0] += self._pitch_height
-        cyc_n = (n_, t_, (-sn, -cs), (-cs, sn))
-        cyc_t = (t_, (-sn, -cs), (-cs, sn), n_)
+        # the pitch curve c = y n + e_o t and its derivatives (n' = t, t' = -n), as a_k n + b_k t
+        y0, y1, y2, y3, y4 = h
+        y0 += self._pitch_height
         eo = self.offset
-        c = []
-        for k in range(_ORDER + 1):
-            cx, cy = eo * cyc_t[k % 4][0], eo * cyc_t[k % 4][1]
-            for j in range(k + 1):
-                b = _BINOMIAL[k][j] * y[j]
-                cx += b * cyc_n[(k - j) % 4][0]
-                cy += b * cyc_n[(k - j) % 4][1]
-            c.append((cx, cy))
+        ab = ((y0, eo), (y1 - eo, y0), (y2 - y0, 2.0 * y1 - eo), (y3 - 3.0 * y1 + eo, 3.0 * y2 - y0),
+              (y4 - 6.0 * y2 + y0, 4.0 * (y3 - y1) + eo))
+        c = [(a * sn + b * cs, a * cs - b * sn) for a, b in ab]
         dx, dy = [v[0] for v in c[1:]], [v[1] for v in c[1:]]
         inv = _reciprocal_f(_sqrt_f([a + b for a, b in zip(_mul_f(dx, dx), _mul_f(dy, dy))]))
         nx, ny = _mul_f([-v for v in dy], inv), _mul_f(dx, inv)

@@ -333,6 +333,36 @@ def test_cam_curve_derivatives_by_finite_differences(profile, follower, rf, eo):
 
 
 @pytest.mark.parametrize("profile, follower, rf, eo", CONTOUR_CASES)
+def test_float_contour_is_the_array_contour(profile, follower, rf, eo):
+    """The contact kernel's one-point path (written-out derivative rules) against the array path, to
+    round-off: both evaluate the same formulas, in another order of the sums."""
+    cam = CamFollower(profile, follower=follower, roller_radius=rf, offset=eo)
+    u = np.linspace(0.05, TWO_PI - 0.05, 41)
+    c = cam.cam_curve(u)
+    want = np.stack([c.point, c.d1, c.d2, c.d3], axis=1)  # (n, 4, 2)
+    got = np.array([cam._curve_float(float(x)) for x in u])
+    scale = np.abs(want).max(axis=(0, 2))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * float(scale.max()))
+
+
+def test_written_out_derivative_rules_are_the_general_ones():
+    """Leibniz products, square roots and reciprocals of 4 and 5 derivatives, written out, against the
+    general recurrences (random stacks; other lengths take the recurrences)."""
+    from core.models import _cam
+
+    rng = np.random.default_rng(7)
+    for m in (2, 3, 4, 5):
+        for _ in range(50):
+            a, b = list(rng.normal(size=m)), list(rng.normal(size=m))
+            a[0] = abs(a[0]) + 0.5
+            for fast, loops, args in ((_cam._mul_f, _cam._mul_f_loops, (a, b)),
+                                      (_cam._sqrt_f, _cam._sqrt_f_loops, (a,)),
+                                      (_cam._reciprocal_f, _cam._reciprocal_f_loops, (a,))):
+                want = np.array(loops(*args))
+                np.testing.assert_allclose(fast(*args), want, rtol=1e-14, atol=1e-14 * np.abs(want).max())
+
+
+@pytest.mark.parametrize("profile, follower, rf, eo", CONTOUR_CASES)
 def test_cam_curve_point_is_the_contact_point(profile, follower, rf, eo):
     cam = CamFollower(profile, follower=follower, roller_radius=rf, offset=eo)
     theta = np.linspace(0, TWO_PI, 41)
