@@ -879,6 +879,17 @@ class MultibodyTrajectory:
 
 
 # ------------------------------------------------------------------ simulate
+def _normal_velocity_note(eng: _Engine, r: int, position: bool, rv: np.ndarray) -> str:
+    """What ``assemble`` would do to a normal velocity of a constraint-model contact (row ``r``)."""
+    item, label = eng.row_labels[r]
+    if position or label != "normal" or getattr(item, "kind", None) != "contact":
+        return ""
+    way = "into each other" if rv[r] > 0.0 else "apart"  # (the row is the rate of penetration)
+    return (f". The surfaces of contact {item.name!r} move {way} at {abs(float(rv[r])):.3g} m/s along its normal: "
+            "assemble() removes that velocity, since a contact in the constraint model holds its surfaces "
+            "together; for surfaces that may move apart or collide, add the contact with model='compliant'")
+
+
 def _check_kinematic(eng: _Engine, t: float) -> None:
     """``method="kinematic"``: refuse a System whose constraints do not fix every coordinate at ``t``."""
     if eng.nonholonomic_rows.size:
@@ -1236,7 +1247,7 @@ def simulate(
             raise AssemblyError(
                 f"simulate: the current state violates the constraints at t={t0:g} (position residual "
                 f"{res_p:.3e}, velocity residual {res_v:.3e}; largest in {row_label(eng, r)}); "
-                f"call system.assemble(t={t0:g}) first"
+                f"call system.assemble(t={t0:g}) first{_normal_velocity_note(eng, r, res_p > limit, rv)}"
             )
         flipped = flipped_motors(eng, t0, y0)
         if flipped:

@@ -986,9 +986,10 @@ class System:
             raise ValueError(
                 "surface_i, surface_j: two rims (tori with minor_radius 0) meet edge to edge, where neither "
                 "surface has a tangent plane; give one of them a minor radius > 0")
+        key_i, key_j = surface_i.shape_key(), surface_j.shape_key()
         for other in self._contacts:
-            if (other.body_i, other.surface_i, other.body_j, other.surface_j) in (
-                    (bi, surface_i, bj, surface_j), (bj, surface_j, bi, surface_i)):
+            if (other.body_i, other.surface_i.shape_key(), other.body_j, other.surface_j.shape_key()) in (
+                    (bi, key_i, bj, key_j), (bj, key_j, bi, key_i)):
                 raise ValueError(
                     f"surface_i, surface_j: these surfaces of {bi.name!r} and {bj.name!r} already touch in contact "
                     f"{other.name!r}; a second contact would repeat its constraint (and carry no force)")
@@ -1040,7 +1041,10 @@ class System:
         corrections in the tangent space bring the position constraints
         ``C(q, t) = 0`` to ``tol``; then the velocities are projected onto
         ``D v + C_t = 0`` with the least change of kinetic energy. The
-        constraint rows are checked for redundancy at the result.
+        constraint rows are checked for redundancy at the result. A contact
+        in the constraint model holds its surfaces together, so the velocity
+        along its normal is removed, also when the bodies were moving apart
+        (a contact with ``model="compliant"`` keeps it).
 
         Parameters
         ----------

@@ -12,9 +12,10 @@ from core.multibody import System
 from core.rotations import euler_parameters_from_axis_angle
 
 
-def _ball_system(z=0.1, radius=0.1):
+def _ball_system(z=0.1, radius=0.1, vz=0.0):
     system = System(gravity=(0.0, 0.0, -9.81))
-    ball = system.add_body("ball", mass=1.0, inertia=(0.004, 0.004, 0.004), position=(0.0, 0.0, z))
+    ball = system.add_body("ball", mass=1.0, inertia=(0.004, 0.004, 0.004), position=(0.0, 0.0, z),
+                           velocity=(0.0, 0.0, vz))
     return system, ball
 
 
@@ -44,16 +45,39 @@ def test_bodies_that_do_not_touch_or_penetrate():
         system.add_contact(system.ground, Plane(), ball, Sphere(0.1), model="compliant", stiffness=1e5)
 
 
+@pytest.mark.parametrize("vz, way", [(2.0, "apart"), (-2.0, "into each other")])
+@pytest.mark.parametrize("ground_first", [True, False])
+def test_a_normal_velocity_of_a_held_contact_is_explained(vz, way, ground_first):
+    """A ball launched from the floor: the constraint contact cannot start with the ball leaving, and the
+    error says what assemble() would do to the launch and what keeps it."""
+    system, ball = _ball_system(vz=vz)
+    pair = (system.ground, Plane(), ball, Sphere(0.1))
+    system.add_contact(*(pair if ground_first else pair[2:] + pair[:2]))
+    with pytest.raises(ValueError, match=rf"contact1 \(contact\): normal\); call system.assemble\(t=0\) first\. "
+                                         rf"The surfaces of contact 'contact1' move {way} at 2 m/s along its normal: "
+                                         r"assemble\(\) removes that velocity.*model='compliant'"):
+        system.simulate([0.0, 0.1])
+    # the compliant contact keeps the launch: the ball rises by v^2 / (2 g) and falls back
+    system, ball = _ball_system(vz=2.0)
+    system.add_contact(system.ground, Plane(), ball, Sphere(0.1), model="compliant", stiffness=1e8)
+    traj = system.simulate(np.linspace(0.0, 0.4, 41), rtol=1e-10, atol=1e-12)
+    assert abs(float(np.max(traj.q[:, 2])) - (0.1 + 2.0**2 / (2 * 9.81))) < 1e-3  # (outputs every 10 ms)
+
+
 def test_the_same_contact_twice_is_refused():
     system, ball = _ball_system()
     plane, sphere = Plane(), Sphere(0.1)
     c = system.add_contact(system.ground, plane, ball, sphere)
-    for args in ((system.ground, plane, ball, sphere), (ball, sphere, system.ground, plane)):
+    # the same objects in either order, and equal new ones (the same plane through another point)
+    for args in ((system.ground, plane, ball, sphere), (ball, sphere, system.ground, plane),
+                 (system.ground, Plane(point=(0.3, -0.2, 0.0)), ball, Sphere(0.1))):
         with pytest.raises(ValueError, match=r"surface_i, surface_j: these surfaces of '(ground|ball)' and "
                                              r"'(ball|ground)' already touch in contact 'contact1'"):
             system.add_contact(*args)
     assert system.contacts == (c,)
-    system.add_contact(system.ground, Plane(), ball, sphere, model="compliant", stiffness=1e5)  # another surface
+    # another surface: a plane 5 mm below, or a ball of another radius
+    system.add_contact(system.ground, Plane(point=(0.0, 0.0, -0.005)), ball, sphere, model="compliant", stiffness=1e5)
+    system.add_contact(system.ground, plane, ball, Sphere(0.099), model="compliant", stiffness=1e5)
 
 
 def test_line_contact_is_refused_with_what_to_do():
@@ -173,7 +197,8 @@ def test_trajectory_contact_arguments():
         traj.contact(ball)
     with pytest.raises(ValueError, match=r"contact: 'contact1' belongs to another System"):
         traj.contact(c2)
-    late = system.add_contact(system.ground, Plane(point=(0.0, 0.0, 0.0)), ball, Sphere(0.1), name="late")
+    late = system.add_contact(system.ground, Plane(), ball, Sphere(0.099), model="compliant", stiffness=1e5,
+                              name="late")
     with pytest.raises(ValueError, match=r"contact: 'late' was added after this trajectory was computed"):
         traj.contact(late)
     assert traj.contact(c).normal_force.shape == (2,)
