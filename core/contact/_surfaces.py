@@ -169,7 +169,7 @@ class Surface:
     #: True for the unbounded plane (the contact search projects onto it).
     unbounded = False
 
-    def shape_key(self) -> Any:
+    def _shape_key(self) -> Any:
         """What makes two surfaces of a body the same: their kind and dimensions for the closed forms
         (``System.add_contact`` refuses a second contact between the same two surfaces); the surface
         itself for user functions, which cannot be compared."""
@@ -353,7 +353,7 @@ class Plane(Surface):
     def __repr__(self) -> str:
         return f"Plane(point={self.origin.tolist()}, normal={self.unit_normal.tolist()})"
 
-    def shape_key(self) -> Any:
+    def _shape_key(self) -> Any:
         """The plane's normal and its distance from the body origin (any point on it gives the same plane)."""
         return ("plane", tuple(self.unit_normal.tolist()), float(self.origin @ self.unit_normal))
 
@@ -512,7 +512,7 @@ class Sphere(_Quadric):
     def __repr__(self) -> str:
         return f"Sphere(radius={self.radius!r})"
 
-    def shape_key(self) -> Any:
+    def _shape_key(self) -> Any:
         return ("sphere", self.radius, self._centre_float)
 
 
@@ -550,7 +550,7 @@ class Ellipsoid(_Quadric):
     def __repr__(self) -> str:
         return f"Ellipsoid(a={self.a!r}, b={self.b!r}, c={self.c!r})"
 
-    def shape_key(self) -> Any:
+    def _shape_key(self) -> Any:
         return ("ellipsoid", self.a, self.b, self.c, self._centre_float)
 
 
@@ -596,7 +596,7 @@ class Torus(Surface):
     def __repr__(self) -> str:
         return f"Torus(major_radius={self.major_radius!r}, minor_radius={self.minor_radius!r})"
 
-    def shape_key(self) -> Any:
+    def _shape_key(self) -> Any:
         return ("torus", self.major_radius, self.minor_radius, tuple(self.centre.tolist()))
 
     def _geometry(self, s, order, chart):

@@ -986,9 +986,9 @@ class System:
             raise ValueError(
                 "surface_i, surface_j: two rims (tori with minor_radius 0) meet edge to edge, where neither "
                 "surface has a tangent plane; give one of them a minor radius > 0")
-        key_i, key_j = surface_i.shape_key(), surface_j.shape_key()
+        key_i, key_j = surface_i._shape_key(), surface_j._shape_key()
         for other in self._contacts:
-            if (other.body_i, other.surface_i.shape_key(), other.body_j, other.surface_j.shape_key()) in (
+            if (other.body_i, other.surface_i._shape_key(), other.body_j, other.surface_j._shape_key()) in (
                     (bi, key_i, bj, key_j), (bj, key_j, bi, key_i)):
                 raise ValueError(
                     f"surface_i, surface_j: these surfaces of {bi.name!r} and {bj.name!r} already touch in contact "
