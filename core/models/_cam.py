@@ -310,6 +310,31 @@ class CamProfile:
     fall: float | None = None
     law: str | None = None
 
+    def __post_init__(self) -> None:
+        # built directly rather than by eccentric() or rise_dwell_return(): the same checks, and the fields
+        # of the other kind left out
+        how = "build a profile with CamProfile.eccentric(...) or CamProfile.rise_dwell_return(...)"
+        fields = {"eccentric": ("radius", "eccentricity"), "rise_dwell_return": ("lift", "rise", "dwell", "fall", "law")}
+        if not isinstance(self.kind, str) or self.kind not in fields:
+            raise ValueError(f"kind: expected 'eccentric' or 'rise_dwell_return' ({how}), got {short_repr(self.kind)}")
+        other = next(k for k in fields if k != self.kind)
+        missing = [f for f in fields[self.kind] if getattr(self, f) is None]
+        extra = [f for f in fields[other] if getattr(self, f) is not None]
+        if missing or extra:
+            names = ", ".join(missing or extra)
+            article = "an" if self.kind == "eccentric" else "a"
+            raise ValueError(f"{names}: {article} {self.kind!r} profile {'needs' if missing else 'has no'} {names} "
+                             f"({how}), "
+                             f"got {short_repr(self)}")
+        if self.kind == "eccentric":
+            made = CamProfile.eccentric.__func__(_Unchecked, self.radius, self.eccentricity)
+        else:
+            made = CamProfile.rise_dwell_return.__func__(_Unchecked, self.base_radius, self.lift, self.rise, self.dwell,
+                                                         self.fall, self.law)
+        if not made.base_radius == self.base_radius:
+            raise ValueError(f"base_radius: expected {made.base_radius!r} m for this {self.kind!r} profile ({how}), "
+                             f"got {short_repr(self.base_radius)}")
+
     @classmethod
     def eccentric(cls, radius: float = 0.04, eccentricity: float = 0.01) -> CamProfile:
         """A circular cam of radius ``R`` whose centre is ``e`` from the shaft.
@@ -483,6 +508,13 @@ def _evaluate_segments(segments: tuple[_Segment, ...], theta: np.ndarray) -> np.
         if np.any(mask):
             out[:, mask] = seg.stack(wrapped[mask])
     return out
+
+
+class _Unchecked:
+    """Stands in for :class:`CamProfile` when ``CamProfile.__post_init__`` runs a factory's checks."""
+
+    def __init__(self, kind: str, base_radius: float, **fields: Any) -> None:
+        self.kind, self.base_radius = kind, base_radius
 
 
 # ------------------------------------------------------------------ follower

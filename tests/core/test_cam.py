@@ -451,6 +451,28 @@ def test_batch_shapes(shape):
         np.testing.assert_array_equal(np.ravel(k.lift), cam.kinematics(flat).lift)
 
 
+@pytest.mark.parametrize("args, kwargs, message", [
+    (("eccentric", 0.03), {}, r"radius, eccentricity: an 'eccentric' profile needs radius, eccentricity \(build a "
+                              r"profile with CamProfile.eccentric\(...\) or CamProfile.rise_dwell_return\(...\)\)"),
+    (("spiral", 0.03), {}, r"kind: expected 'eccentric' or 'rise_dwell_return' .*got 'spiral'"),
+    (("eccentric", 0.04), dict(radius=0.04, eccentricity=0.01), r"base_radius: expected 0.03 m .*got 0.04"),
+    (("eccentric", 0.03), dict(radius=0.04, eccentricity=0.05), r"eccentricity: expected less than radius"),
+    (("eccentric", 0.03), dict(radius=0.04, eccentricity=0.01, law="345"), r"law: an 'eccentric' profile has no law"),
+    (("rise_dwell_return", 0.04), dict(lift=0.02, rise=1.0, dwell=0.5, fall=1.0), r"law: a 'rise_dwell_return' "
+                                                                                  r"profile needs law"),
+    (("rise_dwell_return", 0.04), dict(lift=0.02, rise=1.0, dwell=0.5, fall=1.0, law="nope"), r"law: expected one of"),
+])
+def test_a_profile_built_directly_is_checked_as_the_factories_check(args, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        CamProfile(*args, **kwargs)
+
+
+def test_a_profile_built_directly_equals_the_factorys():
+    assert CamProfile("eccentric", 0.03, radius=0.04, eccentricity=0.01) == CamProfile.eccentric(0.04, 0.01)
+    made = CamProfile.rise_dwell_return(0.05, 0.01, 1.0, 0.5, 1.2, law="345")
+    assert CamProfile("rise_dwell_return", 0.05, lift=0.01, rise=1.0, dwell=0.5, fall=1.2, law="345") == made
+
+
 def test_pressure_angle_is_zero_for_a_flat_face():
     cam = CamFollower(CamProfile.eccentric(), offset=0.01)
     np.testing.assert_array_equal(cam.pressure_angle(np.linspace(0, 6, 7)), 0.0)
