@@ -75,7 +75,10 @@ def float_array(x: Any, name: str, *, expected: str = "an array of real numbers"
 
 def real_number(x: Any, name: str, *, expected: str = "a finite real number") -> float:
     """``x`` as a finite Python float; bools, complex numbers, arrays,
-    non-finite and non-numeric values raise ``{name}: expected ..., got ...``."""
+    non-finite and non-numeric values raise ``{name}: expected ..., got ...``
+    (a 0-d array of reals counts as its number)."""
+    if isinstance(x, np.ndarray) and x.ndim == 0 and x.dtype.kind in "iuf":
+        x = x.item()
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real):
         if isinstance(x, (complex, np.complexfloating)):
             raise ValueError(f"{name}: expected real numbers, got complex {x!r}")
@@ -91,3 +94,23 @@ def positive_integer(x: Any, name: str) -> int:
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or x < 1:
         raise ValueError(f"{name}: expected an integer >= 1, got {short_repr(x)}")
     return int(x)
+
+
+def output_times(t: Any, name: str = "t") -> np.ndarray:
+    """Output times as a new 1-D float array (a number is one time): non-empty, finite and
+    non-decreasing, else ``{name}: expected ...`` naming the first time that is not."""
+    tt = float_array(t, name, expected="non-decreasing output times (s)", copy=True)
+    if tt.ndim == 0:
+        tt = tt.reshape(1)
+    if tt.ndim != 1 or tt.size == 0:
+        raise ValueError(f"{name}: expected a non-empty 1-D array of output times (s), got shape {tt.shape}")
+    bad = np.flatnonzero(~np.isfinite(tt))
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"{name}: expected finite times (s), got {name}[{i}] = {float(tt[i])!r}")
+    back = np.flatnonzero(np.diff(tt) < 0.0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise ValueError(f"{name}: expected non-decreasing times (s), got {name}[{i}] = {float(tt[i])!r} after "
+                         f"{name}[{i - 1}] = {float(tt[i - 1])!r}")
+    return tt

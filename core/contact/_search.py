@@ -159,5 +159,8 @@ def check_rank(name: str, info: dict) -> None:
             "(a cylinder or a torus lying on a plane, parallel flat faces, conforming surfaces), where the "
             "contact point is not unique. For a planar mechanism (a cam and its follower, rollers) describe "
             "both profiles as PlanarCurve in their bodies' x-y planes (curve-on-curve contact, one parameter "
-            "per body); otherwise use a surface with curvature in both directions (a torus, an ellipsoid)"
+            "per body). A torus whose axis is along the other surface's normal (a wheel lying on its side) "
+            "touches along a circle: stand it up. A ball in a socket of its own radius conforms to it: give "
+            "the socket a larger radius. Otherwise use surfaces that curve in both directions and differently "
+            "at the contact (a sphere, a torus on its tread, an ellipsoid)"
         )

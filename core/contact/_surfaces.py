@@ -192,7 +192,7 @@ class Surface:
             ``(u (..., 3), u_s (..., 3, 2), u_ss (..., 3, 2, 2), u_sss (...,
             3, 2, 2, 2))`` up to ``order``; body frame.
         """
-        if isinstance(order, bool) or order not in (0, 1, 2, 3):
+        if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order not in (0, 1, 2, 3):
             raise ValueError(f"order: expected 0, 1, 2 or 3, got {short_repr(order)}")
         s = _parameters(s, self.n_parameters)
         g = self._geometry(s, order, None)
@@ -222,7 +222,7 @@ class Surface:
         torus (unit normal). Returns ``(nu (..., 3), nu_s (..., 3, 2),
         nu_ss (..., 3, 2, 2))`` up to ``order`` (0 to 2), body frame.
         """
-        if isinstance(order, bool) or order not in (0, 1, 2):
+        if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order not in (0, 1, 2):
             raise ValueError(f"order: expected 0, 1 or 2, got {short_repr(order)}")
         s = _parameters(s, self.n_parameters)
         g = self._geometry(s, order + 1 if order else 0, None)

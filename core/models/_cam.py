@@ -25,7 +25,7 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from core._validation import float_array, real_number, short_repr
+from core._validation import float_array, output_times, real_number, short_repr
 
 __all__ = [
     "CAM_CONTACT_MODELS",
@@ -1356,10 +1356,7 @@ _CAM_METHODS = ("kinematic", "DOP853", "RK45")
 
 def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: Any, contact_stiffness: Any,
               contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any, method: Any = None) -> CamMotion:
-    times = float_array(t, "t", expected="non-decreasing output times (s)")
-    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
-        raise ValueError(f"t: expected a non-empty 1-d array of finite non-decreasing times (s), got shape "
-                         f"{times.shape}")
+    times = output_times(t)
     built = _build_system(cam, speed, float(times[0]), model, contact_stiffness, contact_damping, contact_exponent)
     if method is None:
         method = "kinematic" if model == "constraint" else "DOP853"

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from core._validation import float_array, positive_integer, real_number
+from core._validation import output_times, positive_integer, real_number
 from core.multibody import System
 
 __all__ = ["ROD_RADIUS_RATIO", "ReducedChainMotion", "pendulum_chain", "pendulum_chain_reduced"]
@@ -178,10 +178,7 @@ def pendulum_chain_reduced(
     ReducedChainMotion
     """
     n, L, m, tilt, g = _chain_arguments(n, length, mass, kind, tilt, gravity)
-    times = float_array(t, "t", expected="non-decreasing output times (s)")
-    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
-        raise ValueError(f"t: expected a non-empty 1-d array of finite non-decreasing times (s), got shape "
-                         f"{times.shape}")
+    times = output_times(t)
     tolerances = []
     for name, value in (("rtol", rtol), ("atol", atol)):
         v = real_number(value, name, expected="a finite tolerance > 0")

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from core._validation import float_array, real_number
+from core._validation import output_times, real_number
 from core.rotations import euler_parameters_from_euler_angles
 
 __all__ = [
@@ -321,10 +321,7 @@ def rolling_disk_reference(
     R, m, lean, spin, rolling, heading_rate, g = _disk_arguments(radius, mass, lean, spin, rolling, heading_rate,
                                                                  gravity)
     lean_rate = real_number(lean_rate, "lean_rate", expected="a finite lean rate (rad/s)")
-    times = float_array(t, "t", expected="non-decreasing output times (s)")
-    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
-        raise ValueError(f"t: expected a non-empty 1-d array of finite non-decreasing times (s), got shape "
-                         f"{times.shape}")
+    times = output_times(t)
     tolerances = []
     for name, value in (("rtol", rtol), ("atol", atol)):
         tolerances.append(_positive(value, name, "tolerance"))

@@ -25,7 +25,7 @@ import numpy as np
 from scipy.linalg import lapack
 from scipy.optimize import brentq
 
-from core._validation import float_array, positive_integer, real_number, short_repr
+from core._validation import output_times, positive_integer, real_number, short_repr
 from core.integrators import MAX_STEPS, DriftReport, IntegrationError, Trajectory, integrate
 
 from ._analysis import (
@@ -1095,16 +1095,7 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
 
 
 def _times(t: Any) -> np.ndarray:
-    tt = float_array(t, "t", expected="a 1-D array of output times", copy=True)
-    if tt.ndim == 0:
-        tt = tt.reshape(1)
-    if tt.ndim != 1 or tt.size == 0:
-        raise ValueError(f"t: expected a non-empty 1-D array of output times, got shape {tt.shape}")
-    if not np.all(np.isfinite(tt)):
-        raise ValueError("t: expected finite times")
-    if np.any(np.diff(tt) < 0.0):
-        raise ValueError("t: expected non-decreasing times")
-    return tt
+    return output_times(t)
 
 
 def simulate(

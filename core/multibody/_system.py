@@ -96,8 +96,8 @@ def _check_inertia(inertia: Any) -> np.ndarray:
     return a
 
 
-def _positive(x: Any, name: str, *, allow_zero: bool) -> float:
-    bound = ">= 0" if allow_zero else "> 0"
+def _positive(x: Any, name: str, *, allow_zero: bool, unit: str = "") -> float:
+    bound = (">= 0" if allow_zero else "> 0") + (f" ({unit})" if unit else "")
     v = real_number(x, name, expected=f"a finite number {bound}")
     if v < 0.0 or (v == 0.0 and not allow_zero):
         raise ValueError(f"{name}: expected a finite number {bound}, got {v!r}")
@@ -766,9 +766,10 @@ class System:
             raise ValueError(f"body_i, body_j: expected two different bodies, got {bi.name!r} twice")
         Pi = _vector(point_i, "point_i")
         Pj = _vector(point_j, "point_j")
-        k = _positive(stiffness, "stiffness", allow_zero=True)
-        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True)
-        L0 = float(np.linalg.norm(Pj - Pi)) if free_length is None else _positive(free_length, "free_length", allow_zero=True)
+        k = _positive(stiffness, "stiffness", allow_zero=True, unit="N/m")
+        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True, unit="N s/m")
+        L0 = float(np.linalg.norm(Pj - Pi)) if free_length is None else _positive(free_length, "free_length",
+                                                                                   allow_zero=True, unit="m")
         name = self._item_name(name, "spring_damper")
         local = {"u_i": self._local_point(bi, Pi), "u_j": self._local_point(bj, Pj)}
         sp = SpringDamper(name, bi, bj, Pi, Pj, k, c, L0, len(self._springs), local, self)
@@ -804,8 +805,8 @@ class System:
         jt = self._joint(joint)
         if jt.kind not in ("revolute", "cylindrical"):
             raise ValueError(f"joint: a rotational spring-damper needs a revolute or cylindrical joint, got {jt.kind}")
-        k = _positive(stiffness, "stiffness", allow_zero=True)
-        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True)
+        k = _positive(stiffness, "stiffness", allow_zero=True, unit="N m/rad")
+        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True, unit="N m s/rad")
         a0 = real_number(angle0, "angle0")
         name = self._item_name(name, "rotational_spring_damper")
         rs = RotationalSpringDamper(name, jt, k, c, a0, len(self._rot_springs), self)
@@ -972,11 +973,11 @@ class System:
                 raise ValueError(f"stiffness: expected a finite stiffness > 0 (N/m^exponent), got {k!r}")
         elif model == "compliant":
             raise ValueError("stiffness: the compliant model needs a finite stiffness > 0 (N/m^exponent), got None")
-        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True)
+        c = 0.0 if damping is None else _positive(damping, "damping", allow_zero=True, unit="s/m")
         e = real_number(exponent, "exponent", expected="a finite exponent >= 1")
         if not e >= 1.0:
             raise ValueError(f"exponent: expected a finite exponent >= 1, got {e!r}")
-        tol = _positive(tolerance, "tolerance", allow_zero=False)
+        tol = _positive(tolerance, "tolerance", allow_zero=False, unit="m")
         if surface_i.unbounded and surface_j.unbounded:
             what = "two lines" if surface_i.n_parameters == 1 else "two planes"
             raise ValueError(

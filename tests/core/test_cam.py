@@ -700,7 +700,7 @@ def test_compliant_follower_leaves_and_lands():
         (dict(contact_stiffness=0.0), "contact_stiffness: expected a finite number > 0"),
         (dict(contact_damping=-1.0), "contact_damping: expected a finite number >= 0"),
         (dict(contact_exponent=0.5), "contact_exponent: expected a finite exponent >= 1"),
-        (dict(t=[0.1, 0.0]), "t: expected a non-empty 1-d array of finite non-decreasing times"),
+        (dict(t=[0.1, 0.2, 0.15]), r"t: expected non-decreasing times \(s\), got t\[2\] = 0.15 after t\[1\] = 0.2"),
         (dict(on_separation="jump"), "on_separation: expected one of"),
     ],
 )

@@ -64,6 +64,17 @@ def test_a_normal_velocity_of_a_held_contact_is_explained(vz, way, ground_first)
     assert abs(float(np.max(traj.q[:, 2])) - (0.1 + 2.0**2 / (2 * 9.81))) < 1e-3  # (outputs every 10 ms)
 
 
+def test_numbers_as_0d_arrays_are_numbers():
+    """A 0-d array (what numpy reductions and indexing of 0-d data give) is taken as its number."""
+    assert Sphere(np.array(0.1)).radius == 0.1
+    system, ball = _ball_system()
+    c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1), model="compliant", stiffness=np.array(1e6),
+                           damping=np.array(0.5))
+    assert c.stiffness == 1e6 and c.damping == 0.5
+    with pytest.raises(ValueError, match=r"radius: expected a finite length > 0 \(m\), got array\(\[0.1\]\)"):
+        Sphere(np.array([0.1]))
+
+
 def test_the_same_contact_twice_is_refused():
     system, ball = _ball_system()
     plane, sphere = Plane(), Sphere(0.1)
@@ -115,9 +126,9 @@ def test_pairs_that_have_no_contact_point(si, sj, message):
     ({"stiffness": 0.0}, r"stiffness: expected a finite stiffness > 0"),
     ({"stiffness": float("inf")}, r"stiffness: expected a finite stiffness > 0"),
     ({"stiffness": 1e5j}, r"stiffness: expected real numbers, got complex"),
-    ({"damping": -0.1}, r"damping: expected a finite number >= 0"),
+    ({"damping": -0.1}, r"damping: expected a finite number >= 0 \(s/m\), got -0.1"),
     ({"exponent": 0.5}, r"exponent: expected a finite exponent >= 1, got 0.5"),
-    ({"tolerance": 0.0}, r"tolerance: expected a finite number > 0"),
+    ({"tolerance": 0.0}, r"tolerance: expected a finite number > 0 \(m\), got 0.0"),
     ({"rolling": 1}, r"rolling: expected True or False"),
     ({"rolling": True, "model": "compliant", "stiffness": 1e5}, r"rolling: rolling without slip needs "
                                                                 r"model='constraint'"),

@@ -273,7 +273,9 @@ def test_bad_parameters_and_orders_are_refused():
         Sphere(1.0).point([0.1j, 0.2])
     with pytest.raises(ValueError, match=r"s: expected finite parameters"):
         Sphere(1.0).point([np.nan, 0.2])
-    with pytest.raises(ValueError, match=r"order: expected 0, 1, 2 or 3"):
-        Sphere(1.0).derivatives([0.1, 0.2], order=4)
+    for order in (4, 2.0, True):
+        with pytest.raises(ValueError, match=r"order: expected 0, 1, 2 or 3, got " + repr(order)):
+            Sphere(1.0).derivatives([0.1, 0.2], order=order)
+    assert len(Sphere(1.0).derivatives([0.1, 0.2], order=np.int64(2))) == 3
     # at the pole of the parametrization cos(pi/2) is 6e-17, not zero: the normal is still the radial one
     np.testing.assert_allclose(Sphere(1.0).normal([0.0, math.pi / 2]), [0.0, 0.0, 1.0], atol=1e-15)

@@ -142,9 +142,9 @@ def test_reduced_chain_with_one_time_is_the_initial_state():
     [
         (dict(n=0, t=[0.0, 1.0]), r"n: expected an integer >= 1"),
         (dict(n=2, t=[0.0, 1.0], kind="chain"), r"kind: expected 'rod' or 'point'"),
-        (dict(n=2, t=[1.0, 0.0]), r"t: expected a non-empty 1-d array of finite non-decreasing times"),
-        (dict(n=2, t=[]), r"t: expected a non-empty 1-d array"),
-        (dict(n=2, t=[0.0, np.nan]), r"t: expected a non-empty 1-d array"),
+        (dict(n=2, t=[1.0, 0.0]), r"t: expected non-decreasing times \(s\), got t\[1\] = 0.0 after t\[0\] = 1.0"),
+        (dict(n=2, t=[]), r"t: expected a non-empty 1-D array of output times \(s\), got shape \(0,\)"),
+        (dict(n=2, t=[0.0, np.nan]), r"t: expected finite times \(s\), got t\[1\] = nan"),
         (dict(n=2, t=[0.0, 1.0j]), r"t: expected real numbers, got complex"),
         (dict(n=2, t=[0.0, 1.0], rtol=0.0), r"rtol: expected a finite tolerance > 0"),
         (dict(n=2, t=[0.0, 1.0], atol=-1.0), r"atol: expected a finite tolerance > 0"),

@@ -387,9 +387,11 @@ def test_simulate_options_are_validated(kwargs, message):
 
 @pytest.mark.parametrize(
     ("t", "message"),
-    [([], r"t: expected a non-empty 1-D array"), ([0.0, 1.0, 0.5], r"t: expected non-decreasing times"),
-     ([0.0, math.nan], r"t: expected finite times"), ([0.0, 1.0 + 0j], r"t: expected real numbers, got complex"),
-     (["0", "1"], r"t: expected a 1-D array of output times, got text \['0', '1'\]")],
+    [([], r"t: expected a non-empty 1-D array"),
+     ([0.0, 1.0, 0.5], r"t: expected non-decreasing times \(s\), got t\[2\] = 0.5 after t\[1\] = 1.0"),
+     ([0.0, math.nan], r"t: expected finite times \(s\), got t\[1\] = nan"),
+     ([0.0, 1.0 + 0j], r"t: expected real numbers, got complex"),
+     (["0", "1"], r"t: expected non-decreasing output times \(s\), got text \['0', '1'\]")],
 )
 def test_simulate_times_are_validated(t, message):
     with pytest.raises(ValueError, match=message):

@@ -193,8 +193,8 @@ def test_a_falling_disk_is_reported():
         (dict(lean_rate="fast"), "lean_rate: expected a finite lean rate"),
         (dict(gravity=-1.0), "gravity: expected a finite g >= 0"),
         (dict(rtol=0.0), "rtol: expected a finite number > 0"),
-        (dict(t=[1.0, 0.0]), "t: expected a non-empty 1-d array of finite non-decreasing times"),
-        (dict(t=[]), "t: expected a non-empty 1-d array"),
+        (dict(t=[1.0, 0.0]), r"t: expected non-decreasing times \(s\), got t\[1\] = 0.0 after t\[0\] = 1.0"),
+        (dict(t=[]), r"t: expected a non-empty 1-D array of output times \(s\), got shape \(0,\)"),
     ],
 )
 def test_reference_arguments(kwargs, message):
