@@ -1160,7 +1160,12 @@ class System:
             Newton tolerance of the position projection, ``max |C|``.
         max_steps : int, keyword-only
             Limit on steps (fixed) or right-hand-side evaluations
-            (adaptive); default ``core.integrators.MAX_STEPS``.
+            (adaptive); default ``core.integrators.MAX_STEPS``. An adaptive
+            run takes at least one evaluation per radian of its fastest
+            body's turn: one whose ``|omega| (t[-1] - t[0])`` at the start
+            exceeds ``max_steps`` is refused before it starts, and one above
+            ``LONG_RUN_RADIANS`` (1e5 rad, minutes of CPU) warns
+            (RuntimeWarning).
         on_separation : str, keyword-only
             Contacts in the constraint model: when a normal force crosses
             zero, ``"stop"`` (default) ends the run there,

@@ -297,3 +297,23 @@ def test_rolling_disk_arguments():
         rolling_disk(rolling="no")
     with pytest.raises(ValueError, match="lean_rate: expected a finite lean rate"):
         rolling_disk(lean_rate=float("nan"))
+
+
+def test_a_run_too_long_for_its_spin_is_refused_or_announced():
+    """At least one right-hand side a radian: a coin spun at 1e6 rad/s for 20 s cannot end within max_steps
+    (refused before it starts), and 0.2 s of it (2e5 rad, minutes of CPU) is announced with a warning."""
+    from core.multibody._simulate import LONG_RUN_RADIANS, _check_turns
+
+    system, disk, _ = rolling_disk(spin=1e6)
+    with pytest.raises(ValueError, match=r"t: body 'disk' turns at 1e\+06 rad/s, about 2e\+07 rad by t=20, .*"
+                                         r"more than max_steps=10000000"):
+        system.simulate([0.0, 20.0])
+    with pytest.raises(ValueError, match=r"about 2e\+05 rad by t=0.2.*more than max_steps=1000"):
+        system.simulate([0.0, 0.2], max_steps=1000)
+    y0 = np.concatenate([system.state.q, system.state.v])
+    with pytest.warns(RuntimeWarning, match=r"simulate: body 'disk' turns at 1e\+06 rad/s, about 2e\+05 rad .*"
+                                            r"this run takes minutes"):
+        _check_turns(system, y0, 0.0, 0.2, 10_000_000)
+    assert 1e6 * 0.05 < LONG_RUN_RADIANS  # 0.05 s of it is quiet
+    system, disk, _ = rolling_disk(spin=20.0)
+    system.simulate([0.0, 0.01])  # an ordinary spin: neither
