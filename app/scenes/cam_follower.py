@@ -64,7 +64,7 @@ from scipy.optimize import brentq
 
 from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_arrays, set_pose
-from app.scenes._plots import Legend, format_rows
+from app.scenes._plots import Legend, add_plot, format_rows
 from app.scenes.base import PRESENTER_LINE_SCALE, Scene
 from app.worker import ChunkTimeline
 from core.models import CamFollower, CamProfile
@@ -912,19 +912,21 @@ class CamFollowerScene(Scene):
             with gui.add_folder("Plots (one revolution)"):
                 x_scale = {"x": {"time": False}}
                 x_series = {"label": "θ (deg)"}
-                shade = {"label": "N < 0", "stroke": "#9633c8", "fill": "rgba(150, 60, 200, 0.25)", "width": 1}
+                # the fill marks the separation interval; no stroke (it would draw a line at zero elsewhere)
+                shade = {"label": "N < 0", "stroke": "rgba(150, 60, 200, 0)", "fill": "rgba(150, 60, 200, 0.3)",
+                         "width": 1}
                 empty = np.zeros(2)
                 plots = {
-                    "lift": gui.add_uplot(
+                    "lift": add_plot(gui, 
                         (empty,) * 3, (x_series, {"label": "s (mm)", "stroke": "#2266dd", "width": 2}, shade),
                         title="lift s (mm)", scales=x_scale, aspect=1.7),
-                    "velocity": gui.add_uplot(
+                    "velocity": add_plot(gui, 
                         (empty,) * 3, (x_series, {"label": "v (m/s)", "stroke": "#0f766e", "width": 2}, shade),
                         title="velocity ω s′ (m/s)", scales=x_scale, aspect=1.7),
-                    "acceleration": gui.add_uplot(
+                    "acceleration": add_plot(gui, 
                         (empty,) * 3, (x_series, {"label": "a (m/s²)", "stroke": "#c2410c", "width": 2}, shade),
                         title="acceleration ω² s″ (m/s²)", scales=x_scale, aspect=1.7),
-                    "force": gui.add_uplot(
+                    "force": add_plot(gui, 
                         (empty,) * 5,
                         (x_series, {"label": "N (N)", "stroke": "#d97706", "width": 2},
                          {"label": "N = 0", "stroke": "#555555", "dash": [6, 4], "width": 1},
@@ -932,12 +934,12 @@ class CamFollowerScene(Scene):
                         title="contact force N (N)", scales=x_scale, aspect=1.7),
                 }
                 run_plots = {
-                    "run_lift": gui.add_uplot(
+                    "run_lift": add_plot(gui, 
                         (empty,) * 3,
                         (x_series, {"label": "cam under it (mm)", "stroke": "#2266dd", "width": 2},
                          {"label": "follower (mm)", "stroke": "#9633c8", "width": 2}),
                         title="compliant run: lift (this revolution)", scales=x_scale, aspect=1.7, visible=False),
-                    "run_force": gui.add_uplot(
+                    "run_force": add_plot(gui, 
                         (empty,) * 3,
                         (x_series, {"label": "closed form (N)", "stroke": "#888888", "dash": [6, 4], "width": 1},
                          {"label": "System (N)", "stroke": "#d97706", "width": 2}),
