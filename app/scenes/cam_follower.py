@@ -64,6 +64,7 @@ from scipy.optimize import brentq
 
 from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_arrays, set_pose
+from app.readout import significant
 from app.scenes._plots import Legend, add_plot, format_rows
 from app.scenes.base import PRESENTER_LINE_SCALE, Scene
 from app.worker import ChunkTimeline
@@ -1145,7 +1146,7 @@ class CamFollowerScene(Scene):
             f"**v** = ω s′ = {float(rev.velocity[i]):.4f} m/s · **a** = ω² s″ = "
             f"{float(rev.acceleration[i]):.2f} m/s²  ",
             f"**N** = {force:.3f} N ({state})  ",
-            f"*slow motion*: one turn in {turn:g} s (at the real speed {1000.0 * 2.0 * math.pi / rev.speed:.1f} ms)",
+            f"*slow motion*: one turn in {turn:g} s (a real turn takes {1000.0 * 2.0 * math.pi / rev.speed:.1f} ms)",
         ])
 
     # -- compliant run --------------------------------------------------------------------
@@ -1201,7 +1202,7 @@ class CamFollowerScene(Scene):
         elif chunk.constraint[j]:
             contact = f"**on the cam** (contact constraint): N = {float(chunk.force[j]):.3f} N"
         else:
-            contact = (f"**on the cam** (Hunt-Crossley, pressed in {1e6 * -gap:.1f} µm): "
+            contact = (f"**on the cam** (Hunt-Crossley, pressed in {significant(1e6 * -gap, 3)} µm): "
                        f"N = {float(chunk.force[j]):.3f} N")
         events = f"this revolution: {chunk.separations.size} separation(s), {chunk.landings.size} landing(s)"
         lines = [
@@ -1214,7 +1215,7 @@ class CamFollowerScene(Scene):
         ]
         if self.waiting:
             lines.append("*computing the next revolution…*  ")
-        lines.append(f"*slow motion*: one turn in {turn:g} s (at the real speed "
+        lines.append(f"*slow motion*: one turn in {turn:g} s (a real turn takes "
                      f"{1000.0 * 2.0 * math.pi / rev.speed:.1f} ms)")
         return "\n".join(lines)
 
