@@ -29,13 +29,11 @@ import numpy as np
 from app.readout import PRESENTER_FONT_SCALE
 
 __all__ = [
-    "PLOT_Y_AXIS_PX",
     "History",
     "LOG_FLOOR",
     "Legend",
     "PlotRefresh",
     "Table",
-    "add_plot",
     "format_rows",
     "hex_color",
     "log10_floor",
@@ -255,16 +253,3 @@ class PlotRefresh:
             self._queue = list(self.names)
             self._since = 0.0
         return self._queue.pop(0) if self._queue else None
-
-
-
-
-#: Width of a plot's y axis (px): room for tick labels such as "-5.625" (uPlot's default 50 px cut off
-#: their first character).
-PLOT_Y_AXIS_PX = 62
-
-
-def add_plot(gui: Any, data: tuple, series: tuple, **options: Any) -> Any:
-    """``gui.add_uplot(data, series, **options)`` with the scenes' y axis (:data:`PLOT_Y_AXIS_PX` wide)."""
-    options.setdefault("axes", ({}, {"size": PLOT_Y_AXIS_PX}))
-    return gui.add_uplot(data, series, **options)

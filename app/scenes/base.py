@@ -13,9 +13,10 @@ scene:
 * **failure containment** -- an exception in ``update`` is reported once
   (a notice and one log entry with its traceback) and pauses the scene,
   which resumes when a control changes; the session goes on;
-* **presenter view** -- labels, arrows, lines and readouts made with
-  :meth:`add_label`, :meth:`add_arrows`, :meth:`add_lines` and
-  :meth:`add_readout` grow together when presenter view is on;
+* **presenter view** -- labels, arrows, lines, readouts and plots made
+  with :meth:`add_label`, :meth:`add_arrows`, :meth:`add_lines`,
+  :meth:`add_readout` and :meth:`add_plot` grow together when presenter
+  view is on;
 * **help and export** -- the class attribute :attr:`help` becomes a "What you
   see" section; :meth:`add_download` a button that sends a file to the
   browser that clicked it;
@@ -58,7 +59,7 @@ import numpy as np
 from app.controls import Button
 from app.gate import Gate
 from app.panel import ControlPanel, NotifyClient
-from app.readout import Readout
+from app.readout import PRESENTER_FONT_SCALE, Readout
 from app.worker import make_executor
 
 __all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE"]
@@ -73,6 +74,19 @@ PRESENTER_ARROW_SCALE = 1.8
 PRESENTER_LINE_SCALE = 2.0
 #: Frame timings kept per scene (wall s, loop-thread CPU s).
 FRAME_HISTORY = 4096
+
+
+#: Width of a plot's y axis (px) and its tick labels' font size (px), normal view: room for labels such as
+#: "-5.625" (uPlot's default 50 px cut off their first character).
+PLOT_Y_AXIS_PX, PLOT_FONT_PX = 62, 12
+
+
+def plot_axes(presenter: bool) -> tuple[dict, dict]:
+    """uPlot options of a scene plot's x and y axes: tick labels at :data:`PLOT_FONT_PX`, times
+    :data:`app.readout.PRESENTER_FONT_SCALE` in presenter view, the y axis widened with them."""
+    f = PRESENTER_FONT_SCALE if presenter else 1.0
+    font = f"{PLOT_FONT_PX * f:.0f}px system-ui, -apple-system, sans-serif"
+    return ({"font": font, "size": round(50 * f)}, {"font": font, "size": round(PLOT_Y_AXIS_PX * f)})
 
 
 @dataclasses.dataclass
@@ -149,6 +163,7 @@ class Scene:
         self._arrows: list[tuple[Any, float, float, float]] = []
         self._lines: list[tuple[Any, float]] = []
         self._readouts: list[Readout] = []
+        self._plots: list[Any] = []
         self._downloads: dict[str, tuple[str, Callable[[], bytes]]] = {}
         #: (wall seconds, loop-thread CPU seconds) of the latest frames.
         self.frame_seconds: collections.deque[tuple[float, float]] = collections.deque(maxlen=FRAME_HISTORY)
@@ -245,6 +260,9 @@ class Scene:
             handle.thickness = thickness * line_scale
         for readout in self._readouts:
             readout.set_presenter(on)
+        axes = plot_axes(on)
+        for plot in self._plots:
+            plot.axes = axes
         self.on_presenter(bool(on))
 
     def on_presenter(self, on: bool) -> None:
@@ -351,6 +369,14 @@ class Scene:
             name, np.asarray(points, dtype=np.float32), colors, thickness=thickness * f, **kwargs,
         )
         self._lines.append((handle, thickness))
+        return handle
+
+    def add_plot(self, data: tuple, series: tuple, **options: Any) -> Any:
+        """A uPlot chart in the current GUI folder (``gui.add_uplot``) whose axes' tick labels grow in
+        presenter view (:func:`plot_axes`)."""
+        options.setdefault("axes", plot_axes(self.presenter))
+        handle = self.target.gui.add_uplot(data, series, **options)
+        self._plots.append(handle)
         return handle
 
     def add_readout(self, content: str = "", **kwargs: Any) -> Readout:

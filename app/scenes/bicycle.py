@@ -52,7 +52,7 @@ from app.controls import Button, Slider, Toggle
 from app.nodes import set_array, set_pose
 from app.readout import PRESENTER_FONT_SCALE
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import History, Legend, PlotRefresh, Table, add_plot
+from app.scenes._plots import History, Legend, PlotRefresh, Table
 from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
@@ -711,7 +711,7 @@ class BicycleScene(PlaybackRequests, Scene):
                 (_hex_rgb(_SERIES["current"]), "the current speed's modes"),
             ), "Lines: the paper's equations; dots: the linearized System.", presenter=self.presenter)
             x_scale = {"x": {"time": False}}
-            plot_angles = add_plot(gui, 
+            plot_angles = self.add_plot(
                 (np.zeros(2), np.zeros(2), np.zeros(2)),
                 ({"label": "t (s)"}, {"label": "lean φ (deg)", "stroke": "#1d4ed8", "width": 2},
                  {"label": "steer δ (deg)", "stroke": "#c2410c", "width": 2}),

@@ -65,7 +65,7 @@ from scipy.optimize import brentq
 from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_arrays, set_pose
 from app.readout import significant
-from app.scenes._plots import Legend, add_plot, format_rows
+from app.scenes._plots import Legend, format_rows
 from app.scenes.base import PRESENTER_LINE_SCALE, Scene
 from app.worker import ChunkTimeline
 from core.models import CamFollower, CamProfile
@@ -918,16 +918,16 @@ class CamFollowerScene(Scene):
                          "width": 1}
                 empty = np.zeros(2)
                 plots = {
-                    "lift": add_plot(gui, 
+                    "lift": self.add_plot(
                         (empty,) * 3, (x_series, {"label": "s (mm)", "stroke": "#2266dd", "width": 2}, shade),
                         title="lift s (mm)", scales=x_scale, aspect=1.7),
-                    "velocity": add_plot(gui, 
+                    "velocity": self.add_plot(
                         (empty,) * 3, (x_series, {"label": "v (m/s)", "stroke": "#0f766e", "width": 2}, shade),
                         title="velocity ω s′ (m/s)", scales=x_scale, aspect=1.7),
-                    "acceleration": add_plot(gui, 
+                    "acceleration": self.add_plot(
                         (empty,) * 3, (x_series, {"label": "a (m/s²)", "stroke": "#c2410c", "width": 2}, shade),
                         title="acceleration ω² s″ (m/s²)", scales=x_scale, aspect=1.7),
-                    "force": add_plot(gui, 
+                    "force": self.add_plot(
                         (empty,) * 5,
                         (x_series, {"label": "N (N)", "stroke": "#d97706", "width": 2},
                          {"label": "N = 0", "stroke": "#555555", "dash": [6, 4], "width": 1},
@@ -935,12 +935,12 @@ class CamFollowerScene(Scene):
                         title="contact force N (N)", scales=x_scale, aspect=1.7),
                 }
                 run_plots = {
-                    "run_lift": add_plot(gui, 
+                    "run_lift": self.add_plot(
                         (empty,) * 3,
                         (x_series, {"label": "cam under it (mm)", "stroke": "#2266dd", "width": 2},
                          {"label": "follower (mm)", "stroke": "#9633c8", "width": 2}),
                         title="compliant run: lift (this revolution)", scales=x_scale, aspect=1.7, visible=False),
-                    "run_force": add_plot(gui, 
+                    "run_force": self.add_plot(
                         (empty,) * 3,
                         (x_series, {"label": "closed form (N)", "stroke": "#888888", "dash": [6, 4], "width": 1},
                          {"label": "System (N)", "stroke": "#d97706", "width": 2}),

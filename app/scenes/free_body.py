@@ -47,7 +47,7 @@ from app.controls import Choice, Slider
 from app.nodes import set_array, set_pose
 from app.readout import significant
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import History, Legend, PlotRefresh, Table, add_plot, window_seconds
+from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
 from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
@@ -578,20 +578,20 @@ class FreeBodyScene(PlaybackRequests, Scene):
                 # tiny values as 0)
                 floor = math.log10(_LOG_FLOOR)
                 x_scale = {"x": {"time": False}}
-                plot_omega = add_plot(gui, 
+                plot_omega = self.add_plot(
                     (np.zeros(2),) + (np.zeros(2),) * 3,
                     ({"label": "t (s)"}, {"label": "ω_x (rad/s)", "stroke": "#dc2626", "width": 2},
                      {"label": "ω_y (rad/s)", "stroke": "#16a34a", "width": 2},
                      {"label": "ω_z (rad/s)", "stroke": "#2563eb", "width": 2}),
                     title="exact ω_body(t) (body frame)", scales=x_scale, aspect=1.6,
                 )
-                plot_error = add_plot(gui, 
+                plot_error = self.add_plot(
                     (np.zeros(2), np.full(2, floor), np.full(2, floor)),
                     ({"label": "t (s)"}, {"label": "log10 angle error (rad)", "stroke": "#b45309", "width": 2},
                      {"label": "log10 |ω error| (rad/s)", "stroke": "#7c3aed", "width": 2}),
                     title="ghost error vs exact (log10)", scales=x_scale, aspect=1.6,
                 )
-                plot_drift = add_plot(gui, 
+                plot_drift = self.add_plot(
                     (np.zeros(2),) + (np.full(2, floor),) * 3,
                     ({"label": "t (s)"}, {"label": "log10 |ΔE|/E", "stroke": "#0f766e"},
                      {"label": "log10 |Δ|L||/|L|", "stroke": "#1f2937"},

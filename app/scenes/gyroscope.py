@@ -42,7 +42,7 @@ from app.controls import Slider, Toggle
 from app.nodes import set_array, set_pose
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import History, Legend, PlotRefresh, Table, add_plot, window_seconds
+from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
 from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
@@ -534,18 +534,18 @@ class GyroscopeScene(PlaybackRequests, Scene):
                 empty = (np.zeros(2), np.zeros(2))
                 # x is simulated time in seconds, not a calendar date (uPlot's default)
                 x_scale = {"x": {"time": False}}
-                plot_theta = add_plot(gui, 
+                plot_theta = self.add_plot(
                     empty + (np.zeros(2), np.zeros(2)),
                     ({"label": "t (s)"}, {"label": "θ (deg)", "stroke": "#2266dd", "width": 2},
                      {"label": "θ min", "stroke": "#888888", "dash": [6, 4]},
                      {"label": "θ max", "stroke": "#888888", "dash": [6, 4]}),
                     title="θ(t) and its predicted bounds", scales=x_scale, aspect=1.6,
                 )
-                plot_phi_dot = add_plot(gui, 
+                plot_phi_dot = self.add_plot(
                     empty, ({"label": "t (s)"}, {"label": "dφ/dt (rad/s)", "stroke": "#c2410c", "width": 2}),
                     title="precession rate dφ/dt", scales=x_scale, aspect=1.6,
                 )
-                plot_drift = add_plot(gui, 
+                plot_drift = self.add_plot(
                     empty + (np.zeros(2), np.zeros(2)),
                     ({"label": "t (s)"}, {"label": "log10|Δd1|", "stroke": "#b91c1c"},
                      {"label": "log10|Δd2|", "stroke": "#1d4ed8"}, {"label": "log10|ΔE|", "stroke": "#15803d"}),

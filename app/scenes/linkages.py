@@ -45,7 +45,7 @@ from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_arrays, set_pose
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, add_plot, log10_floor
+from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.gyroscope import RotorParams, top_motion
@@ -665,23 +665,23 @@ class LinkagesScene(PlaybackRequests, Scene):
             with gui.add_folder("Plots"):
                 x_scale = {"x": {"time": False}}
                 empty = np.zeros(2)
-                plot_energy = add_plot(gui, 
+                plot_energy = self.add_plot(
                     (empty, empty, empty),
                     ({"label": "t (s)"}, {"label": "E (J)", "stroke": "#0f766e", "width": 2},
                      {"label": "E0", "stroke": "#888888", "dash": [6, 4]}),
                     title="energy E(t)", scales=x_scale, aspect=1.6,
                 )
-                plot_drift = add_plot(gui, 
+                plot_drift = self.add_plot(
                     (empty, np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 |E − E0| (J)", "stroke": "#b45309", "width": 2}),
                     title="energy drift (log10)", scales=x_scale, aspect=1.6,
                 )
-                plot_check = add_plot(gui, 
+                plot_check = self.add_plot(
                     (empty, np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 difference", "stroke": "#7c3aed", "width": 2}),
                     title="difference from the closed form (log10)", scales=x_scale, aspect=1.6,
                 )
-                plot_residual = add_plot(gui, 
+                plot_residual = self.add_plot(
                     (empty, np.full(2, LOG_FLOOR), np.full(2, math.log10(RESIDUAL_BOUND)),
                      np.full(2, math.log10(POSITION_TOL))),
                     ({"label": "t (s)"}, {"label": "log10 max |C|", "stroke": "#be185d", "width": 2},

@@ -52,7 +52,7 @@ from app.controls import Choice, Slider, Toggle
 from app.nodes import set_array, set_pose
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, add_plot, log10_floor
+from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
 from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
@@ -599,23 +599,23 @@ class RollingDiskScene(PlaybackRequests, Scene):
             with gui.add_folder("Plots"):
                 x_scale = {"x": {"time": False}}
                 empty = np.zeros(2)
-                plot_lean = add_plot(gui, 
+                plot_lean = self.add_plot(
                     (empty, empty),
                     ({"label": "t (s)"}, {"label": "lean θ (deg)", "stroke": "#2266dd", "width": 2}),
                     title="lean θ(t)", scales=x_scale, aspect=1.6,
                 )
-                plot_energy = add_plot(gui, 
+                plot_energy = self.add_plot(
                     (empty, np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 |E − E0| (J)", "stroke": "#b45309", "width": 2}),
                     title="energy drift (log10)", scales=x_scale, aspect=1.6,
                 )
-                plot_residual = add_plot(gui, 
+                plot_residual = self.add_plot(
                     (empty, np.full(2, LOG_FLOOR), np.full(2, LOG_FLOOR)),
                     ({"label": "t (s)"}, {"label": "log10 max |C| (m)", "stroke": "#be185d", "width": 2},
                      {"label": "log10 max |dC/dt| (m/s)", "stroke": "#7c3aed", "width": 2}),
                     title="constraint residuals (log10)", scales=x_scale, aspect=1.6,
                 )
-                plot_normal = add_plot(gui, 
+                plot_normal = self.add_plot(
                     (empty, empty, empty),
                     ({"label": "t (s)"}, {"label": "N (N)", "stroke": "#0f766e", "width": 2},
                      {"label": "m g", "stroke": "#888888", "dash": [6, 4]}),

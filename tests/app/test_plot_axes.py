@@ -1,0 +1,51 @@
+"""Every scene's plots go through ``Scene.add_plot``: a y axis wide enough for tick labels such as
+"-5.625" (uPlot's default 50 px cut off their first character), and tick labels that grow in
+presenter view and shrink back. Parametrized over the registry, so a new scene is covered."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from app.readout import PRESENTER_FONT_SCALE
+from app.scenes import discover_scenes
+from app.scenes.base import PLOT_FONT_PX, PLOT_Y_AXIS_PX, plot_axes
+
+SCENES = list(discover_scenes())
+
+
+def _font_px(axis: dict) -> float:
+    return float(axis["font"].split("px")[0])
+
+
+def test_plot_axes_grow_with_the_presenter_font():
+    x, y = plot_axes(False)
+    assert y["size"] == PLOT_Y_AXIS_PX and _font_px(x) == _font_px(y) == PLOT_FONT_PX
+    x, y = plot_axes(True)
+    assert y["size"] == round(PLOT_Y_AXIS_PX * PRESENTER_FONT_SCALE)
+    assert _font_px(y) == round(PLOT_FONT_PX * PRESENTER_FONT_SCALE)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_every_plot_of_a_scene_has_the_scene_axes_and_follows_presenter_view(server: Any, make_bare_scene: Any,
+                                                                              name: str) -> None:
+    made: list[Any] = []
+    add_uplot = server.gui.add_uplot
+
+    def counting(*args: Any, **kwargs: Any) -> Any:
+        handle = add_uplot(*args, **kwargs)
+        made.append(handle)
+        return handle
+
+    server.gui.add_uplot = counting
+    try:
+        scene, _ = make_bare_scene(discover_scenes()[name])
+    finally:
+        server.gui.add_uplot = add_uplot
+    # no plot bypasses add_plot (it would keep uPlot's narrow axis and its small font in presenter view)
+    assert [id(h) for h in made] == [id(h) for h in scene._plots]
+    for on in (True, False, True):
+        scene.set_presenter(on)
+        for plot in scene._plots:
+            assert tuple(plot.axes) == plot_axes(on)
