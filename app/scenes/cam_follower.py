@@ -772,7 +772,8 @@ class CamFollowerScene(Scene):
         "constraints); in flight DOP853 at rtol 1e-8 integrates it.\n"
         "- Drawn on the cam: the contact point (black dot), the common normal (teal) and the force of "
         "the cam on the follower, N n (orange; purple where N < 0), its length saturating at 45 mm "
-        "(half of it at 40 N).\n"
+        "(half of it at 40 N). In flight the normal and the force are gone and the dot is the cam's "
+        "point nearest the follower.\n"
         "- *Download CSV*: one revolution of the closed form every 0.25° (angle, lift, velocity, "
         "acceleration, force)."
     )
@@ -878,8 +879,8 @@ class CamFollowerScene(Scene):
             legend = Legend(gui, (
                 (_FORCE_COLOR, "N n: force of the cam on the follower (N > 0)"),
                 (_PULL_COLOR, "N < 0: the contact would have to pull (separation interval)"),
-                (_NORMAL_COLOR, "common normal at the contact point"),
-                (_POINT_COLOR, "contact point"),
+                (_NORMAL_COLOR, "common normal at the contact point (hidden in flight)"),
+                (_POINT_COLOR, "contact point (in flight: the cam's point nearest the follower)"),
             ), "Drawn on the cam (arrow length saturates):", presenter=self.presenter)
             readout = self.add_readout("Computing the cam…")
             info = self.add_readout("")
@@ -1233,7 +1234,10 @@ class CamFollowerScene(Scene):
         if not show:
             return
         set_pose(self.contact_point, position=(contact[0], _Y_FRONT, contact[1]))
-        set_array(self.normal_line, "points", _normal_line(contact, normal))
+        if self.normal_line.visible != in_contact:  # in flight there is no contact normal to draw
+            self.normal_line.visible = in_contact
+        if in_contact:
+            set_array(self.normal_line, "points", _normal_line(contact, normal))
         drawn = in_contact and force != 0.0
         self.arrow.visible = drawn
         self.force_label.visible = drawn and self._labels_shown

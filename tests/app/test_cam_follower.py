@@ -373,6 +373,10 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     assert w * chunk.separations[0] == pytest.approx(root, abs=math.radians(4.0))
     # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
     wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.gui.readout.content, timeout=60.0)
+    # in flight: no force arrow and no contact normal (the dot is the cam's point nearest the follower)
+    wait_until(lambda: not scene.arrow.visible and not scene.normal_line.visible, timeout=10.0)
+    # on the cam again: the normal is back
+    wait_until(lambda: "on the cam" in scene.gui.readout.content and scene.normal_line.visible, timeout=60.0)
     # the next revolution continues from the last state of this one
     wait_until(lambda: scene.run_chunk is not None and scene.run_chunk.k >= 1, timeout=180.0)
     assert scene.paused_error is None and not notices_with(app, "Compliant run stopped")
