@@ -72,8 +72,12 @@ def test_roller_follower_in_flight_is_followed_whatever_the_output_density(law):
         np.testing.assert_allclose(centre - h.point, (h.gap + 0.01)[:, None] * h.normal, rtol=0, atol=1e-12)
     (b1, t1, _), (b2, t2, _) = runs
     np.testing.assert_allclose(t2.t[::4], t1.t, rtol=0, atol=0)
-    np.testing.assert_allclose(t2.q[::4], t1.q, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(t2.contact(b2.contact).point[::4], t1.contact(b1.contact).point, rtol=0, atol=1e-10)
+    # The same motion, to the run's tolerance: an output's projection may warm-start the contact Newton of
+    # the next stage, whose round-off can then flip a step's acceptance (the harmonic cam: 1.5e-7 m apart
+    # after 2 revolutions at rtol 1e-6; the 345 cam: identical). The failure this guards against, a contact
+    # point that jumps to another branch with sparse outputs, moved the point by centimetres.
+    np.testing.assert_allclose(t2.q[::4], t1.q, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(t2.contact(b2.contact).point[::4], t1.contact(b1.contact).point, rtol=0, atol=1e-6)
 
 
 def _lowest_rim_point(traj, disk, R):
