@@ -314,7 +314,8 @@ class CamProfile:
         # built directly rather than by eccentric() or rise_dwell_return(): the same checks, and the fields
         # of the other kind left out
         how = "build a profile with CamProfile.eccentric(...) or CamProfile.rise_dwell_return(...)"
-        fields = {"eccentric": ("radius", "eccentricity"), "rise_dwell_return": ("lift", "rise", "dwell", "fall", "law")}
+        fields = {"eccentric": ("radius", "eccentricity"),
+                  "rise_dwell_return": ("lift", "rise", "dwell", "fall", "law")}
         if not isinstance(self.kind, str) or self.kind not in fields:
             raise ValueError(f"kind: expected 'eccentric' or 'rise_dwell_return' ({how}), got {short_repr(self.kind)}")
         other = next(k for k in fields if k != self.kind)
@@ -324,15 +325,14 @@ class CamProfile:
             names = ", ".join(missing or extra)
             article = "an" if self.kind == "eccentric" else "a"
             raise ValueError(f"{names}: {article} {self.kind!r} profile {'needs' if missing else 'has no'} {names} "
-                             f"({how}), "
-                             f"got {short_repr(self)}")
+                             f"({how}), got {short_repr(self)}")
         if self.kind == "eccentric":
-            made = CamProfile.eccentric.__func__(_Unchecked, self.radius, self.eccentricity)
+            base = _eccentric_fields(self.radius, self.eccentricity)[0]
         else:
-            made = CamProfile.rise_dwell_return.__func__(_Unchecked, self.base_radius, self.lift, self.rise, self.dwell,
-                                                         self.fall, self.law)
-        if not made.base_radius == self.base_radius:
-            raise ValueError(f"base_radius: expected {made.base_radius!r} m for this {self.kind!r} profile ({how}), "
+            base = _rise_dwell_return_fields(self.base_radius, self.lift, self.rise, self.dwell, self.fall,
+                                             self.law)[0]
+        if not base == self.base_radius:
+            raise ValueError(f"base_radius: expected {base!r} m for this {self.kind!r} profile ({how}), "
                              f"got {short_repr(self.base_radius)}")
 
     @classmethod
@@ -356,11 +356,8 @@ class CamProfile:
         -------
         CamProfile
         """
-        R = _positive(radius, "radius", "m")
-        e = _positive(eccentricity, "eccentricity", "m")
-        if not e < R:
-            raise ValueError(f"eccentricity: expected less than radius={R!r} (the shaft inside the cam), got {e!r}")
-        return cls("eccentric", R - e, radius=R, eccentricity=e)
+        Rb, R, e = _eccentric_fields(radius, eccentricity)
+        return cls("eccentric", Rb, radius=R, eccentricity=e)
 
     @classmethod
     def rise_dwell_return(
@@ -408,18 +405,7 @@ class CamProfile:
         -------
         CamProfile
         """
-        Rb = _positive(base_radius, "base_radius", "m")
-        L = _positive(lift, "lift", "m")
-        b1 = _positive(rise, "rise", "rad")
-        b2 = _non_negative(dwell, "dwell", "rad")
-        b3 = _positive(fall, "fall", "rad")
-        if not isinstance(law, str) or law not in CAM_LAWS:
-            raise ValueError(f"law: expected one of {list(CAM_LAWS)}, got {short_repr(law)}")
-        total = b1 + b2 + b3
-        if total > _TWO_PI * (1.0 + 1e-12):
-            raise ValueError(
-                f"rise, dwell, fall: expected rise + dwell + fall <= 2 pi (one turn), got {total!r} rad"
-            )
+        Rb, L, b1, b2, b3, law = _rise_dwell_return_fields(base_radius, lift, rise, dwell, fall, law)
         return cls("rise_dwell_return", Rb, lift=L, rise=b1, dwell=b2, fall=b3, law=law)
 
     # ------------------------------------------------------------ motion law
@@ -510,11 +496,31 @@ def _evaluate_segments(segments: tuple[_Segment, ...], theta: np.ndarray) -> np.
     return out
 
 
-class _Unchecked:
-    """Stands in for :class:`CamProfile` when ``CamProfile.__post_init__`` runs a factory's checks."""
+def _eccentric_fields(radius: Any, eccentricity: Any) -> tuple[float, float, float]:
+    """The checked ``(base_radius, radius, eccentricity)`` of an eccentric cam (m)."""
+    R = _positive(radius, "radius", "m")
+    e = _positive(eccentricity, "eccentricity", "m")
+    if not e < R:
+        raise ValueError(f"eccentricity: expected less than radius={R!r} (the shaft inside the cam), got {e!r}")
+    return R - e, R, e
 
-    def __init__(self, kind: str, base_radius: float, **fields: Any) -> None:
-        self.kind, self.base_radius = kind, base_radius
+
+def _rise_dwell_return_fields(base_radius: Any, lift: Any, rise: Any, dwell: Any, fall: Any,
+                              law: Any) -> tuple[float, float, float, float, float, str]:
+    """The checked ``(base_radius, lift, rise, dwell, fall, law)`` of a rise-dwell-return cam."""
+    Rb = _positive(base_radius, "base_radius", "m")
+    L = _positive(lift, "lift", "m")
+    b1 = _positive(rise, "rise", "rad")
+    b2 = _non_negative(dwell, "dwell", "rad")
+    b3 = _positive(fall, "fall", "rad")
+    if not isinstance(law, str) or law not in CAM_LAWS:
+        raise ValueError(f"law: expected one of {list(CAM_LAWS)}, got {short_repr(law)}")
+    total = b1 + b2 + b3
+    if total > _TWO_PI * (1.0 + 1e-12):
+        raise ValueError(
+            f"rise, dwell, fall: expected rise + dwell + fall <= 2 pi (one turn), got {total!r} rad"
+        )
+    return Rb, L, b1, b2, b3, law
 
 
 # ------------------------------------------------------------------ follower
