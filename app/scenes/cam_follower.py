@@ -655,6 +655,11 @@ def _arrow(contact: tuple[float, float], normal: tuple[float, float], force: flo
     return np.array([ends], dtype=np.float32)
 
 
+def _slow_motion_text(turn: float, speed: float) -> str:
+    """The readouts' last line: the wall seconds of a shown turn against a real one at ``speed`` (rad/s)."""
+    return f"*slow motion*: one turn in {turn:g} s (a real turn takes {1000.0 * 2.0 * math.pi / speed:.1f} ms)"
+
+
 def _normal_line(contact: tuple[float, float], normal: tuple[float, float]) -> np.ndarray:
     x, z = contact
     dx, dz = normal[0] * _NORMAL_HALF_LENGTH, normal[1] * _NORMAL_HALF_LENGTH
@@ -1147,7 +1152,7 @@ class CamFollowerScene(Scene):
             f"**v** = ω s′ = {float(rev.velocity[i]):.4f} m/s · **a** = ω² s″ = "
             f"{float(rev.acceleration[i]):.2f} m/s²  ",
             f"**N** = {force:.3f} N ({state})  ",
-            f"*slow motion*: one turn in {turn:g} s (a real turn takes {1000.0 * 2.0 * math.pi / rev.speed:.1f} ms)",
+            _slow_motion_text(turn, rev.speed),
         ])
 
     # -- compliant run --------------------------------------------------------------------
@@ -1216,8 +1221,7 @@ class CamFollowerScene(Scene):
         ]
         if self.waiting:
             lines.append("*computing the next revolution…*  ")
-        lines.append(f"*slow motion*: one turn in {turn:g} s (a real turn takes "
-                     f"{1000.0 * 2.0 * math.pi / rev.speed:.1f} ms)")
+        lines.append(_slow_motion_text(turn, rev.speed))
         return "\n".join(lines)
 
     # -- drawing ------------------------------------------------------------------------------

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import threading
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -899,8 +900,6 @@ def _check_turns(system: Any, y0: np.ndarray, t0: float, t1: float, max_steps: i
     if radians > max_steps:
         raise ValueError(f"t: {what}: more than max_steps={max_steps}; ask for a shorter time span or pass a "
                          "larger max_steps")
-    import warnings
-
     warnings.warn(f"simulate: {what} (0.1-1 ms each): this run takes minutes; ask for a shorter time span to "
                   "see it sooner", RuntimeWarning, stacklevel=4)
 
@@ -1120,10 +1119,6 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
                       None if stopped is None else stopped[0], None if stopped is None else stopped[1])
 
 
-def _times(t: Any) -> np.ndarray:
-    return output_times(t)
-
-
 def simulate(
     system: Any,
     t: Any,
@@ -1208,7 +1203,7 @@ def simulate(
         constrained equations are singular; ``IntegrationError`` when the
         integrator fails.
     """
-    tt = _times(t)
+    tt = output_times(t)
     methods = ADAPTIVE_METHODS + FIXED_STEP_METHODS + (KINEMATIC_METHOD,)
     if not isinstance(method, str) or method not in methods:
         raise ValueError(f"method: expected one of {list(methods)}, got {short_repr(method)}")
