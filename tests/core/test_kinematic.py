@@ -18,7 +18,11 @@ import numpy as np
 import pytest
 
 from core.contact import _search
+from core.contact._kernel import ContactKernel
 from core.models import CamFollower, CamProfile, pendulum_chain, rolling_disk, slider_crank
+from core.multibody._engine import parameter_rates
+from core.multibody._simulate import _kinematic_prediction
+from core.multibody._system import exp_parameters
 
 TWO_PI = 2.0 * math.pi
 #: The position Newton stops at max |C| <= 1e-12 (m); with a lift of about 1e-2 m
@@ -66,9 +70,14 @@ def test_cam_force_to_the_newton_tolerance(follower, rf, eo):
     np.testing.assert_allclose(motion.lift, k.lift, rtol=0, atol=KINEMATIC_RTOL * np.abs(k.lift).max())
     N = cam.contact_force(motion.cam_angle, speed)
     np.testing.assert_allclose(motion.contact_force, N, rtol=0, atol=KINEMATIC_RTOL * np.abs(N).max())
-    # DOP853 on the same System is 1e-8 off at its default tolerances: the kinematic run is not an integration
+    # the kinematic run is not an integration: its error is the Newton tolerance's. At position_tol 1e-14 it is
+    # 1e-11 relative (the roller's curvature amplifies round-off to about 2e-12), below DOP853's on the same
+    # System at rtol 1e-8
+    built = cam.build_system(speed)
+    tight = built.system.simulate(t, method="kinematic", position_tol=1e-14).contact(built.contact).normal_force
+    np.testing.assert_allclose(tight, N, rtol=0, atol=1e-11 * np.abs(N).max())
     dop = cam.simulate(speed, t, method="DOP853", rtol=1e-8, atol=1e-10)
-    assert np.max(np.abs(dop.contact_force - N)) > np.max(np.abs(motion.contact_force - N))
+    assert np.max(np.abs(dop.contact_force - N)) > np.max(np.abs(tight - N))
 
 
 def test_separation_at_the_closed_form_angle_and_the_compliant_continuation():
@@ -139,3 +148,54 @@ def test_sparse_outputs_stay_on_the_mechanisms_assembly():
     x, _ = slider_closed_form(model.crank_length, model.rod_length, 1.0, t)
     i = model.system.bodies.index(model.slider)
     np.testing.assert_allclose(kin.q[:, 3 * i], x, rtol=0, atol=1e-11)
+
+
+def _hermite_case(t: float):
+    """A smooth motion of one body (n = 1): ``(y, f)`` at ``t``, the state and its rates (``f``: R_dot, p_dot,
+    R_ddot, omega_body_dot), turning at the constant body angular velocity ``w``."""
+    w = np.array([0.3, -1.1, 2.0])
+    R = np.array([math.sin(t), math.cos(2.0 * t), math.exp(0.5 * t)])
+    v = np.array([math.cos(t), -2.0 * math.sin(2.0 * t), 0.5 * math.exp(0.5 * t)])
+    a = np.array([-math.sin(t), -4.0 * math.cos(2.0 * t), 0.25 * math.exp(0.5 * t)])
+    p = exp_parameters((t * w)[None, :])[0]
+    p_dot = parameter_rates(p[None, :], w[None, :])[0]
+    return np.concatenate([R, p, v, w]), np.concatenate([v, p_dot, a, np.zeros(3)]), R, p
+
+
+def test_kinematic_prediction_orders():
+    """The start of a kinematic step's Newton (``_kinematic_prediction``): the quintic Hermite extrapolation of
+    the positions one interval ahead has an error of order h^6 (halving the interval divides it by about
+    64); the Euler parameters of a body turning at a constant angular velocity are exact to round-off."""
+    errors = []
+    for H in (0.2, 0.1, 0.05):
+        y_p, f_p, _, _ = _hermite_case(1.0 - H)
+        y, f, _, _ = _hermite_case(1.0)
+        _, _, R_true, p_true = _hermite_case(1.0 + H)
+        z = _kinematic_prediction(1, y, 1.0, (1.0 - H, y_p, f_p, f), 1.0 + H)
+        errors.append(float(np.abs(z[:3] - R_true).max()))
+        np.testing.assert_allclose(z[3:7], p_true, rtol=0, atol=1e-15)
+    ratios = [errors[0] / errors[1], errors[1] / errors[2]]
+    assert all(45.0 < r < 90.0 for r in ratios), (errors, ratios)  # 2^6 = 64 asymptotically
+    # the first step (no point before): Taylor's R + h v + h^2 a / 2, an error of order h^3
+    y, f, _, _ = _hermite_case(1.0)
+    _, _, R_true, p_true = _hermite_case(1.05)
+    z = _kinematic_prediction(1, y, 1.0, (None, None, None, f), 1.05)
+    np.testing.assert_allclose(z[:3], R_true, rtol=0, atol=8.0 * 0.05**3 / 6.0)  # |R'''| <= 8
+    np.testing.assert_allclose(z[3:7], p_true, rtol=0, atol=1e-15)
+
+
+def test_cam_at_one_output_per_frame_takes_one_step_a_frame(monkeypatch):
+    """98 degrees of cam per output (one output per 60 Hz frame at 0.9 times the jump speed): every output is
+    one step, whose contact Newton starts from the last output's parameters moved by their rates and
+    converges there (no continuation in sub-steps, no search), with the closed-form lift."""
+    cam = CamFollower(CamProfile.eccentric())
+    speed = 0.9 * cam.jump_speed()
+    built = cam.build_system(speed)
+    calls = []
+    original = ContactKernel._continue_one
+    monkeypatch.setattr(ContactKernel, "_continue_one", lambda *a, **k: calls.append(1) or original(*a, **k))
+    t = np.arange(61) / 60.0
+    traj = built.system.simulate(t, method="kinematic")
+    assert traj.n_steps == 60 and calls == []
+    lift = traj.q[:, 3 * built.system.bodies.index(built.follower) + 2] - built.lift_origin
+    np.testing.assert_allclose(lift, cam.kinematics(speed * t).lift, rtol=0, atol=KINEMATIC_RTOL * 0.02)
