@@ -1276,6 +1276,10 @@ def _cam_planar_curve(cam: CamFollower):
     return curve
 
 
+#: Largest cam speed (rad/s) a run takes: the System's accelerations stay finite (see :func:`_build_system`).
+MAX_CAM_SPEED = 1e100
+
+
 def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_stiffness: Any,
                   contact_damping: Any, contact_exponent: Any) -> CamSystem:
     from core.contact import PlanarCurve
@@ -1283,6 +1287,10 @@ def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_
     from core.rotations import quaternion_product
 
     w = real_number(speed, "speed", expected="a finite cam speed (rad/s)")
+    if abs(w) > MAX_CAM_SPEED:
+        # the accelerations carry omega^2 times lengths and products of such terms: past this they overflow,
+        # and the contact search then reports a degenerate curve instead of the speed
+        raise ValueError(f"speed: expected a cam speed (rad/s) of magnitude at most {MAX_CAM_SPEED:g}, got {w!r}")
     t0 = real_number(start, "start", expected="a finite start time (s)")
     if not isinstance(model, str) or model not in CAM_CONTACT_MODELS:
         raise ValueError(f"model: expected one of {list(CAM_CONTACT_MODELS)}, got {short_repr(model)}")
