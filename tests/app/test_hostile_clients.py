@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app.controls import Button, ButtonGroup, Choice, NumberText, Slider, Text, Toggle, VectorText
+from app.controls import Button, ButtonGroup, Choice, NumberText, Refused, Slider, Text, Toggle, VectorText
 from app.scenes import discover_scenes
 from app.wire import gui_value_message
 from tests.helpers import wait_until
@@ -103,6 +103,14 @@ class _Scanner:
             interface.queue_message = original
 
 
+def _parses(spec: Any, value: Any) -> bool:
+    try:
+        spec.parse(value)
+    except Refused:  # not restored yet
+        return False
+    return True
+
+
 def _controls_of(app: Any) -> list[tuple[Any, Any]]:
     """(panel, key) of every control of the session shell and the active scene."""
     session = app.session_for()
@@ -150,6 +158,12 @@ def test_hostile_client_cannot_break_a_shared_session(
             attacker.send(msgpack.packb({"type": "GuiUpdateMessage", "uuid": uuid,
                                          "updates": {"visible": False}}, use_bin_type=True))
         time.sleep(2.0)  # past the text restore delay (1.5 s)
+        # A text field is restored 1.5 s after its last refused text was handled, which on a loaded machine can
+        # be well after the attacker sent it (the messages queue in viser's pool): wait for every one.
+        texts = [(panel.specs[key], panel.handles[key]) for panel, key in pairs
+                 if isinstance(panel.specs[key], (NumberText, VectorText))]
+        assert wait_until(lambda: all(_parses(spec, handle.value) for spec, handle in texts), 20.0), [
+            (spec.key, handle.value) for spec, handle in texts if not _parses(spec, handle.value)]
 
         # The observer stays connected and the attacker too (refusals are not disconnects).
         assert observer._thread.is_alive() and attacker._thread.is_alive()
