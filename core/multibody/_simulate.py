@@ -39,7 +39,7 @@ from ._analysis import (
 )
 from ._elements import Body, Joint, Motor
 from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, matrices, parameter_rates
-from ._system import State, _make_state, exp_parameters, quaternion_products
+from ._system import State, _make_state
 
 __all__ = [
     "ADAPTIVE_METHODS",
@@ -993,9 +993,10 @@ def _trusted(n: int, y_a: np.ndarray, z: np.ndarray, y_new: np.ndarray, h: float
     although its displacement is small.
     """
     n3, n7 = 3 * n, 7 * n
-    for lo, hi, floor in ((0, n3, 1e-9 * (1.0 + float(np.max(np.abs(y_new[:n3]))))), (n3, n7, 1e-9)):
-        corr = float(np.max(np.abs(y_new[lo:hi] - z[lo:hi])))
-        moved = max(float(np.max(np.abs(y_new[lo:hi] - y_a[lo:hi]))), h * float(np.max(np.abs(f_a[lo:hi]))))
+    d = np.abs(np.stack([y_new[:n7] - z[:n7], y_new[:n7] - y_a[:n7], h * f_a[:n7], y_new[:n7]]))
+    (corr_R, corr_p), (disp_R, disp_p), (rate_R, rate_p), (size_R, _) = np.maximum.reduceat(d, (0, n3), axis=1).tolist()
+    for corr, moved, floor in ((corr_R, max(disp_R, rate_R), 1e-9 * (1.0 + size_R)),
+                               (corr_p, max(disp_p, rate_p), 1e-9)):
         if corr > floor and corr > _KINEMATIC_TRUST * moved:
             return False
     return True
@@ -1042,8 +1043,8 @@ def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple, tq: floa
         h2 = 0.5 * (u2 - 3.0 * u3 + 3.0 * u4 - u5)
         h3 = 0.5 * (u3 - 2.0 * u4 + u5)
         h4 = -4.0 * u3 + 7.0 * u4 - 3.0 * u5
-        z[:n3] = (h0 * y_p[:n3] + h1 * H * f_p[:n3] + h2 * H * H * f_p[n7 : n7 + n3] + h3 * H * H * f[n7 : n7 + n3]
-                  + h4 * H * f[:n3] + (1.0 - h0) * y[:n3])
+        z[:n3] = (h0 * y_p[:n3] + (1.0 - h0) * y[:n3] + (H * h1) * f_p[:n3] + (H * h4) * f[:n3]
+                  + (H * H * h2) * f_p[n7 : n7 + n3] + (H * H * h3) * f[n7 : n7 + n3])
     else:
         z[:n3] = y[:n3] + h * f[:n3] + 0.5 * h * h * f[n7 : n7 + n3]
     if u is not None and u <= 1.0 + 1e-9:
@@ -1054,8 +1055,19 @@ def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple, tq: floa
         P = z[n3:n7].reshape(n, 4)
         P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
     else:
-        phi = h * y[10 * n :] + 0.5 * h * h * f[n7 + n3 :]
-        z[n3:n7] = quaternion_products(y[n3:n7].reshape(n, 4), exp_parameters(phi.reshape(n, 3))).ravel()
+        phi = (h * y[10 * n :] + 0.5 * h * h * f[n7 + n3 :]).tolist()
+        P = y[n3:n7].tolist()
+        out = []
+        for b in range(n):  # p exp(phi / 2), body by body on floats (a mechanism has few bodies)
+            x1, x2, x3 = phi[3 * b : 3 * b + 3]
+            ang = math.sqrt(x1 * x1 + x2 * x2 + x3 * x3)
+            c = math.cos(0.5 * ang)
+            k = math.sin(0.5 * ang) / ang if ang > 1e-4 else 0.5 - ang * ang / 48.0  # sin(x/2)/x near 0
+            q1, q2, q3 = k * x1, k * x2, k * x3
+            w, a1, a2, a3 = P[4 * b : 4 * b + 4]
+            out += (w * c - a1 * q1 - a2 * q2 - a3 * q3, w * q1 + a1 * c + a2 * q3 - a3 * q2,
+                    w * q2 - a1 * q3 + a2 * c + a3 * q1, w * q3 + a1 * q2 - a2 * q1 + a3 * c)
+        z[n3:n7] = out
     return z
 
 
