@@ -641,29 +641,31 @@ def _gap_crossings(t: np.ndarray, gap: np.ndarray, constraint: np.ndarray) -> tu
 
 
 # -- drawing helpers (loop thread, plain floats) ------------------------------------
-def _arrow(contact: tuple[float, float], normal: tuple[float, float], force: float) -> np.ndarray:
-    """The force on the follower, ``N n``, drawn at the contact point on the cam
-    (1, 2, 3): N > 0 ends at the contact point, N < 0 starts there; the length
-    ``_ARROW_MAX |N| / (|N| + _ARROW_HALF)`` saturates."""
-    length = _ARROW_MAX * abs(force) / (abs(force) + _ARROW_HALF)
-    x, z = contact
-    dx, dz = normal[0] * length, normal[1] * length
-    if force >= 0.0:
-        ends = ((x - dx, _Y_FRONT, z - dz), (x, _Y_FRONT, z))
-    else:
-        ends = ((x, _Y_FRONT, z), (x - dx, _Y_FRONT, z - dz))
-    return np.array([ends], dtype=np.float32)
+def _arrow_length(force: float) -> float:
+    """Length (m) of the force arrow: ``_ARROW_MAX |N| / (|N| + _ARROW_HALF)``, which saturates."""
+    return _ARROW_MAX * abs(force) / (abs(force) + _ARROW_HALF)
+
+
+def _arrow(length: float, force: float) -> np.ndarray:
+    """The force on the follower, ``N n``, in the contact point's frame (+z along the normal ``n``), (1, 2,
+    3): N > 0 ends at the contact point, N < 0 starts there."""
+    ends = ((0.0, 0.0, -length), (0.0, 0.0, 0.0))
+    return np.array([ends if force >= 0.0 else ends[::-1]], dtype=np.float32)
+
+
+def _normal_wxyz(normal: tuple[float, float]) -> tuple[float, float, float, float]:
+    """Euler parameters (scalar first) of the turn about y taking +z to the normal ``(n_x, n_z)`` (x-z plane)."""
+    nx, nz = normal
+    w = 1.0 + nz
+    if w < 1e-12:  # the normal along -z: half a turn about x
+        return (0.0, 1.0, 0.0, 0.0)
+    k = 1.0 / math.sqrt(w * w + nx * nx)
+    return (w * k, 0.0, nx * k, 0.0)
 
 
 def _slow_motion_text(turn: float, speed: float) -> str:
     """The readouts' last line: the wall seconds of a shown turn against a real one at ``speed`` (rad/s)."""
     return f"*slow motion*: one turn in {turn:g} s (a real turn takes {1000.0 * 2.0 * math.pi / speed:.1f} ms)"
-
-
-def _normal_line(contact: tuple[float, float], normal: tuple[float, float]) -> np.ndarray:
-    x, z = contact
-    dx, dz = normal[0] * _NORMAL_HALF_LENGTH, normal[1] * _NORMAL_HALF_LENGTH
-    return np.array([((x - dx, _Y_FRONT, z - dz), (x + dx, _Y_FRONT, z + dz))], dtype=np.float32)
 
 
 _HELIX_U = np.linspace(0.0, 1.0, _SPRING_POINTS)
@@ -859,14 +861,20 @@ class CamFollowerScene(Scene):
             batched_colors=_SPRING_COLOR, lod="off", side="double",
         )
         self.contact_frame = scene.add_frame(f"{root}/contact", show_axes=False)
-        self.contact_point = scene.add_icosphere(f"{root}/contact/point", radius=0.0026, color=_POINT_COLOR,
-                                                 subdivisions=2)
-        self.normal_line = self.add_lines(f"{root}/contact/normal", np.zeros((1, 2, 3), dtype=np.float32),
-                                          np.full((1, 2, 3), _NORMAL_COLOR, dtype=np.uint8), thickness=2.5,
-                                          thickness_units="screen")
-        self.arrow = self.add_arrows(f"{root}/contact/force", np.zeros((1, 2, 3), dtype=np.float32),
+        # the contact point's frame: at the point, +z along the common normal. The dot, the normal and the
+        # force arrow are drawn in it, so that one pose moves all three together (points re-sent every
+        # frame reached the page frames after the pose); the arrow is re-sent only when its length has
+        # changed by 2 % or its sense has flipped
+        self.contact_point = scene.add_frame(f"{root}/contact/point", show_axes=False)
+        scene.add_icosphere(f"{root}/contact/point/dot", radius=0.0026, color=_POINT_COLOR, subdivisions=2)
+        self.normal_line = self.add_lines(
+            f"{root}/contact/point/normal",
+            np.array([[(0.0, 0.0, -_NORMAL_HALF_LENGTH), (0.0, 0.0, _NORMAL_HALF_LENGTH)]], dtype=np.float32),
+            np.full((1, 2, 3), _NORMAL_COLOR, dtype=np.uint8), thickness=2.5, thickness_units="screen")
+        self.arrow = self.add_arrows(f"{root}/contact/point/force", np.zeros((1, 2, 3), dtype=np.float32),
                                      np.array([_FORCE_COLOR], dtype=np.uint8), shaft_radius=0.0016,
                                      head_radius=0.004, head_length=0.008)
+        self._arrow_sent = (0.0, True)  # (length, N >= 0) of the arrow as sent
         # Labels start hidden and are shown by a later frame (see set_active).
         self.force_label = self.add_label(f"{root}/contact/label", "N", anchor="top-right", scale=_LABEL_SCALE,
                                           visible=False)
@@ -1237,19 +1245,23 @@ class CamFollowerScene(Scene):
         self.contact_frame.visible = show
         if not show:
             return
-        set_pose(self.contact_point, position=(contact[0], _Y_FRONT, contact[1]))
+        set_pose(self.contact_point, position=(contact[0], _Y_FRONT, contact[1]), wxyz=_normal_wxyz(normal))
         if self.normal_line.visible != in_contact:  # in flight there is no contact normal to draw
             self.normal_line.visible = in_contact
-        if in_contact:
-            set_array(self.normal_line, "points", _normal_line(contact, normal))
         drawn = in_contact and force != 0.0
         self.arrow.visible = drawn
         self.force_label.visible = drawn and self._labels_shown
         if drawn:
-            arrow = _arrow(contact, normal, force)
-            color = _FORCE_COLOR if force > 0.0 else _PULL_COLOR
-            set_arrays(self.arrow, points=arrow, colors=np.array([color], dtype=np.uint8))
-            set_pose(self.force_label, position=arrow[0, 0] if force > 0.0 else arrow[0, 1])
+            length, pressing = _arrow_length(force), force >= 0.0
+            sent, sent_pressing = self._arrow_sent
+            if pressing != sent_pressing or abs(length - sent) > 0.02 * sent:
+                self._arrow_sent = (length, pressing)
+                color = _FORCE_COLOR if pressing else _PULL_COLOR
+                set_arrays(self.arrow, points=_arrow(length, force), colors=np.array([color], dtype=np.uint8))
+            # the label at the arrow's tail (the end away from the contact point), in global coordinates
+            tail = self._arrow_sent[0]
+            set_pose(self.force_label,
+                     position=(contact[0] - tail * normal[0], _Y_FRONT, contact[1] - tail * normal[1]))
 
     def _refresh_one(self) -> None:
         """One pending panel or buffer update per frame (meshes, info, marks, one plot)."""

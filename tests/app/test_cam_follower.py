@@ -49,6 +49,15 @@ R, E = ECCENTRIC_RADIUS, ECCENTRICITY
 RB = R - E  # base circle of the eccentric cam
 
 
+def _in_global(frame, points: np.ndarray) -> np.ndarray:
+    """``points`` (k, 3) given in the frame of the node ``frame`` (its pose), in global coordinates."""
+    w, x, y, z = (float(c) for c in frame.wxyz)
+    A = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                  [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                  [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.asarray(frame.position) + points @ A.T
+
+
 def flat_closed_form(theta, inputs: Inputs):
     """Flat face on the eccentric cam: lift, s', s'' and the contact force (independent of core)."""
     w = inputs.rpm * math.pi / 30.0
@@ -127,7 +136,8 @@ def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_ap
         theta, text = scene.cam_angle, scene.gui.readout.content
         z = float(scene.follower_frame.position[2])
         point = np.array(scene.contact_point.position)
-        arrow = np.array(scene.arrow.points)[0]
+        arrow = _in_global(scene.contact_point, np.array(scene.arrow.points)[0])
+        normal = _in_global(scene.contact_point, np.array(scene.normal_line.points)[0])
     inputs = scene.revolution.inputs
     s, ds, dds, force = flat_closed_form(theta, inputs)
     w = inputs.rpm * math.pi / 30.0
@@ -143,6 +153,9 @@ def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_ap
     # the force arrow ends at the contact point, pointing up into the follower (N > 0)
     np.testing.assert_allclose(arrow[1, [0, 2]], [ds, RB + s], atol=1e-6)
     assert arrow[1, 2] > arrow[0, 2] and abs(arrow[1, 0] - arrow[0, 0]) < 1e-9
+    # the common normal is drawn through the contact point, perpendicular to the flat face
+    np.testing.assert_allclose(normal.mean(axis=0)[[0, 2]], [ds, RB + s], atol=1e-9)
+    assert abs(normal[1, 0] - normal[0, 0]) < 1e-9 < normal[1, 2] - normal[0, 2]
 
 
 def test_roller_follows_the_slider_crank_closed_form(cam_app):
@@ -157,6 +170,7 @@ def test_roller_follows_the_slider_crank_closed_form(cam_app):
     with app.session_for().run_lock:
         theta, z = scene.cam_angle, float(scene.follower_frame.position[2])
         point = np.array(scene.contact_point.position)
+        normal = _in_global(scene.contact_point, np.array(scene.normal_line.points)[0])
     s = roller_lift(theta, r)
     assert z == pytest.approx(R + r - E + s, abs=1e-14)  # the roller's centre
     assert numbers(scene.gui.readout.content, "**s**") == f"{1000 * s:.4f}"
@@ -164,6 +178,10 @@ def test_roller_follows_the_slider_crank_closed_form(cam_app):
     centre_cam = np.array([E * math.sin(theta), -E * math.cos(theta)])  # the circle's centre, turned by theta
     assert math.hypot(point[0], point[2] - z) == pytest.approx(r, abs=1e-12)
     assert math.hypot(point[0] - centre_cam[0], point[2] - centre_cam[1]) == pytest.approx(R, abs=1e-12)
+    # the common normal is drawn through the contact point and the roller's centre
+    d = normal[1] - normal[0]
+    to_centre = np.array([0.0, 0.0, z]) - point
+    assert abs(d[0] * to_centre[2] - d[2] * to_centre[0]) < 1e-9 * np.linalg.norm(d) * r
     # the roller's mesh is shown with its radius, the flat face hidden
     wait_until(lambda: scene.roller_mesh.visible and not scene.follower_meshes["flat"].visible)
     vertices = np.asarray(scene.roller_mesh.vertices)
