@@ -50,7 +50,7 @@ from app.controls import Button, Choice, Text, Toggle
 from app.gate import Gate, RefusedValue, client_request_path
 from app.panel import ControlPanel
 from app.scenes import discover_scenes, discovery_errors
-from app.scenes.base import Scene, SceneContext
+from app.scenes.base import Scene, SceneContext, plot_text_css
 from app.worker import make_executor
 
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
@@ -178,6 +178,7 @@ class Session:
         self.gate = Gate.for_gui(target.gui, on_refused=self._on_refused)
         self.controls = ControlPanel(target.gui, self.gate, self.notify_client)
         self._chooser: Any = None
+        self._plot_css: Any = None  # the plots' title and legend sizes (presenter view), an HTML element
 
     # -- notices ---------------------------------------------------------
     def notify(self, title: str, body: str, level: str = "info") -> None:
@@ -257,6 +258,7 @@ class Session:
                        hint="Large labels, thick arrows and large readouts for a projector."),
                 order=-999.0,
             )
+            self._plot_css = gui.add_html(plot_text_css(self.presenter), order=-998.0)
             with gui.add_folder("Share", order=1e6, expand_by_default=False):
                 self.controls.add(Button("copy_state", "Copy state",
                                          hint="The scene's parameters as a short string and a link"))
@@ -356,6 +358,8 @@ class Session:
             self.presenter = bool(on)
             if self._chooser is not None:
                 self.controls.set("presenter", self.presenter)
+            if self._plot_css is not None:
+                self._plot_css.content = plot_text_css(self.presenter)
             for name, scene in self.scenes.items():
                 self._guard(f"presenter view of '{name}'", lambda scene=scene: scene.set_presenter(self.presenter))
 

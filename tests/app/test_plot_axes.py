@@ -10,7 +10,8 @@ import pytest
 
 from app.readout import PRESENTER_FONT_SCALE
 from app.scenes import discover_scenes
-from app.scenes.base import PLOT_FONT_PX, PLOT_Y_AXIS_PX, plot_axes
+from app.scenes.base import PLOT_FONT_PX, PLOT_Y_AXIS_PX, plot_axes, plot_text_css
+from tests.helpers import send_value, wait_until
 
 SCENES = list(discover_scenes())
 
@@ -49,3 +50,20 @@ def test_every_plot_of_a_scene_has_the_scene_axes_and_follows_presenter_view(ser
         scene.set_presenter(on)
         for plot in scene._plots:
             assert tuple(plot.axes) == plot_axes(on)
+
+
+def test_plot_titles_and_legends_grow_in_presenter_view(running_app: Any) -> None:
+    """uPlot draws titles and legends as page elements, outside a plot's options: the session's panel carries
+    a style sheet that enlarges them in presenter view (a title to a presenter readout's size) and is empty
+    otherwise."""
+    assert plot_text_css(False) == ""
+    css = plot_text_css(True)
+    assert f".uplot .u-title{{font-size:{PRESENTER_FONT_SCALE:.2f}rem !important" in css
+    assert ".uplot .u-legend{font-size:1.16rem !important}" in css  # 0.7 rem scaled as the title's 0.875
+    app = running_app(scene="cam_follower")
+    session = app.session_for()
+    assert session._plot_css.content == ""
+    assert send_value(session, "presenter", True)
+    assert wait_until(lambda: session._plot_css.content == css, 10.0)
+    assert send_value(session, "presenter", False)
+    assert wait_until(lambda: session._plot_css.content == "", 10.0)

@@ -20,6 +20,11 @@ def _font_px(page: Any) -> float:
         "e => parseFloat(getComputedStyle(e).fontSize)"))
 
 
+def _plot_css_in_page(page: Any) -> bool:
+    return bool(page.evaluate(
+        "() => [...document.querySelectorAll('style')].some(s => s.textContent.includes('.uplot .u-title{font-size'))"))
+
+
 def test_presenter_toggle_enlarges_labels_arrows_and_readouts(running_app: Any, open_page: Any) -> None:
     app = running_app(scene="manipulator", run_unwatched=False)
     page = open_page(app)
@@ -33,9 +38,12 @@ def test_presenter_toggle_enlarges_labels_arrows_and_readouts(running_app: Any, 
     # Labels (drawn in WebGL) grow on the server's nodes; readouts grow in the page's DOM.
     assert all(h.font_screen_scale >= 1.5 * s for (h, _), s in zip(scene._labels, small_scale))
     assert wait_until(lambda: _font_px(page) >= 1.4 * small_px, 30.0)
+    # the plots' titles and legends (page elements of uPlot) grow by the session's style sheet
+    assert wait_until(lambda: _plot_css_in_page(page), 30.0)
     box.uncheck()
     assert wait_until(lambda: not scene.presenter, 30.0)
     assert wait_until(lambda: abs(_font_px(page) - small_px) < 0.5, 30.0)
+    assert wait_until(lambda: not _plot_css_in_page(page), 30.0)
 
 
 def test_load_state_from_the_page_reproduces_a_pose(running_app: Any, open_page: Any) -> None:
