@@ -1414,6 +1414,7 @@ def simulate(
             _switch_to_compliant(eng, c, te, ye)
             model._nu_prev = None
             continued = True  # a compliant contact is free to leave: integrated from here on
+            model.outputs_end_steps = False  # (the integrator's outputs are inside its steps)
         if idx >= tt.size:
             break
         if kinematic and not continued:

@@ -157,9 +157,15 @@ def test_hostile_client_cannot_break_a_shared_session(
                                          "updates": {"label": "pwned", "value": 1.0}}, use_bin_type=True))
             attacker.send(msgpack.packb({"type": "GuiUpdateMessage", "uuid": uuid,
                                          "updates": {"visible": False}}, use_bin_type=True))
-        time.sleep(2.0)  # past the text restore delay (1.5 s)
         # A text field is restored 1.5 s after its last refused text was handled, which on a loaded machine can
-        # be well after the attacker sent it (the messages queue in viser's pool): wait for every one.
+        # be well after the attacker sent it (the messages queue in viser's pool). A last, valid text marks the
+        # end of the attack: once viser has stored it (it stores a value before the callback runs), every
+        # earlier message of the connection has arrived, and each text field shows either its last hostile
+        # text (which does not parse) or its restored value; then wait for every restore.
+        marker = session.controls.handles["state_in"]
+        attacker.send(gui_value_message(marker._impl.uuid, "end of the attack"))
+        assert wait_until(lambda: marker.value == "end of the attack", 20.0)
+        time.sleep(2.0)  # past the text restore delay (1.5 s)
         texts = [(panel.specs[key], panel.handles[key]) for panel, key in pairs
                  if isinstance(panel.specs[key], (NumberText, VectorText))]
         assert wait_until(lambda: all(_parses(spec, handle.value) for spec, handle in texts), 20.0), [

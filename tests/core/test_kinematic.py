@@ -21,7 +21,7 @@ from core.contact import _search
 from core.contact._kernel import ContactKernel
 from core.models import CamFollower, CamProfile, pendulum_chain, rolling_disk, slider_crank
 from core.multibody._engine import parameter_rates
-from core.multibody._simulate import _kinematic_prediction
+from core.multibody._simulate import _Dynamics, _kinematic_prediction
 from core.multibody._system import exp_parameters
 
 TWO_PI = 2.0 * math.pi
@@ -199,3 +199,21 @@ def test_cam_at_one_output_per_frame_takes_one_step_a_frame(monkeypatch):
     assert traj.n_steps == 60 and calls == []
     lift = traj.q[:, 3 * built.system.bodies.index(built.follower) + 2] - built.lift_origin
     np.testing.assert_allclose(lift, cam.kinematics(speed * t).lift, rtol=0, atol=KINEMATIC_RTOL * 0.02)
+
+
+def test_a_compliant_continuation_from_the_start_integrates_with_outputs_inside_steps(monkeypatch):
+    """A kinematic run whose contact already pulls at t0 continues at once with DOP853 (compliant): its outputs
+    fall inside the integrator's steps, so they must not become the contact's warm-start prediction (the flag
+    that lets a kinematic step's end do so is off for the whole integration)."""
+    cam = CamFollower(CamProfile.eccentric())
+    w = 1.5 * cam.jump_speed()
+    t0 = math.pi / w  # the force is most negative at theta = pi
+    assert cam.contact_force(w * t0, w) < 0.0
+    seen = []
+    original = _Dynamics._record_output
+    monkeypatch.setattr(_Dynamics, "_record_output",
+                        lambda self, t, y: seen.append((t, self.outputs_end_steps)) or original(self, t, y))
+    motion = cam.simulate(w, t0 + np.arange(31) / 600.0, on_separation="compliant")
+    assert motion.status == "completed" and motion.separations[0, 0] == pytest.approx(t0, abs=1e-15)
+    assert [flag for t, flag in seen if t > t0] and not any(flag for t, flag in seen if t > t0)
+    assert motion.trajectory._model.outputs_end_steps is False
