@@ -92,19 +92,20 @@ def plot_axes(presenter: bool) -> tuple[dict, dict]:
 def plot_text_css(presenter: bool) -> str:
     """A style sheet (HTML) that enlarges every plot's title and legend in presenter view; empty otherwise.
 
-    uPlot draws a plot's title and legend as page elements (``.u-title`` at
-    0.875 rem, ``.u-legend`` at 0.7 rem), outside the options
-    :func:`plot_axes` sets, so the session's panel carries this sheet. In
-    presenter view a title takes a presenter readout's size
-    (:data:`app.readout.PRESENTER_FONT_SCALE` rem; both are 0.875 rem
-    otherwise) and a legend keeps its proportion to the title.
+    uPlot draws a plot's title and legend as page elements (viser's style
+    sets ``.u-title`` at 0.875 em and ``.u-legend`` at 0.7 em of the plot's
+    font), outside the options :func:`plot_axes` sets, so the session's panel
+    carries this sheet. In presenter view a title takes a presenter
+    readout's size (:data:`app.readout.PRESENTER_FONT_SCALE` em of the panel's
+    font, which the plot's is; both are 0.875 em otherwise) and a legend
+    keeps its proportion to the title.
     """
     if not presenter:
         return ""
     title = PRESENTER_FONT_SCALE
     legend = PRESENTER_FONT_SCALE * 0.7 / 0.875
-    return (f"<style>.uplot .u-title{{font-size:{title:.2f}rem !important;line-height:1.3 !important}}"
-            f".uplot .u-legend{{font-size:{legend:.2f}rem !important}}</style>")
+    return (f"<style>.uplot .u-title{{font-size:{title:.2f}em !important;line-height:1.3 !important}}"
+            f".uplot .u-legend{{font-size:{legend:.2f}em !important}}</style>")
 
 
 @dataclasses.dataclass

@@ -825,7 +825,9 @@ class CamFollower:
         Parameters
         ----------
         speed : float
-            Cam speed omega (rad/s); the cam angle is ``omega t``.
+            Cam speed omega (rad/s); the cam angle is ``omega t``. Refused
+            above :data:`MAX_CAM_SPEED` (1e100 rad/s) in magnitude, where
+            the accelerations overflow.
         start : float, keyword-only
             Time of the initial state (s): cam angle ``omega start``, the
             follower at its lift and velocity there.
@@ -863,7 +865,8 @@ class CamFollower:
         Parameters
         ----------
         speed : float
-            Cam speed omega (rad/s).
+            Cam speed omega (rad/s), at most :data:`MAX_CAM_SPEED` in
+            magnitude (see :meth:`build_system`).
         t : (n,) array_like
             Non-decreasing output times (s); the cam angle is ``omega t``.
         model : str, keyword-only

@@ -58,8 +58,8 @@ def test_plot_titles_and_legends_grow_in_presenter_view(running_app: Any) -> Non
     otherwise."""
     assert plot_text_css(False) == ""
     css = plot_text_css(True)
-    assert f".uplot .u-title{{font-size:{PRESENTER_FONT_SCALE:.2f}rem !important" in css
-    assert ".uplot .u-legend{font-size:1.16rem !important}" in css  # 0.7 rem scaled as the title's 0.875
+    assert f".uplot .u-title{{font-size:{PRESENTER_FONT_SCALE:.2f}em !important" in css
+    assert ".uplot .u-legend{font-size:1.16em !important}" in css  # 0.7 em scaled as the title's 0.875
     app = running_app(scene="cam_follower")
     session = app.session_for()
     assert session._plot_css.content == ""
