@@ -176,6 +176,16 @@ def test_kinematic_prediction_orders():
         np.testing.assert_allclose(z[3:7], p_true, rtol=0, atol=1e-15)
     ratios = [errors[0] / errors[1], errors[1] / errors[2]]
     assert all(45.0 < r < 90.0 for r in ratios), (errors, ratios)  # 2^6 = 64 asymptotically
+    # inside the last interval (the event search's dense output): the positions' quintic interpolation, the
+    # parameters' cubic Hermite interpolation normalized (errors of order H^6 and H^4)
+    H = 0.1
+    y_p, f_p, _, _ = _hermite_case(1.0 - H)
+    y, f, _, _ = _hermite_case(1.0)
+    _, _, R_true, p_true = _hermite_case(1.0 - H / 2)
+    z = _kinematic_prediction(1, y, 1.0, (1.0 - H, y_p, f_p, f), 1.0 - H / 2)
+    np.testing.assert_allclose(z[:3], R_true, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(z[3:7], p_true, rtol=0, atol=1e-6)
+    assert np.linalg.norm(z[3:7]) == pytest.approx(1.0, abs=1e-15)
     # the first step (no point before): Taylor's R + h v + h^2 a / 2, an error of order h^3
     y, f, _, _ = _hermite_case(1.0)
     _, _, R_true, p_true = _hermite_case(1.05)
