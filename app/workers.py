@@ -174,6 +174,7 @@ class Supervisor:
                 if worker.stopped or process is None or process.poll() is None:
                     continue
                 code = process.returncode
+                _end_group(process)
                 alive = sum(1 for w in self.workers if w.process is not None and w.process.poll() is None)
                 self.say(f"rigidlab: worker {worker.index + 1} (pid {process.pid}) {_exit_text(code)}; its "
                          f"browsers lost their sessions and reconnect to a live worker ({alive} running) "
@@ -218,6 +219,18 @@ class Supervisor:
                     process.kill()
                 with contextlib.suppress(subprocess.TimeoutExpired, KeyboardInterrupt):
                     process.wait(timeout=10.0)
+            _end_group(process)
+
+
+def _end_group(process: subprocess.Popen) -> None:
+    """Kill what is left of an ended worker's process group (its own session: the worker and its descendants).
+
+    A worker killed outright (SIGKILL, the out-of-memory killer) cannot stop
+    its executor: its fork server and a pool process kept each other alive
+    (each holds the other's pipe) and outlived it, about 100 MB each time.
+    """
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(process.pid, signal.SIGKILL)
 
 
 def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str], out: TextIO = sys.stdout,

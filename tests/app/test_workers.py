@@ -9,6 +9,7 @@ starts the worker again.
 
 from __future__ import annotations
 
+import os
 import re
 import signal
 import subprocess
@@ -55,6 +56,14 @@ def _connections(out: _Output, worker: int) -> int:
     return out.count(rf"^\[worker {worker}\] .*browser \d+ connected")
 
 
+
+def _group_gone(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
 def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
     process = subprocess.Popen(
         [sys.executable, "-m", "app.cli", "serve", "--mode", "per-client", "--workers", "2", "--port", "0",
@@ -92,6 +101,8 @@ def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
         process_1 = pids[1]
         subprocess.run(["kill", "-KILL", str(process_1)], check=True)
         wait_until(lambda: f"worker 1 (pid {process_1}) was killed by SIGKILL" in out.text(), timeout=20.0)
+        # nothing of it is left: its executor's fork server and pool processes (its process group) are gone
+        assert wait_until(lambda: _group_gone(process_1), timeout=20.0)
         survivors = [c for c, w in zip(clients, where) if w == 2]
         lost = [c for c, w in zip(clients, where) if w == 1]
         wait_until(lambda: all(not c._thread.is_alive() for c in lost), timeout=20.0)
