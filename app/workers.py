@@ -227,7 +227,7 @@ def _end_group(process: subprocess.Popen) -> None:
 
     A worker killed outright (SIGKILL, the out-of-memory killer) cannot stop
     its executor: its fork server and a pool process kept each other alive
-    (each holds the other's pipe) and outlived it, about 100 MB each time.
+    (each holds the other's pipe) and outlived it.
     """
     with contextlib.suppress(ProcessLookupError, PermissionError):
         os.killpg(process.pid, signal.SIGKILL)
