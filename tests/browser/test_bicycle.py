@@ -37,11 +37,13 @@ def _view(png: bytes) -> np.ndarray:
 
 
 def _press(page, name: str) -> None:
-    """Click the panel's button ``name`` (force: the panel's plots re-render several times a second, and
-    the software renderer starves the animation frames Playwright's stability check waits for)."""
+    """Click the panel's button ``name``: a click event dispatched on the button itself. The panel's plots
+    re-render several times a second, so the software renderer starves the animation frames Playwright's
+    stability check waits for, and a forced click at the button's coordinates could land elsewhere when the
+    panel's layout moved in between (a push was lost once in 30 s)."""
     button = page.get_by_role("button", name=name, exact=True)
     button.wait_for(state="visible", timeout=60_000)
-    button.click(force=True, timeout=60_000)
+    button.dispatch_event("click")
 
 
 def _leans_since(scene, t0: float) -> np.ndarray:
