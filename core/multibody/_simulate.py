@@ -1096,15 +1096,6 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
     on the normal force of kinematic solutions inside the step. Returns what
     :func:`core.integrators.integrate` returns (``t[0] = t0``).
     """
-    model.outputs_end_steps = True
-    try:
-        return _run_kinematic_steps(model, y0, t0, t_eval, max_steps)
-    finally:
-        model.outputs_end_steps = False  # a compliant continuation integrates: its outputs are inside steps
-
-
-def _run_kinematic_steps(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarray,
-                         max_steps: int) -> Trajectory:
     n = model.eng.n
     pending = [float(x) for x in t_eval if x > t0]
     t_rec = [t0] * int(np.count_nonzero(t_eval <= t0))
@@ -1414,7 +1405,7 @@ def simulate(
             _switch_to_compliant(eng, c, te, ye)
             model._nu_prev = None
             continued = True  # a compliant contact is free to leave: integrated from here on
-            model.outputs_end_steps = False  # (the integrator's outputs are inside its steps)
+            model.outputs_end_steps = False  # the integrator's outputs are inside its steps (see _record_output)
         if idx >= tt.size:
             break
         if kinematic and not continued:
