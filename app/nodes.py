@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from viser import _messages
 
-__all__ = ["set_pose", "set_array", "set_arrays"]
+__all__ = ["set_pose", "set_array", "set_arrays", "wxyz_z_to"]
 
 _RTOL = 1e-5
 _ATOL = 1e-8
@@ -108,3 +108,16 @@ def set_arrays(handle: Any, **values: Any) -> None:
         changed[name] = array.copy()
     if changed:
         impl.api._queue_scene_message(_messages.SceneNodeUpdateMessage(impl.name, changed))
+
+
+def wxyz_z_to(v: Any, norm: float) -> tuple[float, float, float, float]:
+    """Euler parameters (scalar first) of the shortest rotation taking +z to ``v`` (3,) of length ``norm``
+    (identity for a zero vector)."""
+    if not norm > 0.0:
+        return (1.0, 0.0, 0.0, 0.0)
+    x, y, z = (float(c) / norm for c in v)
+    w = 1.0 + z
+    if w < 1e-12:  # v along -z: half a turn about x
+        return (0.0, 1.0, 0.0, 0.0)
+    k = 1.0 / math.sqrt(w * w + x * x + y * y)
+    return (w * k, -y * k, x * k, 0.0)

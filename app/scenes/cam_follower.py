@@ -63,7 +63,7 @@ import trimesh
 from scipy.optimize import brentq
 
 from app.controls import Choice, Slider, Toggle
-from app.nodes import set_array, set_arrays, set_pose
+from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from app.readout import significant
 from app.scenes._plots import Legend, format_rows
 from app.scenes.base import PRESENTER_LINE_SCALE, Scene
@@ -653,16 +653,6 @@ def _arrow(length: float, force: float) -> np.ndarray:
     return np.array([ends if force >= 0.0 else ends[::-1]], dtype=np.float32)
 
 
-def _normal_wxyz(normal: tuple[float, float]) -> tuple[float, float, float, float]:
-    """Euler parameters (scalar first) of the turn about y taking +z to the normal ``(n_x, n_z)`` (x-z plane)."""
-    nx, nz = normal
-    w = 1.0 + nz
-    if w < 1e-12:  # the normal along -z: half a turn about x
-        return (0.0, 1.0, 0.0, 0.0)
-    k = 1.0 / math.sqrt(w * w + nx * nx)
-    return (w * k, 0.0, nx * k, 0.0)
-
-
 def _slow_motion_text(turn: float, speed: float) -> str:
     """The readouts' last line: the wall seconds of a shown turn against a real one at ``speed`` (rad/s)."""
     return f"*slow motion*: one turn in {turn:g} s (a real turn takes {1000.0 * 2.0 * math.pi / speed:.1f} ms)"
@@ -1245,7 +1235,7 @@ class CamFollowerScene(Scene):
         self.contact_frame.visible = show
         if not show:
             return
-        set_pose(self.contact_point, position=(contact[0], _Y_FRONT, contact[1]), wxyz=_normal_wxyz(normal))
+        set_pose(self.contact_point, position=(contact[0], _Y_FRONT, contact[1]), wxyz=wxyz_z_to((normal[0], 0.0, normal[1]), 1.0))
         if self.normal_line.visible != in_contact:  # in flight there is no contact normal to draw
             self.normal_line.visible = in_contact
         drawn = in_contact and force != 0.0

@@ -49,7 +49,7 @@ import numpy as np
 import trimesh
 
 from app.controls import Choice, Slider, Toggle
-from app.nodes import set_array, set_pose
+from app.nodes import set_array, set_pose, wxyz_z_to
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
@@ -447,17 +447,6 @@ class _Gui:
     plot_normal: Any
 
 
-def _wxyz_z_to(v: np.ndarray, norm: float) -> tuple[float, float, float, float]:
-    """Euler parameters (scalar first) of the shortest rotation taking +z to ``v`` (3,) of length ``norm``."""
-    if not norm > 0.0:
-        return (1.0, 0.0, 0.0, 0.0)
-    x, y, z = (float(c) / norm for c in v)
-    w = 1.0 + z
-    if w < 1e-12:  # v along -z: half a turn about x
-        return (0.0, 1.0, 0.0, 0.0)
-    k = 1.0 / math.sqrt(w * w + x * x + y * y)
-    return (w * k, -y * k, x * k, 0.0)
-
 
 
 
@@ -793,7 +782,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
             if self.force_frame.visible != show_force:
                 self.force_frame.visible = show_force
             if show_force:
-                set_pose(self.force_frame, wxyz=_wxyz_z_to(force, magnitude))
+                set_pose(self.force_frame, wxyz=wxyz_z_to(force, magnitude))
                 if send_length:
                     self._arrow_length = length
                     set_array(self.force_arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))
