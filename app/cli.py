@@ -175,44 +175,42 @@ def _serve(args: argparse.Namespace) -> int:
         print(f"rigidlab serve: port {args.port} on {args.host} {reason}; choose another with --port "
               "(--port 0 picks a free one)", file=sys.stderr)
         return 2
+    # SIGTERM stops the app from here on: viser answers on the port while create_app is still building the
+    # session, and a SIGTERM then (a service manager, a script that waits for the port) killed the process
+    # outright and left its fork server and resource tracker running, orphaned
+    previous = _sigterm_as_interrupt()
+    app = None
     try:
-        app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
-                         presenter=args.present, state=state, reuse_port=worker is not None)
-    except ValueError as exc:
-        print(f"rigidlab serve: {exc}", file=sys.stderr)
-        return 2
-    except (OSError, OverflowError) as exc:
-        print(f"rigidlab serve: cannot listen on {args.host}:{args.port}: {exc}", file=sys.stderr)
-        return 2
-    if args.port != 0 and app.port != args.port:  # taken between the check and the bind
-        app.stop()
-        print(f"rigidlab serve: port {args.port} on {args.host} is in use; choose another with --port",
-              file=sys.stderr)
-        return 2
-    if worker is not None:
-        _exit_with_parent()
-        _sigterm_as_interrupt()  # (a service manager may signal the whole group)
         try:
+            app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
+                             presenter=args.present, state=state, reuse_port=worker is not None)
+        except ValueError as exc:
+            print(f"rigidlab serve: {exc}", file=sys.stderr)
+            return 2
+        except (OSError, OverflowError) as exc:
+            print(f"rigidlab serve: cannot listen on {args.host}:{args.port}: {exc}", file=sys.stderr)
+            return 2
+        if args.port != 0 and app.port != args.port:  # taken between the check and the bind
+            print(f"rigidlab serve: port {args.port} on {args.host} is in use; choose another with --port",
+                  file=sys.stderr)
+            return 2
+        if worker is not None:
+            _exit_with_parent()
             print(f"rigidlab: worker ready (pid {os.getpid()}, {worker[0]} of {worker[1]}, port {app.port})",
                   flush=True)
-            threading.Event().wait()
-        except KeyboardInterrupt:
-            pass
-        finally:
-            app.stop()
-        return 0
-    previous = _sigterm_as_interrupt()  # (before saying how to stop: a SIGTERM right after it is handled)
-    try:
-        print(f"rigidlab: serving {', '.join(app.scene_names)} ({app.mode} mode"
-              f"{', presenter view' if args.present else ''})")
-        print(f"rigidlab: open {app.url}")
-        _lan_notes(args.host, app.port, app.mode)
-        print("rigidlab: press Ctrl-C to stop", flush=True)
+        else:
+            print(f"rigidlab: serving {', '.join(app.scene_names)} ({app.mode} mode"
+                  f"{', presenter view' if args.present else ''})")
+            print(f"rigidlab: open {app.url}")
+            _lan_notes(args.host, app.port, app.mode)
+            print("rigidlab: press Ctrl-C to stop", flush=True)
         threading.Event().wait()
     except KeyboardInterrupt:
-        print("\nrigidlab: stopping")
+        if worker is None:
+            print("\nrigidlab: stopping", flush=True)
     finally:
-        app.stop()
+        if app is not None:
+            app.stop()
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
     return 0

@@ -6,6 +6,7 @@ shell itself; the registry and CLI tests use the real scenes.
 
 from __future__ import annotations
 
+import contextlib
 import time
 import urllib.request
 from typing import Any, ClassVar
@@ -380,6 +381,62 @@ def test_rigidlab_serve_stops_cleanly_on_sigterm() -> None:
         if process.poll() is None:
             process.kill()
             process.wait()
+
+
+def test_rigidlab_serve_stopped_while_it_starts_leaves_no_process() -> None:
+    """viser answers on the port before the app has built its session; a SIGTERM then (a script that waits
+    for the port, then stops the server) stops it cleanly too: exit status 0 and nothing of its process
+    group left (killed outright there, it left its fork server and resource tracker running)."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    process = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())", "serve", "--port", "0"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    lines: list[str] = []
+    try:
+        deadline = time.monotonic() + 60
+        url = None
+        while url is None and time.monotonic() < deadline:
+            line = process.stdout.readline()  # type: ignore[union-attr]
+            if not line:
+                break
+            lines.append(line)
+            found = re.search(r"http://127\.0\.0\.1:\d+", line)  # viser's banner, before the app is ready
+            url = found.group(0) if found else None
+        assert url is not None, "".join(lines)
+        while time.monotonic() < deadline:  # the first moment the port answers
+            try:
+                with urllib.request.urlopen(url, timeout=5) as response:
+                    if response.status == 200:
+                        break
+            except OSError:
+                time.sleep(0.02)
+        process.send_signal(signal.SIGTERM)
+        rest, _ = process.communicate(timeout=30)
+        output = "".join(lines) + rest
+        assert process.returncode == 0, output
+        assert "rigidlab: stopping" in output and "leaked semaphore" not in output, output
+
+        def group_gone() -> bool:
+            try:
+                os.killpg(process.pid, 0)
+            except ProcessLookupError:
+                return True
+            return False
+
+        assert wait_until(group_gone, timeout=20.0), "processes of the server were left running"
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
 
 
 def test_registry_skips_a_module_that_fails_to_import(monkeypatch: Any) -> None:
