@@ -652,7 +652,8 @@ def _multipliers_and_reactions(model: _Dynamics, ts: np.ndarray, states: np.ndar
         Ab = matrices(P.reshape(-1, 4)).reshape(N, k_items, 3, 3)
         n_glob = np.einsum("nkij,nkj->nki", Ab, nb)
         R = states[:, : 3 * n].reshape(N, n, 3)[:, b]
-        lever = np.where(tabs["ground_j"][None, :, None], tabs["fixed"][None] - R, np.einsum("nkij,kj->nki", Ab, tabs["u"]))
+        arm = np.einsum("nkij,kj->nki", Ab, tabs["u"])
+        lever = np.where(tabs["ground_j"][None, :, None], tabs["fixed"][None] - R, arm)
         T = n_glob - cross(lever.reshape(-1, 3), F.reshape(-1, 3)).reshape(N, k_items, 3)
         s = tabs["sign"][None, :, None]
         react[:, :, 0:3] = s * F
