@@ -280,7 +280,7 @@ class ChunkTimeline:
     sequential : bool, keyword-only
         Whether chunk ``k`` needs chunk ``k - 1``.
     capacity : int, keyword-only
-        Chunks kept (the oldest are dropped first).
+        Chunks kept (those farthest from the chunk last computed are dropped first).
 
     Notes
     -----
@@ -377,8 +377,12 @@ class ChunkTimeline:
         self._chunks[k] = chunk
         self.computed += 1
         if len(self._chunks) > self.capacity:
-            # drop the chunks farthest behind the newest one
-            for old in sorted(self._chunks)[: len(self._chunks) - self.capacity]:
+            # drop the chunks farthest from the one just stored (never that one): playing on, those are the
+            # oldest; after a restart at t = 0 with the chunks of a long run kept, they are the latest, and
+            # dropping the lowest instead threw the new chunk 0 away at once, which was asked for again at
+            # every frame while the clock held at 0
+            far = sorted(self._chunks, key=lambda j: (-abs(j - k), j))
+            for old in far[: len(self._chunks) - self.capacity]:
                 del self._chunks[old]
 
     def _request(self, k: int) -> None:

@@ -67,6 +67,44 @@ def test_chunk_timeline_on_the_process_executor(executor) -> None:
 
 
 
+class _Inline(concurrent.futures.Executor):
+    """Runs a job at once, in the caller's thread."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        future.set_result(fn(*args, **kwargs))
+        return future
+
+
+def test_chunk_timeline_restarted_at_zero_after_a_long_run_shows_chunk_zero_again() -> None:
+    """A scene's Reset sets its clock to 0 and keeps the chunks (same parameters). After a run longer than
+    the timeline holds, chunk 0 had been dropped; computed again, it was the lowest of too many and was
+    dropped at once: the clock held at 0 for good and chunk 0 was computed at every frame."""
+    calls: list[int] = []
+
+    def compute(k: int, previous: tuple | None) -> tuple:
+        calls.append(k)
+        return (k, None if previous is None else previous[0])
+
+    timeline = ChunkTimeline(_Inline(), compute, chunk_time=1.0, sequential=True, capacity=4)
+
+
+    def play(t: float, until: float) -> tuple:
+        for _ in range(200):  # (a chunk asked for is stored at the next call)
+            t, chunk, _ = timeline.advance(t, 0.25)
+            if t >= until:
+                return t, chunk
+        raise AssertionError(f"the clock held at t={t}")
+
+    t, chunk = play(0.0, 10.0)  # a run of 10 chunks
+    assert chunk == (10, 9) and sorted(timeline._chunks) == [7, 8, 9, 10]  # (11 asked for, not yet stored)
+    calls.clear()
+    t, chunk = play(0.0, 2.0)  # Reset: the clock from 0 again
+    assert chunk == (2, 1)
+    assert calls == [0, 1, 2]  # each once
+    assert len(timeline._chunks) == 4 and {0, 1, 2} <= set(timeline._chunks)  # (the farthest ones dropped)
+
+
 # -- identical jobs run once (sessions of a class on the same preset) ---------------------------
 
 
