@@ -678,7 +678,10 @@ class RollingDiskScene(PlaybackRequests, Scene):
             self.controls.set_many(dataclasses.asdict(inputs))
             self.playback.set_playing(True)
         if self.model is None or preset is not None or changed & _MODEL_KEYS:
+            before = self.model
             self._apply_inputs(self.inputs)
+            if preset is not None and self.model is before:  # its values were set already: start it again
+                self._restart()
         tick = self.playback.tick(dt)
         if tick.reset:
             ended = self.ended

@@ -288,6 +288,29 @@ def test_radius_scales_the_disk_and_the_critical_spin(disk):
     assert f"{rolling_disk_critical_spin(0.2, rolling=False):.2f} rad/s" in scene.gui.info.content
 
 
+
+def test_reset_after_a_run_longer_than_the_chunks_kept_plays_again(disk):
+    """Reset keeps the computed chunks; after a run longer than the timeline holds, chunk 0 is computed
+    again, and was dropped at once as the lowest of too many: the clock held at 0 for good."""
+    app, scene = disk
+    wait_for_model(scene)
+    with app.session_for().run_lock:
+        scene.timeline.capacity = 3  # (24 chunks of 0.5 s in the scene: 12 s of play)
+    run_until(scene, 2.6)
+    assert not scene.ended and 0 not in scene.timeline._chunks
+    click(scene, "playback", "Reset")
+    assert wait_until(lambda: scene.sim_time < 0.5, timeout=10.0)
+    assert wait_until(lambda: scene.sim_time > 0.6, timeout=60.0), f"the clock held at t = {scene.sim_time}"
+
+
+def test_a_preset_whose_values_are_set_starts_again(disk):
+    app, scene = disk
+    click(scene, "preset_3")  # sliding coin
+    wait_for_model(scene, rolling=False, after=1.0)
+    click(scene, "preset_3")
+    assert wait_until(lambda: scene.sim_time < 0.5, timeout=10.0), "the preset did not start the motion again"
+
+
 @pytest.mark.parametrize("name", PRESETS)
 def test_presets_set_their_values(name):
     for contact in CONTACTS:
