@@ -66,8 +66,9 @@ STABILIZATIONS = ("projection", "baumgarte", "none")
 #: contact crosses zero (the contact would have to pull).
 SEPARATION_ACTIONS = ("stop", "compliant", "bilateral")
 #: A normal force below ``-SEPARATION_TOL`` times the force scale of the run
-#: (the largest of the applied forces and normal forces at the start) is a
-#: separation; round-off around a zero normal force is not.
+#: (the largest of the applied forces, the normal forces and the bodies'
+#: centripetal forces ``m |omega|^2 r_g`` at the start) is a separation;
+#: round-off around a zero normal force is not.
 SEPARATION_TOL = 1e-9
 
 
@@ -1363,8 +1364,13 @@ def simulate(
         Q0 = model.applied_last
         nu0 = model.normal_forces(t0, y0, lam0)
         finite = nu0[np.isfinite(nu0)]
+        # the bodies' centripetal forces m |omega|^2 r_g (r_g: radius of gyration): with no applied force (no
+        # gravity) a normal force that is zero in exact arithmetic is round-off of their size, not a separation
+        r_g = np.sqrt(np.trace(eng.inertia, axis1=1, axis2=2) / (2.0 * np.maximum(eng.mass, 1e-300)))
+        w2 = np.einsum("ij,ij->i", y0[10 * n :].reshape(n, 3), y0[10 * n :].reshape(n, 3))
+        inertial = float(np.max(eng.mass * w2 * r_g)) if n else 0.0
         scale = max(float(np.max(np.abs(finite))) if finite.size else 0.0, float(np.max(np.abs(Q0[: 3 * n]))),
-                    1e-300)
+                    inertial, 1e-300)
         model.separation_tol = SEPARATION_TOL * scale
         model._nu_prev = (t0, nu0)
         pulling = np.flatnonzero(nu0 < -model.separation_tol)
