@@ -817,6 +817,10 @@ class ContactKernel:
                 _, s, charts, gi, gj, Es, done, restarted = hit
                 if done < order:  # the third derivatives for gamma, at the converged parameters
                     gi, gj = _scalar.geometry_one(cs, fr, s, charts, order)
+                    # and E_s of the same point: Newton's is of its last iterate, which may lie across a jump
+                    # of the curvature (a cam law's breakpoint); s_dot from one side and gamma from the other
+                    # mixed the two sides' forces (40 N between 25 and 78 N)
+                    Es = _scalar._extremal(cs, fr, gi, gj)[1]
             else:
                 s0, charts = self._start(state, q, t)
                 restarted = False

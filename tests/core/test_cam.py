@@ -747,3 +747,20 @@ def test_simulate_names_the_methods_it_takes(method):
     with pytest.raises(ValueError, match=r"method: expected one of 'kinematic', 'DOP853', 'RK45' or None \(the "
                                          r"cam's run takes rtol and atol, not a fixed step\), got"):
         cam.simulate(50.0, np.linspace(0.0, 0.01, 3), method=method)
+
+
+@pytest.mark.parametrize("outputs", [13, 61, 121])
+def test_the_force_at_a_law_breakpoint_is_one_sides_limit(outputs):
+    """The harmonic law's acceleration jumps where the rise starts (cam angle 0 = 2 pi): the force there is
+    the one-sided limit of either side, never a mix. At 61 outputs the last (t = T, the contact parameter
+    within 1e-15 of the breakpoint) gave 40.02 N between 25.03 and 77.87 N: s_dot came from E_s of Newton's
+    last iterate on one side, gamma from the geometry on the other."""
+    profile = CamProfile.rise_dwell_return(base_radius=0.04, lift=0.02, rise=math.radians(90.0),
+                                           dwell=math.radians(30.0), fall=math.radians(90.0), law="harmonic")
+    cam = CamFollower(profile, follower="roller", roller_radius=0.01, offset=0.005)
+    w = 0.9 * cam.jump_speed()
+    period = 2.0 * math.pi / w
+    sides = cam.contact_force(np.array([-1e-9, 1e-9]), w)  # dwell side, rise side
+    assert sides[1] - sides[0] > 50.0
+    force = cam.simulate(w, np.linspace(0.0, period, outputs)).contact_force[-1]
+    assert min(abs(force - sides[0]), abs(force - sides[1])) < 1e-6 * sides[1], (force, sides)
