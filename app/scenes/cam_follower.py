@@ -53,6 +53,7 @@ angle theta (theta = 0: lowest lift).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import math
@@ -104,6 +105,8 @@ ECCENTRICITY = 0.01
 BASE_RADIUS = 0.04
 LIFT = 0.02
 DWELL_DEG = 30.0
+_RISE_DEG = (30.0, 150.0)  # the rise = fall slider's range (deg, whole degrees)
+_ROLLER_MM = (2.0, 40.0)  # the roller radius slider's range (mm, steps of 0.5 mm)
 GRAVITY = 9.81  # m/s^2, along the follower axis towards the cam (the follower stands above it)
 
 #: Cam angles per revolution of the closed-form table (every 0.25 deg).
@@ -201,10 +204,58 @@ def build_cam(inputs: Inputs) -> CamFollower:
     Raises
     ------
     ValueError
-        Naming the parameter, when core refuses the cam: a flat face on a cam
-        that would not be convex, a roller that would undercut it.
+        In the panel's terms (:func:`_refusal`), when core refuses the cam: a
+        flat face on a cam that would not be convex, a roller that would
+        undercut it.
     """
-    return _cam(inputs.model_key())
+    key = inputs.model_key()
+    try:
+        return _cam(key)
+    except ValueError as exc:
+        raise ValueError(_refusal(key, exc)) from exc
+
+
+def _refusal(key: tuple, exc: ValueError) -> str:
+    """Core's refusal of the cam of ``key`` in the panel's terms, with the value that works.
+
+    Core names its own parameters (``base_radius``, ``lift``, angles in
+    rad), which the panel does not have; the panel has the rise = fall
+    angle (deg) and the roller radius (mm). Runs in the job (a few cams
+    are built to find the value: about 20 ms).
+    """
+    law, kind, rise_deg, roller_mm, *rest = key
+    text = str(exc)
+    if law is None:
+        return text
+    if kind == "roller" and text.startswith("roller_radius:"):
+        try:
+            largest = _cam((law, kind, rise_deg, 1.0, *rest)).largest_roller_radius()
+        except ValueError:
+            largest = 0.0
+        if largest * 1000.0 >= _ROLLER_MM[0]:
+            return (f"Roller radius: a {roller_mm:g} mm roller would undercut this cam (rise = fall = "
+                    f"{rise_deg:g}°; the roller centre's path curves more sharply than the roller); use a roller "
+                    f"of at most {math.floor(largest * 2000.0) / 2.0:g} mm or a longer rise")
+        return f"Roller radius: no roller fits this cam at rise = fall = {rise_deg:g}°; use a longer rise"
+    if kind == "flat" and text.startswith("base_radius:"):
+        lo, hi = int(math.floor(rise_deg)), int(_RISE_DEG[1])
+        fits = None
+        while lo < hi:  # the smallest whole-degree rise that makes the cam convex (s'' shrinks as 1/rise^2)
+            mid = (lo + hi) // 2
+            try:
+                _cam((law, kind, float(mid), roller_mm, *rest))
+                hi = fits = mid
+            except ValueError:
+                lo = mid + 1
+        if fits is None:
+            with contextlib.suppress(ValueError):
+                _cam((law, kind, float(hi), roller_mm, *rest))
+                fits = hi
+        advice = f"a rise of at least {fits}° or " if fits is not None else ""
+        return (f"Flat-faced follower: at rise = fall = {rise_deg:g}° the cam would not be convex (its radius of "
+                f"curvature R_b + s + s″ turns negative, and a flat face would bridge the hollow); use "
+                f"{advice}the roller follower")
+    return text
 
 
 @functools.lru_cache(maxsize=64)
@@ -899,11 +950,11 @@ class CamFollowerScene(Scene):
             with gui.add_folder("Cam and follower"):
                 self.controls.add(Choice("profile", "Cam", options=PROFILES, default=_DEFAULT.profile))
                 self.controls.add(Choice("follower", "Follower", options=FOLLOWERS, default=_DEFAULT.follower))
-                self.controls.add(Slider("rise_deg", "Rise = fall (deg)", min=30.0, max=150.0, step=1.0,
+                self.controls.add(Slider("rise_deg", "Rise = fall (deg)", min=_RISE_DEG[0], max=_RISE_DEG[1], step=1.0,
                                          default=_DEFAULT.rise_deg,
                                          hint="Cam angle of the rise and of the fall (rise-dwell-return cams)"),
                                   disabled=True)
-                self.controls.add(Slider("roller_mm", "Roller radius (mm)", min=2.0, max=40.0, step=0.5,
+                self.controls.add(Slider("roller_mm", "Roller radius (mm)", min=_ROLLER_MM[0], max=_ROLLER_MM[1], step=0.5,
                                          default=_DEFAULT.roller_mm, hint="Radius of the roller (roller follower)"),
                                   disabled=True)
             with gui.add_folder("Motion"):

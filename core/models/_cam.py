@@ -1111,17 +1111,62 @@ class CamFollower:
                     f"longer rise/fall angles or a smaller lift, or a roller follower"
                 )
             return
+        rho, where = self._smallest_convex_pitch_radius()
+        if rho <= self.roller_radius:
+            largest = self.largest_roller_radius()
+            fix = (f"use roller_radius < {largest:.6g} m (the largest roller that does not undercut this cam) or a "
+                   "larger base_radius" if largest > 0 else "no roller fits this motion: use a larger base_radius, "
+                   "longer rise/fall angles or a smaller lift")
+            raise ValueError(
+                f"roller_radius: expected less than the pitch curve's smallest convex radius of curvature, which is "
+                f"{rho:.6g} m (at cam angle {where:.6g} rad) with this roller, got {self.roller_radius!r}: the cam "
+                f"would be undercut; {fix}"
+            )
+
+    def _smallest_convex_pitch_radius(self) -> tuple[float, float]:
+        """The pitch curve's smallest convex radius of curvature (m) and its cam angle (rad); inf if none."""
+        worst, where = math.inf, 0.0
         for seg in self._segments:
             u = np.linspace(seg.start, seg.stop, _SAMPLES)
             rho = self._pitch_radius(u)
             convex = rho > 0
-            if np.any(convex) and np.min(rho[convex]) <= self.roller_radius:
+            if np.any(convex):
                 i = int(np.argmin(np.where(convex, rho, np.inf)))
-                raise ValueError(
-                    f"roller_radius: expected less than the pitch curve's smallest convex radius of curvature "
-                    f"{rho[i]:.6g} m (at cam angle {u[i]:.6g} rad), got {self.roller_radius!r}: the cam would be "
-                    f"undercut; use a smaller roller or a larger base_radius"
-                )
+                if rho[i] < worst:
+                    worst, where = float(rho[i]), float(u[i])
+        return worst, where
+
+    def largest_roller_radius(self) -> float:
+        """The largest roller radius (m) that does not undercut this cam with this follower offset.
+
+        The pitch curve (the roller centre's path) grows with the roller, so
+        its smallest convex radius of curvature ``rho_min(r_f)`` does too;
+        the cam is undercut when ``rho_min(r_f) <= r_f``. Returns the root of
+        ``rho_min(r_f) = r_f`` (to 1e-9 m), inf for the eccentric circle
+        (its pitch curve is a circle of radius ``R + r_f``), 0.0 when no
+        roller fits.
+        """
+        from scipy.optimize import brentq
+
+        prof = self.profile
+        if prof.kind == "eccentric":
+            return math.inf
+        lo = max(0.0, abs(self.offset) - prof.base_radius) * (1.0 + 1e-12) + 1e-12
+
+        def margin(r: float) -> float:
+            trial = object.__new__(CamFollower)  # (not copy.copy: __reduce__ rebuilds, and checks, the cam)
+            trial.__dict__.update(self.__dict__)
+            object.__setattr__(trial, "_pitch_height", math.sqrt((prof.base_radius + r) ** 2 - self.offset**2))
+            return trial._smallest_convex_pitch_radius()[0] - r
+
+        if not margin(lo) > 0:
+            return 0.0
+        hi = max(2.0 * lo, prof.base_radius)
+        while margin(hi) > 0:
+            hi *= 2.0
+            if hi > 1e6 * (prof.base_radius + prof.lift):
+                return math.inf
+        return float(brentq(margin, lo, hi, xtol=1e-9))
 
 
 # ------------------------------------------------------------------ simulation on the multibody System

@@ -267,20 +267,30 @@ def test_a_roller_that_would_undercut_the_cam_is_refused_and_set_back(cam_app):
     assert send_value(scene, "rise_deg", 40.0)
     wait_for_inputs(scene, profile=PROFILES[1], follower=FOLLOWERS[1], rise_deg=40.0)
     kept = scene.revolution
-    with pytest.raises(ValueError, match="roller_radius: expected less than"):
+    # the refusal in the panel's terms, naming the largest roller (a slider value) that fits
+    with pytest.raises(ValueError, match=r"Roller radius: a 30 mm roller would undercut this cam .* at most 20\.5 mm"):
         build_cam(Inputs(profile=PROFILES[1], follower=FOLLOWERS[1], rise_deg=40.0, roller_mm=30.0))
+    build_cam(Inputs(profile=PROFILES[1], follower=FOLLOWERS[1], rise_deg=40.0, roller_mm=20.5))
+    with pytest.raises(ValueError, match="undercut"):
+        build_cam(Inputs(profile=PROFILES[1], follower=FOLLOWERS[1], rise_deg=40.0, roller_mm=21.0))
     assert send_value(scene, "roller_mm", 30.0)  # in the slider's range, but the cam would be undercut
     wait_until(lambda: notices_with(app, "Cam refused"))
-    assert notices_with(app, "roller_radius: expected less than the pitch curve's smallest convex radius")
+    assert notices_with(app, "use a roller of at most 20.5 mm or a longer rise")
+    assert not notices_with(app, "base_radius") and not notices_with(app, "at cam angle")  # (core's terms)
     assert notices_with(app, "the controls are set back")
     wait_until(lambda: scene.controls.handles["roller_mm"].value == 10.0)
     assert scene.controls.value("roller_mm") == 10.0 and scene.revolution is kept
     assert scene.paused_error is None
     frames = scene.frames
     wait_until(lambda: scene.frames > frames + 10)
-    # a flat face on a cam that would not be convex names the base radius it needs
+    # a flat face on a cam that would not be convex names the smallest rise that makes it convex
+    with pytest.raises(ValueError, match=r"Flat-faced follower: at rise = fall = 40° .* a rise of at least 85°"):
+        build_cam(Inputs(profile=PROFILES[1], follower=FOLLOWERS[0], rise_deg=40.0))
+    build_cam(Inputs(profile=PROFILES[1], follower=FOLLOWERS[0], rise_deg=85.0))
+    with pytest.raises(ValueError, match="convex"):
+        build_cam(Inputs(profile=PROFILES[1], follower=FOLLOWERS[0], rise_deg=84.0))
     assert send_value(scene, "follower", FOLLOWERS[0])
-    wait_until(lambda: notices_with(app, "base_radius: a flat-faced follower needs a convex cam"))
+    wait_until(lambda: notices_with(app, "use a rise of at least 85° or the roller follower"))
     wait_until(lambda: scene.controls.handles["follower"].value == FOLLOWERS[1])
     assert scene.revolution is kept
     # a valid change afterwards is taken as usual

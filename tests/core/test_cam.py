@@ -432,6 +432,21 @@ def test_undercut_roller_is_refused():
         CamFollower(profile, follower="roller", roller_radius=0.02)
 
 
+@pytest.mark.parametrize("offset", [0.0, 0.01])
+def test_the_undercut_refusal_names_the_largest_roller_that_fits(offset):
+    """The pitch curve grows with the roller, so the radius of curvature the refusal quotes moved with the
+    roller typed (0.0245, then 0.0220, 0.0212 m: each a roller that was refused too). It names the root of
+    rho_min(r) = r as well, which is accepted just below and refused just above."""
+    profile = CamProfile.rise_dwell_return(0.04, 0.02, math.radians(40.0), math.radians(30.0), math.radians(40.0))
+    largest = CamFollower(profile, follower="roller", roller_radius=0.005, offset=offset).largest_roller_radius()
+    assert 0.01 < largest < 0.03
+    for r in (0.03, 0.024, largest + 2e-6):
+        with pytest.raises(ValueError, match=rf"use roller_radius < {largest:.6g} m \(the largest roller"):
+            CamFollower(profile, follower="roller", roller_radius=r, offset=offset)
+    CamFollower(profile, follower="roller", roller_radius=largest - 2e-6, offset=offset)
+    assert CamFollower(CamProfile.eccentric(), follower="roller", roller_radius=0.01).largest_roller_radius() == math.inf
+
+
 # ------------------------------------------------------------------ shapes and arguments
 @pytest.mark.parametrize("shape", [(), (1,), (3, 1, 2, 1)])
 def test_batch_shapes(shape):
