@@ -1356,6 +1356,14 @@ def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_
         # start pressed in by the quasi-static Hunt-Crossley penetration
         force = float(cam.contact_force(theta0, w))
         penetration = (max(force, 0.0) / kc) ** (1.0 / ec)
+        scale = min(cam.profile.base_radius, cam.roller_radius if cam.follower == "roller" else math.inf)
+        if penetration > 0.5 * scale:  # (System.add_contact would refuse it, blaming the bodies' placement)
+            raise ValueError(
+                f"contact_stiffness: expected a contact stiff enough to hold the follower near the cam's surface, "
+                f"got {kc!r} N/m^{ec:g}: the contact force of {force:.4g} N presses it {penetration:.3g} m into "
+                f"the cam, more than half the cam's length scale {scale:g} m; use contact_stiffness > "
+                f"{force / (0.5 * scale) ** ec:.3g} N/m^{ec:g} (the default 1e8 presses it in by "
+                f"{(force / 1e8) ** (1.0 / ec):.2g} m)")
     m = cam.mass
     system = System(gravity=(0.0, 0.0, -cam.gravity))
     half = 0.5 * theta0

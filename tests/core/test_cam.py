@@ -715,6 +715,10 @@ def test_compliant_follower_leaves_and_lands():
         (dict(speed=1e300), r"speed: expected a cam speed \(rad/s\) of magnitude at most 1e\+100, got 1e\+300"),
         (dict(model="rigid"), "model: expected one of"),
         (dict(contact_stiffness=0.0), "contact_stiffness: expected a finite number > 0"),
+        # (a soft compliant contact starts deep in the cam: the System blamed the bodies' placement)
+        (dict(model="compliant", contact_stiffness=1e4),
+         r"contact_stiffness: expected a contact stiff enough .* got 10000.0 N/m\^1.5: the contact force of "
+         r".* presses it 0.0\d+ m into the cam, .*; use contact_stiffness > \d"),
         (dict(contact_damping=-1.0), "contact_damping: expected a finite number >= 0"),
         (dict(contact_exponent=0.5), "contact_exponent: expected a finite exponent >= 1"),
         (dict(t=[0.1, 0.2, 0.15]), r"t: expected non-decreasing times \(s\), got t\[2\] = 0.15 after t\[1\] = 0.2"),
