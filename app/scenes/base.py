@@ -89,6 +89,14 @@ def plot_axes(presenter: bool) -> tuple[dict, dict]:
     return ({"font": font, "size": round(50 * f)}, {"font": font, "size": round(PLOT_Y_AXIS_PX * f)})
 
 
+def plot_padding(presenter: bool) -> tuple:
+    """uPlot padding (top, right, bottom, left; None: uPlot's own) of a scene plot: room above the plot
+    area for the upper half of the top y tick label, which uPlot's own top padding cut off under the title
+    (a "45" at the top of the lean plot showed as half a number)."""
+    f = PRESENTER_FONT_SCALE if presenter else 1.0
+    return (round(1.2 * PLOT_FONT_PX * f), None, None, None)
+
+
 def plot_text_css(presenter: bool) -> str:
     """A style sheet (HTML) that enlarges every plot's title and legend in presenter view; empty otherwise.
 
@@ -279,9 +287,10 @@ class Scene:
             handle.thickness = thickness * line_scale
         for readout in self._readouts:
             readout.set_presenter(on)
-        axes = plot_axes(on)
+        axes, padding = plot_axes(on), plot_padding(on)
         for plot in self._plots:
             plot.axes = axes
+            plot.padding = padding
         self.on_presenter(bool(on))
 
     def on_presenter(self, on: bool) -> None:
@@ -392,8 +401,9 @@ class Scene:
 
     def add_plot(self, data: tuple, series: tuple, **options: Any) -> Any:
         """A uPlot chart in the current GUI folder (``gui.add_uplot``) whose axes' tick labels grow in
-        presenter view (:func:`plot_axes`)."""
+        presenter view (:func:`plot_axes`), with room above for the top tick label (:func:`plot_padding`)."""
         options.setdefault("axes", plot_axes(self.presenter))
+        options.setdefault("padding", plot_padding(self.presenter))
         handle = self.target.gui.add_uplot(data, series, **options)
         self._plots.append(handle)
         return handle

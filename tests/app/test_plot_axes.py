@@ -10,7 +10,7 @@ import pytest
 
 from app.readout import PRESENTER_FONT_SCALE
 from app.scenes import discover_scenes
-from app.scenes.base import PLOT_FONT_PX, PLOT_Y_AXIS_PX, plot_axes, plot_text_css
+from app.scenes.base import PLOT_FONT_PX, PLOT_Y_AXIS_PX, plot_axes, plot_padding, plot_text_css
 from tests.helpers import send_value, wait_until
 
 SCENES = list(discover_scenes())
@@ -50,6 +50,8 @@ def test_every_plot_of_a_scene_has_the_scene_axes_and_follows_presenter_view(ser
         scene.set_presenter(on)
         for plot in scene._plots:
             assert tuple(plot.axes) == plot_axes(on)
+            # room above the plot area for the top tick label's upper half (uPlot's own cut it off)
+            assert tuple(plot.padding) == plot_padding(on) and plot.padding[0] >= 0.5 * _font_px(plot.axes[1])
 
 
 def test_plot_titles_and_legends_grow_in_presenter_view(running_app: Any) -> None:
