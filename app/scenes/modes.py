@@ -127,7 +127,8 @@ _SUPPORT_COLOR = (150, 150, 160)
 _LABEL_SCALE = 1.3
 # Chart colours: eigenvalues by stability; none of them the red / green /
 # blue of frame axes.
-_STATUS_COLORS = {"stable": "#0f766e", "neutral": "#1d4ed8", "unstable": "#c2410c", "rigid": "#9ca3af"}
+_STATUS_COLORS = {"stable": "#0f766e", "neutral": "#1d4ed8", "unstable": "#c2410c", "mirrored": "#c2410c",
+                  "rigid": "#9ca3af"}
 _SELECTED_COLOR = "#7c3aed"
 _CURVE_COLORS = ("#0f766e", "#b45309", "#1d4ed8", "#be185d", "#4d7c0f", "#7c3aed", "#0e7490", "#a16207")
 
@@ -418,12 +419,22 @@ class Solution:
     json: str
 
     def status(self, i: int) -> str:
-        """Stability of eigenvalue ``i``: rigid, unstable, neutral (undamped: on the boundary) or stable (damped)."""
+        """Stability of eigenvalue ``i``: rigid, unstable, neutral (undamped: on the boundary), stable
+        (damped), or mirrored: Re s < 0, but its mirror ``-conj(s)`` is an eigenvalue too and grows (an
+        undamped system's eigenvalues come in such pairs: an inverted or slow heavy top has s = +-1.41;
+        the decaying one is no damping, and the equilibrium is unstable)."""
         if self.rigid[i]:
             return "rigid"
         if not self.stable[i]:
             return "unstable"
-        return "neutral" if self.critical[i] else "stable"
+        if self.critical[i]:
+            return "neutral"
+        ev = self.eigenvalues
+        mirror = -np.conj(ev[i])
+        scale = float(np.max(np.abs(ev))) if ev.size else 1.0
+        if np.any((np.abs(ev - mirror) <= 1e-8 * scale) & ~self.stable & ~self.rigid):
+            return "mirrored"
+        return "stable"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -774,7 +785,7 @@ def _s_text(s: complex, pair: bool, scale: float) -> str:
 
 
 _STATUS_TEXT = {"stable": "stable (damped)", "neutral": "neutral (undamped)", "unstable": "**unstable**",
-                "rigid": "rigid"}
+                "mirrored": "decays, but its mirror grows: **unstable**", "rigid": "rigid"}
 
 
 def modes_table(solution: Solution, selected: int) -> str:
@@ -1007,7 +1018,8 @@ class ModesScene(Scene):
         "- **Eigenproblem**: without damping or spin K φ = ω² M φ (Eqs. 8.113-8.116), otherwise "
         "the state-space problem of [u, u̇] (Eqs. 8.117-8.124). The **table** gives per mode the "
         "damped frequency f = |Im s|/2π, ω_n = |s| (Eq. 8.130), ξ = −Re s/|s| (Eq. 8.131), s "
-        "and its stability (Re s < 0 damped, = 0 neutral, > 0 unstable); rigid-body (zero) "
+        "and its stability (Re s < 0 damped, = 0 neutral, > 0 unstable; a decaying s whose mirror −s̄ "
+        "grows belongs to an unstable equilibrium); rigid-body (zero) "
         "eigenvalues are listed below it.\n"
         "- **Animation**: the chosen mode as q0 + a Re(S e^(st)) (Eqs. 8.125-8.129), every sample "
         "projected back onto the constraints by Newton, so the joints stay closed at any "
@@ -1371,7 +1383,7 @@ class ModesScene(Scene):
         clip, solution = self.clip, self.solution
         i = solution.groups[clip.mode - 1][0]
         text = f"mode {clip.mode}: {_sig(float(solution.frequency_hz[i]))} Hz"
-        if solution.status(i) == "unstable":
+        if solution.status(i) in ("unstable", "mirrored"):
             text += " (unstable)"
         if self.mode_label.text != text:
             self.mode_label.text = text

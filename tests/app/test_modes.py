@@ -269,6 +269,10 @@ def test_top_root_locus_finds_the_sleeping_tops_critical_spin(modes):
     solution, _ = wait_for(scene, top_spin=3.0)
     assert not all(solution.stable)
     wait_until(lambda: "**unstable**" in scene.gui.table.content)
+    # the top has no damping: the decaying member of each +-Re pair is not "stable (damped)" (it read so)
+    statuses = [solution.status(g[0]) for g in solution.groups]
+    assert "stable" not in statuses and statuses.count("mirrored") == statuses.count("unstable") >= 1
+    assert "stable (damped)" not in scene.gui.table.content
     assert send_value(scene, "top_spin", 4.0)
     solution, _ = wait_for(scene, top_spin=4.0)
     assert all(solution.stable)
@@ -276,6 +280,7 @@ def test_top_root_locus_finds_the_sleeping_tops_critical_spin(modes):
     assert send_value(scene, "top_spin", 0.0)
     assert send_value(scene, "mode", "3")
     solution, clip = wait_for(scene, top_spin=0.0, mode=3)
+    assert "stable" not in [solution.status(i) for i in range(solution.eigenvalues.size)]  # s = +-1.41: a saddle
     assert clip.eigenvalue.real > 0 and clip.eigenvalue.imag == 0 and not clip.oscillates
     assert "does not oscillate" in scene.gui.status.content or wait_until(
         lambda: "does not oscillate" in scene.gui.status.content)
@@ -313,6 +318,7 @@ def test_two_masses_have_complex_modes_with_their_damping(modes):
     expected = np.sort_complex(s[s.imag > 0])
     got = np.sort_complex(solution.eigenvalues[[g[0] for g in solution.groups]])
     np.testing.assert_allclose(got, expected, rtol=1e-10)
+    assert all(solution.status(g[0]) == "stable" for g in solution.groups)  # damped: no mirror grows
     # a damped mode is shown decaying over several periods, starting at a
     assert clip.cycles > 1 and clip.t[0] == 0.0
     x = clip.positions[:, 0, 0]
