@@ -328,6 +328,10 @@ class Session:
             self._guard(f"showing scene '{name}'", lambda: scene.set_active(True))
             self.active_name = name
             self._set_chooser(name)
+            if previous is not None and self.controls.value("state_out"):
+                # a copied state is the previous scene's: its string and link would open that scene
+                self.controls.set("state_out", "")
+                self._share_html.content = ""
             self._guard(f"framing scene '{name}'", lambda: self._frame_camera(name))
             return True
 

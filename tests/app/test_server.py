@@ -540,6 +540,8 @@ def test_copy_and_load_state_through_the_share_panel(fake_apps: Any, ws_client: 
     client.set_gui_value(scene.slider, -2.0)
     client.set_gui_value(session._chooser, "Beta")
     assert wait_until(lambda: session.active_name == "beta")
+    # the copied state is alpha's: another scene shown, its string and link are cleared (they would open alpha)
+    assert wait_until(lambda: handles["state_out"].value == "" and session._share_html.content == "")
     client.set_gui_value(handles["state_in"], string)
     assert wait_until(lambda: session.controls.value("state_in") == string)
     client.set_gui_value(handles["load_state"], True)
