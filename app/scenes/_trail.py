@@ -17,13 +17,19 @@ import numpy as np
 
 from app.nodes import set_array
 
-__all__ = ["ChunkedTrail", "extend_trail", "trail_segments", "FAR_SEGMENTS"]
+__all__ = ["ChunkedTrail", "extend_trail", "trail_segments", "with_far", "FAR_SEGMENTS"]
 
 #: Two zero-length segments 5 km away, beyond the view's far plane, added to every
 #: chunk node: the page computes a line buffer's bounds once, from the points it
 #: was created with, and a node whose points later leave those bounds would be
 #: culled; with these the bounds hold anything a scene draws.
 FAR_SEGMENTS = np.array([[[-5000.0, -5000.0, 0.0]] * 2, [[5000.0, 5000.0, 0.0]] * 2], dtype=np.float32)
+
+
+def with_far(segments: np.ndarray) -> np.ndarray:
+    """``segments`` (k, 2, 3) followed by :data:`FAR_SEGMENTS` (float32): the points of a line node that
+    moves away from where it was created (a track's newest stretch), so that the page does not cull it."""
+    return np.concatenate([np.asarray(segments, dtype=np.float32), FAR_SEGMENTS])
 
 
 def extend_trail(points: np.ndarray, point: np.ndarray, *, min_step: float, capacity: int) -> tuple[np.ndarray, bool]:

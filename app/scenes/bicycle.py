@@ -53,7 +53,7 @@ from app.nodes import set_array, set_pose
 from app.readout import PRESENTER_FONT_SCALE
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
-from app.scenes._trail import ChunkedTrail
+from app.scenes._trail import ChunkedTrail, with_far
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.models import (
@@ -498,15 +498,6 @@ def _mode_table(speed: float, modes: tuple[ModeRow, ...], *, presenter: bool) ->
             f"<thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table></div>")
 
 
-_FAR = np.array([[[-5000.0, -5000.0, 0.0]] * 2, [[5000.0, 5000.0, 0.0]] * 2])
-
-
-def _with_far(segments: np.ndarray) -> np.ndarray:
-    """``segments`` (k, 2, 3) and two of zero length 5 km away (float32): the page computes a line
-    buffer's bounds once, and a track that has left them would not be drawn any more."""
-    return np.concatenate([np.asarray(segments, dtype=np.float32), _FAR.astype(np.float32)])
-
-
 def _hex_rgb(color: str) -> tuple[int, int, int]:
     return int(color[1:3], 16), int(color[3:5], 16), int(color[5:7], 16)
 
@@ -691,7 +682,7 @@ class BicycleScene(PlaybackRequests, Scene):
         ]
         # from each track's last point to the wheel's contact point now (sent every frame: two segments)
         self.track_heads = self.add_lines(
-            f"{root}/world/track_heads", _with_far(np.zeros((2, 2, 3))),
+            f"{root}/world/track_heads", with_far(np.zeros((2, 2, 3))),
             np.array([[_REAR_TRACK] * 2, [_FRONT_TRACK] * 2, [_REAR_TRACK] * 2, [_REAR_TRACK] * 2], dtype=np.uint8),
             thickness=3.0,
             thickness_units="screen")
@@ -889,7 +880,7 @@ class BicycleScene(PlaybackRequests, Scene):
             if show_tracks:
                 now = contacts + (0.0, 0.0, 0.003)
                 start = self._track_ends if self._track_ends is not None else now
-                set_array(self.track_heads, "points", _with_far(np.stack([start, now], axis=1)))
+                set_array(self.track_heads, "points", with_far(np.stack([start, now], axis=1)))
             if due is not None:
                 self._refresh_one(due)
 

@@ -53,7 +53,7 @@ from app.nodes import set_array, set_pose, wxyz_z_to
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
-from app.scenes._trail import ChunkedTrail
+from app.scenes._trail import ChunkedTrail, with_far
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.contact import ContactError
@@ -533,9 +533,12 @@ class RollingDiskScene(PlaybackRequests, Scene):
                                   thickness_units="screen", capacity=_TRACK_CAPACITY, min_step=_TRACK_MIN_STEP)
         # the newest stretch, from the last track point sent to the contact point
         # drawn: one segment sent every frame (the track's newest chunk goes at 10 Hz)
+        # (with the far segments: the page computes a line node's bounds once, where it was created, and
+        # culled this one at the origin once the camera followed the disk away: the drawn track then ended
+        # up to a metre behind the disk)
         self.track_head = self.add_lines(
-            f"{root}/ground/track_head", np.zeros((1, 2, 3), dtype=np.float32),
-            np.full((1, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0, thickness_units="screen",
+            f"{root}/ground/track_head", with_far(np.zeros((1, 2, 3))),
+            np.full((3, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0, thickness_units="screen",
         )
         ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
         self.point = scene.add_frame(f"{root}/ground/point", show_axes=False)
@@ -781,7 +784,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
                 head = np.empty((1, 2, 3))
                 head[0, 1] = (point[0], point[1], point[2] + _TRACK_LIFT)
                 head[0, 0] = self._track_sent_end if self._track_sent_end is not None else head[0, 1]
-                set_array(self.track_head, "points", head)
+                set_array(self.track_head, "points", with_far(head))
             if self.force_frame.visible != show_force:
                 self.force_frame.visible = show_force
             if show_force:
