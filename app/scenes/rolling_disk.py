@@ -533,9 +533,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
                                   thickness_units="screen", capacity=_TRACK_CAPACITY, min_step=_TRACK_MIN_STEP)
         # the newest stretch, from the last track point sent to the contact point
         # drawn: one segment sent every frame (the track's newest chunk goes at 10 Hz)
-        # (with the far segments: the page computes a line node's bounds once, where it was created, and
-        # culled this one at the origin once the camera followed the disk away: the drawn track then ended
-        # up to a metre behind the disk)
+        # (with the far segments, as the bicycle's heads: the page computes a line node's bounds once, where
+        # it was created, and this one moves away from the origin)
         self.track_head = self.add_lines(
             f"{root}/ground/track_head", with_far(np.zeros((1, 2, 3))),
             np.full((3, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0, thickness_units="screen",

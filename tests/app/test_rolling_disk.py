@@ -153,8 +153,7 @@ def test_the_track_grows_on_the_ground(disk):
     # the head segment joins the newest point sent to the contact point drawn (sent every frame)
     assert np.min(np.linalg.norm(sent.reshape(-1, 3) - head[0, 0], axis=1)) < 1e-6
     np.testing.assert_allclose(head[0, 1, :2], point[:2], atol=1e-6)
-    # and it carries the far segments: the page bounds a line node where it was created, and culled the
-    # head (created at the origin) once the camera followed the disk away
+    # and it carries the far segments: the page bounds a line node where it was created (at the origin)
     from app.scenes._trail import FAR_SEGMENTS
 
     np.testing.assert_array_equal(head[1:], FAR_SEGMENTS)
