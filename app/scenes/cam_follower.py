@@ -950,11 +950,13 @@ class CamFollowerScene(Scene):
             with gui.add_folder("Cam and follower"):
                 self.controls.add(Choice("profile", "Cam", options=PROFILES, default=_DEFAULT.profile))
                 self.controls.add(Choice("follower", "Follower", options=FOLLOWERS, default=_DEFAULT.follower))
-                self.controls.add(Slider("rise_deg", "Rise = fall (deg)", min=_RISE_DEG[0], max=_RISE_DEG[1], step=1.0,
+                self.controls.add(Slider("rise_deg", "Rise = fall (deg)", min=_RISE_DEG[0], max=_RISE_DEG[1],
+                                         step=1.0,
                                          default=_DEFAULT.rise_deg,
                                          hint="Cam angle of the rise and of the fall (rise-dwell-return cams)"),
                                   disabled=True)
-                self.controls.add(Slider("roller_mm", "Roller radius (mm)", min=_ROLLER_MM[0], max=_ROLLER_MM[1], step=0.5,
+                self.controls.add(Slider("roller_mm", "Roller radius (mm)", min=_ROLLER_MM[0], max=_ROLLER_MM[1],
+                                         step=0.5,
                                          default=_DEFAULT.roller_mm, hint="Radius of the roller (roller follower)"),
                                   disabled=True)
             with gui.add_folder("Motion"):
@@ -1286,7 +1288,8 @@ class CamFollowerScene(Scene):
         self.contact_frame.visible = show
         if not show:
             return
-        set_pose(self.contact_point, position=(contact[0], _Y_FRONT, contact[1]), wxyz=wxyz_z_to((normal[0], 0.0, normal[1]), 1.0))
+        set_pose(self.contact_point, position=(contact[0], _Y_FRONT, contact[1]),
+                 wxyz=wxyz_z_to((normal[0], 0.0, normal[1]), 1.0))
         if self.normal_line.visible != in_contact:  # in flight there is no contact normal to draw
             self.normal_line.visible = in_contact
         drawn = in_contact and force != 0.0

@@ -447,10 +447,6 @@ class _Gui:
     plot_normal: Any
 
 
-
-
-
-
 class RollingDiskScene(PlaybackRequests, Scene):
     """A thin disk on the ground: rolling without slip or frictionless sliding (core.contact)."""
 

@@ -947,10 +947,10 @@ class CamFollower:
         c = self._pitch_stack(th, 3)
         return CamCurve(c[0], c[1], c[2], c[3])
 
-    def _pitch_stack(self, theta: np.ndarray, order: int) -> np.ndarray:
+    def _pitch_stack(self, theta: np.ndarray, order: int, pitch_height: float | None = None) -> np.ndarray:
         s = self._stack(theta)
         y = s.copy()
-        y[0] += self._pitch_height
+        y[0] += self._pitch_height if pitch_height is None else pitch_height
         n, t = _trig_stack(theta, order)
         c = self.offset * t
         for kk in range(order + 1):
@@ -1082,8 +1082,8 @@ class CamFollower:
             return self.profile.base_radius + D[0] + D[2]
         return self._pitch_radius(th) - self.roller_radius
 
-    def _pitch_radius(self, theta: np.ndarray) -> np.ndarray:
-        c = self._pitch_stack(theta, 2)
+    def _pitch_radius(self, theta: np.ndarray, pitch_height: float | None = None) -> np.ndarray:
+        c = self._pitch_stack(theta, 2, pitch_height)
         d1, d2 = c[1], c[2]
         cross = d1[..., 0] * d2[..., 1] - d1[..., 1] * d2[..., 0]
         with np.errstate(divide="ignore"):
@@ -1123,12 +1123,13 @@ class CamFollower:
                 f"would be undercut; {fix}"
             )
 
-    def _smallest_convex_pitch_radius(self) -> tuple[float, float]:
-        """The pitch curve's smallest convex radius of curvature (m) and its cam angle (rad); inf if none."""
+    def _smallest_convex_pitch_radius(self, pitch_height: float | None = None) -> tuple[float, float]:
+        """The pitch curve's smallest convex radius of curvature (m) and its cam angle (rad); inf if none.
+        ``pitch_height``: that of another roller (default this follower's)."""
         worst, where = math.inf, 0.0
         for seg in self._segments:
             u = np.linspace(seg.start, seg.stop, _SAMPLES)
-            rho = self._pitch_radius(u)
+            rho = self._pitch_radius(u, pitch_height)
             convex = rho > 0
             if np.any(convex):
                 i = int(np.argmin(np.where(convex, rho, np.inf)))
@@ -1153,11 +1154,9 @@ class CamFollower:
             return math.inf
         lo = max(0.0, abs(self.offset) - prof.base_radius) * (1.0 + 1e-12) + 1e-12
 
-        def margin(r: float) -> float:
-            trial = object.__new__(CamFollower)  # (not copy.copy: __reduce__ rebuilds, and checks, the cam)
-            trial.__dict__.update(self.__dict__)
-            object.__setattr__(trial, "_pitch_height", math.sqrt((prof.base_radius + r) ** 2 - self.offset**2))
-            return trial._smallest_convex_pitch_radius()[0] - r
+        def margin(r: float) -> float:  # (the pitch curve of roller r: its height at zero lift)
+            height = math.sqrt((prof.base_radius + r) ** 2 - self.offset**2)
+            return self._smallest_convex_pitch_radius(height)[0] - r
 
         if not margin(lo) > 0:
             return 0.0

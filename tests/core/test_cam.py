@@ -444,7 +444,8 @@ def test_the_undercut_refusal_names_the_largest_roller_that_fits(offset):
         with pytest.raises(ValueError, match=rf"use roller_radius < {largest:.6g} m \(the largest roller"):
             CamFollower(profile, follower="roller", roller_radius=r, offset=offset)
     CamFollower(profile, follower="roller", roller_radius=largest - 2e-6, offset=offset)
-    assert CamFollower(CamProfile.eccentric(), follower="roller", roller_radius=0.01).largest_roller_radius() == math.inf
+    eccentric = CamFollower(CamProfile.eccentric(), follower="roller", roller_radius=0.01)
+    assert eccentric.largest_roller_radius() == math.inf
 
 
 # ------------------------------------------------------------------ shapes and arguments
