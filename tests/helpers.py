@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 
@@ -20,6 +21,15 @@ def wait_until(predicate: Callable[[], object], timeout: float = 20.0, *, interv
     if predicate():  # one last look after the deadline
         return True
     raise AssertionError(f"condition not met within {timeout:g} s")
+
+
+def process_group_gone(pgid: int) -> bool:
+    """Whether no process of process group ``pgid`` is left (a server started in its own session)."""
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return True
+    return False
 
 
 def send_value(owner: object, key: str, raw: object, *, timeout: float = 10.0) -> bool:

@@ -19,7 +19,7 @@ from app.controls import Slider
 from app.scenes import discover_scenes, get_scene_class
 from app.scenes.base import Scene
 from app.server import create_app
-from tests.helpers import wait_until
+from tests.helpers import process_group_gone, wait_until
 
 
 class CountingScene(Scene):
@@ -422,15 +422,8 @@ def test_rigidlab_serve_stopped_while_it_starts_leaves_no_process() -> None:
         output = "".join(lines) + rest
         assert process.returncode == 0, output
         assert "rigidlab: stopping" in output and "leaked semaphore" not in output, output
-
-        def group_gone() -> bool:
-            try:
-                os.killpg(process.pid, 0)
-            except ProcessLookupError:
-                return True
-            return False
-
-        assert wait_until(group_gone, timeout=20.0), "processes of the server were left running"
+        assert wait_until(lambda: process_group_gone(process.pid), timeout=20.0), \
+            "processes of the server were left running"
     finally:
         if process.poll() is None:
             process.kill()

@@ -9,7 +9,6 @@ starts the worker again.
 
 from __future__ import annotations
 
-import os
 import re
 import signal
 import subprocess
@@ -23,7 +22,7 @@ import pytest
 from app import cli
 from app.workers import reuse_port_supported
 from tests.app.conftest import WsClient
-from tests.helpers import wait_until
+from tests.helpers import process_group_gone, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -55,14 +54,6 @@ class _Output:
 def _connections(out: _Output, worker: int) -> int:
     return out.count(rf"^\[worker {worker}\] .*browser \d+ connected")
 
-
-
-def _group_gone(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return True
-    return False
 
 def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
     process = subprocess.Popen(
@@ -102,7 +93,7 @@ def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
         subprocess.run(["kill", "-KILL", str(process_1)], check=True)
         wait_until(lambda: f"worker 1 (pid {process_1}) was killed by SIGKILL" in out.text(), timeout=20.0)
         # nothing of it is left: its executor's fork server and pool processes (its process group) are gone
-        assert wait_until(lambda: _group_gone(process_1), timeout=20.0)
+        assert wait_until(lambda: process_group_gone(process_1), timeout=20.0)
         survivors = [c for c, w in zip(clients, where) if w == 2]
         lost = [c for c, w in zip(clients, where) if w == 1]
         wait_until(lambda: all(not c._thread.is_alive() for c in lost), timeout=20.0)
