@@ -785,7 +785,7 @@ def _s_text(s: complex, pair: bool, scale: float) -> str:
 
 
 _STATUS_TEXT = {"stable": "stable (damped)", "neutral": "neutral (undamped)", "unstable": "**unstable**",
-                "mirrored": "decays, but its mirror grows: **unstable**", "rigid": "rigid"}
+                "mirrored": "**unstable**: decays, its mirror grows", "rigid": "rigid"}
 
 
 def modes_table(solution: Solution, selected: int) -> str:
