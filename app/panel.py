@@ -288,6 +288,13 @@ class ControlPanel:
         value. Returns one message per refused key (unknown key or refused
         value); the accepted ones are applied and count as changes.
         """
+        accepted, refused = self.check(values)
+        self.apply(accepted)
+        return refused
+
+    def check(self, values: Mapping[str, Any]) -> tuple[dict[str, Any], list[str]]:
+        """``(accepted, refused)``: the values of ``values`` each control accepts (as scene values) and one
+        message per refused key, without applying anything (see :meth:`load`)."""
         refused = []
         accepted: dict[str, Any] = {}
         for key, value in values.items():
@@ -299,13 +306,16 @@ class ControlPanel:
                 accepted[key] = self._checked(spec, value)
             except ValueError as exc:
                 refused.append(f"{spec.label}: {str(exc).split(': ', 1)[-1]}")
+        return accepted, refused
+
+    def apply(self, accepted: Mapping[str, Any]) -> None:
+        """Show and use ``accepted`` (values :meth:`check` accepted); they count as changes."""
         for key, value in accepted.items():
             self.set(key, value)
         with self._lock:
             self._changed |= set(accepted)
             if accepted:
                 self._version += 1
-        return refused
 
 
 def _is_finite_number(x: Any) -> bool:

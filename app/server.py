@@ -456,8 +456,14 @@ class Session:
         if name != self.active_name and not self.activate(name):
             return
         scene = self.scenes[name]
-        refused = scene.load_state(state)
         title = self._name_to_title[name]
+        try:
+            refused = scene.load_state(state)
+        except ValueError as exc:  # the values together (nothing was applied)
+            self.notify("State not loaded",
+                        f"{title}: the values from {source} are refused together: "
+                        f"{str(exc).removeprefix('state: ')}. The values in use are kept.", "warning")
+            return
         if refused:
             self.notify(
                 "State loaded in part",

@@ -316,7 +316,10 @@ class Scene:
         Raises
         ------
         ValueError
-            If ``state`` belongs to another scene.
+            If ``state`` belongs to another scene, or if the scene refuses
+            its accepted values together with the others in use
+            (:meth:`values_refusal`, e.g. a rotor with ``I3 > 2 I``); then
+            nothing is applied.
         """
         scene = state.get("scene")
         if scene != self.name:
@@ -324,9 +327,27 @@ class Scene:
         values = state.get("values", {})
         if not isinstance(values, dict):
             raise ValueError(f"state: expected 'values' to be an object, got {type(values).__name__}")
-        refused = self.controls.load(values)
+        accepted, refused = self.controls.check(values)
+        # each value alone passed its control; the scene may still refuse them together, and a load that said
+        # "State loaded" before the scene set its controls back contradicted itself
+        together = self.values_refusal({**self.controls.values(), **accepted}) if accepted else None
+        if together is not None:
+            raise ValueError(f"state: {together}")
+        self.controls.apply(accepted)
         refused += self.load_extra_state({k: v for k, v in state.items() if k not in ("format", "scene", "values")})
         return refused
+
+    def values_refusal(self, values: dict[str, Any]) -> str | None:
+        """Hook: why the scene would refuse the control values ``values`` (every control's) together, or None.
+
+        Called by :meth:`load_state` before it applies anything, on the
+        thread that loads (not the loop): build the scene's model from
+        ``values`` without touching the scene. The scenes whose model
+        checks values together (the gyroscope's rotor, the rolling disk,
+        the cam, the mode-shapes models) override it with the check their
+        controls' changes get.
+        """
+        return None
 
     def load_extra_state(self, extra: dict[str, Any]) -> list[str]:
         """Hook: apply what :meth:`extra_state` gave; return refusal messages."""

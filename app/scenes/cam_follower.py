@@ -1074,6 +1074,13 @@ class CamFollowerScene(Scene):
         values = self.controls.values()
         return Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)})
 
+    def values_refusal(self, values: dict[str, Any]) -> str | None:
+        try:
+            build_cam(Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)}))
+        except ValueError as exc:
+            return f"cam refused: {exc}"
+        return None
+
     def _request(self, inputs: Inputs) -> None:
         """Ask for the revolution of ``inputs``: one job at a time, the newest inputs win."""
         self._wanted = inputs

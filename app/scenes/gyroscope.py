@@ -570,6 +570,13 @@ class GyroscopeScene(PlaybackRequests, Scene):
         values = self.controls.values()
         return Inputs(**{key: float(values[key]) for key in _MODEL_KEYS})
 
+    def values_refusal(self, values: dict[str, Any]) -> str | None:
+        try:
+            _Model.from_inputs(Inputs(**{key: float(values[key]) for key in _MODEL_KEYS}))
+        except ValueError as exc:
+            return f"invalid rotor parameters: {exc}"
+        return None
+
     def _apply_inputs(self, inputs: Inputs) -> None:
         """Use ``inputs`` (restart), or refuse them with a notice and set the sliders back."""
         try:

@@ -1186,6 +1186,13 @@ class ModesScene(Scene):
         run = self._run
         return (run.done, run.total) if run is not None else (0, 0)
 
+    def values_refusal(self, values: dict[str, Any]) -> str | None:
+        try:
+            _build_system(Params.from_values(values))
+        except ValueError as exc:
+            return f"invalid parameters: {exc}"
+        return None
+
     def wanted(self) -> tuple[Params, int, float]:
         values = self.controls.values()
         return Params.from_values(values), int(values["mode"]), float(values["amplitude"])

@@ -629,6 +629,13 @@ class RollingDiskScene(PlaybackRequests, Scene):
         return self.track.points
 
     # -- inputs ------------------------------------------------------------------------
+    def values_refusal(self, values: dict[str, Any]) -> str | None:
+        try:
+            Model.from_inputs(Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)}))
+        except ValueError as exc:
+            return f"invalid disk parameters: {exc}"
+        return None
+
     def _apply_inputs(self, inputs: Inputs) -> None:
         """Use ``inputs`` (restart), or refuse them with a notice and set the controls back."""
         try:
