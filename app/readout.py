@@ -19,10 +19,15 @@ import math
 import re
 from typing import Any
 
-__all__ = ["Readout", "markdown_to_html", "one_digit", "significant", "PRESENTER_FONT_SCALE"]
+__all__ = ["Readout", "markdown_to_html", "one_digit", "significant", "PRESENTER_FONT_SCALE", "PRESENTER_TABLE_SCALE"]
 
 #: Font size of readouts in presenter view, relative to the panel's.
 PRESENTER_FONT_SCALE = 1.45
+#: Font size of a readout's tables in presenter view, relative to the readout's (1.45 x 0.7 = 1.0 of the
+#: panel's, 16 % above a table outside presenter view): at the readout's size a table of six numeric columns
+#: (the mode shapes', the bicycle's) is wider than the panel, and its right-hand columns were cut off. (The
+#: panel itself is not widened: viser's plots lose their time axis when the panel's width changes.)
+PRESENTER_TABLE_SCALE = 0.7
 
 _BOLD = re.compile(r"\*\*(.+?)\*\*")
 _CODE = re.compile(r"`([^`]+)`")
@@ -56,7 +61,7 @@ def _inline(text: str) -> str:
     return text
 
 
-def markdown_to_html(text: str) -> str:
+def markdown_to_html(text: str, *, table_scale: float = 1.0) -> str:
     """HTML of the readout Markdown subset (see the module docstring)."""
     out: list[str] = []
     paragraph: list[str] = []
@@ -81,7 +86,7 @@ def markdown_to_html(text: str) -> str:
             while i < len(lines) and lines[i].lstrip().startswith("|"):
                 rows.append(lines[i])
                 i += 1
-            out.append(_table(rows))
+            out.append(_table(rows, table_scale))
             continue
         if line.startswith("```"):
             flush()
@@ -130,8 +135,9 @@ def _cells(row: str) -> list[str]:
     return [cell.strip() for cell in row.split("|")]
 
 
-def _table(rows: list[str]) -> str:
-    """HTML of a pipe table: header row, ``|---|---:|`` rule (colons align), body rows."""
+def _table(rows: list[str], scale: float = 1.0) -> str:
+    """HTML of a pipe table: header row, ``|---|---:|`` rule (colons align), body rows; its font ``scale`` times
+    the text's."""
     header = _cells(rows[0])
     aligns = ["right" if c.endswith(":") and not c.startswith(":") else
               "center" if c.startswith(":") and c.endswith(":") else "left" for c in _cells(rows[1])]
@@ -145,7 +151,8 @@ def _table(rows: list[str]) -> str:
     head = "".join(cell("th", text, k, ";border-bottom:1px solid #c8ccd4;font-weight:600")
                    for k, text in enumerate(header))
     lines = ["<tr>" + "".join(cell("td", text, k) for k, text in enumerate(_cells(row))) + "</tr>" for row in body]
-    return ("<table style='border-collapse:collapse;margin:0 0 0.45em 0;font-variant-numeric:tabular-nums'>"
+    size = "" if scale == 1.0 else f";font-size:{scale:g}em"
+    return (f"<table style='border-collapse:collapse;margin:0 0 0.45em 0;font-variant-numeric:tabular-nums{size}'>"
             f"<thead><tr>{head}</tr></thead><tbody>{''.join(lines)}</tbody></table>")
 
 
@@ -190,7 +197,8 @@ class Readout:
         """The HTML sent for the current text."""
         size = f"{PRESENTER_FONT_SCALE:.2f}em" if self._presenter else "0.875em"
         return (f"<div class='rigidlab-readout' style='font-size:{size};line-height:1.4;"
-                f"padding:0 0.75em 0.4em 0.75em'>{markdown_to_html(self._text)}</div>")
+                f"padding:0 0.75em 0.4em 0.75em'>"
+                f"{markdown_to_html(self._text, table_scale=PRESENTER_TABLE_SCALE if self._presenter else 1.0)}</div>")
 
     def _send(self) -> None:
         out = self.html()

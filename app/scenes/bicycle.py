@@ -50,7 +50,7 @@ import trimesh
 
 from app.controls import Button, Slider, Toggle
 from app.nodes import set_array, set_pose
-from app.readout import PRESENTER_FONT_SCALE
+from app.readout import PRESENTER_FONT_SCALE, PRESENTER_TABLE_SCALE
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
 from app.scenes._trail import ChunkedTrail, with_far
@@ -468,7 +468,10 @@ def svg_current(current: tuple[float, tuple[ModeRow, ...]] | None) -> str:
 def _mode_table(speed: float, modes: tuple[ModeRow, ...], *, presenter: bool) -> str:
     """HTML table of the modes at ``speed``: eigenvalue, frequency, halving or doubling time, lean : steer."""
     size = f"{PRESENTER_FONT_SCALE:.2f}em" if presenter else "0.85em"
-    pad = "padding:0.1em 0.35em;white-space:nowrap"
+    # presenter view: the title at the readouts' size, the table smaller (as a readout's, PRESENTER_TABLE_SCALE)
+    # and its cells may wrap ("½ in" over "1.23 s"): at full size the last two columns were cut off
+    table_size = f";font-size:{PRESENTER_TABLE_SCALE:g}em" if presenter else ""
+    pad = "padding:0.1em 0.35em" + ("" if presenter else ";white-space:nowrap")
     heads = (("mode", "left"), ("s (1/s)", "right"), ("f (Hz)", "right"), ("½ / ×2 in", "right"),
              ("φ : δ", "right"))
     head = "".join(f"<th style='{pad};text-align:{a};border-bottom:1px solid #c8ccd4'>{h}</th>" for h, a in heads)
@@ -477,24 +480,24 @@ def _mode_table(speed: float, modes: tuple[ModeRow, ...], *, presenter: bool) ->
         s = m.eigenvalue
         if m.name == "weave" and s.imag < 0:
             continue  # the pair is one row
-        eig = f"{s.real:+.3f} ± {s.imag:.3f}i" if s.imag > 0 else f"{s.real:+.3f}"
+        eig = f"{s.real:+.3f} ±\u00a0{s.imag:.3f}i" if s.imag > 0 else f"{s.real:+.3f}"  # (wraps before the ±)
         freq = f"{s.imag / (2 * math.pi):.3f}" if s.imag > 0 else "–"
         if s.real < 0:
-            when = f"½ in {math.log(2) / -s.real:.2f} s"
+            when = f"½ in {math.log(2) / -s.real:.2f}\u00a0s"
             color = "#15803d"
         elif s.real > 0:
-            when = f"×2 in {math.log(2) / s.real:.2f} s"
+            when = f"×2 in {math.log(2) / s.real:.2f}\u00a0s"
             color = "#c2410c"
         else:
             when, color = "neutral", "#374151"
-        ratio = f"{abs(m.lean):.2f} : {abs(m.steer):.2f}"
+        ratio = f"{abs(m.lean):.2f}\u00a0:\u00a0{abs(m.steer):.2f}"
         cells = (html.escape(m.name), eig, freq, f"<span style='color:{color}'>{when}</span>", ratio)
         rows.append("<tr>" + "".join(f"<td style='{pad};text-align:{a}'>{c}</td>" for c, (_, a) in zip(cells, heads))
                     + "</tr>")
     title = f"Modes at {speed:.2f} m/s (the System linearized, Eqs. 8.110-8.131)"
     return (f"<div style='font-size:{size};padding:0 0.75em 0.4em 0.75em'>"
             f"<div style='margin-bottom:0.2em'>{html.escape(title)}</div>"
-            "<table style='border-collapse:collapse;font-variant-numeric:tabular-nums'>"
+            f"<table style='border-collapse:collapse;font-variant-numeric:tabular-nums{table_size}'>"
             f"<thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table></div>")
 
 

@@ -781,7 +781,7 @@ def _s_text(s: complex, pair: bool, scale: float) -> str:
     if not pair:
         return real
     imag = f"±{_sig(abs(s.imag), 4)}i"
-    return imag if re == 0.0 else f"{real} {imag[0]} {imag[1:]}"
+    return imag if re == 0.0 else f"{real} {imag[0]}\u00a0{imag[1:]}"  # (a narrow column breaks before the ±)
 
 
 _STATUS_TEXT = {"stable": "stable (damped)", "neutral": "neutral (undamped)", "unstable": "**unstable**",

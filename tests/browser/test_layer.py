@@ -9,10 +9,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import pytest
 
 from app import state as codec
 from tests.browser._page import field
-from tests.helpers import wait_until
+from tests.helpers import send_value, wait_until
 
 
 def _font_px(page: Any) -> float:
@@ -83,3 +84,24 @@ def test_a_refused_value_shows_a_notice_and_the_control_shows_the_value_in_use(
     page.get_by_text("Refused: θ1 (deg)").first.wait_for(state="visible", timeout=15000)
     assert scene.controls.value("theta1") == 30.0
     assert wait_until(lambda: box.input_value() == "30", 15.0)
+
+
+_TABLES_OVERFLOW = """() => [...document.querySelectorAll('table')]
+    .filter(t => t.offsetParent !== null && t.getBoundingClientRect().width > 0)
+    .map(t => t.getBoundingClientRect().right - t.parentElement.getBoundingClientRect().right)"""
+
+
+@pytest.mark.parametrize(("name", "values"), [("modes", {"model": "Heavy top", "top_spin": 3.0}), ("bicycle", {})],
+                         ids=["modes", "bicycle"])
+def test_presenter_view_tables_fit_the_panel(running_app: Any, open_page: Any, name: str, values: dict) -> None:
+    """The mode tables (six columns, eigenvalue pairs, the status of a mirrored mode) at the presenter size
+    were wider than the panel, whose right-hand columns were cut off."""
+    app = running_app(scene=name, run_unwatched=False)
+    page = open_page(app)
+    scene = app.scene_for()
+    for key, value in values.items():
+        assert send_value(scene, key, value)
+    assert send_value(app.session_for(), "presenter", True)
+    assert wait_until(lambda: scene.presenter, 30.0)
+    assert wait_until(lambda: page.evaluate(_TABLES_OVERFLOW), 60.0)  # the table is in
+    assert wait_until(lambda: max(page.evaluate(_TABLES_OVERFLOW)) <= 1.0, 30.0), page.evaluate(_TABLES_OVERFLOW)
