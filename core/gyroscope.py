@@ -51,7 +51,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.special import ellipj, elliprf, elliprj
 
-from core._validation import float_array, positive_integer, short_repr
+from core._validation import float_array, output_times, positive_integer, short_repr
 from core.integrators import MAX_STEPS
 
 __all__ = [
@@ -1354,12 +1354,11 @@ def _check_numerical_work(params: RotorParams, s0: np.ndarray, t_end: float, tor
 
 
 def _check_times(t: Any) -> np.ndarray:
-    """Sample times: a new non-empty 1-D float array, finite, non-decreasing, >= 0."""
-    tt = np.array(_check_array(t, "t"), dtype=float, copy=True)
-    if tt.ndim != 1 or tt.shape[0] == 0:
-        raise ValueError(f"t: expected a non-empty 1-D array of times, got shape {tt.shape}")
-    if tt[0] < 0.0 or np.any(np.diff(tt) < 0.0):
-        raise ValueError(f"t: expected non-decreasing times >= 0, got t[0]={float(tt[0])!r} and {int(np.sum(np.diff(tt) < 0))} decreases")
+    """Sample times: :func:`core._validation.output_times` (a new non-empty 1-D float array, finite,
+    non-decreasing), and >= 0."""
+    tt = output_times(t)
+    if tt[0] < 0.0:
+        raise ValueError(f"t: expected times >= 0 (s), got t[0] = {float(tt[0])!r}")
     return tt
 
 

@@ -257,9 +257,9 @@ def test_public_functions_validate_input():
         simulate(params, [good, good], [0, 1])
     with pytest.raises(ValueError, match=r"t: expected a non-empty 1-D array"):
         simulate(params, good, [[0, 1]])
-    with pytest.raises(ValueError, match=r"t: expected non-decreasing times >= 0"):
+    with pytest.raises(ValueError, match=r"t: expected non-decreasing times \(s\), got t\[2\] = 1.0 after t\[1\] = 2.0"):
         simulate(params, good, [0, 2, 1])
-    with pytest.raises(ValueError, match=r"t: expected non-decreasing times >= 0, got t\[0\]=-1.0"):
+    with pytest.raises(ValueError, match=r"t: expected times >= 0 \(s\), got t\[0\] = -1.0"):
         simulate(params, good, [-1, 2])
     with pytest.raises(ValueError, match=r"torques: expected \(M_phi, M_theta, M_psi\) of shape \(3,\)"):
         simulate(params, good, [0, 1], torques=[1, 2, 3, 4])

@@ -72,11 +72,11 @@ def test_top_motion_validates_like_simulate():
         top_motion(HEAVY, [0.3, np.nan, 0.1, 2.0, 0.0, 10.0])
     with pytest.raises(ValueError, match=r"state0: expected real numbers, got complex"):
         top_motion(HEAVY, np.asarray(good) + 0j)
-    with pytest.raises(ValueError, match=r"t: expected non-decreasing times >= 0"):
+    with pytest.raises(ValueError, match=r"t: expected non-decreasing times \(s\), got t\[2\] = 1.0 after t\[1\] = 2.0"):
         motion.at([0.0, 2.0, 1.0])
-    with pytest.raises(ValueError, match=r"t: expected a non-empty 1-D array of times"):
+    with pytest.raises(ValueError, match=r"t: expected a non-empty 1-D array of output times \(s\), got shape \(0,\)"):
         motion.at([])
-    with pytest.raises(ValueError, match=r"t: expected finite values"):
+    with pytest.raises(ValueError, match=r"t: expected finite times \(s\), got t\[1\] = inf"):
         motion.at([0.0, np.inf])
 
 
