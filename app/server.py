@@ -111,6 +111,19 @@ def _copy_button(label: str, text: str) -> str:
     )
 
 
+
+_LOAD_CHECKER: concurrent.futures.ThreadPoolExecutor | None = None
+_LOAD_CHECKER_LOCK = threading.Lock()
+
+
+def _load_checker() -> concurrent.futures.ThreadPoolExecutor:
+    """One thread, shared by every session, that checks loaded states (:meth:`Scene.check_state`)."""
+    global _LOAD_CHECKER
+    with _LOAD_CHECKER_LOCK:
+        if _LOAD_CHECKER is None:
+            _LOAD_CHECKER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="rigidlab-load")
+        return _LOAD_CHECKER
+
 class Session:
     """Scenes of one audience (the whole server, or one browser).
 
@@ -165,6 +178,7 @@ class Session:
         self._initial = initial_scene
         self._pending: str | None = None
         self._pending_states: list[tuple[dict[str, Any], str]] = []
+        self._loads: list[tuple[Scene, str, dict[str, Any], str, concurrent.futures.Future]] = []
         self._send_notice = send_notice
         self._last_notice: dict[tuple[str, str], float] = {}
         self._notice_lock = threading.Lock()
@@ -395,6 +409,7 @@ class Session:
                 self._load(state, source)
             for key, _, client in clicks:
                 self._guard(f"Share: {key.replace('_', ' ')}", lambda key=key, client=client: self._share(key, client))
+            self._finish_loads()
             name = self.active_name
             if name is None:
                 return
@@ -456,14 +471,29 @@ class Session:
         if name != self.active_name and not self.activate(name):
             return
         scene = self.scenes[name]
+        # the check builds the scene's model (a 20-link chain: ~75 ms): off the loop; applied by a later step
+        self._loads.append((scene, name, state, source, _load_checker().submit(scene.check_state, state)))
+
+    def _finish_loads(self) -> None:
+        """Apply the states whose check (:meth:`_load`) is done (loop thread)."""
+        if not self._loads:
+            return
+        done = [entry for entry in self._loads if entry[4].done()]
+        self._loads = [entry for entry in self._loads if not entry[4].done()]
+        for scene, name, state, source, future in done:
+            self._guard("Load state", lambda: self._apply_load(scene, name, state, source, future))
+
+    def _apply_load(self, scene: Scene, name: str, state: dict[str, Any], source: str,
+                    future: concurrent.futures.Future) -> None:
         title = self._name_to_title[name]
         try:
-            refused = scene.load_state(state)
+            accepted, refused = future.result()
         except ValueError as exc:  # the values together (nothing was applied)
             self.notify("State not loaded",
                         f"{title}: the values from {source} are refused together: "
                         f"{str(exc).removeprefix('state: ')}. The values in use are kept.", "warning")
             return
+        refused = scene.apply_state(state, accepted, refused)
         if refused:
             self.notify(
                 "State loaded in part",

@@ -310,8 +310,9 @@ class Scene:
     def load_state(self, state: dict[str, Any]) -> list[str]:
         """Apply ``state`` (as :meth:`state` gives, checked like browser input).
 
-        Returns one message per refused entry; the accepted values are
-        applied and count as changes (a paused scene resumes).
+        :meth:`check_state` then :meth:`apply_state`. Returns one message per
+        refused entry; the accepted values are applied and count as changes
+        (a paused scene resumes).
 
         Raises
         ------
@@ -320,6 +321,19 @@ class Scene:
             its accepted values together with the others in use
             (:meth:`values_refusal`, e.g. a rotor with ``I3 > 2 I``); then
             nothing is applied.
+        """
+        accepted, refused = self.check_state(state)
+        return self.apply_state(state, accepted, refused)
+
+    def check_state(self, state: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+        """``(accepted, refused)``: the control values of ``state`` each control accepts, and one message per
+        refused one; nothing is applied. Any thread (the session runs it off the loop: building a model to
+        check values together may take tens of ms).
+
+        Raises
+        ------
+        ValueError
+            As :meth:`load_state`.
         """
         scene = state.get("scene")
         if scene != self.name:
@@ -333,16 +347,21 @@ class Scene:
         together = self.values_refusal({**self.controls.values(), **accepted}) if accepted else None
         if together is not None:
             raise ValueError(f"state: {together}")
+        return accepted, refused
+
+    def apply_state(self, state: dict[str, Any], accepted: dict[str, Any], refused: list[str]) -> list[str]:
+        """Apply what :meth:`check_state` accepted of ``state``, and its extra state (:meth:`load_extra_state`);
+        returns ``refused`` and the extra state's refusals."""
         self.controls.apply(accepted)
-        refused += self.load_extra_state({k: v for k, v in state.items() if k not in ("format", "scene", "values")})
-        return refused
+        return refused + self.load_extra_state(
+            {k: v for k, v in state.items() if k not in ("format", "scene", "values")})
 
     def values_refusal(self, values: dict[str, Any]) -> str | None:
         """Hook: why the scene would refuse the control values ``values`` (every control's) together, or None.
 
-        Called by :meth:`load_state` before it applies anything, on the
-        thread that loads (not the loop): build the scene's model from
-        ``values`` without touching the scene. The scenes whose model
+        Called by :meth:`check_state` before anything is applied, off the
+        loop in a session: build the scene's model from ``values`` without
+        touching the scene. The scenes whose model
         checks values together (the gyroscope's rotor, the rolling disk,
         the cam, the mode-shapes models) override it with the check their
         controls' changes get.

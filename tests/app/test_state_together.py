@@ -12,6 +12,7 @@ state as a whole before anything is applied, with one notice.
 from __future__ import annotations
 
 import json
+import threading
 import time
 
 import pytest
@@ -63,3 +64,21 @@ def test_a_state_refused_together_gets_one_notice_through_the_share_panel(runnin
     click(session, "load_state")
     assert wait_until(lambda: session.notices[-1][0] == "State loaded")
     assert wait_until(lambda: scene.model.inputs.I == 2.0 and scene.model.inputs.I3 == 3.0)
+
+
+def test_the_check_runs_off_the_loop(running_app, monkeypatch):
+    """Building a model to check values together takes up to ~75 ms (a 20-link chain): not on the loop."""
+    app = running_app(scene="gyroscope")
+    session, scene = app.session_for(), app.scene_for()
+    threads = []
+    check = scene.values_refusal
+
+    def recording(values):
+        threads.append(threading.current_thread().name)
+        return check(values)
+
+    monkeypatch.setattr(scene, "values_refusal", recording)
+    assert send_value(session, "state_in", json.dumps({"scene": "gyroscope", "values": {"I": 2.0, "I3": 3.0}}))
+    click(session, "load_state")
+    assert wait_until(lambda: session.notices and session.notices[-1][0] == "State loaded")
+    assert threads and all(name.startswith("rigidlab-load") for name in threads), threads
