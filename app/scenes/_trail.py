@@ -4,32 +4,40 @@
 sends it incrementally: a new point changes only the newest chunk, a
 finished chunk is sent once and never again, and a browser that connects
 later still receives the whole curve (viser keeps each node's latest
-points). :func:`extend_trail` and :func:`trail_segments` keep a curve as a
-capped list of points drawn as one fixed-size buffer (for curves that are
-re-sent whole).
+points). :class:`StickHead` draws the newest stretch of such a curve, up to
+a moving body, with poses only (see there for why). :func:`extend_trail` and
+:func:`trail_segments` keep a curve as a capped list of points drawn as one
+fixed-size buffer (for curves that are re-sent whole).
+
+How the page applies what it receives (viser 1.1.1's client, measured in
+headless Chromium): a node's pose (``SetPositionMessage``,
+``SetOrientationMessage``) and visibility reach the screen in the frame that
+handles them, but new line points (``SceneNodeUpdateMessage``) rebuild the
+line's geometry in a React render that runs after that frame is drawn, so
+they reach the screen one page frame later. At 60 fps that is a frame of
+motion (2 cm for the rolling disk); in a software-rendered page at 2-4 fps
+it is 0.3-1.3 m, and a line stretched every frame up to a posed body ends
+that far behind it. The page builds a new geometry (and its bounds) on every
+points update, so a line node is not culled by stale bounds.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
-from app.nodes import set_array
+from app.nodes import set_array, set_pose, wxyz_z_to
 
-__all__ = ["ChunkedTrail", "extend_trail", "trail_segments", "with_far", "FAR_SEGMENTS"]
+__all__ = ["ChunkedTrail", "StickHead", "extend_trail", "trail_segments", "FAR_SEGMENTS"]
 
 #: Two zero-length segments 5 km away, beyond the view's far plane, added to every
-#: chunk node: the page computes a line buffer's bounds once, from the points it
-#: was created with, and a node whose points later leave those bounds would be
-#: culled; with these the bounds hold anything a scene draws.
+#: chunk node so that its bounds hold anything a scene draws. (They were meant
+#: against culling by bounds computed once; the page in fact rebuilds a line's
+#: geometry and bounds on every points update, so they are not what keeps a
+#: track in view.)
 FAR_SEGMENTS = np.array([[[-5000.0, -5000.0, 0.0]] * 2, [[5000.0, 5000.0, 0.0]] * 2], dtype=np.float32)
-
-
-def with_far(segments: np.ndarray) -> np.ndarray:
-    """``segments`` (k, 2, 3) followed by :data:`FAR_SEGMENTS` (float32): the points of a line node that
-    moves away from where it was created (a track's newest stretch), so that the page does not cull it."""
-    return np.concatenate([np.asarray(segments, dtype=np.float32), FAR_SEGMENTS])
 
 
 def extend_trail(points: np.ndarray, point: np.ndarray, *, min_step: float, capacity: int) -> tuple[np.ndarray, bool]:
@@ -95,8 +103,11 @@ class ChunkedTrail:
     of the newest segments are drawn. Consecutive chunks share their joining
     point, so the curve has no gaps. viser keeps every node's latest points,
     so a browser that connects later receives the whole curve. Every chunk
-    node also carries :data:`FAR_SEGMENTS`, so a reused node is never culled
-    by bounds computed where it was first drawn.
+    node also carries :data:`FAR_SEGMENTS`. A hidden node holds segments out
+    of sight, so that a node shown again does not show its old stretch for
+    the page frame before its new points arrive. The page draws new points a
+    frame after the poses sent with them: a curve drawn up to a moving body
+    ends with a :class:`StickHead`.
 
     Parameters
     ----------
@@ -128,8 +139,13 @@ class ChunkedTrail:
         # (chunks, c + 2, 2, 3): each chunk's segments, then the two far ones
         self._segments = np.zeros((self.chunks, c + 2, 2, 3), dtype=np.float32)
         self._segments[:, c:] = FAR_SEGMENTS
+        # what a hidden node holds: every segment out of sight, 5 km away (the page shows a node in the
+        # frame that receives its visibility, and its new points a frame later: a node shown again
+        # would show its old stretch of the curve for a frame)
+        self._parked = np.broadcast_to(FAR_SEGMENTS[1], (c + 2, 2, 3)).copy()
+        self._parked[c:] = FAR_SEGMENTS
         self.nodes = [
-            scene.add_lines(f"{name}/c{i:02d}", self._segments[i].copy(), color, thickness=thickness, visible=False,
+            scene.add_lines(f"{name}/c{i:02d}", self._parked.copy(), color, thickness=thickness, visible=False,
                             **kwargs)
             for i in range(self.chunks)
         ]
@@ -221,6 +237,8 @@ class ChunkedTrail:
             node = self.nodes[k]
             if self._used[k]:
                 set_array(node, "points", self._segments[k])
+            elif self._shown[k]:  # hidden now, and out of sight when it is shown again
+                set_array(node, "points", self._parked)
             if self._used[k] != self._shown[k]:
                 node.visible = bool(self._used[k])
                 self._shown[k] = self._used[k]
@@ -230,3 +248,162 @@ class ChunkedTrail:
     def pending(self) -> bool:
         """Whether :meth:`flush` has something to send."""
         return bool(self._dirty)
+
+
+class StickHead:
+    """The newest stretch of a traced curve drawn with poses only: a ring of equal straight sticks.
+
+    A track drawn up to a moving body (a wheel's contact point) cannot be a
+    line whose points are updated every frame: the page draws new points one
+    frame after the poses sent with them (see the module docstring), so the
+    line ends a page frame of motion behind the body -- up to a metre in a
+    page at 2-4 fps. Here the curve's newest stretch is cut into chords of
+    equal length ``length`` (consecutive sticks share their ends, every end on
+    the curve as fed, a polyline), and each chord is drawn by one node holding
+    the fixed segment ``(0, 0, 0)-(0, 0, length)``, placed by its position and
+    orientation. A node is placed once, when its chord is complete, and moved
+    again only when the ring reuses it ``count`` chords later. One more stick,
+    the *tip*, starts at the newest point and points back at the end of the
+    newest chord (less than ``length`` away), overlapping that chord where it
+    overshoots. Everything sent after the nodes are created is a pose or a
+    visibility, which the page draws in the frame it receives them, so the
+    drawn curve reaches the body in every frame. The stretch covered,
+    ``count * length``, must be longer than the body travels in a page frame
+    plus the period at which the :class:`ChunkedTrail` behind it is flushed:
+    the two overlap, and the chunks may end anywhere along the sticks.
+
+    Parameters
+    ----------
+    scene : app.scenes.base.Scene
+        The scene the nodes belong to (their width grows in presenter view).
+    name : str
+        Path of the frame that holds the stick nodes (``{name}/s00`` ..., ``{name}/tip``); its
+        coordinates are those of the points fed (the frame of the curve's :class:`ChunkedTrail`).
+    color : (3,) RGB in 0..255
+        Colour of the sticks.
+    thickness : float, keyword-only
+        Line width (``add_lines``; ``**kwargs`` such as ``thickness_units`` go there too).
+    length : float, keyword-only
+        Length of a stick (the chord), same units as the points.
+    count : int, keyword-only
+        Sticks in the ring.
+    """
+
+    def __init__(self, scene: Any, name: str, color: Any, *, thickness: float, length: float, count: int,
+                 **kwargs: Any) -> None:
+        if not (math.isfinite(length) and length > 0.0) or count < 1:
+            raise ValueError(f"length, count: expected > 0 and >= 1, got {length}, {count}")
+        self.length = float(length)
+        self.count = int(count)
+        self.frame = scene.target.scene.add_frame(name, show_axes=False)
+        stick = np.array([[[0.0, 0.0, 0.0], [0.0, 0.0, self.length]]], dtype=np.float32)
+        self.nodes = [scene.add_lines(f"{name}/s{i:02d}", stick, color, thickness=thickness, visible=False,
+                                      **kwargs) for i in range(self.count)]
+        self.tip = scene.add_lines(f"{name}/tip", stick, color, thickness=thickness, visible=False, **kwargs)
+        self._starts = np.zeros((self.count, 3))  # each stick's first end, as placed
+        self._ends = np.zeros((self.count, 3))
+        self._used = np.zeros(self.count, dtype=bool)
+        self._shown = np.zeros(self.count, dtype=bool)  # as sent
+        self._tip_shown = False
+        self._visibility_due = False
+        self._placed: set[int] = set()  # sticks placed since the last draw
+        self._next = 0  # the ring's next stick
+        self._anchor: np.ndarray | None = None  # the newest chord's end (the first point before any chord)
+        self._last: np.ndarray | None = None  # the newest point
+        self._direction: np.ndarray | None = None  # unit direction of the newest chord
+        self._visible = True
+
+    @property
+    def visible(self) -> bool:
+        return self._visible
+
+    @visible.setter
+    def visible(self, visible: bool) -> None:
+        visible = bool(visible)
+        if visible != self._visible:
+            self._visible = visible
+            self.frame.visible = visible
+
+    @property
+    def segments(self) -> np.ndarray:
+        """The sticks drawn (n, 2, 3) as placed (chords oldest first, then the tip from the newest point)."""
+        order = [(self._next + i) % self.count for i in range(self.count)]
+        order = [k for k in order if self._used[k]]
+        out = [np.stack([self._starts[order], self._ends[order]], axis=1)]
+        tip = self._tip()
+        if tip is not None:
+            out.append(np.array([[self._last, self._last + self.length * tip]]))
+        return np.concatenate(out) if out else np.zeros((0, 2, 3))
+
+    def clear(self) -> None:
+        """Forget the curve (the sticks are hidden at the next :meth:`draw`)."""
+        self._used[:] = False
+        self._visibility_due = True
+        self._placed.clear()
+        self._next = 0
+        self._anchor = None
+        self._last = None
+        self._direction = None
+
+    def add(self, point: np.ndarray) -> None:
+        """Extend the curve to ``point`` (3,) along a straight piece from the newest point."""
+        p = np.array(point, dtype=float)
+        if self._anchor is None or self._last is None:
+            self._anchor = p.copy()
+            self._last = p
+            return
+        anchor, prev = self._anchor, self._last
+        length2 = self.length * self.length
+        while float((p - anchor) @ (p - anchor)) >= length2:
+            # the chord's end: the point of [prev, p] at distance `length` from the anchor
+            # (|prev - anchor| < length, so exactly one such point lies past prev)
+            a, b = prev - anchor, p - prev
+            bb, ab = float(b @ b), float(a @ b)
+            u = (-ab + math.sqrt(max(ab * ab - bb * (float(a @ a) - length2), 0.0))) / bb
+            end = prev + min(max(u, 0.0), 1.0) * b
+            self._place(anchor, end)
+            anchor = prev = end
+        self._anchor = anchor
+        self._last = p
+
+    def _place(self, start: np.ndarray, end: np.ndarray) -> None:
+        k = self._next
+        self._next = (k + 1) % self.count
+        self._starts[k] = start
+        d = end - start
+        self._direction = d / math.sqrt(float(d @ d))
+        self._ends[k] = start + self.length * self._direction
+        if not self._used[k]:
+            self._used[k] = True
+            self._visibility_due = True
+        self._placed.add(k)
+
+    def _tip(self) -> np.ndarray | None:
+        """Unit direction of the tip from the newest point, or None (no tip)."""
+        if self._last is None or self._anchor is None:
+            return None
+        d = self._anchor - self._last
+        g = math.sqrt(float(d @ d))
+        if g > 1e-9 * self.length:
+            return d / g
+        return None if self._direction is None else -self._direction
+
+    def draw(self) -> None:
+        """Send the poses of the sticks placed since the last draw and of the tip (call inside
+        ``target.atomic()``, every frame the curve moves)."""
+        for k in sorted(self._placed):
+            d = self._ends[k] - self._starts[k]
+            set_pose(self.nodes[k], position=self._starts[k], wxyz=wxyz_z_to(d, math.sqrt(float(d @ d))))
+        self._placed.clear()
+        if self._visibility_due:
+            self._visibility_due = False
+            for k in np.flatnonzero(self._used != self._shown):
+                self.nodes[k].visible = bool(self._used[k])  # after its pose: drawn where it belongs
+                self._shown[k] = self._used[k]
+        tip = self._tip()
+        if tip is not None:
+            assert self._last is not None
+            set_pose(self.tip, position=self._last, wxyz=wxyz_z_to(tip, 1.0))
+        if (tip is not None) != self._tip_shown:
+            self._tip_shown = tip is not None
+            self.tip.visible = self._tip_shown

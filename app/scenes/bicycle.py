@@ -31,7 +31,12 @@ the four bodies under a *world* frame whose position keeps the bicycle in
 view, and the ground grid shifted by the same offset modulo its cells (so
 it moves under the wheels). The rear and front wheels' tracks are rings of
 small line-segment chunks whose newest chunk is sent ten times a second (a
-finished chunk is never sent again); the lean and steer plot is refreshed at
+finished chunk is never sent again), and their newest six metres, up to the
+wheels, rings of equal sticks placed by poses only
+(:class:`app.scenes._trail.StickHead`): the page draws poses in the frame it
+receives them and new line points a frame later, so a track stretched to the
+wheel every frame ended a page frame of motion behind it (metres at the 2-4
+fps of a software-rendered page). The lean and steer plot is refreshed at
 about 5 Hz.
 """
 
@@ -49,11 +54,11 @@ import numpy as np
 import trimesh
 
 from app.controls import Button, Slider, Toggle
-from app.nodes import set_array, set_pose
+from app.nodes import set_pose
 from app.readout import PRESENTER_FONT_SCALE, PRESENTER_TABLE_SCALE
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
-from app.scenes._trail import ChunkedTrail, with_far
+from app.scenes._trail import ChunkedTrail, StickHead
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.models import (
@@ -90,6 +95,8 @@ _REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes
 _TRACK_PERIOD = 0.1  # s of wall time between track updates
 _TRACK_CAPACITY = 500  # segments per wheel track
 _TRACK_MIN_STEP = 0.04  # m between track points
+_HEAD_STICK = 0.2  # m: the chords of each track's newest stretch, drawn by poses
+_HEAD_STICKS = 32  # chords in that stretch (6.4 m: 1.3 s at 5 m/s)
 _GRID_CELL = 0.5  # m
 _GRID_SECTION = 2.0  # m
 #: Speeds (m/s) of the eigenvalue plot: every 0.25 m/s from 0 to 10, coarse first.
@@ -646,7 +653,6 @@ class BicycleScene(PlaybackRequests, Scene):
         self._svg_background: tuple[Any, str] = (None, "")
         self._svg_dots: dict[float, str] = {}
         self._table_due = True
-        self._track_ends: np.ndarray | None = None  # (2, 3) the tracks' last points sent
         self._since_track = math.inf
         self._drawn: tuple[float, int, int] | None = None
         self._refreshed_time = -1.0
@@ -683,12 +689,13 @@ class BicycleScene(PlaybackRequests, Scene):
                          capacity=_TRACK_CAPACITY, min_step=_TRACK_MIN_STEP)
             for name, color in (("rear_track", _REAR_TRACK), ("front_track", _FRONT_TRACK))
         ]
-        # from each track's last point to the wheel's contact point now (sent every frame: two segments)
-        self.track_heads = self.add_lines(
-            f"{root}/world/track_heads", with_far(np.zeros((2, 2, 3))),
-            np.array([[_REAR_TRACK] * 2, [_FRONT_TRACK] * 2, [_REAR_TRACK] * 2, [_REAR_TRACK] * 2], dtype=np.uint8),
-            thickness=3.0,
-            thickness_units="screen")
+        # each track's newest stretch up to the wheel's contact point now, placed by poses: the page draws
+        # it in the frame that moves the bicycle (the chunks' points reach the screen a frame later)
+        self.track_heads = [
+            StickHead(self, f"{root}/world/{name}_head", color, thickness=3.0, thickness_units="screen",
+                      length=_HEAD_STICK, count=_HEAD_STICKS)
+            for name, color in (("rear_track", _REAR_TRACK), ("front_track", _FRONT_TRACK))
+        ]
         gui = self.target.gui
         with self.make_folder():
             self.playback.add_gui()
@@ -743,9 +750,8 @@ class BicycleScene(PlaybackRequests, Scene):
         self._start_segment(Segment(0, speed, 0.0, impulse=impulse))
         self.sim_time = 0.0
         self.history.clear()
-        for track in self.tracks:
+        for track in (*self.tracks, *self.track_heads):
             track.clear()
-        self._track_ends = None
         self._refreshed_time = -1.0
         self._refresh.force()
         self._error_reported = False
@@ -858,8 +864,9 @@ class BicycleScene(PlaybackRequests, Scene):
         center = 0.5 * (contacts[0, :2] + contacts[1, :2])
         self.center = center
         grid_shift = -(center - _GRID_SECTION * np.round(center / _GRID_SECTION))
-        for i, track in enumerate(self.tracks):
+        for i, (track, head) in enumerate(zip(self.tracks, self.track_heads)):
             track.add(contacts[i] + (0.0, 0.0, 0.003))
+            head.add(contacts[i] + (0.0, 0.0, 0.003))
         self._since_track += dt
         send_tracks = show_tracks and any(t.pending for t in self.tracks) and self._since_track >= _TRACK_PERIOD
         with self.target.atomic():
@@ -868,7 +875,7 @@ class BicycleScene(PlaybackRequests, Scene):
             for b, node in enumerate(self.bodies):
                 P = pose[b, 3:]
                 set_pose(node, position=pose[b, :3], wxyz=P / math.sqrt(float(P @ P)))
-            for track in (*self.tracks, self.track_heads):
+            for track in (*self.tracks, *self.track_heads):
                 if track.visible != show_tracks:
                     track.visible = show_tracks
             show_rider = bool(self.controls.value("show_rider"))
@@ -877,13 +884,10 @@ class BicycleScene(PlaybackRequests, Scene):
             if send_tracks:
                 for track in self.tracks:
                     track.flush()  # the newest chunk only
-                ends = [track.newest for track in self.tracks]
-                self._track_ends = None if any(e is None for e in ends) else np.array(ends)
                 self._since_track = 0.0
             if show_tracks:
-                now = contacts + (0.0, 0.0, 0.003)
-                start = self._track_ends if self._track_ends is not None else now
-                set_array(self.track_heads, "points", with_far(np.stack([start, now], axis=1)))
+                for head in self.track_heads:
+                    head.draw()  # poses of the new sticks and of the tip
             if due is not None:
                 self._refresh_one(due)
 

@@ -32,7 +32,11 @@ changes), the contact point, the contact-force arrow and, when the camera
 follows the disk, the ground's offset. The contact point's track is a ring
 of small line-segment chunks (:class:`app.scenes._trail.ChunkedTrail`) whose
 newest chunk is sent ten times a second (a finished chunk is never sent
-again), and its newest segment, up to the contact point drawn, every frame.
+again); its newest two metres, up to the contact point drawn, are also a ring
+of equal sticks placed by poses only (:class:`app.scenes._trail.StickHead`),
+which the page draws in the same frame as the disk and the ground (new line
+points reach the screen a page frame later: at the 2-4 fps of a software-
+rendered page a track stretched every frame ended up to a metre behind).
 """
 
 from __future__ import annotations
@@ -53,7 +57,7 @@ from app.nodes import set_array, set_pose, wxyz_z_to
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
-from app.scenes._trail import ChunkedTrail, with_far
+from app.scenes._trail import ChunkedTrail, StickHead
 from app.scenes.base import Scene
 from app.worker import ChunkTimeline
 from core.contact import ContactError
@@ -114,6 +118,8 @@ _TRACK_PERIOD = 0.1  # s of wall time between track buffer updates (~10 Hz)
 _TRACK_CAPACITY = 1000  # line segments of the contact point's track
 _TRACK_MIN_STEP = 0.002  # m: a track point closer than this to the last one is not added
 _TRACK_LIFT = 0.0015  # m above the ground, so the grid does not cover the track
+_HEAD_STICK = 0.03  # m: the chords of the track's newest stretch, drawn by poses
+_HEAD_STICKS = 64  # chords in that stretch (1.92 m: 1.6 s at the default speed, 1.2 m/s)
 _WINDOW = 10.0  # s of simulated time in the plots and the CSV
 _GRID_SECTION = 0.25  # m: the grid repeats with this period (so a shift by it is invisible)
 _GRID_SIZE = 4.0  # m
@@ -511,7 +517,6 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self._end_reported = ""
         self._track_time = -math.inf  # time of the newest sample in the track
         self._since_track = math.inf
-        self._track_sent_end: np.ndarray | None = None  # (3,) the newest track point sent
         self._scale = math.nan  # radius the disk mesh is drawn at
         self._arrow_length = 0.0  # m, length of the force arrow as sent
         self.gui: _Gui | None = None
@@ -527,14 +532,10 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.ground = scene.add_frame(f"{root}/ground", show_axes=False)
         self.track = ChunkedTrail(self, f"{root}/ground/track", _TRACK_COLOR, thickness=3.0,
                                   thickness_units="screen", capacity=_TRACK_CAPACITY, min_step=_TRACK_MIN_STEP)
-        # the newest stretch, from the last track point sent to the contact point
-        # drawn: one segment sent every frame (the track's newest chunk goes at 10 Hz)
-        # (with the far segments, as the bicycle's heads: the page computes a line node's bounds once, where
-        # it was created, and this one moves away from the origin)
-        self.track_head = self.add_lines(
-            f"{root}/ground/track_head", with_far(np.zeros((1, 2, 3))),
-            np.full((3, 2, 3), _TRACK_COLOR, dtype=np.uint8), thickness=3.0, thickness_units="screen",
-        )
+        # the newest stretch up to the contact point drawn, placed by poses: the page draws it in the
+        # frame that moves the disk and the ground (the chunks' points reach the screen a frame later)
+        self.track_head = StickHead(self, f"{root}/ground/track_head", _TRACK_COLOR, thickness=3.0,
+                                    thickness_units="screen", length=_HEAD_STICK, count=_HEAD_STICKS)
         ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
         self.point = scene.add_frame(f"{root}/ground/point", show_axes=False)
         self.point_mesh = scene.add_mesh_simple(f"{root}/ground/point/mesh", ball.vertices.astype(np.float32),
@@ -663,9 +664,9 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.ended = ""
         self._end_reported = ""
         self.track.clear()
+        self.track_head.clear()
         self._track_time = -math.inf
         self._since_track = math.inf
-        self._track_sent_end = None
         self.history.clear()
         self._drawn = None
         self._refreshed_time = -1.0
@@ -753,6 +754,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
                 for q in source.frames[new, _POINT]:
                     self._add_track_point(q)
                 self._track_time = float(source.t[new][-1])
+        # the head runs on to the contact point drawn (on the straight piece to the next sample)
+        self.track_head.add(np.array([point[0], point[1], point[2] + _TRACK_LIFT]))
         self._since_track += dt
         send_track = show_track and self.track.pending and self._since_track >= _TRACK_PERIOD
         self.last_chunk = chunk
@@ -781,12 +784,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
             if send_track:
                 self.track.flush()  # the newest chunk only
                 self._since_track = 0.0
-                self._track_sent_end = self.track.newest
             if show_track:
-                head = np.empty((1, 2, 3))
-                head[0, 1] = (point[0], point[1], point[2] + _TRACK_LIFT)
-                head[0, 0] = self._track_sent_end if self._track_sent_end is not None else head[0, 1]
-                set_array(self.track_head, "points", with_far(head))
+                self.track_head.draw()  # poses of the new sticks and of the tip
             if self.force_frame.visible != show_force:
                 self.force_frame.visible = show_force
             if show_force:
@@ -805,7 +804,9 @@ class RollingDiskScene(PlaybackRequests, Scene):
             self._refresh.force()
 
     def _add_track_point(self, point: np.ndarray) -> None:
-        self.track.add(np.array([point[0], point[1], point[2] + _TRACK_LIFT]))
+        lifted = np.array([point[0], point[1], point[2] + _TRACK_LIFT])
+        self.track.add(lifted)
+        self.track_head.add(lifted)
 
     # -- plots, readout, export ----------------------------------------------------------
     def _window_start(self) -> float:

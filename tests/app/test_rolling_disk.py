@@ -142,7 +142,7 @@ def test_the_track_grows_on_the_ground(disk):
         point = np.array(scene.contact_point)
         # the chunk nodes as viser holds them, without their two far bounds segments
         sent = np.concatenate([np.array(node.points)[:-2] for node in scene.track.nodes if node.visible])
-        head = np.array(scene.track_head.points)
+        head = scene.track_head.segments
     assert track.shape[0] > n0 + 5 and track.shape[0] <= scene.track.chunks * scene.track.chunk_segments + 1
     np.testing.assert_allclose(track[:, 2], 0.0015, atol=1e-9)  # on the ground, lifted over the grid
     # the newest point is a computed contact point at most one sample behind the one drawn
@@ -150,13 +150,18 @@ def test_the_track_grows_on_the_ground(disk):
     # every point sent is a track point (float32)
     distances = np.linalg.norm(sent.reshape(-1, 1, 3) - track[None], axis=2)
     assert np.max(np.min(distances, axis=1)) < 1e-5
-    # the head segment joins the newest point sent to the contact point drawn (sent every frame)
-    assert np.min(np.linalg.norm(sent.reshape(-1, 3) - head[0, 0], axis=1)) < 1e-6
-    np.testing.assert_allclose(head[0, 1, :2], point[:2], atol=1e-6)
-    # and it carries the far segments: the page bounds a line node where it was created (at the origin)
-    from app.scenes._trail import FAR_SEGMENTS
-
-    np.testing.assert_array_equal(head[1:], FAR_SEGMENTS)
+    # the head's sticks (placed by poses) run on from the track to the contact point drawn: the tip
+    # starts there, and every stick's end lies on the track's polyline or beyond its newest point
+    np.testing.assert_allclose(head[-1, 0, :2], point[:2], atol=1e-9)
+    chords = head[:-1]
+    np.testing.assert_allclose(np.linalg.norm(chords[:, 1] - chords[:, 0], axis=1), scene.track_head.length,
+                               rtol=1e-9)
+    a, b = track[None, :-1], track[None, 1:]
+    ends = chords.reshape(-1, 1, 3)
+    u = np.clip(np.sum((ends - a) * (b - a), axis=2) / np.maximum(np.sum((b - a) ** 2, axis=2), 1e-300), 0, 1)
+    off = np.linalg.norm(a + u[..., None] * (b - a) - ends, axis=2).min(axis=1)
+    beyond = np.linalg.norm(chords.reshape(-1, 3) - point, axis=1) < 0.05  # past the newest track point
+    assert np.all((off < 1e-6) | beyond)
 
 
 def test_the_camera_follows_the_disk_or_not(disk):

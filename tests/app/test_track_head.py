@@ -1,0 +1,192 @@
+"""A track drawn up to a moving body reaches it in every frame a slow page draws.
+
+viser 1.1.1's page draws a node's pose and visibility in the frame that
+handles them, but new line points only in the frame after (the line's
+geometry is rebuilt by a React render that runs after the frame is drawn);
+measured in headless Chromium at 1-4 fps, a track head whose points were
+sent every frame ended 0.1-1.3 m behind the rolling disk's contact point.
+:func:`page_frames` replays what a recorder received as such a page draws
+it, every ``every`` server frames; the tests check the drawn track against
+the contact point drawn in the same page frame.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from app.scenes._trail import StickHead
+from app.scenes.rolling_disk import RollingDiskScene
+from core.rotations import matrix_from_euler_parameters
+from tests.app._wire import Recorder
+from tests.helpers import click, wait_until
+
+_POSE = {"SetPositionMessage": "position", "SetOrientationMessage": "wxyz"}
+
+
+def page_frames(messages: list[dict], boundary: str, every: int):
+    """``(i, nodes)``: node states ``{name: {"points", "position", "wxyz", "visible"}}`` as a page
+    draws them before message ``i``.
+
+    A page frame is drawn before each ``every``-th ``SetPositionMessage`` of the node ``boundary``
+    (one per server frame while it moves): poses and visibility as received up to there, line
+    points as received up to the page frame before.
+    """
+    nodes: dict[str, dict] = {}
+    late: list[tuple[str, np.ndarray]] = []  # points received since the last page frame
+    seen = 0
+    for i, message in enumerate(messages):
+        kind, name = message.get("type", ""), message.get("name")
+        if kind == "SetPositionMessage" and name == boundary:
+            seen += 1
+            if seen % every == 0:
+                yield i, nodes
+                for node, points in late:
+                    if node in nodes:
+                        nodes[node]["points"] = points
+                late = []
+        if kind == "LineSegmentsMessage":
+            nodes[name] = {"points": np.asarray(message["props"]["points"], dtype=float).reshape(-1, 2, 3),
+                           "position": np.zeros(3), "wxyz": np.array([1.0, 0.0, 0.0, 0.0]), "visible": True}
+        elif isinstance(message.get("props"), dict) and isinstance(name, str) and not kind.startswith("Gui"):
+            nodes[name] = {"points": None, "position": np.zeros(3), "wxyz": np.array([1.0, 0.0, 0.0, 0.0]),
+                           "visible": True}
+        elif kind in _POSE and name in nodes:
+            nodes[name][_POSE[kind]] = np.asarray(message[_POSE[kind]], dtype=float)
+        elif kind == "SetSceneNodeVisibilityMessage" and name in nodes:
+            nodes[name]["visible"] = bool(message["visible"])
+        elif kind == "SceneNodeUpdateMessage" and "points" in message.get("updates", {}):
+            late.append((name, np.asarray(message["updates"]["points"], dtype=float).reshape(-1, 2, 3)))
+
+
+def drawn_segments(nodes: dict[str, dict], under: str) -> np.ndarray:
+    """(n, 2, 3) the visible line segments of the nodes under ``under`` (posed; in ``under``'s parent
+    frame, whose own pose is the identity; segments out of sight left out)."""
+    out = []
+    for name, node in nodes.items():
+        if not name.startswith(under) or node["points"] is None:
+            continue
+        path = name.split("/")
+        if not all(nodes.get("/".join(path[:i]), {}).get("visible", True) for i in range(2, len(path) + 1)):
+            continue
+        A = matrix_from_euler_parameters(node["wxyz"] / np.linalg.norm(node["wxyz"]))
+        segments = node["points"] @ A.T + node["position"]
+        out.append(segments[np.all(np.abs(segments) < 1000.0, axis=(1, 2))])
+    return np.concatenate(out) if out else np.zeros((0, 2, 3))
+
+
+def distance_to_segments(p: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Distance from each point ``p`` (m, 3) to the nearest of ``segments`` (n, 2, 3)."""
+    a, b = segments[None, :, 0], segments[None, :, 1]
+    ab = b - a
+    t = np.clip(np.einsum("mnk,mnk->mn", p[:, None] - a, ab) / np.maximum(np.einsum("mnk,mnk->mn", ab, ab),
+                                                                          1e-300), 0.0, 1.0)
+    return np.linalg.norm(a + t[..., None] * ab - p[:, None], axis=2).min(axis=1)
+
+
+def path_behind(path: np.ndarray, point: np.ndarray, length: float, step: float) -> np.ndarray:
+    """Points every ``step`` along the polyline ``path`` (n, 3) from its point nearest ``point``
+    back by ``length`` (or to its start)."""
+    j = int(np.argmin(np.linalg.norm(path - point, axis=1)))
+    piece = path[:j + 1][::-1]
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(piece, axis=0), axis=1))])
+    want = np.arange(0.0, min(length, s[-1]), step)
+    return np.column_stack([np.interp(want, s, piece[:, i]) for i in range(3)])
+
+
+# -- StickHead on its own ---------------------------------------------------------------------------
+
+
+class _Owner:
+    def __init__(self, server) -> None:
+        self.target = server
+
+    def add_lines(self, name, points, colors, *, thickness, **kwargs):
+        return self.target.scene.add_line_segments(name, points, colors, thickness=thickness, **kwargs)
+
+
+def test_sticks_are_equal_chords_of_the_curve_ending_at_its_newest_point(server) -> None:
+    head = StickHead(_Owner(server), "/stick_chords", (0, 150, 140), thickness=2.0, length=0.05, count=40)
+    u = np.linspace(0.0, 6.0, 601)  # a helix of radius 0.5 m, 3 m long, points 5 mm apart
+    points = np.column_stack([0.5 * np.cos(u), 0.5 * np.sin(u), 0.02 * u])
+    for p in points:
+        head.add(p)
+    with server.atomic():
+        head.draw()
+    segments = head.segments
+    chords, tip = segments[:-1], segments[-1]
+    assert chords.shape[0] == 40  # the ring is full: its newest 40 chords, 2 m
+    np.testing.assert_allclose(np.linalg.norm(chords[:, 1] - chords[:, 0], axis=1), 0.05, rtol=1e-12)
+    np.testing.assert_allclose(chords[1:, 0], chords[:-1, 1], atol=1e-12)  # a chain, no gaps
+    # every end on the curve as fed (the polyline through the points)
+    assert distance_to_segments(chords.reshape(-1, 3), np.stack([points[:-1], points[1:]], axis=1)).max() < 1e-9
+    # the tip starts at the newest point and points back at the newest chord's end, less than a stick away
+    np.testing.assert_allclose(tip[0], points[-1])
+    gap = chords[-1, 1] - points[-1]
+    assert np.linalg.norm(gap) < 0.05
+    np.testing.assert_allclose(np.cross(tip[1] - tip[0], gap), 0.0, atol=1e-12)
+    # the nodes as posed draw the same sticks: each holds the segment 0..length along its z
+    for node, chord in zip(sorted(head.nodes, key=lambda n: n.name), chords[np.argsort(
+            [(head._next + i) % head.count for i in range(head.count)])]):
+        A = matrix_from_euler_parameters(np.array(node.wxyz))
+        np.testing.assert_allclose(np.array(node.points)[0] @ A.T + np.array(node.position), chord, atol=1e-6)
+
+
+def test_after_creation_the_head_sends_only_poses_and_visibility(server) -> None:
+    recorder = Recorder(f"ws://127.0.0.1:{server.get_port()}")
+    try:
+        head = StickHead(_Owner(server), "/stick_poses", (0, 150, 140), thickness=2.0, length=0.02, count=16)
+        for i in range(300):  # a point per frame, each frame drawn
+            head.add(np.array([0.004 * i, 0.1 * math.sin(0.02 * i), 0.0]))
+            with server.atomic():
+                head.draw()
+            time.sleep(0.001)
+        head.clear()
+        with server.atomic():
+            head.draw()
+        wait_until(lambda: any(m.get("type") == "SetSceneNodeVisibilityMessage" and m["name"] == "/stick_poses/tip"
+                               and not m["visible"] for m, _ in recorder.received()))
+        kinds = {m["type"] for m, _ in recorder.received() if str(m.get("name", "")).startswith("/stick_poses/")
+                 and m["type"] != "LineSegmentsMessage"}
+        assert kinds <= {"SetPositionMessage", "SetOrientationMessage", "SetSceneNodeVisibilityMessage"}
+        assert not any(node.visible for node in (*head.nodes, head.tip))  # cleared: all hidden
+    finally:
+        recorder.close()
+
+
+# -- the rolling disk as a page at 3 fps draws it ------------------------------------------------------
+
+
+def test_the_disk_track_reaches_the_contact_point_in_every_page_frame(running_scene) -> None:
+    app, scene = running_scene(RollingDiskScene)
+    recorder = Recorder(app.url)
+    try:
+        click(scene, "preset_0")  # upright, twice the critical spin: it rolls away at 1.14 m/s
+        wait_until(lambda: scene.model is not None and math.isclose(scene.model.lean, math.radians(1.0))
+                   and scene.drawn_model == scene.model, timeout=60.0)
+        start = len(recorder.received())  # the preset's run is on the page from here
+        wait_until(lambda: scene.sim_time > 3.0, timeout=60.0)
+        with app.session_for().run_lock:
+            path = np.array(scene.track_points, dtype=float)  # the whole run so far (1000 segments of >= 2 mm)
+            root = scene.root
+        messages = [m for m, _ in recorder.received()]
+    finally:
+        recorder.close()
+    ground = f"{root}/ground"
+    checked = 0
+    # 20 server frames a page frame: the page at 3 fps (the disk moves 0.38 m between its frames)
+    for i, nodes in page_frames(messages, ground, every=20):
+        point = nodes[f"{ground}/point"]["position"]  # the dot's pose: on the ground, lifted as the track
+        if i < start or np.linalg.norm(point[:2]) < 0.5:
+            continue  # before the preset's run has gone half a metre
+        segments = drawn_segments(nodes, f"{ground}/track")
+        # the drawn track ends at the contact point drawn in the same page frame
+        end = distance_to_segments(point[None], segments)[0]
+        assert end < 1e-4, f"the track drawn ends {end:.3f} m from the contact point"
+        # and runs back from it without a gap, along the path the contact point took
+        behind = path_behind(path, point, 0.5, 0.01)
+        assert distance_to_segments(behind, segments).max() < 2e-3
+        checked += 1
+    assert checked >= 5
