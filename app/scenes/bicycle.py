@@ -660,6 +660,7 @@ class BicycleScene(PlaybackRequests, Scene):
         self._error_reported = False
         self._fall_reported = False
         self.pushes = 0
+        self._start_impulse = 0.0  # the push the ride shown started with at t = 0 (N s)
         self._push_request: float | None = None
         self.gui: _Gui | None = None
 
@@ -745,7 +746,9 @@ class BicycleScene(PlaybackRequests, Scene):
 
     # -- restarts and pushes -------------------------------------------------------------------
     def _restart(self, impulse: float = 0.0) -> None:
-        """Upright at the current speed from t = 0, pushed by ``impulse`` (N s) at the start."""
+        """Upright at the current speed from t = 0, pushed by ``impulse`` (N s) at the start (which Reset
+        replays)."""
+        self._start_impulse = impulse
         speed = float(self.speed if self.speed is not None else 5.0)
         self._start_segment(Segment(0, speed, 0.0, impulse=impulse))
         self.sim_time = 0.0
@@ -811,8 +814,8 @@ class BicycleScene(PlaybackRequests, Scene):
             self._restart(float(self.controls.value("impulse")) if first else 0.0)
             self._ask_modes(self.speed)
         tick = self.playback.tick(dt)
-        if tick.reset:
-            self._restart()
+        if tick.reset:  # the ride again from its start, with the push it started with (a preset's demo)
+            self._restart(self._start_impulse)
         if push is not None:
             self._push(push)
         self._collect_jobs()

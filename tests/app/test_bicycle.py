@@ -152,6 +152,29 @@ def test_presets_set_speed_and_push(bicycle):
         assert scene.controls.value("speed") == speed
 
 
+def test_reset_replays_the_start_of_the_ride(bicycle):
+    """Reset rides again from t = 0 with the push the ride started with (before, always upright)."""
+    app, scene = bicycle
+    names = list(PRESETS)
+    for i in (names.index("Self-stable: 5 m/s, push"), names.index("Upright at 5 m/s")):
+        speed, impulse = PRESETS[names[i]]
+        click(scene, f"preset_{i}")
+        wait_until(lambda: scene.segment.impulse == impulse and scene.segment.index == 0 and scene.sim_time > 0.3,
+                   timeout=60.0)
+        click(scene, "push")  # a later push starts a new segment; Reset goes back to the first one
+        wait_until(lambda: scene.segment.index == 1, timeout=10.0)
+        pushes = scene.pushes
+        click(scene, "playback", "Reset")
+        wait_until(lambda: scene.segment.index == 0, timeout=10.0)
+        assert scene.segment.impulse == impulse and scene.segment.t0 == 0.0
+        assert scene.pushes == pushes + (1 if impulse else 0)
+    send_value(scene, "speed", 6.0)  # a new speed rides upright
+    wait_until(lambda: scene.segment.speed == 6.0, timeout=10.0)
+    click(scene, "playback", "Reset")
+    wait_until(lambda: scene.segment.index == 0 and scene.sim_time < 0.2, timeout=10.0)
+    assert scene.segment.impulse == 0.0
+
+
 def test_refused_speed_keeps_the_ride(bicycle):
     app, scene = bicycle
     before = scene.segment
