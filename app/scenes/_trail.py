@@ -263,9 +263,12 @@ class StickHead:
     the fixed segment ``(0, 0, 0)-(0, 0, length)``, placed by its position and
     orientation. A node is placed once, when its chord is complete, and moved
     again only when the ring reuses it ``count`` chords later. One more stick,
-    the *tip*, starts at the newest point and points back at the end of the
-    newest chord (less than ``length`` away), overlapping that chord where it
-    overshoots. Everything sent after the nodes are created is a pose or a
+    the *tip*, starts at the newest point and points back along the newest
+    chord, over the gap to that chord's end (less than ``length``) and
+    overlapping the chord beyond it; it is turned only when a chord is added
+    and otherwise only moved, one message a frame (on a curve of radius
+    ``R`` it passes the chord's end within about ``length^2 / R``: 0.4 mm
+    for 3 cm sticks on a circle of 2 m). Everything sent after the nodes are created is a pose or a
     visibility, which the page draws in the frame it receives them, so the
     drawn curve reaches the body in every frame. The stretch covered,
     ``count * length``, must be longer than the body travels in a page frame
@@ -379,18 +382,21 @@ class StickHead:
         self._placed.add(k)
 
     def _tip(self) -> np.ndarray | None:
-        """Unit direction of the tip from the newest point, or None (no tip)."""
-        if self._last is None or self._anchor is None:
+        """Unit direction of the tip from the newest point (back along the newest chord), or None (no chord
+        yet)."""
+        if self._last is None or self._direction is None:
             return None
-        d = self._anchor - self._last
-        g = math.sqrt(float(d @ d))
-        if g > 1e-9 * self.length:
-            return d / g
-        return None if self._direction is None else -self._direction
+        return -self._direction
 
     def draw(self) -> None:
         """Send the poses of the sticks placed since the last draw and of the tip (call inside
-        ``target.atomic()``, every frame the curve moves)."""
+        ``target.atomic()``, every frame the curve moves).
+
+        The tip's orientation changes only with a new chord; every other
+        frame sends one message, its position (each message costs the loop
+        thread its share of the websocket thread's work under the GIL).
+        """
+        new_chord = bool(self._placed)
         for k in sorted(self._placed):
             d = self._ends[k] - self._starts[k]
             set_pose(self.nodes[k], position=self._starts[k], wxyz=wxyz_z_to(d, math.sqrt(float(d @ d))))
@@ -403,7 +409,8 @@ class StickHead:
         tip = self._tip()
         if tip is not None:
             assert self._last is not None
-            set_pose(self.tip, position=self._last, wxyz=wxyz_z_to(tip, 1.0))
+            set_pose(self.tip, position=self._last, wxyz=wxyz_z_to(tip, 1.0) if new_chord or not self._tip_shown
+                     else None)
         if (tip is not None) != self._tip_shown:
             self._tip_shown = tip is not None
             self.tip.visible = self._tip_shown

@@ -122,11 +122,14 @@ def test_sticks_are_equal_chords_of_the_curve_ending_at_its_newest_point(server)
     np.testing.assert_allclose(chords[1:, 0], chords[:-1, 1], atol=1e-12)  # a chain, no gaps
     # every end on the curve as fed (the polyline through the points)
     assert distance_to_segments(chords.reshape(-1, 3), np.stack([points[:-1], points[1:]], axis=1)).max() < 1e-9
-    # the tip starts at the newest point and points back at the newest chord's end, less than a stick away
+    # the tip starts at the newest point and points back along the newest chord, over the gap to its end
+    # (less than a stick away); on this curve (radius 0.5 m, 5 cm sticks) it passes that end within
+    # length^2 / R = 5 mm
     np.testing.assert_allclose(tip[0], points[-1])
     gap = chords[-1, 1] - points[-1]
     assert np.linalg.norm(gap) < 0.05
-    np.testing.assert_allclose(np.cross(tip[1] - tip[0], gap), 0.0, atol=1e-12)
+    np.testing.assert_allclose(tip[1] - tip[0], chords[-1, 0] - chords[-1, 1], atol=1e-12)
+    assert distance_to_segments(chords[-1, 1][None], tip[None])[0] < 0.05 ** 2 / 0.5
     # the nodes as posed draw the same sticks: each holds the segment 0..length along its z
     for node, chord in zip(sorted(head.nodes, key=lambda n: n.name), chords[np.argsort(
             [(head._next + i) % head.count for i in range(head.count)])]):
