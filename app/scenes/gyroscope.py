@@ -100,10 +100,31 @@ _OUTER_COLOR = (176, 156, 122)  # muted, so the arrows stand out
 _INNER_COLOR = (128, 160, 192)
 _LABEL_SCALE = 1.3  # 3-D labels: about 16 px (presenter view: x 1.8)
 _ARROW_LABELS = ("ω", "L", "M")
-# Screen anchors of the arrow labels: omega's and L's tips are close for a
-# fast top (both nearly along the rotor axis), so their labels sit on
-# opposite sides of their tips.
-_ARROW_LABEL_ANCHORS = ("bottom-left", "top-right", "top-left")
+# Where the arrow labels sit (every frame, in the message that moves the
+# arrows). omega and L lie nearly along the rotor axis for a fast top: seen
+# along that axis their tips fall on one spot of the screen. So the labels of
+# omega and L keep the vertical order of their tips: the label of the higher
+# tip sits above it (3-D offset "up", perpendicular to its arrow, and a screen
+# anchor that puts the text above the point), the other's below, and both lie
+# a little beyond their tips along their arrows, past the heads. A camera
+# with +Z up sees the up/down offsets as up/down on the screen from any side,
+# so the two labels stay apart even when both arrows point at the camera. The
+# order swaps only when the other tip is higher by _LABEL_SWAP (no flicker
+# while two tips are level). M's label sits beyond its tip, centred.
+# Projected over 6 s of the default motion, every preset and three other
+# settings, with 73 cameras (18 azimuths x 4 elevations, 0-60 deg, 4.4 m from
+# O, and the default view): two of the three arrow labels overlapped in 22 %
+# of the views with the labels at the tips (fixed anchors), in 2 % with this
+# placement; with the camera near the rotor axis (on it and 0.3 m off), in
+# 42 % and 0.1 %. tests/app/test_gyroscope.py checks the presets seen along
+# the axis.
+_LABEL_BEYOND = (0.15, 0.15, 0.2)  # m beyond the tip along the arrow: omega, L, M
+_LABEL_ASIDE = 0.1  # m up (or down) perpendicular to the arrow: omega and L
+_LABEL_SINE_FLOOR = 0.5  # the up offset shrinks for arrows nearer than asin(this) to the vertical
+_LABEL_SWAP = 0.05  # m: hysteresis of the vertical order of omega's and L's tips
+_UPPER_ANCHOR = "bottom-right"  # the point is the label's bottom-right corner: text above and left of it
+_LOWER_ANCHOR = "top-left"  # text below and right of the point
+_TORQUE_ANCHOR = "center-center"
 _AXES = tuple(np.array(a) for a in ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)))  # Z1, X2, Z3 in their parents
 
 
@@ -393,16 +414,19 @@ def _meshes() -> dict[str, trimesh.Trimesh]:
 
 
 #: The 3-D labels on the bodies: (node under the scene root, text, position in
-#: that node's frame, screen anchor). Each sits on a point its own rotation
-#: leaves fixed, so none spins: the top of the outer ring (on Z1), the inner
-#: ring's pivot on -X2 (gravity's torque points along +X2) and the lower end
-#: of the rotor's axle (on Z3). Chosen by projecting them with the default
-#: camera along every preset's motion: they overlap each other rarely, and
-#: never at t = 0.
+#: that node's frame, screen anchor). None spins: the outer gimbal's sits on
+#: the top of its ring (on Z1), the inner gimbal's on its pivot on -X2
+#: (gravity's torque points along +X2), and the rotor's on the rim of the disc
+#: at -Y of the inner gimbal's frame: a point of the (round) rotor whatever
+#: its spin, carried by the inner gimbal so that it does not turn with psi,
+#: and off the rotor axis. (It sat on the axle's lower end, on the axis: seen
+#: along the axis it fell on the labels of omega and L.) Chosen by projecting
+#: them with the default camera along every preset's motion: they overlap
+#: each other rarely, and never at t = 0.
 BODY_LABELS = (
-    ("outer", "outer gimbal φ", (0.0, 0.0, _OUTER_RADIUS + _RING_TUBE), "bottom-center"),
-    ("outer/inner", "inner gimbal θ", (-_OUTER_RADIUS - _RING_TUBE, 0.0, 0.0), "top-right"),
-    ("outer/inner/rotor", "rotor ψ", (0.0, 0.0, -_INNER_RADIUS), "bottom-left"),
+    ("outer", "outer gimbal φ", (0.0, 0.0, _OUTER_RADIUS + _RING_TUBE), "bottom-left"),
+    ("outer/inner", "inner gimbal θ", (-_OUTER_RADIUS - _RING_TUBE, 0.0, 0.0), "top-center"),
+    ("outer/inner", "rotor ψ", (0.0, -_ROTOR_RADIUS - 0.02, 0.0), "top-center"),
 )
 
 
@@ -462,8 +486,8 @@ class GyroscopeScene(PlaybackRequests, Scene):
         self.rates = np.zeros(3)
         self.current_invariants = np.zeros(3)  # d1, d2, E at the computed sample nearest the clock
         self._label_shown = [True, True, True]
-        self._label_stale = [False, False, False]
-        self._label_next = 0  # the arrow label moved in the next frame (one per frame)
+        # L's label above its tip, omega's below (swapped when omega's tip is the higher one)
+        self.momentum_label_above = True
         self._drawn: tuple[float, int, bool, bool] | None = None
         self.arrow_points = np.zeros((3, 2, 3), dtype=np.float32)
         self._since_trail = math.inf
@@ -495,8 +519,8 @@ class GyroscopeScene(PlaybackRequests, Scene):
         scene.add_mesh_simple(f"{root}/outer/inner/rotor/marker", meshes["marker"].vertices,
                               meshes["marker"].faces, color=(220, 60, 60))
         self.body_labels = [
-            self.add_label(f"{root}/{node}/label", text, position=position, anchor=anchor, scale=_LABEL_SCALE)
-            for node, text, position, anchor in BODY_LABELS
+            self.add_label(f"{root}/{node}/label_{i}", text, position=position, anchor=anchor, scale=_LABEL_SCALE)
+            for i, (node, text, position, anchor) in enumerate(BODY_LABELS)
         ]
         self.trail = ChunkedTrail(self, f"{root}/trail", _TRAIL_COLOR, thickness=3.0, thickness_units="screen",
                                   capacity=_TRAIL_CAPACITY, min_step=_TRAIL_MIN_STEP)
@@ -507,7 +531,8 @@ class GyroscopeScene(PlaybackRequests, Scene):
         )
         self.arrow_labels = [
             self.add_label(f"{root}/vectors/label_{i}", text, anchor=anchor, scale=_LABEL_SCALE)
-            for i, (text, anchor) in enumerate(zip(_ARROW_LABELS, _ARROW_LABEL_ANCHORS, strict=True))
+            for i, (text, anchor) in enumerate(zip(_ARROW_LABELS, _arrow_label_anchors(self.momentum_label_above),
+                                                   strict=True))
         ]
         gui = self.target.gui
         with self.make_folder():
@@ -644,13 +669,9 @@ class GyroscopeScene(PlaybackRequests, Scene):
         if key == self._drawn and chunk.analysis is self.analysis:
             # paused: the poses are on the page already; only a last refresh may be due
             due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
-            if due is not None or any(self._label_stale):
+            if due is not None:
                 with self.target.atomic():
-                    if show_arrows:
-                        for i in range(3):
-                            self._move_arrow_label(i)
-                    if due is not None:
-                        self._refresh_one(due)
+                    self._refresh_one(due)
             return
         self._drawn = key
         if self.analysis is not chunk.analysis:
@@ -688,29 +709,29 @@ class GyroscopeScene(PlaybackRequests, Scene):
                 self._since_trail = 0.0
             self.vectors_frame.visible = show_arrows and finite
             if show_arrows and finite:
+                # the labels move in the same message batch as their arrows
                 set_array(self.arrows, "points", arrows)
-                # one label per frame follows its arrow tip (each at up to 20 Hz),
-                # but not in a frame that already sends the trail or a plot
-                self._label_stale = [True, True, True]
-                if due is None and not send_trail:
-                    self._move_arrow_label(self._label_next)
-                    self._label_next = (self._label_next + 1) % 3
+                self._place_arrow_labels(arrows)
             if due is not None:
                 self._refresh_one(due)
 
-    def _move_arrow_label(self, i: int) -> None:
-        """Put the label of arrow ``i`` (ω, L, M) at its tip; hide it for a zero arrow."""
-        if not self._label_stale[i]:
-            return
-        self._label_stale[i] = False
-        tip = self.arrow_points[i, 1]
-        shown = bool(np.any(tip != 0.0))
-        label = self.arrow_labels[i]
-        if shown:
-            set_pose(label, position=tip)
-        if shown != self._label_shown[i]:
-            label.visible = shown
-            self._label_shown[i] = shown
+    def _place_arrow_labels(self, arrows: np.ndarray) -> None:
+        """Put the labels of ω, L, M by their arrows' tips (``arrows`` (3, 2, 3)); hide the label of a
+        zero arrow. Three position messages a frame (about 0.1 kB each before compression), an anchor
+        change only when ω's and L's labels swap."""
+        above = _momentum_label_above(arrows, self.momentum_label_above)
+        if above != self.momentum_label_above:
+            self.momentum_label_above = above
+            for label, anchor in zip(self.arrow_labels[:2], _arrow_label_anchors(above)[:2], strict=True):
+                label.anchor = anchor
+        positions = _arrow_label_positions(arrows, momentum_above=above)
+        for i, label in enumerate(self.arrow_labels):
+            shown = positions[i] is not None
+            if shown:
+                set_pose(label, position=positions[i])
+            if shown != self._label_shown[i]:
+                label.visible = shown
+                self._label_shown[i] = shown
 
     # -- plots, readout, export --------------------------------------------------------
     def _window_start(self) -> float:
@@ -762,6 +783,55 @@ class GyroscopeScene(PlaybackRequests, Scene):
     def csv_bytes(self) -> bytes:
         """The CSV of the trajectory in the plot window, up to the displayed time."""
         return self.history.csv(CSV_HEADER, self._window_start(), self.sim_time)
+
+
+def _arrow_label_anchors(momentum_above: bool) -> tuple[str, str, str]:
+    """Screen anchors of the labels of ω, L, M: the upper of ω's and L's labels has its text above
+    its point, the lower below."""
+    if momentum_above:
+        return (_LOWER_ANCHOR, _UPPER_ANCHOR, _TORQUE_ANCHOR)
+    return (_UPPER_ANCHOR, _LOWER_ANCHOR, _TORQUE_ANCHOR)
+
+
+def _momentum_label_above(arrows: np.ndarray, previous: bool) -> bool:
+    """Whether L's label is the upper of ω's and L's (``arrows`` (3, 2, 3), global frame, +Z up):
+    the label of the higher tip, kept as ``previous`` until the other tip is higher by
+    :data:`_LABEL_SWAP`."""
+    z_omega, z_momentum = float(arrows[0, 1, 2]), float(arrows[1, 1, 2])
+    if previous:
+        return not z_omega > z_momentum + _LABEL_SWAP
+    return z_momentum > z_omega + _LABEL_SWAP
+
+
+def _arrow_label_positions(arrows: np.ndarray, *, momentum_above: bool) -> list[tuple[float, float, float] | None]:
+    """Positions (global frame, m) of the labels of ω, L, M for ``arrows`` (3, 2, 3) from O (None for
+    a zero arrow).
+
+    Each label lies :data:`_LABEL_BEYOND` beyond its tip along its arrow; ω's and L's are also moved
+    :data:`_LABEL_ASIDE` perpendicular to their arrows, up (the label of ``momentum_above``'s arrow) or
+    down, along ``Z - (Z . u) u`` (``u`` the arrow's direction). That direction shortens as the arrow
+    turns vertical; below sin = 0.5 (within 30 deg of Z) the offset shrinks with it instead of
+    swinging round the arrow. Plain floats: it runs on the loop thread every frame.
+    """
+    out: list[tuple[float, float, float] | None] = []
+    for i in range(3):
+        x, y, z = (float(c) for c in arrows[i, 1])
+        length = math.sqrt(x * x + y * y + z * z)
+        if length == 0.0:
+            out.append(None)
+            continue
+        ux, uy, uz = x / length, y / length, z / length
+        beyond = _LABEL_BEYOND[i]
+        px, py, pz = x + beyond * ux, y + beyond * uy, z + beyond * uz
+        if i < 2:
+            # Z minus its component along u: |v| = sin(angle between u and Z)
+            vx, vy, vz = -uz * ux, -uz * uy, 1.0 - uz * uz
+            sine = math.sqrt(vx * vx + vy * vy + vz * vz)
+            up = momentum_above if i == 1 else not momentum_above
+            k = (_LABEL_ASIDE if up else -_LABEL_ASIDE) / max(sine, _LABEL_SINE_FLOOR)
+            px, py, pz = px + k * vx, py + k * vy, pz + k * vz
+        out.append((px, py, pz))
+    return out
 
 
 def _arrow_points(vectors: np.ndarray) -> np.ndarray:
