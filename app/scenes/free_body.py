@@ -121,6 +121,9 @@ PRESETS = (
 _PRESET_AXIS = {PRESETS[0]: 2, PRESETS[1]: 0, PRESETS[2]: 1}  # index into ascending moments
 _PRESET_SPIN = 6.0  # rad/s about the chosen principal axis
 _PRESET_OFFSET = 0.02  # relative perturbation about the other two axes
+# The readout calls a motion a flip about the intermediate axis (Dzhanibekov) when the polhode passes
+# within this angle of that axis (the flip preset's 2 % offset: about 2 deg; the stable spins: over 80 deg).
+_NEAR_SEPARATRIX_DEG = 10.0
 
 #: CSV header (one line: column names with units) without and with a ghost.
 CSV_HEADER = "t (s),p0,p1,p2,p3,omega_x (rad/s),omega_y (rad/s),omega_z (rad/s),E (J),|L| (kg m^2/s)"
@@ -271,6 +274,52 @@ class _Setup:
         return np.concatenate([self.p0, self.omega_body0])
 
 
+def _polhode_text(solution: FreeBodySolution, g: MomentumGeometry) -> str:
+    """What the polhode does, for the readout (``g.L_norm > 0``).
+
+    ``2 E J2 / |L|^2`` (``J2`` the intermediate moment) is 1 on the separatrix, below 1 when the polhode
+    circles the major axis and above 1 when it circles the minor one. The polhode comes closest to the
+    intermediate axis where it crosses the plane of that axis and the axis it circles; there
+    ``(L . e2)^2 / |L|^2 = (r J3 - J2) / (J3 - J2)`` (circling the major axis, ``r`` the ratio above)
+    or ``(J2 - r J1) / (J2 - J1)`` (the minor one). Within :data:`_NEAR_SEPARATRIX_DEG` of the
+    intermediate axis the body spins about that axis and flips over every half period of ω (the
+    Dzhanibekov effect): just off the separatrix, which side the polhode circles does not change what
+    one sees, so the text says both.
+    """
+    J1, J2, J3 = (float(m) for m in g.moments)
+    # r - 1 = -(|L|^2 - 2 E J2) / |L|^2, the difference summed without cancellation (as the core does)
+    w_principal = g.axes.T @ solution.omega_body0
+    below = float(np.sum(g.moments * (g.moments - J2) * w_principal**2)) / g.L_norm**2  # 1 - r
+    ratio = 1.0 - below
+    if abs(below) >= 5e-5:
+        shown = f"2E J2/|L|² = {ratio:.4f}"
+    elif below == 0.0:
+        shown = "2E J2/|L|² = 1"
+    else:  # would print as 1.0000: the distance from 1 is what matters
+        shown = f"2E J2/|L|² = 1 {'−' if below > 0.0 else '+'} {abs(below):.1e}"
+    if solution.kind == "symmetric":
+        axis = "major" if J2 - J1 <= J3 - J2 else "minor"  # the unequal moment's axis
+        return (f"{shown}. Two equal principal moments: no intermediate axis and no flip; the polhode "
+                f"circles the symmetry axis (the {axis} axis), a regular precession")
+    if solution.kind == "steady":
+        return f"{shown}. The polhode is a point: steady rotation about a principal axis"
+    if solution.kind == "separatrix":
+        return (f"{shown}, the separatrix: the intermediate axis turns over from along L to against it "
+                "(or back) once, starting and ending only as t → ±∞")
+    side = "major" if below > 0.0 else "minor"
+    if below > 0.0:
+        closest = (ratio * J3 - J2) / (J3 - J2)
+    else:
+        closest = (J2 - ratio * J1) / (J2 - J1)
+    angle = math.degrees(math.acos(math.sqrt(min(max(closest, 0.0), 1.0))))
+    if angle > _NEAR_SEPARATRIX_DEG:
+        return f"{shown}: the polhode circles the {side} axis"
+    flip = significant(0.5 * float(solution.period), 3)
+    return (f"{shown}, near 1 (the separatrix): the body spins about its intermediate axis and flips over "
+            f"every {flip} s (half the ω period), the Dzhanibekov effect. Just {'below' if below > 0.0 else 'above'} "
+            f"1, the polhode passes {angle:.1f}° from the intermediate axis and circles the {side} axis")
+
+
 @functools.lru_cache(maxsize=32)
 def _setup(body: str, omega: tuple[float, float, float]) -> _Setup:
     _, _, inertia = body_mesh(body)
@@ -296,11 +345,9 @@ def _setup(body: str, omega: tuple[float, float, float]) -> _Setup:
         "**Principal moments** " + ", ".join(significant(float(m), 3) for m in g.moments) + " kg m²",
     ]
     if g.L_norm > 0:
-        ratio = 2.0 * g.energy * float(g.moments[1]) / g.L_norm**2
-        side = "major" if ratio < 1.0 else "minor" if ratio > 1.0 else "intermediate"
         lines.append(
             f"**E** = {significant(g.energy)} J, **|L|** = {significant(g.L_norm)} kg m²/s (constant); "
-            f"2E J2/|L|² = {ratio:.4f}: the polhode circles the {side} axis"
+            + _polhode_text(solution, g)
         )
     for a in (w0, p0, L_global):
         a.setflags(write=False)

@@ -263,6 +263,49 @@ def test_readout_shows_meaningful_digits(free):
     assert "angle error" in ghost_line and len(ghost_line) < 140
 
 
+def test_readout_after_the_flip_preset_explains_the_flip(free):
+    """The Dzhanibekov preset starts just off the separatrix, on the side where
+    the polhode circles the major axis: the readout said only "circles the
+    major axis", which read as a contradiction of the button. Now it says the
+    body spins about its intermediate axis and flips over every half period
+    (checked against core's solution: the sign changes of L along the
+    intermediate axis), and that just off the separatrix the polhode circles
+    the major axis. The stable presets still read "circles the major (minor)
+    axis" without a flip; the symmetric disc has no intermediate axis."""
+    app, scene = free
+    for body in BODIES:
+        assert send_value(scene, "body", body)
+        _, _, inertia = body_mesh(body)
+        moments, Q = principal_axes(inertia)
+        for i, name in enumerate(PRESETS):
+            click(scene, f"preset_{i}")
+            want = preset_omega(name, inertia)
+            wait_until(lambda: scene.setup is not None and scene.setup.body == body
+                       and np.allclose(scene.setup.omega_body0, want)
+                       and scene.gui.info.content == scene.setup.readout)
+            info = scene.gui.info.content
+            if body == BODIES[2]:  # two equal moments
+                assert "no intermediate axis and no flip" in info and "Dzhanibekov" not in info, info
+                continue
+            if i < 2:
+                assert f"the polhode circles the {('major', 'minor')[i]} axis" in info, info
+                assert "flip" not in info and "separatrix" not in info, info
+                continue
+            assert "near 1 (the separatrix): the body spins about its intermediate axis and flips over every" in info
+            assert "the Dzhanibekov effect" in info
+            assert "Just below 1, the polhode passes" in info and "circles the major axis" in info, info
+            # the flip interval is half the omega period, as the motion shows
+            flip = float(info.split("flips over every ")[1].split(" s")[0])
+            t = np.linspace(0.0, 40.0, 400_001)
+            L_intermediate = (free_body_solution(inertia, want, [1.0, 0.0, 0.0, 0.0]).at(t).omega_body
+                              @ Q[:, 1]) * moments[1]
+            crossings = t[1:][np.sign(L_intermediate[1:]) != np.sign(L_intermediate[:-1])]
+            assert crossings.size >= 4
+            assert np.diff(crossings) == pytest.approx(flip, rel=2e-3)
+            angle = float(info.split("polhode passes ")[1].split("°")[0])
+            assert 0.3 < angle < 3.0  # the preset's 2 % offset
+
+
 def test_csv_export_is_the_trajectory_shown(free):
     app, scene = free
     wait_until(lambda: scene.sim_time > 2.0)
