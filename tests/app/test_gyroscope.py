@@ -400,11 +400,13 @@ def test_state_round_trip_reproduces_the_motion(running_app):
     n = min(len(rows_first), len(rows_second))
     assert n > 50
     assert rows_first[:n] == rows_second[:n]
-    # a state with an invalid combination is refused like a browser value
+    # a state with an invalid combination is refused as a whole, before anything is applied (one notice)
     bad = dict(state, values=dict(state["values"], I3=4.0))
     second.session_for().request_state(bad)
-    wait_until(lambda: notices_with(second, "Invalid rotor parameters"))
-    assert other.model.inputs == scene.model.inputs
+    wait_until(lambda: notices_with(second, "State not loaded"))
+    assert "invalid rotor parameters: I3: expected I3 <= 2*I" in notices_with(second, "State not loaded")[-1][1]
+    assert not notices_with(second, "Invalid rotor parameters")
+    assert other.model.inputs == scene.model.inputs and other.controls.value("I3") == scene.model.inputs.I3
 
 
 # -- a scene on a bare server, driven frame by frame ----------------------------
