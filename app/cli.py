@@ -178,7 +178,7 @@ def _serve(args: argparse.Namespace) -> int:
     # SIGTERM stops the app from here on: viser answers on the port while create_app is still building the
     # session, and a SIGTERM then (a service manager, a script that waits for the port) killed the process
     # outright and left its fork server and resource tracker running, orphaned
-    previous = _sigterm_as_interrupt()
+    previous = _stop_signals_as_interrupt()
     app = None
     try:
         try:
@@ -211,21 +211,31 @@ def _serve(args: argparse.Namespace) -> int:
     finally:
         if app is not None:
             app.stop()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
     return 0
 
 
-def _sigterm_as_interrupt():
-    """SIGTERM (a service manager's stop) stops the server as Ctrl-C does, so its process pool is shut
-    down instead of left to the interpreter's exit; the previous handler, or None off the main thread."""
+def _stop_signals_as_interrupt() -> dict:
+    """SIGTERM (a service manager's stop) and SIGINT stop the server as Ctrl-C does, so its process pool is
+    shut down instead of left to the interpreter's exit; returns the previous handlers (none off the main
+    thread).
+
+    SIGINT too: a process started as a background job of a shell without job control (``rigidlab serve &``
+    in a script) inherits SIGINT ignored, and Python then installs no KeyboardInterrupt for it. Such a
+    server could not be stopped by SIGINT, nor could the supervisor stop its workers (it sends them SIGINT),
+    nor a worker stop itself when its supervisor was gone.
+    """
     if threading.current_thread() is not threading.main_thread():
-        return None
+        return {}
 
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
-    return signal.signal(signal.SIGTERM, interrupt)
+    previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, interrupt)}
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        previous[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
+    return previous
 
 
 def _bench(args: argparse.Namespace) -> int:

@@ -256,8 +256,12 @@ def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str
         args = ["--host", host, "--port", str(bound), "--mode", "per-client", *worker_args]
         supervisor = Supervisor(args, count, out=out)
         stop_signal = threading.Event()
-        previous = signal.signal(signal.SIGTERM, lambda *_: stop_signal.set()) \
-            if threading.current_thread() is threading.main_thread() else None
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGTERM, lambda *_: stop_signal.set()) if main else None
+        # started with SIGINT ignored (a background job of a script): Ctrl-C's signal stops it all the same,
+        # and the workers, started from here, get the default (see app.cli._stop_signals_as_interrupt)
+        previous_int = signal.signal(signal.SIGINT, signal.default_int_handler) \
+            if main and signal.getsignal(signal.SIGINT) is signal.SIG_IGN else None
         try:
             for worker in supervisor.workers:
                 supervisor.start(worker)
@@ -283,4 +287,6 @@ def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str
             supervisor.stop()
             if previous is not None:
                 signal.signal(signal.SIGTERM, previous)
+            if previous_int is not None:
+                signal.signal(signal.SIGINT, previous_int)
     return 0

@@ -7,6 +7,7 @@ shell itself; the registry and CLI tests use the real scenes.
 from __future__ import annotations
 
 import contextlib
+import re
 import time
 import urllib.request
 from typing import Any, ClassVar
@@ -316,9 +317,16 @@ def test_cli_busy_port_and_bad_state_file_give_one_line_and_status_2(tmp_path: A
     assert "cannot read" in capsys.readouterr().err
 
 
-def _serve_until_ready(*args: str):
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _serve_until_ready(*args: str, sigint_ignored: bool = False):
     """``rigidlab serve --port 0 *args`` in a subprocess, read until it says how to stop it (60 s at most):
-    ``(process, lines)``."""
+    ``(process, lines)``. ``sigint_ignored``: started as a shell without job control starts a background
+    job (``rigidlab serve &`` in a script), with SIGINT ignored."""
     import os
     import subprocess
     import sys
@@ -327,6 +335,7 @@ def _serve_until_ready(*args: str):
         [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())", "serve", "--port", "0",
          *args],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        preexec_fn=_ignore_sigint if sigint_ignored else None,
     )
     deadline = time.monotonic() + 60
     lines = []
@@ -358,6 +367,28 @@ def test_rigidlab_serve_prints_url_warns_off_loopback_and_stops_on_ctrl_c(host: 
             assert response.status == 200
         process.send_signal(signal.SIGINT)
         assert process.wait(timeout=30) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+@pytest.mark.parametrize("workers", ["1", "2"], ids=["one process", "two workers"])
+def test_rigidlab_serve_started_with_sigint_ignored_stops_on_sigint(workers: str) -> None:
+    """A background job of a script inherits SIGINT ignored, and Python then raises no KeyboardInterrupt:
+    such a server ignored Ctrl-C's signal, and a supervisor could not stop its workers (it sends them
+    SIGINT). SIGINT stops it, its workers and everything they started."""
+    import signal
+
+    process, lines = _serve_until_ready("--scene", "sandbox", "--mode", "per-client", "--workers", workers,
+                                        sigint_ignored=True)
+    try:
+        assert lines and lines[-1].startswith("rigidlab: press Ctrl-C"), "".join(lines)
+        pids = [int(p) for p in re.findall(r"worker ready \(pid (\d+)", "".join(lines))]
+        assert len(pids) == (2 if workers == "2" else 0), "".join(lines)
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=30) == 0
+        assert all(wait_until(lambda pid=pid: process_group_gone(pid), timeout=20.0) for pid in pids)
     finally:
         if process.poll() is None:
             process.kill()
