@@ -1019,7 +1019,6 @@ class FreeBodySolution:
             )
         shape = t.shape
         tt = t.ravel()
-        c = self._c
         if self.kind == "rest":
             p = np.broadcast_to(self.p0, tt.shape + (4,)).copy()
             w = np.zeros(tt.shape + (3,))
