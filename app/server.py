@@ -111,7 +111,6 @@ def _copy_button(label: str, text: str) -> str:
     )
 
 
-
 _LOAD_CHECKER: concurrent.futures.ThreadPoolExecutor | None = None
 _LOAD_CHECKER_LOCK = threading.Lock()
 
@@ -123,6 +122,7 @@ def _load_checker() -> concurrent.futures.ThreadPoolExecutor:
         if _LOAD_CHECKER is None:
             _LOAD_CHECKER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="rigidlab-load")
         return _LOAD_CHECKER
+
 
 class Session:
     """Scenes of one audience (the whole server, or one browser).
@@ -478,8 +478,11 @@ class Session:
         """Apply the states whose check (:meth:`_load`) is done (loop thread)."""
         if not self._loads:
             return
-        done = [entry for entry in self._loads if entry[4].done()]
-        self._loads = [entry for entry in self._loads if not entry[4].done()]
+        # one look at each future: one that finished between two looks would be in neither list, a load lost
+        done, pending = [], []
+        for entry in self._loads:
+            (done if entry[4].done() else pending).append(entry)
+        self._loads = pending
         for scene, name, state, source, future in done:
             self._guard("Load state", lambda: self._apply_load(scene, name, state, source, future))
 
