@@ -90,7 +90,25 @@ def trail_segments(points: np.ndarray, capacity: int) -> np.ndarray:
     return segments
 
 
-class ChunkedTrail:
+class _Framed:
+    """A curve drawn by nodes under one frame (``self.frame``), shown or hidden as a whole."""
+
+    frame: Any
+    _visible: bool = True
+
+    @property
+    def visible(self) -> bool:
+        return self._visible
+
+    @visible.setter
+    def visible(self, visible: bool) -> None:
+        visible = bool(visible)
+        if visible != self._visible:
+            self._visible = visible
+            self.frame.visible = visible
+
+
+class ChunkedTrail(_Framed):
     """A traced curve sent incrementally: a ring of fixed-size line-segment nodes.
 
     The curve is split into ``chunks`` nodes of ``chunk_segments`` segments
@@ -155,18 +173,6 @@ class ChunkedTrail:
         self._head = 0  # chunk holding the newest segment
         self._count = 0  # segments in the head chunk
         self._last: np.ndarray | None = None  # newest point
-        self._visible = True
-
-    @property
-    def visible(self) -> bool:
-        return self._visible
-
-    @visible.setter
-    def visible(self, visible: bool) -> None:
-        visible = bool(visible)
-        if visible != self._visible:
-            self._visible = visible
-            self.frame.visible = visible
 
     @property
     def newest(self) -> np.ndarray | None:
@@ -250,7 +256,7 @@ class ChunkedTrail:
         return bool(self._dirty)
 
 
-class StickHead:
+class StickHead(_Framed):
     """The newest stretch of a traced curve drawn with poses only: a ring of equal straight sticks.
 
     A track drawn up to a moving body (a wheel's contact point) cannot be a
@@ -314,18 +320,6 @@ class StickHead:
         self._anchor: np.ndarray | None = None  # the newest chord's end (the first point before any chord)
         self._last: np.ndarray | None = None  # the newest point
         self._direction: np.ndarray | None = None  # unit direction of the newest chord
-        self._visible = True
-
-    @property
-    def visible(self) -> bool:
-        return self._visible
-
-    @visible.setter
-    def visible(self, visible: bool) -> None:
-        visible = bool(visible)
-        if visible != self._visible:
-            self._visible = visible
-            self.frame.visible = visible
 
     @property
     def segments(self) -> np.ndarray:
@@ -336,7 +330,7 @@ class StickHead:
         tip = self._tip()
         if tip is not None:
             out.append(np.array([[self._last, self._last + self.length * tip]]))
-        return np.concatenate(out) if out else np.zeros((0, 2, 3))
+        return np.concatenate(out)
 
     def clear(self) -> None:
         """Forget the curve (the sticks are hidden at the next :meth:`draw`)."""
