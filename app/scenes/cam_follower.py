@@ -194,6 +194,11 @@ class Inputs:
         """What :class:`CamFollower` depends on (all but the speed)."""
         return (*self.geometry_key(), self.mass, self.stiffness, self.preload)
 
+    @classmethod
+    def from_values(cls, values: dict[str, Any]) -> Inputs:
+        """The inputs of control values ``values`` (``ControlPanel.values()``, or a state's values over them)."""
+        return cls(**{f.name: values[f.name] for f in dataclasses.fields(cls)})
+
 
 _DEFAULT = Inputs()
 
@@ -1071,12 +1076,11 @@ class CamFollowerScene(Scene):
     # -- inputs and jobs ----------------------------------------------------------------
     def inputs_from_controls(self) -> Inputs:
         """The model controls' values in use."""
-        values = self.controls.values()
-        return Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)})
+        return Inputs.from_values(self.controls.values())
 
     def values_refusal(self, values: dict[str, Any]) -> str | None:
         try:
-            build_cam(Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)}))
+            build_cam(Inputs.from_values(values))
         except ValueError as exc:
             return f"cam refused: {exc}"
         return None

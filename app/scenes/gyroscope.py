@@ -143,6 +143,11 @@ class Inputs:
     m_theta: float = 0.0
     m_psi: float = 0.0
 
+    @classmethod
+    def from_values(cls, values: dict[str, Any]) -> Inputs:
+        """The inputs of control values ``values`` (``ControlPanel.values()``, or a state's values over them)."""
+        return cls(**{key: float(values[key]) for key in _MODEL_KEYS})
+
 
 _DEFAULT = Inputs()
 
@@ -592,12 +597,11 @@ class GyroscopeScene(PlaybackRequests, Scene):
 
     # -- inputs --------------------------------------------------------------------
     def _inputs_from_controls(self) -> Inputs:
-        values = self.controls.values()
-        return Inputs(**{key: float(values[key]) for key in _MODEL_KEYS})
+        return Inputs.from_values(self.controls.values())
 
     def values_refusal(self, values: dict[str, Any]) -> str | None:
         try:
-            _Model.from_inputs(Inputs(**{key: float(values[key]) for key in _MODEL_KEYS}))
+            _Model.from_inputs(Inputs.from_values(values))
         except ValueError as exc:
             return f"invalid rotor parameters: {exc}"
         return None

@@ -157,6 +157,11 @@ class Inputs:
     radius: float = 0.1
     mass: float = 1.0
 
+    @classmethod
+    def from_values(cls, values: dict[str, Any]) -> Inputs:
+        """The inputs of control values ``values`` (``ControlPanel.values()``, or a state's values over them)."""
+        return cls(**{f.name: values[f.name] for f in dataclasses.fields(cls)})
+
 
 _DEFAULT = Inputs()
 
@@ -621,8 +626,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
     # -- read by tests and notebooks --------------------------------------------------
     @property
     def inputs(self) -> Inputs:
-        values = self.controls.values()
-        return Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)})
+        return Inputs.from_values(self.controls.values())
 
     @property
     def track_points(self) -> np.ndarray:
@@ -632,7 +636,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
     # -- inputs ------------------------------------------------------------------------
     def values_refusal(self, values: dict[str, Any]) -> str | None:
         try:
-            Model.from_inputs(Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)}))
+            Model.from_inputs(Inputs.from_values(values))
         except ValueError as exc:
             return f"invalid disk parameters: {exc}"
         return None
