@@ -388,7 +388,8 @@ def test_state_round_trip_reproduces_the_motion(running_app):
     wait_until(lambda: other.sim_time > 1.0)
     second.session_for().request_state(state)
     wait_until(lambda: other.model.inputs == scene.model.inputs)
-    assert other.sim_time < 1.0  # the motion restarts
+    with second.session_for().run_lock:  # (the loop sets the new inputs, then restarts the clock)
+        assert other.sim_time < 1.0  # the motion restarts
     assert other.playback.time_scale == 2.5 and not other.trail.visible
     # the same inputs give the same motion, sample for sample
     assert other.model == scene.model
