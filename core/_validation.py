@@ -55,7 +55,8 @@ def float_array(x: Any, name: str, *, expected: str = "an array of real numbers"
     ValueError
         ``{name}: expected real numbers, got complex ...`` for complex input
         (numpy would drop the imaginary part), ``{name}: expected
-        {expected}, got ...`` when ``x`` is not numeric.
+        {expected}, got ...`` when ``x`` is not numeric or is boolean (True
+        is not the number 1 here, as for :func:`real_number`).
     """
     if type(x) is np.ndarray and x.dtype is _FLOAT64:
         return x.copy() if copy else x
@@ -67,6 +68,8 @@ def float_array(x: Any, name: str, *, expected: str = "an array of real numbers"
         raise ValueError(f"{name}: expected real numbers, got complex (dtype {arr.dtype}): {short_repr(x)}")
     if arr.dtype.kind in "USV":  # text is not a number here (numpy would parse "1e-3")
         raise ValueError(f"{name}: expected {expected}, got text {short_repr(x)}")
+    if arr.dtype.kind == "b":
+        raise ValueError(f"{name}: expected {expected}, got a boolean {short_repr(x)}")
     try:
         return np.array(arr, dtype=np.float64) if copy else np.asarray(arr, dtype=np.float64)
     except (TypeError, ValueError):

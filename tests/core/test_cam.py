@@ -563,6 +563,8 @@ def test_follower_argument_types_and_calls():
         cam.kinematics([0.0, float("nan")])
     with pytest.raises(ValueError, match="theta: expected real numbers, got complex"):
         cam.kinematics(1j)
+    with pytest.raises(ValueError, match=r"theta: expected cam angles \(rad\), got a boolean True"):
+        cam.kinematics(True)  # (not 1 rad: bools are refused as every scalar argument refuses them)
     with pytest.raises(ValueError, match="speed: expected a finite cam speed"):
         cam.contact_force(0.0, float("inf"))
     with pytest.raises(ValueError, match="u: expected finite cam angles"):
