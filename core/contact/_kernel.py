@@ -253,9 +253,9 @@ def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, or
         step = np.max(np.abs(ds) * scale, axis=1) / group.L
         if not np.all(np.isfinite(step)):
             bad = int(np.argmax(~np.isfinite(step)))
-            raise ContactError(_lost(group.contacts[bad], t, "the extremal conditions are singular (E_s, rank "
-                                     "of C_s < 2p, Eq. 8.109): a line or surface contact, or a singular point "
-                                     "of a parametrization"), t=t)
+            raise _at(ContactError(_lost(group.contacts[bad], t, "the extremal conditions are singular (E_s, rank "
+                                         "of C_s < 2p, Eq. 8.109): a line or surface contact, or a singular "
+                                         "point of a parametrization"), t=t), s, charts)
         lim = 0.25 if damped else 0.5
         big = step > lim
         if big.any():
@@ -274,9 +274,16 @@ def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, or
             return s, gi, gj, raw_i, raw_j, E, Es
         s = s + ds
     worst = int(np.argmax(step))
-    raise ContactError(_lost(group.contacts[worst], t, f"Newton on the contact point did not converge in "
-                                                      f"{max_iter} iterations (last step {step[worst]:.2e} of the "
-                                                      "length scale): the contact point jumped"), t=t)
+    raise _at(ContactError(_lost(group.contacts[worst], t, f"Newton on the contact point did not converge in "
+                                                          f"{max_iter} iterations (last step {step[worst]:.2e} of "
+                                                          "the length scale): the contact point jumped"), t=t),
+              s, charts)
+
+
+def _at(exc: ContactError, s: np.ndarray, charts: list) -> ContactError:
+    """``exc`` with Newton's last iterate attached (``exc.iterate = (s, charts)``; see ``_search.find_contact``)."""
+    exc.iterate = (np.array(s), [list(ch) for ch in charts])
+    return exc
 
 
 def _lost(contact: Any, t: float | None, why: str) -> str:

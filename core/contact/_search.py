@@ -82,12 +82,30 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
                                                       outward=True)
         except ContactError as exc:  # no convergence, or points that do not face each other
             errors.append(str(exc))
+            if getattr(exc, "iterate", None) is not None:  # Newton stuck at a singular point of a parametrization?
+                s_last, ch_last = exc.iterate
+                for surf, label, sv, chart in ((surface_i, "surface_i", s_last[0, :p], ch_last[0][0]),
+                                               (surface_j, "surface_j", s_last[0, p:], ch_last[0][1])):
+                    if np.all(np.isfinite(sv)):
+                        raw = _stack_geometry([surf], sv[None], [chart], 2)
+                        _check_regular(_globalize(raw, np.eye(3)[None]), surf, label,
+                                       surf._chart_parameters(np.asarray(sv, dtype=float), chart))
             continue
         kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
         cand = {"s": s[0], "charts": charts[0], "gap": float(kin.gap[0]), "normal": kin.normal[0],
-                "point_i": kin.point_i[0], "point_j": kin.point_j[0], "rank": float(kin.rank[0])}
+                "point_i": kin.point_i[0], "point_j": kin.point_j[0], "rank": float(kin.rank[0]),
+                "geometry": (gi, gj)}
         if best is None or cand["gap"] > best["gap"] + 1e-9 * group.L[0]:
             best = cand
+    if best is not None:
+        # Newton may converge onto a point where a parametrization is singular (a pole of a hand-made sphere):
+        # C_s then loses rank there because of the parametrization, not because the surfaces conform
+        gi, gj = best.pop("geometry")
+        s_best = best["s"]
+        for g, surf, label, sv, chart in ((gi, surface_i, "surface_i", s_best[:p], best["charts"][0]),
+                                          (gj, surface_j, "surface_j", s_best[p:], best["charts"][1])):
+            _check_regular(g, surf, label, surf._chart_parameters(np.asarray(sv, dtype=float), chart))
+        return best
     if best is None:
         if candidates:  # no convergence: a line contact has a rank-deficient C_s at the sampled guess already
             s_i, s_j = candidates[0]
@@ -97,11 +115,7 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
             raw_j = _stack_geometry([surface_j], l_j[None], [ch_j], 2)
             gi, gj = _globalize(raw_i, fr.A_i), _globalize(raw_j, fr.A_j)
             for g, surf, label, sv in ((gi, surface_i, "surface_i", s_i), (gj, surface_j, "surface_j", s_j)):
-                tt = float(np.max(np.linalg.norm(g.T[0], axis=0)))
-                if not np.linalg.norm(g.n[0]) > 1e-10 * max(tt * tt, 1e-300):
-                    raise ContactError(
-                        f"{label}: {surf!r} is degenerate near s={np.round(sv, 6).tolist()}: its normal du/ds1 x du/ds2 "
-                        "vanishes (parallel or zero tangents); choose a regular parametrization")
+                _check_regular(g, surf, label, sv)
             _, Es, _, _, _ = _extremal(group, fr, gi, gj)
             kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
             check_rank(name, {"rank": float(kin.rank[0])})
@@ -111,6 +125,25 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
             f"{surface_j!r}{why}"
         )
     return best
+
+
+#: A surface's parametrization is singular at a point where ``|du/ds1 x du/ds2|`` is below this fraction of the
+#: square of its longest tangent (a pole of a longitude-latitude sphere; a regular point is near 1).
+REGULAR_TOL = 1e-6
+
+
+def _check_regular(g, surf, label: str, s) -> None:
+    """Refuse a point of ``surf`` where its parametrization is singular (global geometry ``g`` of one
+    point; ``s`` the canonical parameters, for the message)."""
+    if surf.n_parameters < 2:
+        return
+    tt = float(np.max(np.linalg.norm(g.T[0], axis=0)))
+    if not np.linalg.norm(g.n[0]) > REGULAR_TOL * max(tt * tt, 1e-300):
+        raise ContactError(
+            f"{label}: {surf!r} is degenerate near s={np.round(np.asarray(s, dtype=float), 6).tolist()}: its "
+            "normal du/ds1 x du/ds2 vanishes (parallel or zero tangents; a pole of a longitude-latitude "
+            "parametrization) at the contact point; choose a parametrization that is regular there, or "
+            "rotate the surface in its body so that its pole is away from the contact")
 
 
 def _candidates(surface_i, R_i, A_i, surface_j, R_j, A_j) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -170,6 +170,30 @@ def test_degenerate_parametric_surface_is_refused():
         system.add_contact(system.ground, flat_strip, ball, Sphere(0.1))
 
 
+def _lat_long_sphere(r, pole_axis):
+    """A longitude-latitude sphere of radius r whose poles lie on body axis ``pole_axis`` (2: z, 1: y)."""
+    def point(s):
+        c = np.cos(s[..., 1])
+        u = [c * np.cos(s[..., 0]), c * np.sin(s[..., 0]), np.sin(s[..., 1])]
+        if pole_axis == 1:
+            u = [u[0], u[2], -u[1]]
+        return r * np.stack(u, axis=-1)
+    return ParametricSurface(point, bounds=((-math.pi, math.pi), (-math.pi / 2, math.pi / 2)))
+
+
+def test_a_contact_at_a_pole_of_a_parametrization_is_refused_as_degenerate():
+    # resting on its pole, du/ds1 vanishes there: the error names the parametrization (not a line contact)
+    system, ball = _ball_system()
+    with pytest.raises(ContactError, match=r"surface_j: ParametricSurface\(\.\.\.\) is degenerate near "
+                                           r"s=\[[-0-9.]+, -1\.570796\]: its normal du/ds1 x du/ds2 vanishes"):
+        system.add_contact(system.ground, Plane(), ball, _lat_long_sphere(0.1, pole_axis=2))
+    # the same sphere with its poles on the side rests on the plane with N = m g
+    system, ball = _ball_system()
+    c = system.add_contact(system.ground, Plane(), ball, _lat_long_sphere(0.1, pole_axis=1))
+    force = system.simulate([0.0, 0.1]).contact(c).normal_force
+    np.testing.assert_allclose(force, -system.gravity[2] * ball.mass, rtol=1e-12)
+
+
 def test_simulate_options_for_separation():
     system, ball = _ball_system()
     system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
