@@ -111,6 +111,8 @@ class PlanarCurve(Surface):
                 out.append((a, b_))
             return out
 
+        if contour is not None:
+            contour.check_analytic(np.linspace(b[0], b[1], 7)[:, None], "point")
         self._init(derivs, np.linspace(b[0], b[1], 721), length_scale, "PlanarCurve(...)")
         self._derivs_2d = derivs_float
 
@@ -187,6 +189,8 @@ class PlanarCurve(Surface):
         if not np.all(r0 > 0.0):
             k = int(np.argmin(r0))
             raise ValueError(f"radius: expected r(phi) > 0 over a revolution, got r({phi[k]:.4g}) = {r0[k]!r}")
+        if any(g is None for g in given):
+            contour.check_analytic(phi[::120, None], "radius")
         curve._init(derivs, phi, None, "PlanarCurve.polar(...)")
         curve._derivs_2d = derivs_float
         return curve

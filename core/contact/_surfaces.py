@@ -690,6 +690,56 @@ class _ContourDerivatives:
         self.h = 0.05 if p == 1 else 0.04
         self.N = 12
 
+    #: Negative frequencies checked by :meth:`check_analytic` (1 to 3: aliasing of the positive ones puts only
+    #: terms of order ``h^9`` and smaller there for an analytic function).
+    CHECKED_FREQUENCIES = 3
+    #: Largest negative-frequency coefficient of an analytic function, relative to the size of its values round
+    #: the circle (its round-off is about 1e-15; a function that drops an imaginary part puts ``h^m`` times
+    #: its derivatives there, 1e-3 for ``Re(z^2)``).
+    ANALYTIC_TOL = 1e-9
+
+    def check_analytic(self, s: np.ndarray, name: str) -> None:
+        """Refuse a function that is not analytic round the complex circles at the points ``s`` (..., p).
+
+        On the circle ``z = s + h w^j`` an analytic ``f`` is ``sum_k c_k h^k w^(jk)`` with ``k >= 0`` only; a
+        function that drops the imaginary part of its argument in part of a component (``Re(z^2)``, ``abs(z)
+        ** 2 + ...``) has ``conj(z)`` terms, which are negative frequencies. Complex steps of such a function
+        give wrong derivatives (half the curvature of ``Re(z^2) + z^2``), so it is refused, component by
+        component, with the fix.
+        """
+        p, N, h = self.p, self.N, self.h
+        w = np.exp(2j * math.pi * np.arange(N) / N)
+        s = np.asarray(s, dtype=float).reshape(-1, p)
+        if p == 1:
+            z = s[:, 0][:, None] + h * w
+        else:
+            g1, g2 = np.meshgrid(w, w, indexing="ij")
+            z = np.stack([s[:, 0][:, None, None] + h * g1, s[:, 1][:, None, None] + h * g2], axis=-1)
+            z = z.reshape(s.shape[0], N * N, 2)
+        vals = _call_user(self.f, z, name, self.dim, z.shape[: z.ndim - (p > 1)], complex_ok=True)
+        vals = vals.reshape((s.shape[0],) + (N,) * p + (self.dim,))
+        axes = tuple(range(1, p + 1))
+        coef = np.fft.fft2(vals, axes=axes) if p == 2 else np.fft.fft(vals, axis=1)
+        coef = np.abs(coef) / N**p  # [k] is the coefficient of w^(jk); k = N - m is the negative frequency -m
+        low = list(range(self.CHECKED_FREQUENCIES + 1)) + list(range(N - self.CHECKED_FREQUENCIES, N))
+        neg = [k >= N - self.CHECKED_FREQUENCIES for k in low]
+        if p == 1:
+            bad = coef[:, N - self.CHECKED_FREQUENCIES :, :].max(axis=1)
+        else:
+            block = coef[:, low][:, :, low]
+            mask = np.logical_or.outer(neg, neg)
+            bad = np.where(mask[None, :, :, None], block, 0.0).max(axis=(1, 2))
+        scale = np.abs(vals).max(axis=axes)
+        off = bad > self.ANALYTIC_TOL * np.maximum(scale, 1e-300)
+        if np.any(off):
+            q, comp = (int(i) for i in np.argwhere(off)[0])
+            where = np.round(s[q], 6).tolist()
+            raise ValueError(
+                f"{name}: the function is not analytic in its complex parameters (component {comp} of its value "
+                f"near s={where[0] if p == 1 else where}: it takes the real part, abs() or conj() of part of its "
+                "argument), so its derivatives cannot come from complex steps; write it with complex-safe "
+                "numpy arithmetic (z * z, not abs(z) ** 2 or np.real(z ** 2)) or pass first=, second= and third=")
+
     def __call__(self, s: np.ndarray, order: int, name: str):
         p, N, h = self.p, self.N, self.h
         w = np.exp(2j * math.pi * np.arange(N) / N)
@@ -787,7 +837,9 @@ class ParametricSurface(Surface):
     ValueError
         For bad bounds, callables that fail, return the wrong shape or
         non-finite values, or (without derivatives) do not accept complex
-        parameters.
+        parameters or are not analytic in them (a real part, ``abs`` or
+        ``conj`` of part of the argument; checked at 9 points over
+        ``bounds``, see docs/contact.md).
     """
 
     def __init__(self, point: Callable, *, first: Callable | None = None, second: Callable | None = None,
@@ -813,6 +865,8 @@ class ParametricSurface(Surface):
         else:
             self.length_scale = _positive(length_scale, "length_scale")
         self._geometry(g[:2], 3, None)  # shapes of the given derivatives
+        if first is None or second is None or third is None:
+            self._contour.check_analytic(g[::78], "point")  # 9 points spread over the bounds
 
     def __repr__(self) -> str:
         return "ParametricSurface(...)"

@@ -254,6 +254,17 @@ def test_charts_describe_the_same_surface():
     (lambda: ParametricSurface(lambda s: np.stack([s[..., 0], s[..., 1], np.abs(s[..., 0])], -1),
                                bounds=((-1, 1), (-1, 1))),
      r"point: the function dropped the imaginary part of complex parameters \(component 2 of its value\)"),
+    # part of a component real (the rest analytic): wrong derivatives (half the curvature of Re(z^2) + z^2)
+    (lambda: ParametricSurface(lambda s: np.stack([s[..., 0], -s[..., 1], np.real(s[..., 0] ** 2) + s[..., 1] ** 2],
+                                                  -1), bounds=((-0.1, 0.1), (-0.1, 0.1))),
+     r"point: the function is not analytic in its complex parameters \(component 2 of its value near s=\["),
+    (lambda: ParametricSurface(lambda s: np.stack([s[..., 0], -s[..., 1], np.abs(s[..., 0]) ** 2
+                                                   + 0.5 * s[..., 1] ** 2], -1), bounds=((-0.1, 0.1), (-0.1, 0.1))),
+     r"point: the function is not analytic .* \(z \* z, not abs\(z\) \*\* 2 or np.real\(z \*\* 2\)\)"),
+    (lambda: PlanarCurve.polar(lambda p: 0.04 + 0.01 * np.real(np.cos(p)) * np.cos(p)),
+     r"radius: the function is not analytic in its complex parameters \(component 0 of its value near s="),
+    (lambda: PlanarCurve(lambda s: np.stack([s, np.abs(s) ** 2], -1), bounds=(-1.0, 1.0)),
+     r"point: the function is not analytic in its complex parameters \(component 1"),
     (lambda: ParametricSurface(lambda s: [math.sin(x) for x in s], bounds=((0, 1), (0, 1))),
      r"point: the function raised"),
     (lambda: ParametricSurface(_saddle, first=lambda s: np.zeros((3, 2)), bounds=((0, 1), (0, 1))),
