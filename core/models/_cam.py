@@ -878,7 +878,9 @@ class CamFollower:
             (above :meth:`jump_speed`): ``"stop"`` (the outputs end before
             it), ``"compliant"`` (continue with the Hunt-Crossley contact:
             the follower leaves the cam and lands) or ``"bilateral"`` (the
-            constraint pulls).
+            constraint pulls). The compliant model has no constraint to
+            leave: it ignores ``on_separation`` (its follower leaves and
+            lands by itself).
         contact_stiffness, contact_damping, contact_exponent : float, keyword-only
             The Hunt-Crossley law (see :meth:`build_system`).
         rtol, atol : float, keyword-only
@@ -1143,9 +1145,11 @@ class CamFollower:
         The pitch curve (the roller centre's path) grows with the roller, so
         its smallest convex radius of curvature ``rho_min(r_f)`` does too;
         the cam is undercut when ``rho_min(r_f) <= r_f``. Returns the root of
-        ``rho_min(r_f) = r_f`` (to 1e-9 m), inf for the eccentric circle
-        (its pitch curve is a circle of radius ``R + r_f``), 0.0 when no
-        roller fits.
+        ``rho_min(r_f) = r_f`` (to 1e-9 m); inf when no roller undercuts
+        the cam: the eccentric circle (its pitch curve is a circle of radius
+        ``R + r_f``) and a rise-dwell-return cam whose pitch curve stays
+        convex and no tighter than the roller at every size (the default
+        ``rise_dwell_return()``); 0.0 when no roller fits.
         """
         from scipy.optimize import brentq
 
