@@ -620,10 +620,13 @@ class GyroscopeScene(PlaybackRequests, Scene):
             model = _Model.from_inputs(kept)
         self.model = model
         self.analysis = None
+        failed = self._error_reported
         self._error_reported = False
         self.timeline.reset(functools.partial(_compute_chunk, model))
         self.timeline.sequential = model.has_torque
         self._restart()
+        if failed:  # the failed run had paused the clock: the notice promised that a slider runs it again
+            self.playback.set_playing(True)
 
     def _restart(self) -> None:
         self.sim_time = 0.0

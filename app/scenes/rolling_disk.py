@@ -657,11 +657,18 @@ class RollingDiskScene(PlaybackRequests, Scene):
         if model == self.model:
             return
         self.model = model
+        halted = self._halted()
         self._error_reported = False
         if self.gui is not None:
             self.gui.info.content = self._info(model)
         self.timeline.reset(functools.partial(_compute_chunk, model))
         self._restart()
+        if halted:  # the motion had stopped itself: the notice promised that a control runs it again
+            self.playback.set_playing(True)
+
+    def _halted(self) -> bool:
+        """The motion stopped itself (it left the ground, fell flat, or its run failed) and paused the clock."""
+        return bool(self.ended) or self._error_reported
 
     def _restart(self) -> None:
         self.sim_time = 0.0
@@ -696,8 +703,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
         if tick.reset:
             ended = self.ended
             self._restart()
-            if ended:  # the motion had stopped itself: play it again
-                self.playback.set_playing(True)
+            if ended:  # the motion had ended itself: play it again (a failed run would fail again: it waits
+                self.playback.set_playing(True)  # for a control)
         step = tick.step
         # ask for the next chunk as soon as the clock enters a chunk (each
         # continues from the one before, so none can be computed further ahead)

@@ -17,6 +17,7 @@ import csv
 import io
 import math
 import os
+import time
 
 import numpy as np
 import pytest
@@ -240,6 +241,29 @@ def test_leaving_the_ground_stops_the_clock_with_a_notice(disk):
     # Reset plays again from the start
     click(scene, "playback", "Reset")
     wait_until(lambda: scene.playing and scene.sim_time < t_end and not scene.ended)
+
+
+def test_a_control_changed_after_the_disk_stopped_itself_plays_again(disk):
+    # the notice says "Change a control, pick a preset or press Reset": a control must run it again, and a
+    # Reset after that control too
+    app, scene = disk
+    assert send_value(scene, "spin", 0.0)
+    wait_for_model(scene, spin=0.0, after=0.0)
+    run_until(scene, 2.0)
+    wait_until(lambda: scene.ended and not scene.playing)
+    assert send_value(scene, "lean_deg", 30.0)
+    wait_until(lambda: scene.model.lean == pytest.approx(math.radians(30.0)))
+    wait_until(lambda: scene.playing and scene.sim_time > 0.05)
+    run_until(scene, 2.0)
+    wait_until(lambda: scene.ended and not scene.playing)
+    click(scene, "playback", "Reset")
+    wait_until(lambda: scene.playing and scene.sim_time > 0.05 and not scene.ended)
+    # a pause by hand is kept: a control then starts the new motion paused
+    scene.playback.set_playing(False)
+    assert send_value(scene, "lean_deg", 20.0)
+    wait_until(lambda: scene.model.lean == pytest.approx(math.radians(20.0)))
+    time.sleep(0.3)
+    assert not scene.playing and scene.sim_time == 0.0
 
 
 def test_bad_inputs_are_refused_and_change_nothing(disk):
