@@ -141,6 +141,8 @@ _SPRING_POINTS = 7 * 36 + 1
 _SPRING_SIDES = 6  # vertices around the spring's wire
 _SPRING_WIRE = 0.0011  # m: radius of the spring's wire (presenter view: x 2)
 _SPRING_MIN_LENGTH = 0.045  # at the highest lift
+#: m: the drawn spring's coils touch (7 turns of 1.1 mm wire): a compliant run whose follower flies higher stops
+_SPRING_SOLID = 2.0 * 7 * 0.0011
 _ARM_THICKNESS = 0.008
 _BASE_Z = -0.085  # top of the base plate
 _COLUMN_X = -0.095
@@ -1041,6 +1043,11 @@ class CamFollowerScene(Scene):
         """Radius of the spring's wire as drawn (m): twice as thick in presenter view."""
         return _SPRING_WIRE * (PRESENTER_LINE_SCALE if self.presenter else 1.0)
 
+    def _travel_limit(self) -> float:
+        """The largest lift (m) the stand allows: the drawn spring is solid there (:data:`_SPRING_SOLID`)."""
+        geometry = self.geometry
+        return geometry.spring_top - geometry.pitch_height - geometry.spring_seat - _SPRING_SOLID
+
     @staticmethod
     def _spring_reference_length(geometry: Geometry) -> float:
         """The spring's length (m) in the middle of its travel, where its mesh is built."""
@@ -1239,6 +1246,21 @@ class CamFollowerScene(Scene):
         j = min(max(int(x), 0), chunk.theta.size - 2)
         w = min(max(x - j, 0.0), 1.0)
         near = j + 1 if w >= 0.5 else j
+        lift = float(chunk.lift[j] + w * (chunk.lift[j + 1] - chunk.lift[j]))
+        limit = self._travel_limit()
+        if lift > limit:
+            self._error_reported = True
+            inputs = rev.inputs
+            spring = (f"the spring (k = {inputs.stiffness:g} N/m, F0 = {inputs.preload:g} N)" if inputs.stiffness
+                      or inputs.preload else "gravity alone (k = 0, F0 = 0)")
+            self.notify("Compliant run stopped",
+                        f"The follower flew to the end of its travel, {1000.0 * limit:.0f} mm above its lowest "
+                        "position (its spring would be solid there, and this model has no stop): at "
+                        f"{inputs.rpm:g} rpm {spring} cannot keep it near the cam. Raise the "
+                        "stiffness or the preload, or lower the cam speed. Showing the closed form again.",
+                        "warning")
+            self.controls.set("compliant", False)
+            return
         key = ("run", chunk.k, j, w, show, self.revision)
         if key != self._drawn:
             self._drawn = key
@@ -1272,7 +1294,10 @@ class CamFollowerScene(Scene):
         else:
             contact = (f"**on the cam** (Hunt-Crossley, pressed in {significant(1e6 * -gap, 3)} µm): "
                        f"N = {float(chunk.force[j]):.3f} N")
-        events = f"this revolution: {chunk.separations.size} separation(s), {chunk.landings.size} landing(s)"
+        now = float(chunk.t0 + j * chunk.h)
+        left = int(np.count_nonzero(chunk.separations <= now))
+        landed = int(np.count_nonzero(chunk.landings <= now))
+        events = f"so far this revolution: {left} separation(s), {landed} landing(s)"
         lines = [
             f"**t** = {1000.0 * float(chunk.t0 + j * chunk.h):.2f} ms (revolution {chunk.k + 1}) · **θ** = "
             f"{math.degrees(float(chunk.theta[j]) % (2.0 * math.pi)):.1f}°  ",
@@ -1349,7 +1374,9 @@ class CamFollowerScene(Scene):
             gui.plots[what].data = rev.plot_data(what)
         elif self.run_chunk is not None:
             chunk = self.run_chunk
-            x = np.degrees(chunk.theta) - 360.0 * chunk.k
+            # (rounded: theta - 360 k is 5.7e-14 instead of 0 at a later revolution's start, and uPlot then
+            # drops the axis's 0 tick)
+            x = np.round(np.degrees(chunk.theta) - 360.0 * chunk.k, 9)
             if what == "run_lift":
                 gui.run_plots[what].data = (x, 1000.0 * chunk.cam_lift, 1000.0 * chunk.lift)
             else:

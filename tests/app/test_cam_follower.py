@@ -412,6 +412,33 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     wait_until(lambda: not scene.compliant and not scene.gui.run_plots["run_lift"].visible)
 
 
+def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notice(cam_app):
+    # no spring force at 3000 rpm: only gravity pulls the follower back, and each landing throws it higher;
+    # the drawn spring must never be squeezed shorter than its coils (the model has no stop: the run stops)
+    app, scene = cam_app
+    for key, value in (("stiffness", 0.0), ("preload", 0.0), ("rpm", 3000.0), ("turn_seconds", 0.5)):
+        assert send_value(scene, key, value)
+    wait_for_inputs(scene, rpm=3000.0, stiffness=0.0, preload=0.0)
+    limit = scene._travel_limit()
+    geometry = scene.geometry
+    assert 0.02 < limit - float(np.max(scene.revolution.lift)) < 0.045  # room above the cam's highest lift
+    assert send_value(scene, "compliant", True)
+    drawn = []
+    deadline = time.monotonic() + 240.0
+    while not notices_with(app, "Compliant run stopped") and time.monotonic() < deadline:
+        with app.session_for().run_lock:
+            if scene.compliant:
+                drawn.append(scene.follower_z - geometry.pitch_height)
+        time.sleep(0.02)
+    (notice,) = notices_with(app, "Compliant run stopped")
+    assert "flew to the end of its travel" in notice[1] and "gravity alone (k = 0, F0 = 0)" in notice[1]
+    wait_until(lambda: not scene.compliant and not scene.gui.run_plots["run_lift"].visible)
+    # it flew (well above the cam's highest lift) and was never drawn beyond the stand's travel
+    assert max(drawn) > float(np.max(scene.revolution.lift)) + 0.005
+    assert max(drawn) <= limit + 1e-3  # (one frame of motion past the limit at most)
+    assert scene.paused_error is None
+
+
 def test_compliant_run_below_the_jump_speed_follows_the_closed_form():
     inputs = Inputs(rpm=700.0)
     chunk = compute_chunk(inputs, 0, None)
