@@ -46,9 +46,12 @@ def significant(x: float, digits: int = 4) -> str:
     return f"{x:.{digits - 1}e}"
 
 
-def one_digit(x: float) -> str:
-    """A drift or residual with one significant digit (``0`` when exactly zero)."""
-    return "0" if x == 0.0 else f"{abs(x):.0e}"
+def one_digit(x: float, floor: float = 0.0) -> str:
+    """A drift or residual with one significant digit (``0`` when exactly zero); below ``floor`` (round-off)
+    ``< floor``, so that a residual at round-off reads the same from frame to frame (not 4e-34, 0, 1e-17)."""
+    if x == 0.0 or abs(x) < floor:
+        return f"< {floor:.0e}" if floor > 0.0 else "0"
+    return f"{abs(x):.0e}"
 
 
 @functools.lru_cache(maxsize=4096)

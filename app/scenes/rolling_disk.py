@@ -118,6 +118,9 @@ _TRACK_PERIOD = 0.1  # s of wall time between track buffer updates (~10 Hz)
 _TRACK_CAPACITY = 1000  # line segments of the contact point's track
 _TRACK_MIN_STEP = 0.002  # m: a track point closer than this to the last one is not added
 _TRACK_LIFT = 0.0015  # m above the ground, so the grid does not cover the track
+#: Residuals below this fraction of the disk's size (m) or speed (m/s) are round-off and read "< ..." (about
+#: 50 eps: the projection stops at a few eps of its scale)
+_RESIDUAL_FLOOR = 1e-14
 _HEAD_STICK = 0.03  # m: the chords of the track's newest stretch, drawn by poses
 _HEAD_STICKS = 64  # chords in that stretch (1.92 m: 1.6 s at the default speed, 1.2 m/s)
 _WINDOW = 10.0  # s of simulated time in the plots and the CSV
@@ -869,8 +872,9 @@ class RollingDiskScene(PlaybackRequests, Scene):
             f"**spin** ω2 = {significant(spin, 3)} rad/s · dψ/dt = {significant(heading_rate, 3)} rad/s · "
             f"speed {significant(speed, 3)} m/s",
             f"**N** = {significant(float(c[_NORMAL]), 4)} N · **E** = {significant(energy, 6)} J, "
-            f"E − E0 = {one_digit(energy - self.energy0)} J · **max |C|** = {one_digit(float(c[_RES_P]))} m, "
-            f"max |dC/dt| = {one_digit(float(c[_RES_V]))} m/s",
+            f"E − E0 = {one_digit(energy - self.energy0)} J · **max |C|** = "
+            f"{one_digit(float(c[_RES_P]), _RESIDUAL_FLOOR * self.model.radius)} m, max |dC/dt| = "
+            f"{one_digit(float(c[_RES_V]), _RESIDUAL_FLOOR * max(speed, self.model.radius * abs(spin), 1e-3))} m/s",
         ]
         chunk = self.last_chunk
         if chunk is not None and chunk.model == self.model and chunk.n_rhs:

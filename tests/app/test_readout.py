@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from app.readout import markdown_to_html
+from app.readout import markdown_to_html, one_digit
 
 
 def test_pipe_table_aligns_and_escapes() -> None:
@@ -23,3 +23,10 @@ def test_lines_with_bars_but_no_rule_row_stay_text() -> None:
         out = markdown_to_html(text)
         assert "<table" not in out and out.startswith("<p ")
     assert "|p| = 1: unit Euler parameters." in markdown_to_html("|p| = 1: unit Euler parameters.")
+
+
+def test_one_digit_reads_round_off_as_below_its_floor():
+    assert one_digit(0.0) == "0" and one_digit(-3.2e-7) == "3e-07"
+    # a residual at round-off reads the same whatever its value (4e-34, 0 or 1e-17 frame to frame)
+    assert one_digit(4e-34, 1e-15) == one_digit(0.0, 1e-15) == one_digit(-1e-17, 1e-15) == "< 1e-15"
+    assert one_digit(2e-12, 1e-15) == "2e-12"
