@@ -384,13 +384,14 @@ def contact_rows(group: _Group, fr: _Frames, gi: _Geo, gj: _Geo, level: int, rol
     J[:, 3:6] += np.where(sw, -m, m)
     J[:, 9:12] += np.where(sw, m, -m)
     out.J = J
-    if rolling.any():
+    if rolling.any():  # unit tangents: the rows' residuals are slip speeds (m/s) whatever the parametrization
         Jr = np.zeros((k, p, 12))
         tbT = np.moveaxis(tb, 1, 2)  # (k, p, 3)
-        Jr[:, :, 0:3] = tbT
-        Jr[:, :, 3:6] = _cross(gi.rho[:, None, :], tbT)
-        Jr[:, :, 6:9] = -tbT
-        Jr[:, :, 9:12] = -_cross(gj.rho[:, None, :], tbT)
+        units = tbT / np.linalg.norm(tbT, axis=2)[:, :, None]
+        Jr[:, :, 0:3] = units
+        Jr[:, :, 3:6] = _cross(gi.rho[:, None, :], units)
+        Jr[:, :, 6:9] = -units
+        Jr[:, :, 9:12] = -_cross(gj.rho[:, None, :], units)
         out.Jr = Jr
     else:
         out.Jr = None
@@ -445,7 +446,10 @@ def contact_rows(group: _Group, fr: _Frames, gi: _Geo, gj: _Geo, level: int, rol
         wi = _cross(fr.W_i, _cross(fr.W_i, gi.rho) + Td_i)
         wj = _cross(fr.W_j, _cross(fr.W_j, gj.rho) + Td_j)
         hr = np.einsum("kmx,kx->km", tdot, vrel) + np.einsum("kmx,kx->km", tbT, wi - wj)
-        out.gamma_r = -hr
+        # of the unit-tangent rows: d/dt (t / |t|) = (t_dot - t (t . t_dot) / |t|^2) / |t|
+        tl2 = np.einsum("kmx,kmx->km", tbT, tbT)
+        along = np.einsum("kmx,kmx->km", tbT, tdot) * np.einsum("kmx,kx->km", tbT, vrel) / tl2
+        out.gamma_r = (along - hr) / np.sqrt(tl2)
     else:
         out.gamma_r = None
     return out

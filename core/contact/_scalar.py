@@ -388,8 +388,9 @@ def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank:
     else:
         Wi_c, Wj_c = _add(Wi_c, mm), _sub(Wj_c, mm)
     out["J"] = (w, Wi_c, _neg(w), Wj_c)
-    if cs.rolling:
-        out["Jr"] = [(tb[m], _cross(gi.rho, tb[m]), _neg(tb[m]), _neg(_cross(gj.rho, tb[m]))) for m in range(p)]
+    if cs.rolling:  # unit tangents: the rows' residuals are slip speeds (m/s) whatever the parametrization
+        units = [_mul(1.0 / _norm(tb[m]), tb[m]) for m in range(p)]
+        out["Jr"] = [(u, _cross(gi.rho, u), _neg(u), _neg(_cross(gj.rho, u))) for u in units]
     if level < 2:
         return out
     Vi, Vj, Wi, Wj = fr.Vi, fr.Vj, fr.Wi, fr.Wj
@@ -457,5 +458,11 @@ def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank:
         wi = _cross(Wi, _add(_cross(Wi, gi.rho), Td_i))
         wj = _cross(Wj, _add(_cross(Wj, gj.rho), Td_j))
         dw = _sub(wi, wj)
-        out["gamma_r"] = [-(_dot(tdot[m], vrel) + _dot(tb[m], dw)) for m in range(p)]
+        # of the unit-tangent rows: d/dt (t / |t|) = (t_dot - t (t . t_dot) / |t|^2) / |t|
+        gr = []
+        for m in range(p):
+            tl2 = _dot(tb[m], tb[m])
+            gr.append((-(_dot(tdot[m], vrel) + _dot(tb[m], dw)) + _dot(tb[m], tdot[m]) * _dot(tb[m], vrel) / tl2)
+                      / math.sqrt(tl2))
+        out["gamma_r"] = gr
     return out

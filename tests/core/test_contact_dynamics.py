@@ -169,6 +169,28 @@ def test_sphere_sliding_off_a_sphere_leaves_at_two_thirds():
     np.testing.assert_allclose(sep.point, 0.3 * R / np.linalg.norm(R), atol=1e-12)
 
 
+@pytest.mark.parametrize("r", [0.001, 0.1, 2.0])
+@pytest.mark.parametrize("ball_first", [False, True])
+def test_a_rolling_rows_residual_is_the_slip_speed_whatever_the_radius_and_order(r, ball_first):
+    # a ball slipping at 1 m/s on the ground: the rolling rows' velocity residual is 1 m/s (their rows are
+    # unit tangents; with the sphere's raw tangents it was r m/s, so a 1 mm ball passed the start check
+    # with 1000 times the slip a 1 m ball could)
+    system = System(gravity=(0.0, 0.0, -G))
+    ball = system.add_body("ball", mass=1.0, inertia=(0.4 * r * r,) * 3, position=(0.0, 0.0, r),
+                           velocity=(1.0, 0.0, 0.0))
+    if ball_first:
+        system.add_contact(ball, Sphere(r), system.ground, Plane(), rolling=True)
+    else:
+        system.add_contact(system.ground, Plane(), ball, Sphere(r), rolling=True)
+    with pytest.raises(ValueError, match=r"velocity residual 1\.000e\+00"):
+        system.simulate([0.0, 0.1])
+    # assembled, it rolls at 5/7 of the slip speed, and the residual is at round-off in m/s
+    system.assemble()
+    traj = system.simulate(np.linspace(0.0, 0.1, 3))
+    np.testing.assert_allclose(traj.velocity(ball)[:, 0], 5.0 / 7.0, rtol=1e-12)
+    assert np.max(traj.residual_velocity) < 1e-13
+
+
 def test_sphere_rolling_off_a_sphere_leaves_at_ten_seventeenths():
     theta0 = 0.1
     system, ball, c, rho = _ball_on_ball(theta0, rolling=True)
