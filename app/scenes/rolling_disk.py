@@ -856,9 +856,11 @@ class RollingDiskScene(PlaybackRequests, Scene):
         above = abs(model.spin) > critical
         verdict = ("**above** it: upright motion is stable (a small lean wobbles)" if above else
                    "**below** it: upright motion is unstable (a small lean grows)")
-        return (f"**Critical upright spin** {formula} = {significant(critical, 3)} rad/s "
-                f"(speed {significant(critical * model.radius, 3)} m/s, "
-                f"{'rolling' if model.rolling else 'sliding'}).  \n"
+        # rolling, the spin is the rolling speed over R; sliding on frictionless ground, the centre's speed
+        # plays no part (it keeps its horizontal velocity whatever the spin)
+        where = (f"rolling at R ω = {significant(critical * model.radius, 3)} m/s" if model.rolling else
+                 "sliding: the centre's speed plays no part")
+        return (f"**Critical upright spin** {formula} = {significant(critical, 3)} rad/s ({where}).  \n"
                 f"Initial spin |ω2| = {significant(abs(model.spin), 3)} rad/s = "
                 f"{significant(abs(model.spin) / critical, 3)} × critical: {verdict}.")
 
