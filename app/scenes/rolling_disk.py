@@ -131,6 +131,9 @@ _DISK_THICKNESS = 0.06  # of the radius: the unit disk's thickness
 _ARROW_RADII = 3.0
 # Colours: none of the arrows or curves red, green or blue (frame axes).
 _DISK_COLOR = (196, 170, 110)  # brass
+#: The disk is drawn slightly translucent: the contact-force arrow runs from the contact point inside or behind
+#: it (inside near upright, behind when the disk leans towards the camera) and shows through it
+_DISK_OPACITY = 0.8
 _MARKER_COLOR = (70, 45, 30)  # dark brown stripe across the face: the spin
 _TRACK_COLOR = (0, 150, 140)  # teal
 _FORCE_COLOR = (225, 95, 0)  # orange
@@ -461,6 +464,12 @@ class _Gui:
     plot_normal: Any
 
 
+def _relation(x: float, floor: float) -> str:
+    """``= 3e-12`` for a residual, ``< 1e-15`` at round-off (below ``floor``)."""
+    text = one_digit(x, floor)
+    return text if text.startswith("<") else f"= {text}"
+
+
 class RollingDiskScene(PlaybackRequests, Scene):
     """A thin disk on the ground: rolling without slip or frictionless sliding (core.contact)."""
 
@@ -561,7 +570,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
         disk, stripe = _disk_meshes()
         self.disk_mesh = scene.add_mesh_simple(f"{root}/disk/mesh", disk.vertices.astype(np.float32),
                                                disk.faces.astype(np.uint32), color=_DISK_COLOR,
-                                               scale=_DEFAULT.radius)
+                                               opacity=_DISK_OPACITY, scale=_DEFAULT.radius)
         self.disk_marker = scene.add_mesh_simple(f"{root}/disk/marker", stripe.vertices.astype(np.float32),
                                                  stripe.faces.astype(np.uint32), color=_MARKER_COLOR,
                                                  scale=_DEFAULT.radius)
@@ -874,9 +883,9 @@ class RollingDiskScene(PlaybackRequests, Scene):
             f"**spin** ω2 = {significant(spin, 3)} rad/s · dψ/dt = {significant(heading_rate, 3)} rad/s · "
             f"speed {significant(speed, 3)} m/s",
             f"**N** = {significant(float(c[_NORMAL]), 4)} N · **E** = {significant(energy, 6)} J, "
-            f"E − E0 = {one_digit(energy - self.energy0)} J · **max |C|** = "
-            f"{one_digit(float(c[_RES_P]), _RESIDUAL_FLOOR * self.model.radius)} m, max |dC/dt| = "
-            f"{one_digit(float(c[_RES_V]), _RESIDUAL_FLOOR * max(speed, self.model.radius * abs(spin), 1e-3))} m/s",
+            f"E − E0 = {one_digit(energy - self.energy0)} J · **max |C|** "
+            f"{_relation(float(c[_RES_P]), _RESIDUAL_FLOOR * self.model.radius)} m, max |dC/dt| "
+            f"{_relation(float(c[_RES_V]), _RESIDUAL_FLOOR * max(speed, self.model.radius * abs(spin), 1e-3))} m/s",
         ]
         chunk = self.last_chunk
         if chunk is not None and chunk.model == self.model and chunk.n_rhs:
