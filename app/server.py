@@ -50,7 +50,7 @@ from app.controls import Button, Choice, Text, Toggle
 from app.gate import Gate, RefusedValue, client_request_path
 from app.panel import ControlPanel
 from app.scenes import discover_scenes, discovery_errors
-from app.scenes.base import Scene, SceneContext, plot_text_css
+from app.scenes.base import Scene, SceneContext, aim_camera, plot_text_css
 from app.worker import make_executor
 
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
@@ -351,19 +351,10 @@ class Session:
 
     def _frame_camera(self, name: str) -> None:
         """Point the camera(s) at the scene, if it declares a framing."""
-        cls = self.scene_classes[name]
-        position = getattr(cls, "camera_position", None) or DEFAULT_CAMERA_POSITION
-        look_at = getattr(cls, "camera_look_at", None) or DEFAULT_CAMERA_LOOK_AT
-        if isinstance(self.target, viser.ViserServer):
-            self.target.initial_camera.position = position
-            self.target.initial_camera.look_at = look_at
-            clients = list(self.target.get_clients().values())
-        else:
-            clients = [self.target]
-        for client in clients:
-            with client.atomic():
-                client.camera.position = position
-                client.camera.look_at = look_at
+        scene = self.scenes.get(name)
+        view = scene.camera_view() if scene is not None else None
+        position, look_at = view if view is not None else (DEFAULT_CAMERA_POSITION, DEFAULT_CAMERA_LOOK_AT)
+        aim_camera(self.target, position, look_at)
 
     def _set_chooser(self, name: str | None) -> None:
         if self._chooser is None or name is None:

@@ -55,6 +55,7 @@ from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
+import viser
 
 from app.controls import Button
 from app.gate import Gate
@@ -62,7 +63,7 @@ from app.panel import ControlPanel, NotifyClient
 from app.readout import PRESENTER_FONT_SCALE, Readout
 from app.worker import make_executor
 
-__all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE"]
+__all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE", "aim_camera"]
 
 _log = logging.getLogger(__name__)
 
@@ -149,6 +150,20 @@ class SceneContext:
             notify_client=notify_client,
             owns_executor=True,
         )
+
+
+def aim_camera(target: Any, position: tuple[float, float, float], look_at: tuple[float, float, float]) -> None:
+    """Point the camera of ``target`` (a client) or of every client of ``target`` (a server, whose initial
+    camera for browsers that join later is set too) at ``look_at`` from ``position``."""
+    clients = [target]
+    if isinstance(target, viser.ViserServer):
+        target.initial_camera.position = position
+        target.initial_camera.look_at = look_at
+        clients = list(target.get_clients().values())
+    for client in clients:
+        with client.atomic():
+            client.camera.position = position
+            client.camera.look_at = look_at
 
 
 class Scene:
@@ -238,6 +253,21 @@ class Scene:
             "The server keeps running.",
             "error",
         )
+
+    def camera_view(self) -> tuple[tuple[float, float, float], tuple[float, float, float]] | None:
+        """``(position, look_at)`` the viewers' cameras are pointed at when the scene is shown: the class's
+        ``camera_position`` and ``camera_look_at`` (None: the session's default view). A scene whose size
+        follows a control overrides it and calls :meth:`reframe` when the size changes."""
+        if self.camera_position is None or self.camera_look_at is None:
+            return None
+        return self.camera_position, self.camera_look_at
+
+    def reframe(self) -> None:
+        """Point the cameras of this scene's viewers at :meth:`camera_view` again (loop thread; only while
+        the scene is shown). Every browser of a shared session is re-aimed, as at a scene switch."""
+        view = self.camera_view()
+        if self.active and view is not None:
+            aim_camera(self.target, *view)
 
     def set_active(self, active: bool) -> None:
         """Show or hide this scene's root frame and GUI folder.

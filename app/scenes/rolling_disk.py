@@ -508,6 +508,15 @@ class RollingDiskScene(PlaybackRequests, Scene):
     camera_position: ClassVar[tuple[float, float, float]] = (0.32, -0.52, 0.27)
     camera_look_at: ClassVar[tuple[float, float, float]] = (0.14, 0.1, 0.04)
 
+    def camera_view(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The class's view scaled by the disk's radius against the default one (about the origin, where
+        *Follow the disk* keeps the disk): a 0.3 m disk stays in view and a 3 cm one is not a few pixels."""
+        radius = self.model.radius if self.model is not None else _DEFAULT.radius
+        s = radius / _DEFAULT.radius
+        position = tuple(float(s * x) for x in self.camera_position)
+        look_at = tuple(float(s * x) for x in self.camera_look_at)
+        return position, look_at  # type: ignore[return-value]
+
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
         super().__init__(target, notify, context=context)
         self.playback = Playback(PRESETS, controls=self.controls)
@@ -668,6 +677,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
             model = kept
         if model == self.model:
             return
+        resized = self.model is not None and model.radius != self.model.radius
         self.model = model
         halted = self._halted()
         self._error_reported = False
@@ -677,6 +687,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self._restart()
         if halted:  # the motion had stopped itself: the notice promised that a control runs it again
             self.playback.set_playing(True)
+        if resized:
+            self.reframe()
 
     def _halted(self) -> bool:
         """The motion stopped itself (it left the ground, fell flat, or its run failed) and paused the clock."""

@@ -316,6 +316,10 @@ def test_radius_scales_the_disk_and_the_critical_spin(disk):
     assert scene.disk_marker.scale == 0.2
     critical = rolling_disk_critical_spin(0.2)
     assert f"{critical:.2f} rad/s" in scene.gui.info.content
+    # the view is scaled with the disk (twice the default radius: twice as far, about the origin)
+    camera = app.server.initial_camera
+    np.testing.assert_allclose(camera.position, 2.0 * np.array(RollingDiskScene.camera_position), rtol=1e-6)
+    np.testing.assert_allclose(camera.look_at, 2.0 * np.array(RollingDiskScene.camera_look_at), rtol=1e-6)
     assert send_value(scene, "contact", SLIDING)
     wait_for_model(scene, rolling=False)
     assert f"{rolling_disk_critical_spin(0.2, rolling=False):.2f} rad/s" in scene.gui.info.content
