@@ -460,6 +460,18 @@ class Scene:
         self._arrows.append((handle, shaft_radius, head_radius, head_length))
         return handle
 
+    def resize_arrows(self, handle: Any, *, shaft_radius: float, head_radius: float, head_length: float) -> None:
+        """New sizes (m) for arrows made with :meth:`add_arrows` (grown in presenter view as before)."""
+        f = PRESENTER_ARROW_SCALE if self.presenter else 1.0
+        for k, entry in enumerate(self._arrows):
+            if entry[0] is handle:
+                self._arrows[k] = (handle, shaft_radius, head_radius, head_length)
+                handle.shaft_radius = shaft_radius * f
+                handle.head_radius = head_radius * f
+                handle.head_length = head_length * f
+                return
+        raise ValueError(f"handle: expected arrows made with add_arrows, got {handle!r}")
+
     def add_lines(self, name: str, points: Any, colors: Any, *, thickness: float, **kwargs: Any) -> Any:
         """Line segments whose width grows in presenter view."""
         f = PRESENTER_LINE_SCALE if self.presenter else 1.0

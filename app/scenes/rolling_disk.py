@@ -464,6 +464,13 @@ class _Gui:
     plot_normal: Any
 
 
+def _arrow_sizes(radius: float) -> dict[str, float]:
+    """The force arrow's shaft and head (m) for a disk of ``radius``: in proportion to it (3.5 mm shaft, 9 mm
+    head radius and 20 mm head for the default 0.1 m), so a 3 cm coin's arrow is not as large as the coin."""
+    s = radius / _DEFAULT.radius
+    return {"shaft_radius": 0.0035 * s, "head_radius": 0.009 * s, "head_length": 0.02 * s}
+
+
 def _relation(x: float, floor: float) -> str:
     """``= 3e-12`` for a residual, ``< 1e-15`` at round-off (below ``floor``)."""
     text = one_digit(x, floor)
@@ -573,7 +580,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.force_frame = scene.add_frame(f"{root}/ground/point/force", show_axes=False)
         self.force_arrow = self.add_arrows(
             f"{root}/ground/point/force/arrow", np.array([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]], dtype=np.float32),
-            _FORCE_COLOR, shaft_radius=0.0035, head_radius=0.009, head_length=0.02,
+            _FORCE_COLOR, **_arrow_sizes(_DEFAULT.radius),
         )
         self.disk = scene.add_frame(f"{root}/disk", show_axes=False, position=(0.0, 0.0, _DEFAULT.radius))
         disk, stripe = _disk_meshes()
@@ -808,6 +815,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
                 self.disk_mesh.scale = radius
                 self.disk_marker.scale = radius
                 self.point_mesh.scale = _POINT_RADIUS * radius
+                self.resize_arrows(self.force_arrow, **_arrow_sizes(radius))
             set_pose(self.disk, position=(centre[0] - offset[0], centre[1] - offset[1], centre[2]), wxyz=p)
             set_pose(self.ground, position=(-offset[0], -offset[1], 0.0))
             set_pose(self.grid, position=(-math.fmod(offset[0], _GRID_SECTION), -math.fmod(offset[1], _GRID_SECTION),

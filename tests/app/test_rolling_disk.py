@@ -314,6 +314,9 @@ def test_radius_scales_the_disk_and_the_critical_spin(disk):
     wait_for_model(scene, radius=0.2)
     wait_until(lambda: scene.disk_mesh.scale == 0.2)
     assert scene.disk_marker.scale == 0.2
+    # the force arrow's shaft and head in proportion (twice the default radius: twice as thick)
+    assert scene.force_arrow.shaft_radius == pytest.approx(2 * 0.0035)
+    assert scene.force_arrow.head_length == pytest.approx(2 * 0.02)
     critical = rolling_disk_critical_spin(0.2)
     assert f"{critical:.2f} rad/s" in scene.gui.info.content
     # the view is scaled with the disk (twice the default radius: twice as far, about the origin)
