@@ -124,7 +124,29 @@ __all__ = [
 MAX_STEPS = 10_000_000
 
 
-class IntegrationError(ValueError):
+#: What a failed run's exception carries within its process (see :func:`attach_partial`): left out when the
+#: exception is pickled (a worker process hands it to the app): a trajectory holds its System, which holds locks.
+RUN_ATTRIBUTES = ("partial", "trajectory")
+
+
+class RunFailure(Exception):
+    """Mixin of the exceptions a run raises when it cannot go on (:class:`IntegrationError`,
+    ``core.contact.ContactError``): they carry the outputs before the failure (``partial``, ``trajectory``)
+    and pickle without them."""
+
+    def __reduce__(self):
+        state = {k: v for k, v in self.__dict__.items() if k not in RUN_ATTRIBUTES}
+        return (_rebuild, (type(self), self.args, state))
+
+
+def _rebuild(cls: type, args: tuple, state: dict) -> BaseException:
+    exc = cls.__new__(cls, *args)
+    exc.args = args
+    exc.__dict__.update(state)
+    return exc
+
+
+class IntegrationError(RunFailure, ValueError):
     """A run could not continue; ``step`` and ``t`` say where it stopped."""
 
     def __init__(self, message: str, *, step: int | None = None, t: float | None = None):
@@ -832,6 +854,14 @@ def _restore_solver_state(solver: Any, saved: tuple, factor: float) -> None:
     getattr(solver, "K_extended", solver.K)[...] = K
 
 
+def attach_partial(exc: BaseException, t_rec: list, y_rec: list) -> None:
+    """Keep the outputs a run had recorded when it failed with ``exc`` (a :class:`RunFailure`):
+    ``exc.partial = (times, states)``, the first entry the run's start (unless an inner run attached its own
+    already). Other exceptions (a user's callable that raised, say) are left as they are."""
+    if isinstance(exc, RunFailure) and getattr(exc, "partial", None) is None:
+        exc.partial = (list(t_rec), [np.array(y) for y in y_rec])
+
+
 def _run_adaptive_projected(
     model: Any,
     y0: np.ndarray,
@@ -878,90 +908,94 @@ def _run_adaptive_projected(
     check = getattr(model, "stop_time", None)
     stopped = None
     t_prev, y_prev = t0, y0.copy()
-    try:
-        solver = solvers[method](counter.rhs, t0, y0, t1, rtol=rtol, atol=atol)
-        while solver.status == "running":
-            # A right-hand side that raises an exception with a true ``retry_shorter`` attribute (a trial
-            # stage, or a stage of the step's interpolant, that the model cannot evaluate: a contact pressed
-            # in deeper than its surfaces allow, far from the accepted states) rejects the step: it is undone
-            # and retried at a quarter of its size, at most STAGE_RETRIES times, after
-            # ``model.stage_rejected()`` (when the model has it) dropped what it kept of the failed stages.
-            # The step after a retried one starts no longer, as after a step the solver rejected itself.
-            for attempt in range(STAGE_RETRIES + 1):
-                saved = _solver_state(solver)
-                try:
-                    message = solver.step()
-                    dense = None  # of the unprojected step (solver.y and .f are reset below)
-                    if solver.status != "failed" and (
-                            check is not None or (k_next < pending.size and pending[k_next] < float(solver.t))):
-                        dense = solver.dense_output()
-                except Exception as exc:
-                    if not getattr(exc, "retry_shorter", False) or attempt == STAGE_RETRIES:
-                        raise
-                    _restore_solver_state(solver, saved, 0.25)
-                    forget = getattr(model, "stage_rejected", None)
-                    if forget is not None:
-                        forget()
-                    continue
-                if attempt and solver.h_previous is not None:
-                    solver.h_abs = min(solver.h_abs, abs(solver.h_previous))
-                break
-            if solver.status == "failed":
-                raise IntegrationError(
-                    f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1,
-                    t=solver.t
-                )
-            n_steps += 1
-            t_new = float(solver.t)
-            y_raw = solver.y
-            y_new = project(t_new, y_raw)
-            if not np.all(np.isfinite(y_new)):
-                raise DivergenceError(
-                    f"run diverged: non-finite state at step {n_steps} (t={t_new:.6g}); tighten the tolerances",
-                    step=n_steps,
-                    t=t_new,
-                )
-            if check is not None:
-
-                def dense_state(te, dense=dense, t_new=t_new, y_new=y_new):
-                    return np.array(y_new) if te == t_new else project(te, dense(te))
-
-                te = check(t_prev, y_prev, t_new, np.array(y_new), dense_state)
-                if te is not None:
-                    te = float(te)
-                    y_stop = dense_state(te)
-                    if t_eval is None:
-                        t_rec.append(te)
-                        y_rec.append(np.array(y_stop))
-                    while t_eval is not None and k_next < pending.size and pending[k_next] <= te:
-                        tq = float(pending[k_next])
-                        t_rec.append(tq)
-                        y_rec.append(dense_state(tq))
-                        k_next += 1
-                    stopped = (te, y_stop)
+    try:  # (a failure keeps the outputs recorded before it: attach_partial)
+        try:
+            solver = solvers[method](counter.rhs, t0, y0, t1, rtol=rtol, atol=atol)
+            while solver.status == "running":
+                # A right-hand side that raises an exception with a true ``retry_shorter`` attribute (a trial
+                # stage, or a stage of the step's interpolant, that the model cannot evaluate: a contact pressed
+                # in deeper than its surfaces allow, far from the accepted states) rejects the step: it is undone
+                # and retried at a quarter of its size, at most STAGE_RETRIES times, after
+                # ``model.stage_rejected()`` (when the model has it) dropped what it kept of the failed stages.
+                # The step after a retried one starts no longer, as after a step the solver rejected itself.
+                for attempt in range(STAGE_RETRIES + 1):
+                    saved = _solver_state(solver)
+                    try:
+                        message = solver.step()
+                        dense = None  # of the unprojected step (solver.y and .f are reset below)
+                        if solver.status != "failed" and (
+                                check is not None or (k_next < pending.size and pending[k_next] < float(solver.t))):
+                            dense = solver.dense_output()
+                    except Exception as exc:
+                        if not getattr(exc, "retry_shorter", False) or attempt == STAGE_RETRIES:
+                            raise
+                        _restore_solver_state(solver, saved, 0.25)
+                        forget = getattr(model, "stage_rejected", None)
+                        if forget is not None:
+                            forget()
+                        continue
+                    if attempt and solver.h_previous is not None:
+                        solver.h_abs = min(solver.h_abs, abs(solver.h_previous))
                     break
-                t_prev, y_prev = t_new, np.array(y_new)
-            if t_eval is None:
-                t_rec.append(t_new)
-                y_rec.append(np.array(y_new))
-            else:
-                while k_next < pending.size and pending[k_next] <= t_new:
-                    te = float(pending[k_next])
-                    t_rec.append(te)
-                    y_rec.append(np.array(y_new) if te == t_new else project(te, dense(te)))
-                    k_next += 1
-            change = np.max(np.abs(y_new - y_raw) / (atol + rtol * np.maximum(np.abs(y_raw), np.abs(y_new))))
-            if change > 0.0:
-                solver.y = np.array(y_new)
-                if change > _STALE_DERIVATIVE_TOL:
-                    solver.f = solver.fun(t_new, solver.y)
-    except _BudgetExceeded as stop:
-        raise IntegrationError(
-            f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
-            f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "
-            "shorten t_span or pass a larger max_steps",
-            t=stop.t,
-        ) from None
+                if solver.status == "failed":
+                    raise IntegrationError(
+                        f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1,
+                        t=solver.t
+                    )
+                n_steps += 1
+                t_new = float(solver.t)
+                y_raw = solver.y
+                y_new = project(t_new, y_raw)
+                if not np.all(np.isfinite(y_new)):
+                    raise DivergenceError(
+                        f"run diverged: non-finite state at step {n_steps} (t={t_new:.6g}); tighten the tolerances",
+                        step=n_steps,
+                        t=t_new,
+                    )
+                if check is not None:
+
+                    def dense_state(te, dense=dense, t_new=t_new, y_new=y_new):
+                        return np.array(y_new) if te == t_new else project(te, dense(te))
+
+                    te = check(t_prev, y_prev, t_new, np.array(y_new), dense_state)
+                    if te is not None:
+                        te = float(te)
+                        y_stop = dense_state(te)
+                        if t_eval is None:
+                            t_rec.append(te)
+                            y_rec.append(np.array(y_stop))
+                        while t_eval is not None and k_next < pending.size and pending[k_next] <= te:
+                            tq = float(pending[k_next])
+                            t_rec.append(tq)
+                            y_rec.append(dense_state(tq))
+                            k_next += 1
+                        stopped = (te, y_stop)
+                        break
+                    t_prev, y_prev = t_new, np.array(y_new)
+                if t_eval is None:
+                    t_rec.append(t_new)
+                    y_rec.append(np.array(y_new))
+                else:
+                    while k_next < pending.size and pending[k_next] <= t_new:
+                        te = float(pending[k_next])
+                        t_rec.append(te)
+                        y_rec.append(np.array(y_new) if te == t_new else project(te, dense(te)))
+                        k_next += 1
+                change = np.max(np.abs(y_new - y_raw) / (atol + rtol * np.maximum(np.abs(y_raw), np.abs(y_new))))
+                if change > 0.0:
+                    solver.y = np.array(y_new)
+                    if change > _STALE_DERIVATIVE_TOL:
+                        solver.f = solver.fun(t_new, solver.y)
+        except _BudgetExceeded as stop:
+            raise IntegrationError(
+                f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
+                f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "
+                "shorten t_span or pass a larger max_steps",
+                t=stop.t,
+            ) from None
+    except Exception as exc:
+        attach_partial(exc, t_rec, y_rec)
+        raise
     while stopped is None and t_eval is not None and len(t_rec) < t_eval.size:  # times equal to t1 after the last step
         t_rec.append(float(t_eval[len(t_rec)]))
         y_rec.append(np.array(y_rec[-1]))

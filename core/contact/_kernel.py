@@ -51,6 +51,8 @@ from typing import Any
 
 import numpy as np
 
+from core.integrators import RunFailure
+
 __all__ = ["CONTACT_RANK_TOL", "ContactError", "ContactKernel"]
 
 #: Rank tolerance of C_s (Eq. 8.109): the volume spanned by the columns of
@@ -79,7 +81,7 @@ def _det_sign(M: list) -> float:
     return 1.0 if d > 0 else (-1.0 if d < 0 else 0.0)
 
 
-class ContactError(ValueError):
+class ContactError(RunFailure, ValueError):
     """Contact geometry that cannot be followed (no contact point, rank loss); ``t`` says when.
 
     Raised at a trial stage of an adaptive step (a state far from the

@@ -59,6 +59,8 @@ from typing import Any
 import numpy as np
 from scipy.linalg import lapack
 
+from core.integrators import RunFailure
+
 # ---------------------------------------------------------------- constants
 
 
@@ -171,8 +173,9 @@ def parameter_rates(p: np.ndarray, omega_body: np.ndarray) -> np.ndarray:
     return (p[:, :, None] * omega_body[:, None, :]).reshape(n, 12) @ _RATE_MAP
 
 
-class SingularSystemError(ValueError):
-    """The constrained equations have no unique solution (see the message)."""
+class SingularSystemError(RunFailure, ValueError):
+    """The constrained equations have no unique solution (see the message); raised during a run, it carries
+    the outputs before it (``trajectory``, see ``core.integrators.RunFailure``)."""
 
     def __init__(self, message: str, *, t: float | None = None):
         super().__init__(message)

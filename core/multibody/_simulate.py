@@ -27,7 +27,15 @@ from scipy.linalg import lapack
 from scipy.optimize import brentq
 
 from core._validation import output_times, positive_integer, real_number, short_repr
-from core.integrators import MAX_STEPS, DriftReport, IntegrationError, Trajectory, integrate
+from core.integrators import (
+    MAX_STEPS,
+    DriftReport,
+    IntegrationError,
+    RunFailure,
+    Trajectory,
+    attach_partial,
+    integrate,
+)
 
 from ._analysis import (
     AssemblyError,
@@ -700,8 +708,10 @@ class MultibodyTrajectory:
         Zero crossings of the normal forces of constraint-model contacts, in
         time order (see ``simulate(..., on_separation=...)``).
     status : str
-        ``"completed"`` (reached the last output time) or ``"separated"``
-        (stopped at a separation; the outputs end before it).
+        ``"completed"`` (reached the last output time), ``"separated"``
+        (stopped at a separation; the outputs end before it) or ``"failed"``
+        (the trajectory a failed run's exception carries: the outputs before
+        the failure, see :func:`simulate`).
     """
 
     t: np.ndarray  # (n,)
@@ -1108,64 +1118,68 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
     h_last = math.inf
     stopped = None
     k = 0
-    while k < len(pending):
-        target = pending[k]
-        if target <= t_a:
-            t_rec.append(target)
-            y_rec.append(np.array(y_a))
-            k += 1
-            continue
-        h = min(target - t_a, _KINEMATIC_GROWTH * h_last)
-        for halving in range(_KINEMATIC_HALVINGS + 1):
-            t_new = target if h == target - t_a else t_a + h
-            snap = _contact_snapshot(model.eng)
-            try:
-                z = _kinematic_prediction(n, y_a, t_a, (t_p, y_p, f_p, f_a), t_new)
-                y_new = model.project(t_new, z)
-                if not np.all(np.isfinite(y_new)):
-                    raise IntegrationError(f"the kinematic solution at t={t_new:.6g} is not finite", t=t_new)
-                if not _trusted(n, y_a, z, y_new, t_new - t_a, f_a):
-                    raise IntegrationError(
-                        f"kinematic: the extrapolation to t={t_new:.6g} is too far from the solution to trust that "
-                        "Newton found the configuration the motion continues to; give closer output times", t=t_new)
-                break
-            except (IntegrationError, ValueError):
-                if halving == _KINEMATIC_HALVINGS:
-                    raise
-                _contact_restore(model.eng, snap)
-                h *= 0.5
-        if n_rhs >= max_steps:
-            raise IntegrationError(
-                f"kinematic: stopped at t={t_a:.6g} after max_steps={max_steps} evaluations of the accelerations; "
-                "pass a larger max_steps", t=t_a)
-        f_new = _kinematic_rates(model, t_new, y_new)
-        n_rhs += 1
-        n_steps += 1
-        if model.stop_time is not None:
-            t_lo, y_lo, f_lo = t_a, y_a, f_a
+    try:  # (a failure keeps the outputs solved before it)
+        while k < len(pending):
+            target = pending[k]
+            if target <= t_a:
+                t_rec.append(target)
+                y_rec.append(np.array(y_a))
+                k += 1
+                continue
+            h = min(target - t_a, _KINEMATIC_GROWTH * h_last)
+            for halving in range(_KINEMATIC_HALVINGS + 1):
+                t_new = target if h == target - t_a else t_a + h
+                snap = _contact_snapshot(model.eng)
+                try:
+                    z = _kinematic_prediction(n, y_a, t_a, (t_p, y_p, f_p, f_a), t_new)
+                    y_new = model.project(t_new, z)
+                    if not np.all(np.isfinite(y_new)):
+                        raise IntegrationError(f"the kinematic solution at t={t_new:.6g} is not finite", t=t_new)
+                    if not _trusted(n, y_a, z, y_new, t_new - t_a, f_a):
+                        raise IntegrationError(
+                            f"kinematic: the extrapolation to t={t_new:.6g} is too far from the solution to trust that "
+                            "Newton found the configuration the motion continues to; give closer output times", t=t_new)
+                    break
+                except (IntegrationError, ValueError):
+                    if halving == _KINEMATIC_HALVINGS:
+                        raise
+                    _contact_restore(model.eng, snap)
+                    h *= 0.5
+            if n_rhs >= max_steps:
+                raise IntegrationError(
+                    f"kinematic: stopped at t={t_a:.6g} after max_steps={max_steps} evaluations of the accelerations; "
+                    "pass a larger max_steps", t=t_a)
+            f_new = _kinematic_rates(model, t_new, y_new)
+            n_rhs += 1
+            n_steps += 1
+            if model.stop_time is not None:
+                t_lo, y_lo, f_lo = t_a, y_a, f_a
 
-            def dense(te, t_lo=t_lo, y_lo=y_lo, f_lo=f_lo, t_new=t_new, y_new=y_new, f_new=f_new):
-                if te == t_new:
-                    return np.array(y_new)
-                return model.project(te, _kinematic_prediction(n, y_new, t_new, (t_lo, y_lo, f_lo, f_new), te))
+                def dense(te, t_lo=t_lo, y_lo=y_lo, f_lo=f_lo, t_new=t_new, y_new=y_new, f_new=f_new):
+                    if te == t_new:
+                        return np.array(y_new)
+                    return model.project(te, _kinematic_prediction(n, y_new, t_new, (t_lo, y_lo, f_lo, f_new), te))
 
-            te = model.stop_time(t_a, y_a, t_new, np.array(y_new), dense)
-            if te is not None:
-                te = float(te)
-                y_stop = dense(te)
-                while k < len(pending) and pending[k] <= te:
-                    t_rec.append(pending[k])
-                    y_rec.append(dense(pending[k]))
-                    k += 1
-                stopped = (te, y_stop)
-                break
-        t_p, y_p, f_p = t_a, y_a, f_a
-        t_a, y_a, f_a = t_new, np.array(y_new), f_new
-        h_last = h
-        if t_new == target:
-            t_rec.append(target)
-            y_rec.append(np.array(y_new))
-            k += 1
+                te = model.stop_time(t_a, y_a, t_new, np.array(y_new), dense)
+                if te is not None:
+                    te = float(te)
+                    y_stop = dense(te)
+                    while k < len(pending) and pending[k] <= te:
+                        t_rec.append(pending[k])
+                        y_rec.append(dense(pending[k]))
+                        k += 1
+                    stopped = (te, y_stop)
+                    break
+            t_p, y_p, f_p = t_a, y_a, f_a
+            t_a, y_a, f_a = t_new, np.array(y_new), f_new
+            h_last = h
+            if t_new == target:
+                t_rec.append(target)
+                y_rec.append(np.array(y_new))
+                k += 1
+    except Exception as exc:
+        attach_partial(exc, t_rec, y_rec)
+        raise
     states = np.array(y_rec).reshape(len(y_rec), y0.size)
     return Trajectory(np.array(t_rec), states, KINEMATIC_METHOD, n_steps, n_rhs, DriftReport(),
                       None if stopped is None else stopped[0], None if stopped is None else stopped[1])
@@ -1253,7 +1267,16 @@ def simulate(
         For bad options or times; ``AssemblyError`` when the state does not
         satisfy the constraints; ``SingularSystemError`` when the
         constrained equations are singular; ``IntegrationError`` when the
-        integrator fails.
+        integrator fails. An error raised during the run (after the start's
+        checks: ``IntegrationError``, ``ContactError``, ...) carries
+        ``trajectory``: the outputs reached before it, ``status ==
+        "failed"`` (None if they could not be evaluated), so a notebook
+        keeps the motion up to the failure::
+
+            try:
+                traj = system.simulate(t)
+            except IntegrationError as exc:  # or ContactError
+                traj = exc.trajectory
     """
     tt = output_times(t)
     methods = ADAPTIVE_METHODS + FIXED_STEP_METHODS + (KINEMATIC_METHOD,)
@@ -1402,55 +1425,74 @@ def simulate(
     t_cur, y_cur = t0, y0
     stopped = False
     continued = False
-    while True:
-        if pending_event is not None:
-            te, c, ye, action = pending_event
-            pending_event = None
-            if action == "stopped":
-                stopped = True
+    try:
+        while True:
+            if pending_event is not None:
+                te, c, ye, action = pending_event
+                pending_event = None
+                if action == "stopped":
+                    stopped = True
+                    break
+                _switch_to_compliant(eng, c, te, ye)
+                model._nu_prev = None
+                continued = True  # a compliant contact is free to leave: integrated from here on
+                model.outputs_end_steps = False  # the integrator's outputs are inside its steps (see _record_output)
+            if idx >= tt.size:
                 break
-            _switch_to_compliant(eng, c, te, ye)
-            model._nu_prev = None
-            continued = True  # a compliant contact is free to leave: integrated from here on
-            model.outputs_end_steps = False  # the integrator's outputs are inside its steps (see _record_output)
-        if idx >= tt.size:
-            break
-        if kinematic and not continued:
-            res = _run_kinematic(model, y_cur, t_cur, np.concatenate([[t_cur], tt[idx:]]), max_steps)
-            record(res.t[1:], res.states[1:])
-            idx += res.t.size - 1
-        elif adaptive:
-            res = integrate(model, y_cur, (t_cur, float(tt[-1])),
-                            method=KINEMATIC_CONTINUATION if kinematic else method, rtol=rtol, atol=atol,
-                            t_eval=np.concatenate([[t_cur], tt[idx:]]), max_steps=max_steps)
-            record(res.t[1:], res.states[1:])
-            idx += res.t.size - 1
-        else:
-            t_next = float(tt[idx])
-            if t_next <= t_cur:
-                record([t_next], [y_cur])
-                idx += 1
+            if kinematic and not continued:
+                res = _run_kinematic(model, y_cur, t_cur, np.concatenate([[t_cur], tt[idx:]]), max_steps)
+                record(res.t[1:], res.states[1:])
+                idx += res.t.size - 1
+            elif adaptive:
+                res = integrate(model, y_cur, (t_cur, float(tt[-1])),
+                                method=KINEMATIC_CONTINUATION if kinematic else method, rtol=rtol, atol=atol,
+                                t_eval=np.concatenate([[t_cur], tt[idx:]]), max_steps=max_steps)
+                record(res.t[1:], res.states[1:])
+                idx += res.t.size - 1
+            else:
+                t_next = float(tt[idx])
+                if t_next <= t_cur:
+                    record([t_next], [y_cur])
+                    idx += 1
+                    continue
+                count = max(1, math.ceil((t_next - t_cur) / dt - 1e-9))
+                res = integrate(model, y_cur, (t_cur, t_next), method=method, dt=(t_next - t_cur) / count,
+                                save_every=count, max_steps=max_steps)
+                if res.stop_time is None:
+                    record([t_next], res.states[-1:])
+                    idx += 1
+                    t_cur, y_cur = t_next, np.array(res.states[-1])
+            n_steps += res.n_steps
+            n_rhs += res.n_rhs
+            if res.stop_time is not None:
+                t_cur, y_cur = float(res.stop_time), np.array(res.stop_state)
+                pending_event = model.events[-1]
                 continue
-            count = max(1, math.ceil((t_next - t_cur) / dt - 1e-9))
-            res = integrate(model, y_cur, (t_cur, t_next), method=method, dt=(t_next - t_cur) / count,
-                            save_every=count, max_steps=max_steps)
-            if res.stop_time is None:
-                record([t_next], res.states[-1:])
-                idx += 1
-                t_cur, y_cur = t_next, np.array(res.states[-1])
-        n_steps += res.n_steps
-        n_rhs += res.n_rhs
-        if res.stop_time is not None:
-            t_cur, y_cur = float(res.stop_time), np.array(res.stop_state)
-            pending_event = model.events[-1]
-            continue
-        if adaptive:
-            break
+            if adaptive:
+                break
+    except RunFailure as exc:
+        # the outputs reached before the failure, as a trajectory of their own (status "failed")
+        partial = getattr(exc, "partial", None)
+        if partial is not None and len(partial[0]) > 1:
+            record(partial[0][1:], partial[1][1:])
+        try:
+            exc.trajectory = _finish(system, eng, model, method, stabilization, out_t, out_y, out_mode, kc, n,
+                                     n_steps, n_rhs, "failed")
+        except Exception:  # noqa: BLE001 - the run's own error is the one to report
+            exc.trajectory = None
+        raise
+    return _finish(system, eng, model, method, stabilization, out_t, out_y, out_mode, kc, n, n_steps, n_rhs,
+                   "separated" if stopped else "completed")
+
+
+def _finish(system, eng, model, method, stabilization, out_t, out_y, out_mode, kc, n, n_steps, n_rhs,
+            status) -> MultibodyTrajectory:
+    """The trajectory of the outputs recorded by :func:`simulate` (``status``: how the run ended)."""
     eng.contact_strict = False
     if kc:
         model.contact_track = eng.contact_state.get("track")
     tt_out = np.array(out_t, dtype=float)
-    states = np.array(out_y).reshape(len(out_y), y0.size)
+    states = np.array(out_y).reshape(len(out_y), 13 * n)
     modes = np.array(out_mode) if kc else None
     separations = tuple(_separation(system, eng, ev) for ev in model.events)
     _restart_contacts(model)
@@ -1469,7 +1511,7 @@ def simulate(
         n_steps=int(n_steps),
         n_rhs=int(n_rhs),
         separations=separations,
-        status="separated" if stopped else "completed",
+        status=status,
         _modes=modes,
         _model=model,
         _owner=system,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -357,3 +358,41 @@ def test_cam_force_over_ten_revolutions():
     th = speed * t
     N = -m * e * speed**2 * np.sin(th) + m * G + F0 + k * e * np.sin(th)
     np.testing.assert_allclose(traj.contact(c).normal_force, N, rtol=1e-8)
+
+
+def test_a_frictionless_disk_falling_flat_keeps_its_motion_up_to_the_failure():
+    # sliding without spin it falls: C_s loses rank as it lies flat (Eq. 8.109); the error carries the outputs
+    from core.contact import ContactError
+    from core.models import rolling_disk
+
+    system, disk, contact = rolling_disk(lean=math.radians(10.0), spin=0.0, rolling=False)
+    t = np.linspace(0.0, 1.0, 101)
+    with pytest.raises(ContactError, match=r"loses rank \(Eq\. 8\.109\)") as info:
+        system.simulate(t)
+    traj = info.value.trajectory
+    assert traj.status == "failed" and 0.2 <= traj.t[-1] < 0.25
+    np.testing.assert_array_equal(traj.t, t[: traj.t.size])
+    np.testing.assert_allclose(traj.energy, traj.energy[0], atol=1e-7)  # (DOP853 at rtol 1e-8 over 0.2 s)
+    assert np.all(traj.contact(contact).normal_force > 0.0)
+    # a worker process hands such an error to the app: it pickles, without the trajectory (which holds the
+    # System and its locks) and with its message and time
+    again = pickle.loads(pickle.dumps(info.value))
+    assert type(again) is ContactError and str(again) == str(info.value) and again.t == info.value.t
+    assert not hasattr(again, "trajectory") and not hasattr(again, "partial")
+
+
+def test_a_failed_kinematic_analysis_keeps_the_outputs_it_solved():
+    from core.integrators import IntegrationError
+    from core.models import CamFollower, CamProfile
+
+    cam = CamFollower(CamProfile.eccentric())
+    speed = 0.9 * cam.jump_speed()
+    system = cam.build_system(speed).system
+    t = np.arange(61) / 600.0
+    with pytest.raises(IntegrationError, match=r"max_steps=20") as info:
+        system.simulate(t, method="kinematic", max_steps=20)
+    traj = info.value.trajectory
+    assert traj.status == "failed" and 5 < traj.t.size < t.size
+    np.testing.assert_array_equal(traj.t, t[: traj.t.size])
+    full = cam.simulate(speed, t[: traj.t.size])
+    np.testing.assert_allclose(traj.contact(system.contacts[0]).normal_force, full.contact_force, rtol=1e-12)

@@ -403,6 +403,21 @@ def test_a_run_that_exceeds_max_steps_stops_with_an_error():
     system = pendulum_chain(2, tilt=1.0)
     with pytest.raises(IntegrationError, match=r"max_steps=50"):
         system.simulate([0.0, 10.0], max_steps=50)
+
+
+def test_a_failed_run_carries_the_outputs_before_the_failure():
+    # the same outputs as a run stopped before the failure, status "failed"
+    system = pendulum_chain(2, tilt=1.0)
+    t = np.linspace(0.0, 10.0, 101)
+    with pytest.raises(IntegrationError, match=r"max_steps=400") as info:
+        system.simulate(t, max_steps=400)
+    traj = info.value.trajectory
+    assert traj.status == "failed" and 2 < traj.t.size < t.size
+    np.testing.assert_array_equal(traj.t, t[: traj.t.size])
+    reference = system.simulate(t[: traj.t.size])
+    assert reference.status == "completed"
+    np.testing.assert_allclose(traj.q, reference.q, atol=1e-9)
+    assert np.max(np.abs(traj.energy - traj.energy[0])) < 1e-6
     with pytest.raises(ValueError, match=r"dt: the output times with dt=1e-05 need 100000 steps"):
         system.simulate([0.0, 1.0], method="rk4", dt=1e-5, max_steps=1000)
 
