@@ -70,6 +70,7 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
     A_ext, R_ext = _frames(R_i, A_i, R_j, A_j)
     fr = frames_of(group, A_ext, R_ext, None, None)
     candidates = _candidates(surface_i, R_i, A_i, surface_j, R_j, A_j)
+    inward = [label for label, surf in (("surface_i", surface_i), ("surface_j", surface_j)) if _looks_inward(surf)]
     best = None
     errors = []
     for s_i, s_j in candidates:
@@ -82,7 +83,9 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
                                                       outward=True)
         except ContactError as exc:  # no convergence, or points that do not face each other
             errors.append(str(exc))
-            if getattr(exc, "iterate", None) is not None:  # Newton stuck at a singular point of a parametrization?
+            if getattr(exc, "iterate", None) is not None and not inward:
+                # Newton stuck at a singular point of a parametrization? (not asked of a surface whose normal
+                # points into its body: Newton then wanders anywhere, a pole included)
                 s_last, ch_last = exc.iterate
                 for surf, label, sv, chart in ((surface_i, "surface_i", s_last[0, :p], ch_last[0][0]),
                                                (surface_j, "surface_j", s_last[0, p:], ch_last[0][1])):
@@ -104,10 +107,17 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
         s_best = best["s"]
         for g, surf, label, sv, chart in ((gi, surface_i, "surface_i", s_best[:p], best["charts"][0]),
                                           (gj, surface_j, "surface_j", s_best[p:], best["charts"][1])):
-            _check_regular(g, surf, label, surf._chart_parameters(np.asarray(sv, dtype=float), chart))
+            try:
+                _check_regular(g, surf, label, surf._chart_parameters(np.asarray(sv, dtype=float), chart))
+            except ContactError:
+                if inward:  # (a surface turned inside out meets the other one at a pole, if anywhere)
+                    raise ContactError(f"contact {name!r}: no regular pair of points with opposed normals found "
+                                       f"between {surface_i!r} and {surface_j!r}{_inward_hint(inward)}") from None
+                raise
         return best
     if best is None:
-        if candidates:  # no convergence: a line contact has a rank-deficient C_s at the sampled guess already
+        if candidates and not inward:  # no convergence: a line contact has a rank-deficient C_s at the sampled
+            # guess already (a surface turned inside out gets the orientation hint below instead)
             s_i, s_j = candidates[0]
             ch_i, l_i = surface_i._default_chart(s_i)
             ch_j, l_j = surface_j._default_chart(s_j)
@@ -122,7 +132,7 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
         why = f" ({errors[0]})" if errors else ""
         raise ContactError(
             f"contact {name!r}: no pair of points with opposed normals found between {surface_i!r} and "
-            f"{surface_j!r}{why}"
+            f"{surface_j!r}{why}{_inward_hint(inward)}"
         )
     return best
 
@@ -144,6 +154,29 @@ def _check_regular(g, surf, label: str, s) -> None:
             "normal du/ds1 x du/ds2 vanishes (parallel or zero tangents; a pole of a longitude-latitude "
             "parametrization) at the contact point; choose a parametrization that is regular there, or "
             "rotate the surface in its body so that its pole is away from the contact")
+
+
+def _inward_hint(inward: list[str]) -> str:
+    if not inward:
+        return ""
+    return (f"; the normal of {' and '.join(inward)} (du/ds1 x du/ds2, for a curve c' x e_z) points back towards "
+            "its body's origin at its points farthest from it: if that is into the body (not a bowl's inside), "
+            "orient the parametrization outward (swap s1 and s2, or reverse a curve)")
+
+
+def _looks_inward(surf) -> bool:
+    """Whether a user surface or curve seems oriented into its body: at most of its sampled points farthest
+    from the body's origin (within 90 % of the largest distance, where its normal is defined), the normal
+    points back towards the origin (an outward one of a closed or a bowl-like surface points away)."""
+    if type(surf).__name__ not in ("ParametricSurface", "PlanarCurve"):
+        return False
+    S = surf._samples()
+    x, nu = _global(surf, S, np.zeros(3), np.eye(3))
+    r = np.linalg.norm(x, axis=1)
+    far = (r >= 0.9 * r.max()) & (np.linalg.norm(nu, axis=1) > 0.5) & (r > 0)
+    if not far.any():
+        return False
+    return bool(np.mean(np.einsum("ki,ki->k", nu[far], x[far]) < 0.0) > 0.5)
 
 
 def _candidates(surface_i, R_i, A_i, surface_j, R_j, A_j) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -194,6 +194,18 @@ def test_a_contact_at_a_pole_of_a_parametrization_is_refused_as_degenerate():
     np.testing.assert_allclose(force, -system.gravity[2] * ball.mass, rtol=1e-12)
 
 
+def test_a_surface_oriented_into_its_body_gets_the_hint_to_orient_it_outward():
+    def inward(s):  # the side-pole sphere with its parameters swapped: du/ds1 x du/ds2 points to the centre
+        c = np.cos(s[..., 0])
+        return 0.1 * np.stack([c * np.cos(s[..., 1]), np.sin(s[..., 0]), -c * np.sin(s[..., 1])], axis=-1)
+
+    surface = ParametricSurface(inward, bounds=((-math.pi / 2, math.pi / 2), (-math.pi, math.pi)))
+    system, ball = _ball_system()
+    with pytest.raises(ContactError, match=r"no (regular )?pair of points with opposed normals found .*the normal "
+                                           r"of surface_j .* orient the parametrization outward"):
+        system.add_contact(system.ground, Plane(), ball, surface)
+
+
 def test_simulate_options_for_separation():
     system, ball = _ball_system()
     system.add_contact(system.ground, Plane(), ball, Sphere(0.1))
