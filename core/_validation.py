@@ -32,6 +32,17 @@ def _is_complex(arr: np.ndarray) -> bool:
     )
 
 
+def _holds_bool(x: Any) -> bool:
+    """Whether ``x`` is or holds a bool (numpy turns ``[0.0, True]`` into ``[0.0, 1.0]``)."""
+    if isinstance(x, (bool, np.bool_)):
+        return True
+    if isinstance(x, (list, tuple)):
+        return any(_holds_bool(v) for v in x)
+    if isinstance(x, np.ndarray):
+        return x.dtype.kind == "b" or (x.dtype.kind == "O" and any(_holds_bool(v) for v in x.ravel().tolist()))
+    return False
+
+
 def float_array(x: Any, name: str, *, expected: str = "an array of real numbers", copy: bool = False) -> np.ndarray:
     """``x`` as a float64 array; complex or non-numeric input raises.
 
@@ -68,8 +79,9 @@ def float_array(x: Any, name: str, *, expected: str = "an array of real numbers"
         raise ValueError(f"{name}: expected real numbers, got complex (dtype {arr.dtype}): {short_repr(x)}")
     if arr.dtype.kind in "USV":  # text is not a number here (numpy would parse "1e-3")
         raise ValueError(f"{name}: expected {expected}, got text {short_repr(x)}")
-    if arr.dtype.kind == "b":
-        raise ValueError(f"{name}: expected {expected}, got a boolean {short_repr(x)}")
+    if arr.dtype.kind == "b" or (arr.dtype.kind == "O" or not isinstance(x, np.ndarray)) and _holds_bool(x):
+        where = " " if isinstance(x, (bool, np.bool_)) else " in "
+        raise ValueError(f"{name}: expected {expected}, got a boolean{where}{short_repr(x)}")
     try:
         return np.array(arr, dtype=np.float64) if copy else np.asarray(arr, dtype=np.float64)
     except (TypeError, ValueError):

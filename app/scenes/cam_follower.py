@@ -141,8 +141,9 @@ _SPRING_POINTS = 7 * 36 + 1
 _SPRING_SIDES = 6  # vertices around the spring's wire
 _SPRING_WIRE = 0.0011  # m: radius of the spring's wire (presenter view: x 2)
 _SPRING_MIN_LENGTH = 0.045  # at the highest lift
-#: m: the drawn spring's coils touch (7 turns of 1.1 mm wire): a compliant run whose follower flies higher stops
-_SPRING_SOLID = 2.0 * 7 * 0.0011
+#: m: the drawn spring's coils touch: 7 turns of the wire as thick as it is drawn in presenter view (twice
+#: 1.1 mm); a compliant run whose follower flies higher stops, in either view
+_SPRING_SOLID = 2.0 * _SPRING_TURNS * _SPRING_WIRE * PRESENTER_LINE_SCALE
 _ARM_THICKNESS = 0.008
 _BASE_Z = -0.085  # top of the base plate
 _COLUMN_X = -0.095

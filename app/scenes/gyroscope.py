@@ -498,6 +498,7 @@ class GyroscopeScene(PlaybackRequests, Scene):
         self._since_trail = math.inf
         self._refreshed_time = -1.0
         self._error_reported = False
+        self._error_paused = False  # the failure paused a running clock (not one paused by hand)
         self.gui: _Gui | None = None
 
     # -- build ----------------------------------------------------------------
@@ -620,7 +621,7 @@ class GyroscopeScene(PlaybackRequests, Scene):
             model = _Model.from_inputs(kept)
         self.model = model
         self.analysis = None
-        failed = self._error_reported
+        failed = self._error_reported and self._error_paused
         self._error_reported = False
         self.timeline.reset(functools.partial(_compute_chunk, model))
         self.timeline.sequential = model.has_torque
@@ -665,10 +666,11 @@ class GyroscopeScene(PlaybackRequests, Scene):
         self.sim_time, chunk, self.waiting = self.timeline.advance(self.sim_time, step)
         if self.timeline.error is not None and not self._error_reported:
             self._error_reported = True
+            self._error_paused = self.playback.playing  # (a failure found while paused by hand stays paused)
             self.playback.set_playing(False)
             self.notify("Simulation stopped",
                         f"{self.timeline.error}. The motion stops at t = {self.sim_time:.2f} s; "
-                        "change a slider or press Reset.", "warning")
+                        "change a slider to run it again (Reset replays it up to there).", "warning")
         return chunk
 
     def _draw(self, chunk: _Chunk, dt: float, show_trail: bool, show_arrows: bool) -> None:

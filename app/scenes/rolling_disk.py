@@ -547,6 +547,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self._refreshed_time = -1.0
         self._plot_window: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros((0, 0)))
         self._error_reported = False
+        self._error_paused = False  # the failure paused a running clock (not one paused by hand)
         self._end_reported = ""
         self._track_time = -math.inf  # time of the newest sample in the track
         self._since_track = math.inf
@@ -698,8 +699,9 @@ class RollingDiskScene(PlaybackRequests, Scene):
             self.reframe()
 
     def _halted(self) -> bool:
-        """The motion stopped itself (it left the ground, fell flat, or its run failed) and paused the clock."""
-        return bool(self.ended) or self._error_reported
+        """The motion stopped itself (it left the ground, fell flat, or its run failed) and paused the clock
+        that was running (not a pause by hand)."""
+        return bool(self.ended) or (self._error_reported and self._error_paused)
 
     def _restart(self) -> None:
         self.sim_time = 0.0
@@ -745,11 +747,12 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.sim_time, chunk, self.waiting = self.timeline.advance(self.sim_time, step)
         if self.timeline.error is not None and not self._error_reported:
             self._error_reported = True
+            self._error_paused = self.playback.playing  # (a failure found while paused by hand stays paused)
             self.playback.set_playing(False)
             error = self.timeline.error
             self.notify("Simulation stopped",
                         f"{type(error).__name__}: {error}. The motion stops at t = {self.sim_time:.2f} s; "
-                        "change a control or press Reset.", "warning")
+                        "change a control to run it again (Reset replays it up to there).", "warning")
         if chunk is None or chunk.model != self.model:
             if self.drawn_model != self.model:
                 self.gui.readout.content = "Computing the motion…"  # sent once

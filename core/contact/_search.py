@@ -73,6 +73,7 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
     inward = [label for label, surf in (("surface_i", surface_i), ("surface_j", surface_j)) if _looks_inward(surf)]
     best = None
     errors = []
+    singular = None  # a failed start's Newton stuck at a singular point of a parametrization
     for s_i, s_j in candidates:
         ch_i, l_i = surface_i._default_chart(s_i)
         ch_j, l_j = surface_j._default_chart(s_j)
@@ -89,10 +90,13 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
                 s_last, ch_last = exc.iterate
                 for surf, label, sv, chart in ((surface_i, "surface_i", s_last[0, :p], ch_last[0][0]),
                                                (surface_j, "surface_j", s_last[0, p:], ch_last[0][1])):
-                    if np.all(np.isfinite(sv)):
+                    if np.all(np.isfinite(sv)) and singular is None:
                         raw = _stack_geometry([surf], sv[None], [chart], 2)
-                        _check_regular(_globalize(raw, np.eye(3)[None]), surf, label,
-                                       surf._chart_parameters(np.asarray(sv, dtype=float), chart))
+                        try:
+                            _check_regular(_globalize(raw, np.eye(3)[None]), surf, label,
+                                           surf._chart_parameters(np.asarray(sv, dtype=float), chart))
+                        except ContactError as found:  # (reported if no other start finds the contact)
+                            singular = found
             continue
         kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
         cand = {"s": s[0], "charts": charts[0], "gap": float(kin.gap[0]), "normal": kin.normal[0],
@@ -115,6 +119,8 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
                                        f"between {surface_i!r} and {surface_j!r}{_inward_hint(inward)}") from None
                 raise
         return best
+    if best is None and singular is not None:
+        raise singular
     if best is None:
         if candidates and not inward:  # no convergence: a line contact has a rank-deficient C_s at the sampled
             # guess already (a surface turned inside out gets the orientation hint below instead)
@@ -138,17 +144,20 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
 
 
 #: A surface's parametrization is singular at a point where ``|du/ds1 x du/ds2|`` is below this fraction of the
-#: square of its longest tangent (a pole of a longitude-latitude sphere; a regular point is near 1).
+#: square of its longest tangent: the sine of the angle between the tangents, times their ratio (a pole of a
+#: longitude-latitude sphere: 0; a regular point of an isotropic parametrization: 1).
 REGULAR_TOL = 1e-6
 
 
 def _check_regular(g, surf, label: str, s) -> None:
     """Refuse a point of ``surf`` where its parametrization is singular (global geometry ``g`` of one
-    point; ``s`` the canonical parameters, for the message)."""
-    if surf.n_parameters < 2:
+    point; ``s`` the canonical parameters, for the message). Scale-free; not asked of curves, nor of a
+    surface whose normal is not ``du/ds1 x du/ds2`` (a rim's normal field, ``degenerate_tangents``)."""
+    if surf.n_parameters < 2 or getattr(surf, "degenerate_tangents", False):
         return
-    tt = float(np.max(np.linalg.norm(g.T[0], axis=0)))
-    if not np.linalg.norm(g.n[0]) > REGULAR_TOL * max(tt * tt, 1e-300):
+    t1, t2 = g.T[0][:, 0], g.T[0][:, 1]
+    longest = max(float(np.linalg.norm(t1)), float(np.linalg.norm(t2)))
+    if not float(np.linalg.norm(np.cross(t1, t2))) > REGULAR_TOL * max(longest * longest, 1e-300):
         raise ContactError(
             f"{label}: {surf!r} is degenerate near s={np.round(np.asarray(s, dtype=float), 6).tolist()}: its "
             "normal du/ds1 x du/ds2 vanishes (parallel or zero tangents; a pole of a longitude-latitude "

@@ -690,24 +690,27 @@ class _ContourDerivatives:
         self.h = 0.05 if p == 1 else 0.04
         self.N = 12
 
-    #: Negative frequencies checked by :meth:`check_analytic` (1 to 3: aliasing of the positive ones puts only
-    #: terms of order ``h^9`` and smaller there for an analytic function).
+    #: Negative frequencies checked by :meth:`check_analytic` (-1 to -3).
     CHECKED_FREQUENCIES = 3
-    #: Largest negative-frequency coefficient of an analytic function, relative to the size of its values round
-    #: the circle (its round-off is about 1e-15; a function that drops an imaginary part puts ``h^m`` times
-    #: its derivatives there, 1e-3 for ``Re(z^2)``).
-    ANALYTIC_TOL = 1e-9
+    #: A negative frequency ``-m`` of an analytic function is only the alias of ``c_(N-m) h^(N-m)``; against its
+    #: mirror ``+m`` (``c_m h^m``) that is ``(k h)^(N - 2m) m! / (N - m)!`` for a ripple ``cos(k s)``: 7e-8 at
+    #: ``k h = 0.4``, 3e-4 at ``k h = 1.6`` (a 16-lobe cam, a 40 rad/m ripple). A real part, ``abs`` or
+    #: ``conj`` of a term puts its mirror there, the same size (ratio 1, ``Re(z^2) = (z^2 + conj(z)^2) / 2``).
+    MIRROR_TOL = 1e-3
+    #: ... and a negative frequency below this fraction of the values' size is round-off (about 1e-16).
+    ROUND_OFF_TOL = 1e-9
 
     def check_analytic(self, s: np.ndarray, name: str) -> None:
         """Refuse a function that is not analytic round the complex circles at the points ``s`` (..., p).
 
         On the circle ``z = s + h w^j`` an analytic ``f`` is ``sum_k c_k h^k w^(jk)`` with ``k >= 0`` only; a
         function that drops the imaginary part of its argument in part of a component (``Re(z^2)``, ``abs(z)
-        ** 2 + ...``) has ``conj(z)`` terms, which are negative frequencies. Complex steps of such a function
-        give wrong derivatives (half the curvature of ``Re(z^2) + z^2``), so it is refused, component by
-        component, with the fix.
+        ** 2 + ...``) has ``conj(z)`` terms: negative frequencies as large as their positive mirrors. Complex
+        steps of such a function give wrong derivatives (half the curvature of ``Re(z^2) + z^2``), so it is
+        refused, component by component, with the fix (see :data:`MIRROR_TOL`).
         """
         p, N, h = self.p, self.N, self.h
+        M = self.CHECKED_FREQUENCIES
         w = np.exp(2j * math.pi * np.arange(N) / N)
         s = np.asarray(s, dtype=float).reshape(-1, p)
         if p == 1:
@@ -721,23 +724,23 @@ class _ContourDerivatives:
         axes = tuple(range(1, p + 1))
         coef = np.fft.fft2(vals, axes=axes) if p == 2 else np.fft.fft(vals, axis=1)
         coef = np.abs(coef) / N**p  # [k] is the coefficient of w^(jk); k = N - m is the negative frequency -m
-        low = list(range(self.CHECKED_FREQUENCIES + 1)) + list(range(N - self.CHECKED_FREQUENCIES, N))
-        neg = [k >= N - self.CHECKED_FREQUENCIES for k in low]
-        if p == 1:
-            bad = coef[:, N - self.CHECKED_FREQUENCIES :, :].max(axis=1)
-        else:
-            block = coef[:, low][:, :, low]
-            mask = np.logical_or.outer(neg, neg)
-            bad = np.where(mask[None, :, :, None], block, 0.0).max(axis=(1, 2))
-        scale = np.abs(vals).max(axis=axes)
-        off = bad > self.ANALYTIC_TOL * np.maximum(scale, 1e-300)
+        orders = range(-M, M + 1)
+        pairs = [((a,), (abs(a),)) for a in orders if a < 0] if p == 1 else [
+            ((a, b), (abs(a), abs(b))) for a in orders for b in orders if a < 0 or b < 0]
+        scale = np.abs(vals).max(axis=axes)  # (n, dim)
+        off = np.zeros(scale.shape, dtype=bool)
+        for negative, mirror in pairs:
+            c_neg = coef[(slice(None),) + tuple(k % N for k in negative)]
+            c_pos = coef[(slice(None),) + mirror]
+            off |= (c_neg > self.ROUND_OFF_TOL * np.maximum(scale, 1e-300)) & (c_neg > self.MIRROR_TOL * c_pos)
         if np.any(off):
             q, comp = (int(i) for i in np.argwhere(off)[0])
             where = np.round(s[q], 6).tolist()
             raise ValueError(
                 f"{name}: the function is not analytic in its complex parameters (component {comp} of its value "
                 f"near s={where[0] if p == 1 else where}: it takes the real part, abs() or conj() of part of its "
-                "argument), so its derivatives cannot come from complex steps; write it with complex-safe "
+                "argument, or varies too fast on the complex steps' circle of radius "
+                f"{h:g}), so its derivatives cannot come from complex steps; write it with complex-safe "
                 "numpy arithmetic (z * z, not abs(z) ** 2 or np.real(z ** 2)) or pass first=, second= and third=")
 
     def __call__(self, s: np.ndarray, order: int, name: str):
@@ -866,7 +869,8 @@ class ParametricSurface(Surface):
             self.length_scale = _positive(length_scale, "length_scale")
         self._geometry(g[:2], 3, None)  # shapes of the given derivatives
         if first is None or second is None or third is None:
-            self._contour.check_analytic(g[::78], "point")  # 9 points spread over the bounds
+            # a 3 x 3 grid of points over the bounds
+            self._contour.check_analytic(g.reshape(25, 25, 2)[::12, ::12].reshape(-1, 2), "point")
 
     def __repr__(self) -> str:
         return "ParametricSurface(...)"

@@ -224,6 +224,19 @@ def test_a_failing_torque_run_stops_the_clock_with_a_notice_and_finite_arrows(gy
     wait_until(lambda: scene.model.torques == (0.0, 0.0, 0.0) and scene.sim_time > 0.2 and scene.playing)
 
 
+def test_a_run_that_fails_while_paused_by_hand_stays_paused_after_a_slider(gyro):
+    app, scene = gyro
+    scene.playback.set_playing(False)
+    assert send_value(scene, "theta0_deg", 0.0)
+    assert send_value(scene, "m_phi", 5.0)
+    wait_until(lambda: notices_with(app, "Simulation stopped"))
+    assert notices_with(app, "Reset replays it up to there")
+    assert send_value(scene, "m_phi", 0.0)
+    wait_until(lambda: scene.model.torques == (0.0, 0.0, 0.0))
+    time.sleep(0.3)
+    assert not scene.playing and scene.sim_time == 0.0
+
+
 def test_arrow_points_stay_finite(gyro):
     app, scene = gyro
     assert send_value(scene, "time_scale", 4.0)

@@ -194,6 +194,15 @@ def test_a_contact_at_a_pole_of_a_parametrization_is_refused_as_degenerate():
     np.testing.assert_allclose(force, -system.gravity[2] * ball.mass, rtol=1e-12)
 
 
+def test_regularity_is_scale_free_a_large_rim_and_torus_stand_on_a_plane():
+    # (the check compares the tangents' cross product with their lengths, not a unit normal with R^2)
+    for major, minor in ((2000.0, 0.0), (2000.0, 10.0)):
+        system = System(gravity=(0.0, 0.0, -9.81))
+        wheel = system.add_body("wheel", mass=1.0, inertia=(1.0, 2.0, 1.0), position=(0.0, 0.0, major + minor))
+        c = system.add_contact(system.ground, Plane(), wheel, Torus(major, minor))
+        np.testing.assert_allclose(system.simulate([0.0, 0.01]).contact(c).normal_force, 9.81, rtol=1e-12)
+
+
 def test_a_surface_oriented_into_its_body_gets_the_hint_to_orient_it_outward():
     def inward(s):  # the side-pole sphere with its parameters swapped: du/ds1 x du/ds2 points to the centre
         c = np.cos(s[..., 0])

@@ -277,6 +277,27 @@ def test_bad_surfaces_are_refused(make, message):
         make()
 
 
+@pytest.mark.parametrize("make", [
+    # analytic functions that vary quickly on the complex steps' circle (k h up to 1.6): accepted
+    lambda: ParametricSurface(lambda s: np.stack([s[..., 0], s[..., 1], 0.01 * np.cos(40.0 * s[..., 0])], -1),
+                              bounds=((0.0, 1.0), (0.0, 1.0))),
+    lambda: PlanarCurve(lambda s: np.stack([s, 0.01 * np.sin(30.0 * s)], -1), bounds=(0.0, 1.0)),
+    lambda: PlanarCurve.polar(lambda p: 0.04 + 0.003 * np.cos(16.0 * p)),  # a 16-lobe cam
+], ids=["ripple 40 rad/m", "curve ripple", "16-lobe cam"])
+def test_quickly_varying_analytic_surfaces_are_accepted(make):
+    make()
+
+
+def test_a_surface_not_analytic_away_from_the_diagonal_of_its_bounds_is_refused():
+    # Re(z0^2) only where s0 > s1 + 0.5: the check's points cover the bounds, not only s0 = s1
+    def point(s):
+        bump = np.where(s[..., 0].real - s[..., 1].real > 0.5, 1.0, 0.0)
+        return np.stack([s[..., 0], s[..., 1], s[..., 0] ** 2 + bump * np.real(s[..., 0] ** 2)], -1)
+
+    with pytest.raises(ValueError, match=r"point: the function is not analytic"):
+        ParametricSurface(point, bounds=((0.0, 1.0), (0.0, 1.0)))
+
+
 def test_bad_parameters_and_orders_are_refused():
     with pytest.raises(ValueError, match=r"s: expected parameters of shape \(\.\.\., 2\)"):
         Sphere(1.0).point([0.1, 0.2, 0.3])

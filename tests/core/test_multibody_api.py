@@ -392,7 +392,8 @@ def test_simulate_options_are_validated(kwargs, message):
      ([0.0, math.nan], r"t: expected finite times \(s\), got t\[1\] = nan"),
      ([0.0, 1.0 + 0j], r"t: expected real numbers, got complex"),
      (["0", "1"], r"t: expected non-decreasing output times \(s\), got text \['0', '1'\]"),
-     ([False, True], r"t: expected non-decreasing output times \(s\), got a boolean \[False, True\]")],
+     ([False, True], r"t: expected non-decreasing output times \(s\), got a boolean in \[False, True\]"),
+     ([0.0, True], r"t: expected non-decreasing output times \(s\), got a boolean in \[0\.0, True\]")],
 )
 def test_simulate_times_are_validated(t, message):
     with pytest.raises(ValueError, match=message):
