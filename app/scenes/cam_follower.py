@@ -84,6 +84,7 @@ __all__ = [
     "build_cam",
     "compute_chunk",
     "compute_revolution",
+    "run_plot_angles",
 ]
 
 #: Cam profiles (the *Cam* dropdown) and their laws (None: the eccentric circle).
@@ -678,6 +679,13 @@ def compute_chunk(inputs: Inputs, k: int, previous: RunChunk | None) -> RunChunk
         a.setflags(write=False)
     return RunChunk(k, float(t[0]), float(period / RUN_SAMPLES), **arrays, q_end=np.array(traj.q[-1]),
                     v_end=np.array(traj.v[-1]), constraint_end=bool(constraint[-1]))
+
+
+def run_plot_angles(chunk: RunChunk) -> np.ndarray:
+    """The run plots' x values: the cam angle within the revolution (deg, 0 to 360), rounded to 1e-9 deg
+    (``degrees(theta) - 360 k`` is 5.7e-14 instead of 0 at a later revolution's start, and uPlot then drops
+    the axis's 0 tick)."""
+    return np.round(np.degrees(chunk.theta) - 360.0 * chunk.k, 9)
 
 
 def _repeated(previous: RunChunk, period: float) -> RunChunk:
@@ -1375,9 +1383,7 @@ class CamFollowerScene(Scene):
             gui.plots[what].data = rev.plot_data(what)
         elif self.run_chunk is not None:
             chunk = self.run_chunk
-            # (rounded: theta - 360 k is 5.7e-14 instead of 0 at a later revolution's start, and uPlot then
-            # drops the axis's 0 tick)
-            x = np.round(np.degrees(chunk.theta) - 360.0 * chunk.k, 9)
+            x = run_plot_angles(chunk)
             if what == "run_lift":
                 gui.run_plots[what].data = (x, 1000.0 * chunk.cam_lift, 1000.0 * chunk.lift)
             else:

@@ -40,6 +40,7 @@ from app.scenes.cam_follower import (
     build_cam,
     compute_chunk,
     compute_revolution,
+    run_plot_angles,
 )
 from tests.app._views import Camera, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
@@ -399,13 +400,20 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     force = inputs.preload + inputs.mass * GRAVITY
     root = math.acos(-(inputs.stiffness * E + force) / (inputs.mass * w * w * E - inputs.stiffness * E))
     assert w * chunk.separations[0] == pytest.approx(root, abs=math.radians(4.0))
+    # the readout counts the events of the revolution so far: none before the first separation, one after it
+    before = int(chunk.separations[0] / chunk.h) - 1
+    with app.session_for().run_lock:
+        assert "so far this revolution: 0 separation(s), 0 landing(s)" in scene._readout_run(
+            scene.revolution, chunk, before, 0.5)
+        assert "so far this revolution: 1 separation(s)" in scene._readout_run(scene.revolution, chunk, before + 2, 0.5)
     # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
     wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.gui.readout.content, timeout=60.0)
     # in flight: no force arrow and no contact normal (the dot is the cam's point nearest the follower)
     wait_until(lambda: not scene.arrow.visible and not scene.normal_line.visible, timeout=10.0)
     # on the cam again: the normal is back
     wait_until(lambda: "on the cam" in scene.gui.readout.content and scene.normal_line.visible, timeout=60.0)
-    # the next revolution continues from the last state of this one
+    # the next revolution continues from the last state of this one; its plots start at exactly 0 deg (uPlot
+    # drops the axis's 0 tick for 5.7e-14)
     wait_until(lambda: scene.run_chunk is not None and scene.run_chunk.k >= 1, timeout=180.0)
     assert scene.paused_error is None and not notices_with(app, "Compliant run stopped")
     assert send_value(scene, "compliant", False)
@@ -437,6 +445,16 @@ def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notic
     assert max(drawn) > float(np.max(scene.revolution.lift)) + 0.005
     assert max(drawn) <= limit + 1e-3  # (one frame of motion past the limit at most)
     assert scene.paused_error is None
+
+
+def test_the_run_plots_span_exactly_0_to_360_degrees_in_every_revolution():
+    # degrees(theta) - 360 k is 5.7e-14 at revolution 1's start at 1300 rpm: uPlot then drops the 0 tick
+    inputs = Inputs(rpm=1300.0)
+    chunk = compute_chunk(inputs, 0, None)
+    for k in range(1, 3):
+        chunk = compute_chunk(inputs, k, chunk)
+        x = run_plot_angles(chunk)
+        assert x[0] == 0.0 and x[-1] == 360.0 and np.all(np.diff(x) > 0.0)
 
 
 def test_compliant_run_below_the_jump_speed_follows_the_closed_form():
