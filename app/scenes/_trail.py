@@ -332,6 +332,19 @@ class StickHead(_Framed):
             out.append(np.array([[self._last, self._last + self.length * tip]]))
         return np.concatenate(out)
 
+    def set_length(self, length: float) -> None:
+        """Sticks of ``length`` from now on (a body of another size): the curve is forgot and every stick's
+        segment is sent again, ``count + 1`` messages (rare: not a per-frame change)."""
+        if not (math.isfinite(length) and length > 0.0):
+            raise ValueError(f"length: expected a finite length > 0, got {length!r}")
+        if length == self.length:
+            return
+        self.length = float(length)
+        stick = np.array([[[0.0, 0.0, 0.0], [0.0, 0.0, self.length]]], dtype=np.float32)
+        for node in (*self.nodes, self.tip):
+            set_array(node, "points", stick)
+        self.clear()
+
     def clear(self) -> None:
         """Forget the curve (the sticks are hidden at the next :meth:`draw`)."""
         self._used[:] = False

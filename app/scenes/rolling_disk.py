@@ -685,7 +685,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
             model = kept
         if model == self.model:
             return
-        resized = self.model is not None and model.radius != self.model.radius
+        resized = model.radius != (self.model.radius if self.model is not None else _DEFAULT.radius)
         self.model = model
         halted = self._halted()
         self._error_reported = False
@@ -697,6 +697,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
             self.playback.set_playing(True)
         if resized:
             self.reframe()
+            # sticks in proportion to the disk (3 cm for 0.1 m): a 3 cm coin's track is then not a polygon
+            self.track_head.set_length(_HEAD_STICK * model.radius / _DEFAULT.radius)
 
     def _halted(self) -> bool:
         """The motion stopped itself (it left the ground, fell flat, or its run failed) and paused the clock

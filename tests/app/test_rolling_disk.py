@@ -317,6 +317,9 @@ def test_radius_scales_the_disk_and_the_critical_spin(disk):
     # the force arrow's shaft and head in proportion (twice the default radius: twice as thick)
     assert scene.force_arrow.shaft_radius == pytest.approx(2 * 0.0035)
     assert scene.force_arrow.head_length == pytest.approx(2 * 0.02)
+    # and the track head's sticks (6 cm: a small coin's track is not a polygon of 3 cm chords)
+    assert scene.track_head.length == pytest.approx(0.06)
+    assert np.asarray(scene.track_head.tip.points)[0, 1, 2] == pytest.approx(0.06)
     critical = rolling_disk_critical_spin(0.2)
     assert f"{critical:.2f} rad/s" in scene.gui.info.content
     # the view is scaled with the disk (twice the default radius: twice as far, about the origin)
