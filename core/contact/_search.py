@@ -12,11 +12,13 @@ sides) is taken.
 
 from __future__ import annotations
 
+import functools
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
+from ._curves import PlanarCurve
 from ._kernel import (
     CONTACT_RANK_TOL,
     ContactError,
@@ -28,6 +30,7 @@ from ._kernel import (
     frames_of,
     solve_parameters,
 )
+from ._surfaces import ParametricSurface
 
 __all__ = ["find_contact"]
 
@@ -70,7 +73,11 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
     A_ext, R_ext = _frames(R_i, A_i, R_j, A_j)
     fr = frames_of(group, A_ext, R_ext, None, None)
     candidates = _candidates(surface_i, R_i, A_i, surface_j, R_j, A_j)
-    inward = [label for label, surf in (("surface_i", surface_i), ("surface_j", surface_j)) if _looks_inward(surf)]
+
+    @functools.cache
+    def inward() -> list[str]:  # (asked only on a failure path)
+        return [label for label, surf in (("surface_i", surface_i), ("surface_j", surface_j)) if _looks_inward(surf)]
+
     best = None
     errors = []
     singular = None  # a failed start's Newton stuck at a singular point of a parametrization
@@ -84,7 +91,7 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
                                                       outward=True)
         except ContactError as exc:  # no convergence, or points that do not face each other
             errors.append(str(exc))
-            if getattr(exc, "iterate", None) is not None and not inward:
+            if singular is None and getattr(exc, "iterate", None) is not None and not inward():
                 # Newton stuck at a singular point of a parametrization? (not asked of a surface whose normal
                 # points into its body: Newton then wanders anywhere, a pole included)
                 s_last, ch_last = exc.iterate
@@ -93,8 +100,7 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
                     if np.all(np.isfinite(sv)) and singular is None:
                         raw = _stack_geometry([surf], sv[None], [chart], 2)
                         try:
-                            _check_regular(_globalize(raw, np.eye(3)[None]), surf, label,
-                                           surf._chart_parameters(np.asarray(sv, dtype=float), chart))
+                            _check_regular_local(_globalize(raw, np.eye(3)[None]), surf, label, sv, chart)
                         except ContactError as found:  # (reported if no other start finds the contact)
                             singular = found
             continue
@@ -112,35 +118,33 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
         for g, surf, label, sv, chart in ((gi, surface_i, "surface_i", s_best[:p], best["charts"][0]),
                                           (gj, surface_j, "surface_j", s_best[p:], best["charts"][1])):
             try:
-                _check_regular(g, surf, label, surf._chart_parameters(np.asarray(sv, dtype=float), chart))
+                _check_regular_local(g, surf, label, sv, chart)
             except ContactError:
-                if inward:  # (a surface turned inside out meets the other one at a pole, if anywhere)
+                if inward():  # (a surface turned inside out meets the other one at a pole, if anywhere)
                     raise ContactError(f"contact {name!r}: no regular pair of points with opposed normals found "
-                                       f"between {surface_i!r} and {surface_j!r}{_inward_hint(inward)}") from None
+                                       f"between {surface_i!r} and {surface_j!r}{_inward_hint(inward())}") from None
                 raise
         return best
-    if best is None and singular is not None:
+    if singular is not None:
         raise singular
-    if best is None:
-        if candidates and not inward:  # no convergence: a line contact has a rank-deficient C_s at the sampled
-            # guess already (a surface turned inside out gets the orientation hint below instead)
-            s_i, s_j = candidates[0]
-            ch_i, l_i = surface_i._default_chart(s_i)
-            ch_j, l_j = surface_j._default_chart(s_j)
-            raw_i = _stack_geometry([surface_i], l_i[None], [ch_i], 2)
-            raw_j = _stack_geometry([surface_j], l_j[None], [ch_j], 2)
-            gi, gj = _globalize(raw_i, fr.A_i), _globalize(raw_j, fr.A_j)
-            for g, surf, label, sv in ((gi, surface_i, "surface_i", s_i), (gj, surface_j, "surface_j", s_j)):
-                _check_regular(g, surf, label, sv)
-            _, Es, _, _, _ = _extremal(group, fr, gi, gj)
-            kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
-            check_rank(name, {"rank": float(kin.rank[0])})
-        why = f" ({errors[0]})" if errors else ""
-        raise ContactError(
-            f"contact {name!r}: no pair of points with opposed normals found between {surface_i!r} and "
-            f"{surface_j!r}{why}{_inward_hint(inward)}"
-        )
-    return best
+    if candidates and not inward():  # no convergence: a line contact has a rank-deficient C_s at the sampled
+        # guess already (a surface turned inside out gets the orientation hint below instead)
+        s_i, s_j = candidates[0]
+        ch_i, l_i = surface_i._default_chart(s_i)
+        ch_j, l_j = surface_j._default_chart(s_j)
+        raw_i = _stack_geometry([surface_i], l_i[None], [ch_i], 2)
+        raw_j = _stack_geometry([surface_j], l_j[None], [ch_j], 2)
+        gi, gj = _globalize(raw_i, fr.A_i), _globalize(raw_j, fr.A_j)
+        for g, surf, label, sv in ((gi, surface_i, "surface_i", s_i), (gj, surface_j, "surface_j", s_j)):
+            _check_regular(g, surf, label, sv)
+        _, Es, _, _, _ = _extremal(group, fr, gi, gj)
+        kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
+        check_rank(name, {"rank": float(kin.rank[0])})
+    why = f" ({errors[0]})" if errors else ""
+    raise ContactError(
+        f"contact {name!r}: no pair of points with opposed normals found between {surface_i!r} and "
+        f"{surface_j!r}{why}{_inward_hint(inward())}"
+    )
 
 
 #: A surface's parametrization is singular at a point where ``|du/ds1 x du/ds2|`` is below this fraction of the
@@ -165,6 +169,11 @@ def _check_regular(g, surf, label: str, s) -> None:
             "rotate the surface in its body so that its pole is away from the contact")
 
 
+def _check_regular_local(g, surf, label: str, s_local, chart) -> None:
+    """:func:`_check_regular` at the chart parameters ``s_local`` of ``chart`` (named by their canonical ones)."""
+    _check_regular(g, surf, label, surf._chart_parameters(np.asarray(s_local, dtype=float), chart))
+
+
 def _inward_hint(inward: list[str]) -> str:
     if not inward:
         return ""
@@ -177,7 +186,7 @@ def _looks_inward(surf) -> bool:
     """Whether a user surface or curve seems oriented into its body: at most of its sampled points farthest
     from the body's origin (within 90 % of the largest distance, where its normal is defined), the normal
     points back towards the origin (an outward one of a closed or a bowl-like surface points away)."""
-    if type(surf).__name__ not in ("ParametricSurface", "PlanarCurve"):
+    if not isinstance(surf, (ParametricSurface, PlanarCurve)):
         return False
     S = surf._samples()
     x, nu = _global(surf, S, np.zeros(3), np.eye(3))
