@@ -807,12 +807,7 @@ def _run_adaptive(
             counter.rhs, (t0, t1), y0, method=method, rtol=rtol, atol=atol, dense_output=t_eval is not None
         )
     except _BudgetExceeded as stop:
-        raise IntegrationError(
-            f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
-            f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "
-            "shorten t_span or pass a larger max_steps",
-            t=stop.t,
-        ) from None
+        raise _budget_error(method, stop, t1, max_steps) from None
     if not sol.success:
         tf = float(sol.t[-1]) if sol.t.size else t0
         raise IntegrationError(
@@ -824,6 +819,16 @@ def _run_adaptive(
     else:
         t_out, states = t_eval, sol.sol(t_eval).T
     return _adaptive_result(model, method, t_out, states, n_steps, counter.calls, inv0, max_drift)
+
+
+def _budget_error(method: str, stop: _BudgetExceeded, t1: float, max_steps: int) -> IntegrationError:
+    """The error of an adaptive run that used its ``max_steps`` right-hand sides before ``t1``."""
+    return IntegrationError(
+        f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
+        f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "
+        "shorten t_span or pass a larger max_steps",
+        t=stop.t,
+    )
 
 
 # Below this fraction of the error tolerance a projection leaves scipy's
@@ -987,12 +992,7 @@ def _run_adaptive_projected(
                     if change > _STALE_DERIVATIVE_TOL:
                         solver.f = solver.fun(t_new, solver.y)
         except _BudgetExceeded as stop:
-            raise IntegrationError(
-                f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
-                f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "
-                "shorten t_span or pass a larger max_steps",
-                t=stop.t,
-            ) from None
+            raise _budget_error(method, stop, t1, max_steps) from None
     except Exception as exc:
         attach_partial(exc, t_rec, y_rec)
         raise
