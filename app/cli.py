@@ -232,9 +232,12 @@ def _stop_signals_as_interrupt() -> dict:
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
+    from app.workers import unignore_sigint
+
     previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, interrupt)}
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        previous[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
+    ignored = unignore_sigint()
+    if ignored is not None:
+        previous[signal.SIGINT] = ignored
     return previous
 
 

@@ -233,6 +233,15 @@ def _end_group(process: subprocess.Popen) -> None:
         os.killpg(process.pid, signal.SIGKILL)
 
 
+def unignore_sigint():
+    """Give SIGINT Python's default handler (KeyboardInterrupt) if it is ignored, as in a process started as a
+    background job of a shell without job control; returns the ignored handler to restore, or None when
+    SIGINT was not ignored (main thread only)."""
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        return None
+    return signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str], out: TextIO = sys.stdout,
                   err: TextIO = sys.stderr, on_ready: Callable[[int], None] | None = None) -> int:
     """Run ``count`` per-client workers on ``host:port`` until Ctrl-C or SIGTERM; the exit status.
@@ -260,8 +269,7 @@ def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str
         previous = signal.signal(signal.SIGTERM, lambda *_: stop_signal.set()) if main else None
         # started with SIGINT ignored (a background job of a script): Ctrl-C's signal stops it all the same,
         # and the workers, started from here, get the default (see app.cli._stop_signals_as_interrupt)
-        previous_int = signal.signal(signal.SIGINT, signal.default_int_handler) \
-            if main and signal.getsignal(signal.SIGINT) is signal.SIG_IGN else None
+        previous_int = unignore_sigint() if main else None
         try:
             for worker in supervisor.workers:
                 supervisor.start(worker)
