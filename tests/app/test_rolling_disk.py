@@ -226,12 +226,21 @@ def test_the_force_arrow_is_the_contact_force_at_the_contact_point(disk):
     assert points[0, 1, 2] == pytest.approx(length, rel=0.03)  # resent when it changes by 2 %
 
 
-def test_leaving_the_ground_stops_the_clock_with_a_notice(disk):
-    app, scene = disk
+def stop_without_spin(scene):
+    """Set the spin to 0 and play until the disk has left the ground and stopped the clock itself."""
     assert send_value(scene, "spin", 0.0)
     wait_for_model(scene, spin=0.0, after=0.0)
+    run_until_stopped(scene)
+
+
+def run_until_stopped(scene):
     run_until(scene, 2.0)
     wait_until(lambda: scene.ended and not scene.playing)
+
+
+def test_leaving_the_ground_stops_the_clock_with_a_notice(disk):
+    app, scene = disk
+    stop_without_spin(scene)
     assert "left the ground" in scene.ended
     assert notices_with(app, "Rolling disk stopped")
     t_end = scene.sim_time
@@ -247,15 +256,11 @@ def test_a_control_changed_after_the_disk_stopped_itself_plays_again(disk):
     # the notice says "Change a control, pick a preset or press Reset": a control must run it again, and a
     # Reset after that control too
     app, scene = disk
-    assert send_value(scene, "spin", 0.0)
-    wait_for_model(scene, spin=0.0, after=0.0)
-    run_until(scene, 2.0)
-    wait_until(lambda: scene.ended and not scene.playing)
+    stop_without_spin(scene)
     assert send_value(scene, "lean_deg", 30.0)
     wait_until(lambda: scene.model.lean == pytest.approx(math.radians(30.0)))
     wait_until(lambda: scene.playing and scene.sim_time > 0.05)
-    run_until(scene, 2.0)
-    wait_until(lambda: scene.ended and not scene.playing)
+    run_until_stopped(scene)
     click(scene, "playback", "Reset")
     wait_until(lambda: scene.playing and scene.sim_time > 0.05 and not scene.ended)
     # a pause by hand is kept: a control then starts the new motion paused
