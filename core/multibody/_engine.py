@@ -378,6 +378,8 @@ class _Engine:
         self.aux_motor = np.array(aux_motor, dtype=np.intp).reshape(-1, 2)
         self._aux_motor12 = np.concatenate([self.aux_motor[:, 0], self.aux_motor[:, 1]])  # P1 rows, then P2
         self._aux_motor_pair = tuple(int(i) for i in self.aux_motor[0]) if len(ang) == 1 else None
+        self._aux_motor_rows = None if len(ang) != 1 else np.array(
+            [*self._aux_motor_pair, *(m_tab + i for i in self._aux_motor_pair)], dtype=np.intp)
         self.aux_rs = np.array(aux_rs, dtype=np.intp).reshape(-1, 2)
         self.motor_rows = {}
         for k, mt in enumerate(disp):
@@ -774,10 +776,10 @@ class _Engine:
             if gamma is not None:
                 gamma[rr] += fv[:, 2]
         if len(self.angle_motors) == 1:  # one motor (the common case): the same operations on floats
-            f, fd, fdd = np.array(self.angle_motors[0].values(t), dtype=float).reshape(3).tolist()
-            cf, sf = float(np.cos(f)), float(np.sin(f))
+            f, fd, fdd = self.angle_motors[0].values(t)  # (floats: the driver functions check and convert)
+            cf, sf = math.cos(f), math.sin(f)
             i1, i2 = self._aux_motor_pair
-            P1, P2 = float(Phi[i1]), float(Phi[i2])
+            P1, P2 = Phi[i1].item(), Phi[i2].item()
             c = P1 * cf - P2 * sf
             C[m_dir] = c
             cosd = P2 * cf + P1 * sf  # cos(theta - f)
@@ -787,8 +789,9 @@ class _Engine:
                 D[:m_dir] = self.Dt[:m_dir]
                 np.subtract(cf * self.Dt[i1], sf * self.Dt[i2], out=D[m_dir])
             if gamma is not None:
-                dP1, dP2 = self.rates(Y, self._aux_motor12).tolist()
-                gamma[m_dir] = ((cf * float(gam[i1]) - sf * float(gam[i2])) + 2.0 * fd * (sf * dP1 + cf * dP2)
+                Yp = Y[self._aux_motor_rows]  # the rows' a and b vectors: (P1 a, P2 a, P1 b, P2 b)
+                dP1, dP2 = (Yp[:2, 0:6] * (Yp[2:] @ _RATE9_MAP)).sum(axis=1).tolist()
+                gamma[m_dir] = ((cf * gam[i1].item() - sf * gam[i2].item()) + 2.0 * fd * (sf * dP1 + cf * dP2)
                                 + fdd * cosd + fd * fd * c)
         elif self.angle_motors:
             fv = np.array([mt.values(t) for mt in self.angle_motors]).reshape(-1, 3)

@@ -296,7 +296,7 @@ class _Dynamics:
                 if factor is not None:  # from the previous iterate: O(dq) off, enough for Newton's next step
                     Dk = D if kp is None else D[kp]
                     factor = (Dk * eng.winv_diag if eng.winv_diag is not None else eng.winv_apply(Dk.T).T, factor[1])
-            res = float(np.max(np.abs(C)))
+            res = float(np.abs(C).max()) if C.size else 0.0
             if res <= tol or (it and res <= 1e-8 and res > 0.25 * prev):
                 if it == 0 and factor is not None and eng.contact_kernel is not None:
                     # the step's last stage is accepted as it is: its contact parameters are the step's
@@ -333,16 +333,16 @@ class _Dynamics:
             factor = self._metric_factor(Dk, t)
         WD, c = factor
         v = y[n7:]
-        scale = 1.0 + float(np.max(np.abs(v)))
+        floor = 4e-16 * (1.0 + float(np.abs(v).max())) * max(1.0, float(np.abs(Dk).max()))
         for _ in range(4):  # the factor may be from before the last Newton step: repeat until round-off
             r = Dk @ v + Ctk
-            if float(np.max(np.abs(r))) <= 4e-16 * scale * max(1.0, float(np.max(np.abs(Dk)))):
+            if float(np.abs(r).max()) <= floor:
                 break
             mu, _ = lapack.dpotrs(c, r, lower=0)
             v = v - WD.T @ mu
         y[n7:] = v
         if t in self.output_times:
-            rv = float(np.max(np.abs(D @ v + Ct)))
+            rv = float(np.abs(D @ v + Ct).max())
             self.residuals[t] = (y.copy(), res, rv)
             if eng.contact_kernel is not None:
                 self._record_output(t, y)
