@@ -688,6 +688,35 @@ def run_plot_angles(chunk: RunChunk) -> np.ndarray:
     return np.round(np.degrees(chunk.theta) - 360.0 * chunk.k, 9)
 
 
+#: Legend label of the System's force in the compliant run's plot (the off-scale impact peak is added to it).
+_RUN_FORCE_LABEL = "System (N)"
+#: The compliant run's force plot shows up to this many times the closed form's span above the closed form's
+#: maximum: the impacts of a landing reach kilonewtons, and a range fitted to them would draw the closed form
+#: (tens of newtons) as a flat line at zero.
+_RUN_FORCE_HEADROOM = 2.0
+
+
+def run_force_range(chunk: RunChunk) -> tuple[tuple[float, float], float | None]:
+    """The y range (N) of the compliant run's force plot and the off-scale peak force (N), or None.
+
+    The range holds the closed form, zero and the run's force, except the force above the closed form's
+    maximum plus :data:`_RUN_FORCE_HEADROOM` times its span (impact peaks), with 5 % margins.
+    """
+    closed, force = chunk.closed_force, chunk.force
+    lo = min(float(closed.min()), float(force.min()), 0.0)
+    top = max(float(closed.max()), 0.0)
+    cap = top + _RUN_FORCE_HEADROOM * max(top - min(float(closed.min()), 0.0), 1.0)
+    peak = float(force.max())
+    hi = max(top, min(peak, cap))
+    pad = 0.05 * max(hi - lo, 1.0)
+    return (lo - pad, hi + pad), (peak if peak > cap else None)
+
+
+def _newtons(x: float) -> str:
+    """A force for a title: ``2.7 kN`` from 1000 N up, ``850 N`` below."""
+    return f"{x / 1000.0:.1f} kN" if abs(x) >= 1000.0 else f"{x:.0f} N"
+
+
 def _repeated(previous: RunChunk, period: float) -> RunChunk:
     """Revolution ``previous.k + 1`` of a revolution that stayed on the cam: the same motion one ``period``
     (s) later, the cam angle one turn further (see :func:`compute_chunk`)."""
@@ -1016,7 +1045,7 @@ class CamFollowerScene(Scene):
                     "run_force": self.add_plot(
                         (empty,) * 3,
                         (x_series, {"label": "closed form (N)", "stroke": "#888888", "dash": [6, 4], "width": 1},
-                         {"label": "System (N)", "stroke": "#d97706", "width": 2}),
+                         {"label": _RUN_FORCE_LABEL, "stroke": "#d97706", "width": 2}),
                         title="compliant run: contact force (this revolution)", scales=x_scale, aspect=1.7,
                         visible=False),
                 }
@@ -1387,7 +1416,13 @@ class CamFollowerScene(Scene):
             if what == "run_lift":
                 gui.run_plots[what].data = (x, 1000.0 * chunk.cam_lift, 1000.0 * chunk.lift)
             else:
-                gui.run_plots[what].data = (x, chunk.closed_force, chunk.force)
+                (lo, hi), peak = run_force_range(chunk)
+                plot = gui.run_plots[what]
+                plot.scales = {"x": {"time": False}, "y": {"auto": False, "range": [lo, hi]}}
+                label = _RUN_FORCE_LABEL + ("" if peak is None else f", peak {_newtons(peak)} off scale")
+                if plot.series[2]["label"] != label:
+                    plot.series = (*plot.series[:2], {**plot.series[2], "label": label})
+                plot.data = (x, chunk.closed_force, chunk.force)
 
     def _info(self, rev: Revolution) -> str:
         inputs = rev.inputs

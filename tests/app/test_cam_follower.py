@@ -40,6 +40,7 @@ from app.scenes.cam_follower import (
     build_cam,
     compute_chunk,
     compute_revolution,
+    run_force_range,
     run_plot_angles,
 )
 from tests.app._views import Camera, label_box, overlapping_pairs
@@ -416,6 +417,16 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     # drops the axis's 0 tick for 5.7e-14)
     wait_until(lambda: scene.run_chunk is not None and scene.run_chunk.k >= 1, timeout=180.0)
     assert scene.paused_error is None and not notices_with(app, "Compliant run stopped")
+    # the force plot is scaled to the closed form, not to the landing's impact (named in the legend)
+    plot = scene.gui.run_plots["run_force"]
+
+    def plotted() -> bool:  # (the revolution shown may move on while this waits: each try reads it again)
+        (lo, hi), peak = run_force_range(scene.run_chunk)
+        named = None if peak is None else (f"{peak / 1000.0:.1f} kN" if peak >= 1000.0 else f"{peak:.0f} N")
+        label = "System (N)" + ("" if named is None else f", peak {named} off scale")
+        return plot.scales["y"]["range"] == [lo, hi] and plot.series[2]["label"] == label
+
+    wait_until(plotted)
     assert send_value(scene, "compliant", False)
     wait_until(lambda: not scene.compliant and not scene.gui.run_plots["run_lift"].visible)
 
@@ -455,6 +466,24 @@ def test_the_run_plots_span_exactly_0_to_360_degrees_in_every_revolution():
         chunk = compute_chunk(inputs, k, chunk)
         x = run_plot_angles(chunk)
         assert x[0] == 0.0 and x[-1] == 360.0 and np.all(np.diff(x) > 0.0)
+
+
+def test_the_compliant_force_plot_keeps_the_closed_form_readable_under_impact_peaks():
+    # past the jump speed a landing's impact reaches kilonewtons against a closed form of about +-100 N
+    chunk = compute_chunk(Inputs(rpm=1300.0), 0, None)
+    closed_lo, closed_hi = float(chunk.closed_force.min()), float(chunk.closed_force.max())
+    assert chunk.force.max() > 10.0 * closed_hi
+    (lo, hi), peak = run_force_range(chunk)
+    span = closed_hi - min(closed_lo, 0.0)
+    assert lo < closed_lo and closed_hi < hi
+    assert hi - lo < 4.0 * span  # the closed form fills over a quarter of the height
+    assert peak == chunk.force.max()
+    # below the jump speed nothing is off scale: the range is the forces' own, with 5 % margins
+    calm = compute_chunk(Inputs(rpm=700.0), 0, None)
+    (lo, hi), peak = run_force_range(calm)
+    top, bottom = max(calm.force.max(), calm.closed_force.max()), min(calm.force.min(), 0.0)
+    assert peak is None
+    assert hi == pytest.approx(top + 0.05 * (top - bottom)) and lo == pytest.approx(bottom - 0.05 * (top - bottom))
 
 
 def test_compliant_run_below_the_jump_speed_follows_the_closed_form():
