@@ -37,6 +37,9 @@ of equal sticks placed by poses only (:class:`app.scenes._trail.StickHead`),
 which the page draws in the same frame as the disk and the ground (new line
 points reach the screen a page frame later: at the 2-4 fps of a software-
 rendered page a track stretched every frame ended up to a metre behind).
+Between two samples that turn sharply (a small coin's loops) the track
+follows the parabola through the last three samples in pieces
+(:func:`track_pieces`), so it is a curve, not a polygon of sample chords.
 """
 
 from __future__ import annotations
@@ -116,7 +119,14 @@ _CHUNKS_KEPT = 24
 _REFRESH_PERIOD = 0.25  # s of wall time between plot / readout refreshes (4 Hz; bytes: docs/app.md)
 _TRACK_PERIOD = 0.1  # s of wall time between track buffer updates (~10 Hz)
 _TRACK_CAPACITY = 1000  # line segments of the contact point's track
-_TRACK_MIN_STEP = 0.002  # m: a track point closer than this to the last one is not added
+_TRACK_MIN_STEP = 0.002  # m (for the 0.1 m disk; in proportion to the radius): a track point closer than this to
+# the last one is not added
+#: The track between two samples (1/60 s of motion apart) turns by at most this angle (rad) per straight piece: a
+#: sample chord that turns more from the one before is cut into pieces along the parabola through the last three
+#: samples (at most :data:`_TRACK_PIECES`). A 3 cm coin's samples are 6 mm apart on loops of a few centimetres:
+#: their chords turn by up to 20 degrees, a visible polygon at close range.
+_TRACK_TURN = math.radians(3.0)
+_TRACK_PIECES = 8
 _TRACK_LIFT = 0.0015  # m above the ground, so the grid does not cover the track
 #: Residuals below this fraction of the disk's size (m) or speed (m/s) are round-off and read "< ..." (about
 #: 50 eps: the projection stops at a few eps of its scale)
@@ -440,6 +450,30 @@ def _compute_chunk(model: Model, k: int, previous: _Chunk | None) -> _Chunk:
 
 
 # -- meshes (created once, in build) ---------------------------------------------------
+def track_pieces(samples: list[np.ndarray], q2: np.ndarray) -> list[np.ndarray]:
+    """The points that draw the track from the last sample to the next one ``q2``, ending with ``q2``.
+
+    ``samples``: up to two samples before ``q2`` (equally spaced in time, oldest first). When the chord to
+    ``q2`` turns by more than :data:`_TRACK_TURN` from the chord before, it is cut into equal steps of time on
+    the parabola through the three samples, ``q(s) = q1 + s (q2 - q0) / 2 + s^2 (q2 - 2 q1 + q0) / 2`` (``s``
+    from 0 at ``q1`` to 1 at ``q2``; its error is third order in the time step), so that each piece turns
+    by about :data:`_TRACK_TURN`, at most :data:`_TRACK_PIECES` pieces.
+    """
+    if len(samples) < 2:
+        return [q2]
+    q0, q1 = samples[-2], samples[-1]
+    a, b = q1 - q0, q2 - q1
+    la, lb = math.sqrt(float(a @ a)), math.sqrt(float(b @ b))
+    if la == 0.0 or lb == 0.0:
+        return [q2]
+    turn = math.acos(min(max(float(a @ b) / (la * lb), -1.0), 1.0))
+    pieces = min(_TRACK_PIECES, math.ceil(turn / _TRACK_TURN - 1e-9))
+    if pieces <= 1:
+        return [q2]
+    slope, bend = 0.5 * (q2 - q0), 0.5 * (q2 - 2.0 * q1 + q0)
+    return [q1 + (i / pieces) * slope + (i / pieces) ** 2 * bend for i in range(1, pieces)] + [q2]
+
+
 def _disk_meshes() -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
     """The unit disk (radius 1, axis along body y, centred) and its marker stripe.
 
@@ -550,6 +584,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self._error_paused = False  # the failure paused a running clock (not one paused by hand)
         self._end_reported = ""
         self._track_time = -math.inf  # time of the newest sample in the track
+        self._track_samples: list[np.ndarray] = []  # the track's last two samples (lifted), for its pieces
         self._since_track = math.inf
         self._scale = math.nan  # radius the disk mesh is drawn at
         self._arrow_length = 0.0  # m, length of the force arrow as sent
@@ -699,6 +734,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
             self.reframe()
             # sticks in proportion to the disk (3 cm for 0.1 m): a 3 cm coin's track is then not a polygon
             self.track_head.set_length(_HEAD_STICK * model.radius / _DEFAULT.radius)
+            self.track.min_step = _TRACK_MIN_STEP * model.radius / _DEFAULT.radius
 
     def _halted(self) -> bool:
         """The motion stopped itself (it left the ground, fell flat, or its run failed) and paused the clock
@@ -712,6 +748,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.track.clear()
         self.track_head.clear()
         self._track_time = -math.inf
+        self._track_samples = []
         self._since_track = math.inf
         self.history.clear()
         self._drawn = None
@@ -852,9 +889,12 @@ class RollingDiskScene(PlaybackRequests, Scene):
             self._refresh.force()
 
     def _add_track_point(self, point: np.ndarray) -> None:
+        """Extend the track to the next sample of the contact point, through :func:`track_pieces`."""
         lifted = np.array([point[0], point[1], point[2] + _TRACK_LIFT])
-        self.track.add(lifted)
-        self.track_head.add(lifted)
+        for q in track_pieces(self._track_samples, lifted):
+            self.track.add(q)
+            self.track_head.add(q)
+        self._track_samples = [*self._track_samples[-1:], lifted]
 
     # -- plots, readout, export ----------------------------------------------------------
     def _window_start(self) -> float:

@@ -34,6 +34,7 @@ from app.scenes.rolling_disk import (
     RollingDiskScene,
     _compute_chunk,
     preset_inputs,
+    track_pieces,
 )
 from core.models import rolling_disk_critical_spin
 from core.rotations import matrix_from_euler_parameters
@@ -163,6 +164,57 @@ def test_the_track_grows_on_the_ground(disk):
     off = np.linalg.norm(a + u[..., None] * (b - a) - ends, axis=2).min(axis=1)
     beyond = np.linalg.norm(chords.reshape(-1, 3) - point, axis=1) < 0.05  # past the newest track point
     assert np.all((off < 1e-6) | beyond)
+
+
+def _turns(points):
+    """Angles (deg) between consecutive segments of a polyline (n, 3); repeated points left out."""
+    d = np.diff(points, axis=0)
+    d = d[np.linalg.norm(d, axis=1) > 0.0]
+    u = d / np.linalg.norm(d, axis=1)[:, None]
+    return np.degrees(np.arccos(np.clip(np.sum(u[1:] * u[:-1], axis=1), -1.0, 1.0)))
+
+
+def test_track_pieces_follow_the_curve_between_coarse_samples():
+    # samples of a circle (radius rho) 20 degrees apart: a 3 cm coin's contact point on its loops
+    rho = 0.05
+
+    def circle(deg):
+        return np.array([rho * math.cos(math.radians(deg)), rho * math.sin(math.radians(deg)), 0.0015])
+
+    def worst(step):
+        pieces = track_pieces([circle(-step), circle(0.0)], circle(step))
+        gap = max(abs(math.hypot(q[0], q[1]) - rho) for q in pieces)
+        return pieces, gap
+
+    pieces, gap = worst(20.0)
+    assert len(pieces) == 7 and np.array_equal(pieces[-1], circle(20.0))  # ceil(20 / 3) pieces, ending on q2
+    # the parabola through three samples is off by at most rho phi^3 max|s (s^2 - 1)| / 6 = 0.064 rho phi^3
+    phi = math.radians(20.0)
+    assert gap < 0.065 * rho * phi**3
+    assert gap < 0.2 * rho * (1.0 - math.cos(phi / 2))  # five times closer than the chord (its sagitta)
+    # each piece turns by about 3 degrees, the chord before it included
+    assert _turns(np.array([circle(0.0), *pieces])).max() < 3.5
+    # third order at least (the distance from a circle is fourth: 1/16): half the step, under an eighth of it
+    assert worst(10.0)[1] < gap / 8.0
+    # a straight track, a stop, the first two samples: the sample itself
+    line = [np.array([0.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])]
+    assert len(track_pieces(line, np.array([2.0, 0.0, 0.0]))) == 1
+    assert len(track_pieces([line[1], line[1]], np.array([2.0, 1.0, 0.0]))) == 1
+    assert len(track_pieces(line[:1], np.array([2.0, 1.0, 0.0]))) == 1
+    assert len(track_pieces([], line[0])) == 1
+
+
+def test_a_small_coins_track_is_a_smooth_curve(disk):
+    # a 3 cm coin circles on loops of a few centimetres, its samples 1/60 s apart turn by up to 20 degrees
+    app, scene = disk
+    assert send_value(scene, "radius", 0.03)
+    wait_for_model(scene, radius=0.03, after=1.5)
+    with app.session_for().run_lock:
+        track = scene.track_points
+        samples = scene.last_chunk.frames[:, 7:10]  # (the contact point)
+    assert _turns(samples[:, :2]).max() > 10.0
+    # pieces of about 3 degrees; where the 0.6 mm minimum step of the track merges two, up to about twice that
+    assert track.shape[0] > 50 and _turns(track).max() < 7.0
 
 
 def test_the_camera_follows_the_disk_or_not(disk):
