@@ -68,7 +68,9 @@ __all__ = [
 
 #: Relative tolerance of the real parts: a mode with ``Re(s) <= STABILITY_TOL *
 #: scale`` is stable and one with ``abs(Re(s)) <= STABILITY_TOL * scale`` is
-#: critical (undamped), ``scale`` the largest ``abs(s)`` of the model.
+#: critical (undamped), ``scale`` the largest ``abs(s)`` of the model. Within
+#: a cluster of roots closer than ``2 RIGID_TOL * scale`` (a multiple root
+#: split by round-off) the tolerance is ``RIGID_TOL * scale``.
 STABILITY_TOL = 1e-8
 #: Relative tolerance of a rigid-body (zero) mode: ``abs(s) <= RIGID_TOL *
 #: scale`` (a double zero eigenvalue moves by the square root of the
@@ -254,7 +256,10 @@ class LinearModel:
         self.velocity_map = T
         self.position_rate_map = Y
         self.embedding = embedding
-        self.derivative_error = float(derivative_error)
+        err = real_number(derivative_error, "derivative_error", expected="a finite relative error >= 0")
+        if not err >= 0.0:
+            raise ValueError(f"derivative_error: expected a finite relative error >= 0, got {err!r}")
+        self.derivative_error = err
 
     def __repr__(self) -> str:
         parts = [f"{self.n_dof} degrees of freedom"]
@@ -581,6 +586,7 @@ class Modes:
             ``AssemblyError`` when the amplitude is so large that the
             constraints cannot be met.
         """
+        from core.multibody._analysis import AssemblyError
         from core.multibody._engine import matrices
         from core.multibody._linearization import project_positions
         from core.multibody._system import exp_parameters, quaternion_products
@@ -588,7 +594,10 @@ class Modes:
         emb = self._embedding(system)
         j = self._index(index)
         a = real_number(amplitude, "amplitude", expected="a finite amplitude (m or rad)")
-        times = float_array(t, "t", expected="times (s)").reshape(-1)
+        times = float_array(t, "t", expected="times (s)")
+        if times.ndim > 1:
+            raise ValueError(f"t: expected a time or a 1-D array of times (s), got shape {times.shape}")
+        times = times.reshape(-1)
         if not np.all(np.isfinite(times)):
             raise ValueError("t: expected finite times (s)")
         n = emb.n_bodies
@@ -608,15 +617,25 @@ class Modes:
         residual = np.empty(times.size)
         v_zero = np.zeros(6 * n)
         for i, ti in enumerate(times):
-            z = a * np.real(zc * np.exp(s * ti))
-            rot = exp_parameters((W * ti)[None, :])
-            Rot = matrices(rot)[0]
-            R = (R0 + v_obs * ti + z[: 3 * n].reshape(n, 3)) @ Rot.T
-            P = quaternion_products(exp_parameters(w_obs * ti), P0)
-            P = quaternion_products(exp_parameters(z[3 * n :].reshape(n, 3)), P)
-            P = quaternion_products(np.repeat(rot, n, axis=0), P)
+            with np.errstate(over="ignore", invalid="ignore"):
+                z = a * np.real(zc * np.exp(s * ti))
+            if not np.all(np.isfinite(z)):
+                raise ValueError(
+                    f"amplitude, t: the mode's displacement a Re(S e^(s t)) is not finite at t={ti:g} (a = {a:g}, "
+                    f"s = {s.real:.6g}{s.imag:+.6g}j); give a smaller amplitude or earlier times")
+            with np.errstate(over="ignore", invalid="ignore"):  # (a huge displacement: refused below)
+                rot = exp_parameters((W * ti)[None, :])
+                Rot = matrices(rot)[0]
+                R = (R0 + v_obs * ti + z[: 3 * n].reshape(n, 3)) @ Rot.T
+                P = quaternion_products(exp_parameters(w_obs * ti), P0)
+                P = quaternion_products(exp_parameters(z[3 * n :].reshape(n, 3)), P)
+                P = quaternion_products(np.repeat(rot, n, axis=0), P)
             y = np.concatenate([R.ravel(), P.ravel(), v_zero])
             y, res = project_positions(system, emb.t + ti, y)
+            if not (np.all(np.isfinite(y)) and math.isfinite(res)):
+                raise AssemblyError(
+                    f"animate: the configuration at t={ti:g} could not be projected onto the constraints (a = {a:g}: "
+                    "the displacement is too large); give a smaller amplitude or earlier times")
             positions[i] = y[: 3 * n].reshape(n, 3)
             Pn = y[3 * n : 7 * n].reshape(n, 4)
             orientations[i] = Pn / np.linalg.norm(Pn, axis=1)[:, None]
@@ -693,7 +712,8 @@ def _real_shape(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         w = w * -1j
         r = np.real(w)
     c = _largest_entry(r)
-    return w / c, r / c
+    with np.errstate(invalid="ignore", divide="ignore"):  # (a shape out of range: refused by _modes)
+        return w / c, r / c
 
 
 def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | None,
@@ -747,10 +767,22 @@ def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | 
     rigid = mag <= RIGID_TOL * scale
     if structural is not None:
         rigid &= np.asarray(structural, dtype=bool)[order]
+    if not (np.all(np.isfinite(ev)) and np.all(np.isfinite(cs))):
+        raise ValueError("M, K, C, G: the eigenvalue problem left the floating-point range (eigenvalues or "
+                         "shapes not finite); give the matrices in units of similar size")
     with np.errstate(invalid="ignore", divide="ignore"):
-        xi = np.where(rigid, np.nan, -ev.real / np.where(mag > 0, mag, 1.0))
-    stable = (ev.real <= tiny) | rigid
-    critical = (np.abs(ev.real) <= tiny) & ~rigid
+        xi = np.where(rigid, np.nan, -ev.real / np.where(mag > 0, mag, 1.0)) + 0.0  # (+ 0.0: no -0.0)
+    # a multiple root (the translations of a free body seen from a turning frame: +-i Omega twice) is split
+    # by round-off into roots up to about sqrt(eps) apart, with real parts of that size: within such a
+    # cluster a real part up to RIGID_TOL * scale is not resolved and counts as zero
+    re = np.where(np.abs(ev.real) <= tiny, 0.0, ev.real)
+    loose = (np.abs(ev.real) > tiny) & (np.abs(ev.real) <= RIGID_TOL * scale)
+    for i in np.flatnonzero(loose):
+        others = np.delete(np.arange(k), i)
+        if others.size and float(np.min(np.abs(ev[others] - ev[i]))) <= 2.0 * RIGID_TOL * scale:
+            re[i] = 0.0
+    stable = (re <= 0.0) | rigid
+    critical = (re == 0.0) & ~rigid
     return Modes(_ro(ev), _ro(cs), _ro(rs), _ro(mag), _ro(xi), _ro(np.abs(ev.imag) / (2.0 * math.pi)),
                  _ro(stable), _ro(critical), _ro(rigid), scale, method, embedding)
 
@@ -799,7 +831,7 @@ def linearize(system: Any, *, frame_omega: Any = None, steady_tol: float = 1e-6)
     steady_tol : float, keyword-only
         Largest accepted acceleration of the reference as seen from the
         observer frame, relative to the accelerations of the problem
-        (gravity, centripetal).
+        (gravity, centripetal, springs over the bodies' lengths).
 
     Returns
     -------
@@ -812,8 +844,18 @@ def linearize(system: Any, *, frame_omega: Any = None, steady_tol: float = 1e-6)
         For a state that is neither an equilibrium nor a steady motion
         (the message gives the largest acceleration and the body), a System
         without degrees of freedom, bad arguments.
+    AssemblyError
+        For a state that violates the constraints (as ``simulate``).
     SingularSystemError
         When the constrained mass matrix is singular.
+
+    Warns
+    -----
+    RuntimeWarning
+        When a body turns relative to the observer frame and does not look
+        the same from it at all times (see :func:`_warn_if_time_varying`):
+        the model is then frozen at the reference time; and when the
+        estimated error of the differenced derivatives exceeds 1e-3.
     """
     return _linearize(system, frame_omega=frame_omega, steady_tol=steady_tol, constraint_stiffness="analytic")
 
@@ -822,6 +864,7 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
     """:func:`linearize`; ``constraint_stiffness="differences"`` takes the geometric stiffness by differences too."""
     from core.multibody import System
     from core.multibody import _linearization as lin
+    from core.multibody._simulate import check_assembled
     from core.multibody._system import _make_state
 
     if not isinstance(system, System):
@@ -837,8 +880,12 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
         raise ValueError(f"steady_tol: expected a finite tolerance > 0, got {tol!r}")
     t = system._t
     eng, ref = lin.reference(system, t, W)
+    if eng.m:  # (a state off the constraints would be linearized about a configuration the System cannot take)
+        check_assembled(eng, t, ref.y, "linearize")
     ell = lin.body_length_scales(eng)
     _check_steady(eng, ref, system, ell, tol)
+    ell = _step_lengths(eng, ref, ell)
+    _warn_if_time_varying(eng, ref, system)
 
     # embedding: null spaces of the position rows and of all rows (Eq. 8.111)
     Dk = ref.D[ref.keep]
@@ -989,6 +1036,75 @@ def _null_space(D: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(Q[:, r:])
 
 
+#: Relative tolerance of :func:`_warn_if_time_varying` (a symmetric inertia, a point on an axis, parallel axes).
+_SYMMETRY_REL = 1e-8
+
+
+def _warn_if_time_varying(eng: Any, ref: Any, system: Any) -> None:
+    """Warn when a body turns relative to the observer frame and what turns with it does not look the same at
+    all times: the linear model then changes with time and the one returned is frozen at the reference time.
+
+    A body turning about an axis (through its centre of mass, which the steady check holds still in the
+    frame) looks the same when its inertia is symmetric about that axis, every joint and spring point of it
+    lies on the axis, and its joints are spherical or revolute about that axis. Contacts are not checked.
+    """
+    n = eng.n
+    W = ref.frame_omega
+    for b in range(n):
+        w_rel = ref.omega[b] - W
+        rate = float(np.linalg.norm(w_rel))
+        if not rate > _SYMMETRY_REL * max(1.0, float(np.linalg.norm(W)), float(np.linalg.norm(ref.omega[b]))):
+            continue
+        a = ref.A[b].T @ (w_rel / rate)  # the axis in the body frame
+        J = eng.inertia[b]
+        P = np.eye(3) - np.outer(a, a)
+        T = P @ J @ P
+        size = max(float(np.trace(J)), 1e-300)
+        reason = None
+        if (float(np.linalg.norm(P @ J @ a)) > _SYMMETRY_REL * size
+                or float(np.linalg.norm(T - 0.5 * np.trace(T) * P)) > _SYMMETRY_REL * size):
+            reason = "its inertia is not symmetric about that axis"
+        for item, kind in [(jt, "joint") for jt in eng.joints] + [(sp, "spring_damper") for sp in eng.springs]:
+            if reason is not None:
+                break
+            for side, body in (("i", item.body_i), ("j", item.body_j)):
+                if body.index != b:
+                    continue
+                u = np.asarray(item._local[f"u_{side}"], dtype=float)
+                if float(np.linalg.norm(np.cross(u, a))) > _SYMMETRY_REL * max(float(np.linalg.norm(u)), 1.0):
+                    reason = f"{kind} {item.name!r} is attached off that axis"
+                elif kind == "joint" and item.kind not in ("spherical", "revolute"):
+                    reason = f"joint {item.name!r} ({item.kind}) turns with it"
+                elif kind == "joint" and item.kind == "revolute" and float(np.linalg.norm(
+                        np.cross(np.asarray(item._local[f"h_{side}"], dtype=float), a))) > _SYMMETRY_REL:
+                    reason = f"the axis of joint {item.name!r} is not that axis"
+        if reason is not None:
+            warnings.warn(
+                f"linearize: body {system.bodies[b].name!r} turns at {rate:.4g} rad/s relative to the frame turning at "
+                f"frame_omega={W.tolist()}, and {reason}: the linear model changes with time, and the one returned "
+                "is frozen at the reference time (pass frame_omega equal to the body's angular velocity if "
+                "everything turns with it)", RuntimeWarning, stacklevel=4)
+            return
+
+
+def _step_lengths(eng: Any, ref: Any, ell: np.ndarray) -> np.ndarray:
+    """(n,) length scales of the translation steps: ``ell``, but per body no longer than a spring attached to it
+    (its length at the reference): a step comparable to a spring's length turns the spring's force (a 0.5 mm
+    spring stepped by 0.3 mm was 13 % too stiff)."""
+    n = eng.n
+    out = np.array(ell, dtype=float)
+    R = ref.y[: 3 * n].reshape(n, 3)
+    for sp in eng.springs:
+        ends = [np.asarray(sp._local[side], dtype=float) if body.index < 0
+                else R[body.index] + ref.A[body.index] @ np.asarray(sp._local[side], dtype=float)
+                for side, body in (("u_i", sp.body_i), ("u_j", sp.body_j))]
+        length = float(np.linalg.norm(ends[1] - ends[0]))
+        for body in (sp.body_i, sp.body_j):
+            if body.index >= 0 and length > 0.0:
+                out[body.index] = min(out[body.index], length)
+    return out
+
+
 def _check_steady(eng: Any, ref: Any, system: Any, ell: np.ndarray, tol: float) -> None:
     n = eng.n
     W = ref.frame_omega
@@ -996,8 +1112,11 @@ def _check_steady(eng: Any, ref: Any, system: Any, ell: np.ndarray, tol: float) 
     acc_R = ref.R_ddot - np.cross(W[None, :], Rd)
     acc_w = ref.alpha - np.cross(W[None, :], ref.omega)
     w2 = float(np.max(np.sum(ref.omega**2, axis=1)))
+    # the springs' accelerations over the bodies' lengths (k ell / m): the scale of a reference held by springs
+    # alone, without gravity or motion, whose forces balance to round-off
+    springs = max((sp.stiffness for sp in eng.springs), default=0.0) * float(np.max(ell)) / float(np.min(eng.mass))
     scale_R = max(float(np.linalg.norm(system.gravity)), float(np.max(np.abs(np.cross(W[None, :], Rd)))),
-                  w2 * float(np.max(ell)), float(W @ W) * float(np.max(ell)), 1e-12)
+                  w2 * float(np.max(ell)), float(W @ W) * float(np.max(ell)), springs, 1e-12)
     scale_w = max(scale_R / float(np.min(ell)), w2, float(W @ W), 1e-12)
     eR = np.linalg.norm(acc_R, axis=1) / scale_R
     ew = np.linalg.norm(acc_w, axis=1) / scale_w

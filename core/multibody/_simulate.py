@@ -926,6 +926,35 @@ def _check_turns(system: Any, y0: np.ndarray, t0: float, t1: float, max_steps: i
                   "see it sooner", RuntimeWarning, stacklevel=4)
 
 
+def check_assembled(eng: _Engine, t: float, y: np.ndarray, what: str, *, limit: float = 1e-8) -> None:
+    """Refuse a state ``y`` that violates the constraints at ``t`` (residuals above ``limit``, velocities
+    relative to ``1 + max |v|``) or whose motor holds its joint half a turn from ``f(t)``.
+
+    Raises
+    ------
+    AssemblyError
+        Naming ``what`` (the caller), both residuals and the row of the largest one.
+    """
+    n = eng.n
+    C, D, Ct, _ = constraints_at(eng, t, y, 1)
+    res_p = float(np.max(np.abs(C)))
+    rv = np.array(D) @ y[7 * n :] + Ct
+    res_v = float(np.max(np.abs(rv)))
+    if res_p > limit or res_v > limit * (1.0 + float(np.max(np.abs(y[7 * n :])))):
+        r = int(np.argmax(np.abs(C))) if res_p > limit else int(np.argmax(np.abs(rv)))
+        raise AssemblyError(
+            f"{what}: the current state violates the constraints at t={t:g} (position residual "
+            f"{res_p:.3e}, velocity residual {res_v:.3e}; largest in {row_label(eng, r)}); "
+            f"call system.assemble(t={t:g}) first{_normal_velocity_note(eng, r, res_p > limit, rv)}"
+        )
+    flipped = flipped_motors(eng, t, y)
+    if flipped:
+        raise AssemblyError(
+            f"{what}: motor {flipped[0].name!r} holds its joint half a turn from its angle f(t) at "
+            f"t={t:g} (sin(theta - f) = 0 with cos(theta - f) < 0); call system.assemble(t={t:g}) first"
+        )
+
+
 def _normal_velocity_note(eng: _Engine, r: int, position: bool, rv: np.ndarray) -> str:
     """What ``assemble`` would do to a normal velocity of a constraint-model contact (row ``r``)."""
     item, label = eng.row_labels[r]
@@ -1326,24 +1355,7 @@ def simulate(
     t0 = float(tt[0])
     y0 = np.array(system._y)
     if eng.m:
-        C, D, Ct, _ = constraints_at(eng, t0, y0, 1)
-        res_p = float(np.max(np.abs(C)))
-        rv = np.array(D) @ y0[7 * n :] + Ct
-        res_v = float(np.max(np.abs(rv)))
-        limit = max(1e-8, 1e3 * position_tol)
-        if res_p > limit or res_v > limit * (1.0 + float(np.max(np.abs(y0[7 * n :])))):
-            r = int(np.argmax(np.abs(C))) if res_p > limit else int(np.argmax(np.abs(rv)))
-            raise AssemblyError(
-                f"simulate: the current state violates the constraints at t={t0:g} (position residual "
-                f"{res_p:.3e}, velocity residual {res_v:.3e}; largest in {row_label(eng, r)}); "
-                f"call system.assemble(t={t0:g}) first{_normal_velocity_note(eng, r, res_p > limit, rv)}"
-            )
-        flipped = flipped_motors(eng, t0, y0)
-        if flipped:
-            raise AssemblyError(
-                f"simulate: motor {flipped[0].name!r} holds its joint half a turn from its angle f(t) at "
-                f"t={t0:g} (sin(theta - f) = 0 with cos(theta - f) < 0); call system.assemble(t={t0:g}) first"
-            )
+        check_assembled(eng, t0, y0, "simulate", limit=max(1e-8, 1e3 * position_tol))
         if not eng.analyzed:
             analyze_rank(eng, t0, y0)
             shared.adopt(eng)

@@ -8,12 +8,14 @@ import csv
 import io
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
 import scipy.linalg
 
 from core.gyroscope import RotorParams, sleeping_top_critical_spin
+from core.multibody import AssemblyError
 from core.modal import RIGID_TOL, LinearModel, Modes, _linearize, linearize, sweep
 from core.models import (
     disk_rotor,
@@ -521,3 +523,115 @@ def test_errors():
     with concurrent.futures.ThreadPoolExecutor(1) as pool, pytest.raises(ValueError, match="build: expected"):
         sweep(lambda v: None, [1.0, 2.0], executor=pool)
     assert RIGID_TOL > 0
+
+
+# ------------------------------------------------------------------ reviewed edge cases
+def _spring_block(arm: float, *, attach: float | None = None, gravity=(0.0, 0.0, 0.0)):
+    """A 1 kg block on a prismatic guide along x at x = ``arm``, held by a 100 N/m spring from the origin to the
+    block point at x = ``attach`` (default: its centre of mass); sqrt(k / m) = 10 rad/s."""
+    from core.multibody import System
+
+    s = System(gravity=gravity)
+    b = s.add_body("m", mass=1.0, inertia=(0.01,) * 3, position=(arm, 0.0, 0.0))
+    s.add_joint("prismatic", s.ground, b, point=(arm, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+    s.add_spring_damper(s.ground, (0.0, 0.0, 0.0), b, (arm if attach is None else attach, 0.0, 0.0), stiffness=100.0)
+    s.assemble()
+    return s
+
+
+@pytest.mark.parametrize("length", [1.0, 5e-4, 3e-4, 1e-6])
+def test_a_short_spring_at_the_centre_of_mass_has_its_stiffness(length):
+    # the steps are no longer than the spring (they were 0.3 mm whatever its length: 13 % stiff at 0.5 mm, an
+    # error at 0.3 mm); with steps of 3e-4 of it the differences' truncation is about (3e-4)^4
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        omega = linearize(_spring_block(length)).modes().omega_n
+    np.testing.assert_allclose(omega, 10.0, rtol=1e-10)
+
+
+def test_a_spring_equilibrium_without_gravity_is_not_refused_for_round_off():
+    # the spring balances to 4e-17 m/s^2: the steady check's scale is the springs' k l / m, not 1e-12 m/s^2
+    s = _spring_block(0.0105, attach=0.0005)
+    np.testing.assert_allclose(linearize(s).modes().omega_n, 10.0, rtol=1e-10)
+
+
+def test_a_state_off_the_constraints_is_refused():
+    s = _spring_block(0.5)
+    dq = np.zeros(6)
+    dq[2] = 0.2  # 0.2 m off the guide
+    s.set_state(s.state.displaced(dq=dq))
+    with pytest.raises(AssemblyError, match=r"linearize: the current state violates the constraints .* prismatic"):
+        linearize(s)
+
+
+def test_a_body_turning_in_the_frame_without_symmetry_is_warned_about():
+    from core.multibody import System
+
+    # spin about the intermediate axis: unstable, s = +-w sqrt((I1 - I2)(I2 - I3) / (I1 I3)) = +-1 in its own frame
+    s = System(gravity=(0.0, 0.0, 0.0))
+    s.add_body("b", mass=1.0, inertia=(3.0, 2.0, 1.5), omega_body=(0.0, 3.0, 0.0))
+    s.assemble()
+    with pytest.warns(RuntimeWarning, match=r"body 'b' turns at 3 rad/s .* inertia is not symmetric"):
+        linearize(s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        modes = linearize(s, frame_omega=(0.0, 3.0, 0.0)).modes()
+    assert not modes.is_stable
+    assert np.max(modes.eigenvalues.real) == pytest.approx(1.0, rel=1e-8)
+    # a pendulum whose joint axis turns in the frame
+    with pytest.warns(RuntimeWarning, match=r"the axis of joint 'joint0' is not that axis"):
+        linearize(pendulum_chain(2), frame_omega=(0.0, 0.0, 1.0))
+    # symmetric rotors spinning about their axes: no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        linearize(disk_rotor(80.0).system)
+
+
+@pytest.mark.parametrize("axis", [0, 2])
+def test_a_free_spinner_in_its_own_frame_is_stable_about_its_major_and_minor_axes(axis):
+    from core.multibody import System
+
+    w = np.zeros(3)
+    w[axis] = 3.0
+    s = System(gravity=(0.0, 0.0, 0.0))
+    s.add_body("b", mass=1.0, inertia=(3.0, 2.0, 1.5), omega_body=w)
+    s.assemble()
+    modes = linearize(s, frame_omega=w).modes()
+    # the translations across the axis seen from the turning frame: +-3i twice, split by round-off (real
+    # parts about 3e-8); with a tilt of the whole spin, six roots at +-3i
+    assert modes.is_stable
+    near = np.abs(np.abs(modes.eigenvalues.imag) - 3.0) < 1e-6
+    assert near.sum() == 6 and np.all(modes.critical[near])
+    # nutation: w sqrt((I1 - I2)(I1 - I3) / (I2 I3)) about the major axis, sqrt((I1 - I3)(I2 - I3) / (I1 I2)) about
+    # the minor one
+    nutation = 3.0 * math.sqrt(1.0 * 1.5 / 3.0) if axis == 0 else 3.0 * math.sqrt(1.5 * 0.5 / 6.0)
+    assert np.min(np.abs(np.abs(modes.eigenvalues.imag) - nutation)) < 1e-8
+
+
+def test_animate_refuses_a_motion_that_left_the_floating_point_range():
+    from core.multibody import System
+
+    s = System(gravity=(0.0, 0.0, -9.81))
+    b = s.add_body("bob", mass=1.0, inertia=(0.0,) * 3, position=(0.0, 0.0, 0.8))  # inverted: s = sqrt(g / L)
+    s.add_joint("revolute", s.ground, b, point=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0))
+    s.assemble()
+    modes = linearize(s).modes()
+    k = int(np.argmax(modes.eigenvalues.real))
+    assert modes.eigenvalues[k].real == pytest.approx(math.sqrt(9.81 / 0.8), rel=1e-9)
+    with pytest.raises(ValueError, match=r"amplitude, t: .* not finite at t=300"):
+        modes.animate(s, k, [0.0, 1.0, 300.0], amplitude=0.1)
+    with pytest.raises(AssemblyError, match="animate: the configuration at t=0 could not be projected"):
+        modes.animate(s, k, [0.0], amplitude=1e300)
+    with pytest.raises(ValueError, match=r"t: expected a time or a 1-D array of times"):
+        modes.animate(s, k, [[0.0, 1.0]], amplitude=0.1)
+
+
+def test_linear_model_refuses_scales_out_of_range_and_bad_derivative_errors():
+    with pytest.raises(ValueError, match="left the floating-point range"):
+        LinearModel(1e-200 * np.eye(2), 1e200 * np.array([[2.0, -1.0], [-1.0, 1.0]])).modes()
+    for bad in ("abc", None, float("nan"), -1.0, True):
+        with pytest.raises(ValueError, match="derivative_error: expected a finite relative error >= 0"):
+            LinearModel(np.eye(1), np.eye(1), derivative_error=bad)
+    # an undamped mode's damping ratio is 0, not -0.0 (written "-0.0" in the CSV)
+    ratio = LinearModel(np.eye(1), np.eye(1)).modes().damping_ratio
+    assert np.all(ratio == 0.0) and not np.any(np.signbit(ratio))
