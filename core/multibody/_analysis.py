@@ -337,7 +337,15 @@ def assemble(system: Any, *, t: Any = None, tol: Any = 1e-12, max_iterations: An
         r = D @ v + Ct
         dv = -(Wmh @ np.linalg.lstsq(D @ Wmh, r, rcond=1e-12)[0])
         y[7 * n :] = v + dv
-        res_v = float(np.max(np.abs(D @ y[7 * n :] + Ct)))
+        rv = D @ y[7 * n :] + Ct
+        res_v = float(np.max(np.abs(rv)))
+        if res_v > 1e-8 * (1.0 + float(np.max(np.abs(y[7 * n :])))):  # (simulate's limit: it would refuse the state)
+            r = int(np.argmax(np.abs(rv)))
+            raise AssemblyError(
+                f"assemble: the velocity constraints contradict each other at t={t:g} (velocity residual "
+                f"{res_v:.3e} after the least-squares velocities; largest in {row_label(eng, r)}): rows that are "
+                "redundant in the positions prescribe different velocities, e.g. a motor driving a coordinate "
+                "that other joints or motors already fix")
         rank = int(keep.size)
     else:
         eng.keep, eng.rank = None, 0
@@ -382,6 +390,8 @@ def _static_residual(eng: _Engine, system: Any, t: float, y: np.ndarray, lam: np
 def equilibrium(system: Any, *, t: Any = None, tol: Any = 1e-10, max_iterations: Any = 50) -> EquilibriumReport:
     """See :meth:`System.equilibrium`."""
     t, tol, max_iterations = _args(system, t, tol, max_iterations)
+    if not system.bodies:
+        raise ValueError("system: has no bodies to hold in equilibrium (add_body first)")
     shared = system._engine()
     eng = shared.workspace()
     n = eng.n

@@ -26,6 +26,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from core._validation import short_repr
 
 _H1 = 1e-30
@@ -34,6 +36,8 @@ _W = cmath.exp(0.25j * math.pi)
 
 
 def _real(value: Any, name: str, t: float) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name}: expected the function to return a real number, got {short_repr(value)}")
     try:
         v = complex(value)
     except (TypeError, ValueError):

@@ -1009,6 +1009,8 @@ def _call_load(item: Any, t: float, state: Any, what: str) -> np.ndarray:
     arr = np.asarray(value)
     if arr.dtype.kind == "c":
         raise ValueError(f"{what} '{item.name}': expected real numbers, got complex {value!r}")
+    if arr.dtype.kind == "b" or (arr.dtype.kind == "O" and any(isinstance(x, (bool, np.bool_)) for x in arr.ravel())):
+        raise ValueError(f"{what} '{item.name}': expected a (3,) vector of real numbers, got {value!r}")
     try:
         arr = arr.astype(float)
     except (TypeError, ValueError):

@@ -1384,7 +1384,8 @@ def simulate(
         _check_turns(system, y0, t0, float(tt[-1]), max_steps)
     if not adaptive:
         gaps = np.diff(tt)
-        counts = np.where(gaps > 0, np.ceil(gaps / dt - 1e-9), 0).astype(np.int64)
+        with np.errstate(over="ignore", invalid="ignore"):  # (a dt so small that the count overflows: refused below)
+            counts = np.where(gaps > 0, np.ceil(gaps / dt - 1e-9), 0).astype(np.int64)
         counts[(gaps > 0) & (counts < 1)] = 1
         if int(counts.sum()) > max_steps:
             raise ValueError(

@@ -241,13 +241,13 @@ class State:
         y = np.concatenate([self.q, self.v])
         if dq is not None:
             d = float_array(dq, "dq", copy=True)
-            if d.shape != (6 * n,):
-                raise ValueError(f"dq: expected shape ({6 * n},), got {d.shape}")
+            if d.shape != (6 * n,) or not np.all(np.isfinite(d)):
+                raise ValueError(f"dq: expected finite increments of shape ({6 * n},), got {short_repr(dq)}")
             y = retract(y, n, d)
         if dv is not None:
             d = float_array(dv, "dv", copy=True)
-            if d.shape != (6 * n,):
-                raise ValueError(f"dv: expected shape ({6 * n},), got {d.shape}")
+            if d.shape != (6 * n,) or not np.all(np.isfinite(d)):
+                raise ValueError(f"dv: expected finite increments of shape ({6 * n},), got {short_repr(dv)}")
             y[7 * n :] += d
         return _make_state(self._owner, self.t, y)
 
@@ -1164,7 +1164,7 @@ class System:
             run takes at least one evaluation per radian of its fastest
             body's turn: one whose ``|omega| (t[-1] - t[0])`` at the start
             exceeds ``max_steps`` is refused before it starts, and one above
-            ``LONG_RUN_RADIANS`` (1e5 rad, minutes of CPU) warns
+            ``core.multibody._simulate.LONG_RUN_RADIANS`` (1e5 rad, minutes of CPU) warns
             (RuntimeWarning).
         on_separation : str, keyword-only
             Contacts in the constraint model: when a normal force crosses

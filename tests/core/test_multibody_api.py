@@ -8,6 +8,7 @@ without a clear error.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -315,7 +316,7 @@ def test_state_snapshot_and_set_state(two):
     other = System()
     with pytest.raises(ValueError, match=r"state: belongs to another System"):
         other.set_state(state)
-    with pytest.raises(ValueError, match=r"dq: expected shape \(12,\)"):
+    with pytest.raises(ValueError, match=r"dq: expected finite increments of shape \(12,\)"):
         state.displaced(dq=np.zeros(3))
 
 
@@ -442,3 +443,53 @@ def test_simulations_on_two_threads_do_not_interfere():
     for run in runs:
         np.testing.assert_array_equal(run.q, ref.q)
         np.testing.assert_allclose(run.multipliers, ref.multipliers, rtol=0, atol=1e-12)
+
+
+# ------------------------------------------------------------------ reviewed edge cases
+def _pendulum_with_fixed_joint(angle):
+    s = System()
+    b = s.add_body("b", mass=1.0, inertia=(1 / 12, 1 / 12, 0.01), position=(0.0, 0.0, -0.5))
+    j = s.add_joint("revolute", s.ground, b, point=(0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+    s.add_joint("fixed", s.ground, b, point=(0.0, 0.0, 0.0))
+    s.add_motor(j, angle=angle)
+    return s
+
+
+def test_assemble_refuses_drivers_that_contradict_the_joints_in_velocity():
+    # a motor turning a joint that a fixed joint holds: redundant in the positions at t = 0, but 1 rad/s against
+    # 0 (simulate used to refuse the assembled state and tell the user to call assemble again)
+    s = _pendulum_with_fixed_joint(lambda t: t)
+    y0 = np.array(s._y)
+    with pytest.raises(AssemblyError, match=r"velocity constraints contradict .* motor1 \(motor angle\)"):
+        s.assemble()
+    np.testing.assert_array_equal(s._y, y0)  # nothing changed
+    # a motor holding the same joint still: consistent, only redundant
+    report = _pendulum_with_fixed_joint(lambda t: 0.0 * t).assemble()
+    assert "motor1 (motor angle): angle" in report.redundant and report.residual_velocity == 0.0
+
+
+def test_non_finite_or_boolean_inputs_found_by_review_are_refused():
+    s = System()
+    b = s.add_body("b", mass=1.0, inertia=(0.1, 0.1, 0.1), position=(0.0, 0.0, -1.0))
+    with pytest.raises(ValueError, match=r"dq: expected finite increments of shape \(6,\)"):
+        s.state.displaced(np.full(6, np.nan))
+    with pytest.raises(ValueError, match=r"dv: expected finite increments"):
+        s.state.displaced(dv=[0.0, 0.0, math.inf, 0.0, 0.0, 0.0])
+    j = s.add_joint("revolute", s.ground, b, point=(0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="angle: expected the function to return a real number, got True"):
+        s.add_motor(j, angle=lambda t: True)
+    s.add_force(b, lambda t, state: (True, False, False))
+    s.assemble()
+    with pytest.raises(ValueError, match=r"force 'force1': expected a \(3,\) vector of real numbers"):
+        s.simulate([0.0, 0.1])
+    with pytest.raises(ValueError, match="system: has no bodies to hold in equilibrium"):
+        System().equilibrium()
+
+
+def test_a_step_too_small_to_count_is_refused_without_a_warning():
+    s = System()
+    s.add_body("b", mass=1.0, inertia=(0.1, 0.1, 0.1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="dt: .* more than max_steps"):
+            s.simulate([0.0, 1.0], method="rk4", dt=1e-300)
