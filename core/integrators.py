@@ -867,6 +867,13 @@ def attach_partial(exc: BaseException, t_rec: list, y_rec: list) -> None:
         exc.partial = (list(t_rec), [np.array(y) for y in y_rec])
 
 
+def _model_failure(model: Any, t: float, y: np.ndarray, exc: BaseException) -> BaseException:
+    """The error to raise for a run that failed after its last accepted state ``(t, y)``: ``exc``, or what
+    ``model.failure(t, y, exc)`` makes of it when the model has that hook (a mechanism at a dead point)."""
+    hook = getattr(model, "failure", None)
+    return exc if hook is None else hook(t, y, exc)
+
+
 def _run_adaptive_projected(
     model: Any,
     y0: np.ndarray,
@@ -943,14 +950,17 @@ def _run_adaptive_projected(
                         solver.h_abs = min(solver.h_abs, abs(solver.h_previous))
                     break
                 if solver.status == "failed":
-                    raise IntegrationError(
+                    raise _model_failure(model, t_prev, y_prev, IntegrationError(
                         f"{method} failed at step {n_steps + 1} (t={solver.t:.6g}): {message}", step=n_steps + 1,
                         t=solver.t
-                    )
+                    ))
                 n_steps += 1
                 t_new = float(solver.t)
                 y_raw = solver.y
-                y_new = project(t_new, y_raw)
+                try:
+                    y_new = project(t_new, y_raw)
+                except IntegrationError as exc:
+                    raise _model_failure(model, t_prev, y_prev, exc) from exc
                 if not np.all(np.isfinite(y_new)):
                     raise DivergenceError(
                         f"run diverged: non-finite state at step {n_steps} (t={t_new:.6g}); tighten the tolerances",
@@ -976,7 +986,7 @@ def _run_adaptive_projected(
                             k_next += 1
                         stopped = (te, y_stop)
                         break
-                    t_prev, y_prev = t_new, np.array(y_new)
+                t_prev, y_prev = t_new, np.array(y_new)  # (the last accepted state: the check's and a failure's)
                 if t_eval is None:
                     t_rec.append(t_new)
                     y_rec.append(np.array(y_new))

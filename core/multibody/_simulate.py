@@ -43,6 +43,7 @@ from ._analysis import (
     check_constrained_mass,
     constraints_at,
     flipped_motors,
+    metric_inv_sqrt,
     row_label,
 )
 from ._elements import Body, Joint, Motor
@@ -120,6 +121,11 @@ class _Dynamics:
         self.outputs_end_steps = False
         if not any(c.model == "constraint" for c in eng.contacts):
             self.stop_time = None
+
+    def failure(self, t: float, y: np.ndarray, exc: BaseException) -> BaseException:
+        """The error of a run that failed after its last accepted state ``(t, y)`` (``core.integrators`` asks):
+        a dead point's :class:`SingularSystemError` when the state is one (see :func:`dead_point_error`)."""
+        return dead_point_error(self.eng, t, y, exc)
 
     def stage_rejected(self) -> None:
         """A step's trial stage could not be evaluated (see ``core.integrators``): the retried step's
@@ -955,6 +961,42 @@ def check_assembled(eng: _Engine, t: float, y: np.ndarray, what: str, *, limit: 
         )
 
 
+#: A run that fails (its steps cannot pass a time) at a state where the Jacobian of the independent position
+#: rows, in the mass metric, has its smallest singular value below this fraction of its largest has reached a
+#: dead point: the constraints lose rank there (a linkage at its limit position, driven further by a motor).
+DEAD_POINT_TOL = 1e-3
+
+
+def dead_point_ratio(eng: _Engine, t: float, y: np.ndarray) -> float:
+    """Smallest over largest singular value of ``D_p W^-1/2`` at ``(t, y)`` (``D_p``: the independent position
+    rows; 1 without rows), on a workspace copy (the run's contact warm starts are left as they are)."""
+    w = eng.workspace()
+    kp = _position_rows(w)[0]
+    _, D, _, _ = constraints_at(w, t, y, 1)
+    D = np.array(D) if kp is None else np.array(D)[kp]
+    if D.shape[0] == 0:
+        return 1.0
+    sv = np.linalg.svd(D @ metric_inv_sqrt(w), compute_uv=False)
+    return float(sv[-1] / sv[0]) if sv[0] > 0.0 else 0.0
+
+
+def dead_point_error(eng: _Engine, t: float, y: np.ndarray, exc: BaseException) -> BaseException:
+    """``exc`` (a run that could not go on past the last accepted state ``(t, y)``), or a
+    :class:`SingularSystemError` when that state is a dead point (see :data:`DEAD_POINT_TOL`)."""
+    try:
+        ratio = dead_point_ratio(eng, t, y)
+    except Exception:  # noqa: BLE001 - the diagnosis must not hide the failure
+        return exc
+    if not ratio <= DEAD_POINT_TOL:
+        return exc
+    err = SingularSystemError(
+        f"the mechanism reached a dead point at t={t:.6g}: its constraint Jacobian is nearly singular there "
+        f"(smallest singular value {ratio:.1e} of the largest, in the mass metric), so no step passes it; a "
+        f"motor is driving a linkage beyond its limit position (change the motion or the dimensions). The "
+        f"run's own error: {exc}", t=t)
+    return err
+
+
 def _normal_velocity_note(eng: _Engine, r: int, position: bool, rv: np.ndarray) -> str:
     """What ``assemble`` would do to a normal velocity of a constraint-model contact (row ``r``)."""
     item, label = eng.row_labels[r]
@@ -1169,9 +1211,12 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
                             f"kinematic: the extrapolation to t={t_new:.6g} is too far from the solution to trust that "
                             "Newton found the configuration the motion continues to; give closer output times", t=t_new)
                     break
-                except (IntegrationError, ValueError):
+                except (IntegrationError, ValueError) as exc:
                     if halving == _KINEMATIC_HALVINGS:
-                        raise
+                        err = dead_point_error(model.eng, t_a, y_a, exc)
+                        if err is exc:
+                            raise
+                        raise err from exc
                     _contact_restore(model.eng, snap)
                     h *= 0.5
             if n_rhs >= max_steps:

@@ -20,6 +20,7 @@ import pytest
 from core.contact import _search
 from core.contact._kernel import ContactKernel
 from core.models import CamFollower, CamProfile, pendulum_chain, rolling_disk, slider_crank
+from core.multibody import SingularSystemError
 from core.multibody._engine import parameter_rates
 from core.multibody._simulate import _Dynamics, _kinematic_prediction
 from core.multibody._system import exp_parameters
@@ -227,3 +228,50 @@ def test_a_compliant_continuation_from_the_start_integrates_with_outputs_inside_
     assert motion.status == "completed" and motion.separations[0, 0] == pytest.approx(t0, abs=1e-15)
     assert [flag for t, flag in seen if t > t0] and not any(flag for t, flag in seen if t > t0)
     assert motion.trajectory._model.outputs_end_steps is False
+
+
+# ------------------------------------------------------------------ a motor driving a linkage into its dead point
+def _non_grashof_four_bar():
+    """Crank 1.5 m, coupler 1 m, rocker 1.2 m, ground 2 m (no link turns fully: 1.5 + 2 > 1 + 1.2), the crank
+    turned by a motor at 1 rad/s from 1 rad. Coupler and rocker stretch out (|B - D| = 1 + 1.2) when the crank
+    is at acos((1.5^2 + 2^2 - 2.2^2) / (2 1.5 2)), at t = 0.3335777587 s: the dead point."""
+    from core.multibody import System
+
+    a, b, c, d = 1.5, 1.0, 1.2, 2.0
+    A, D = np.zeros(3), np.array([d, 0.0, 0.0])
+    B = a * np.array([math.cos(1.0), 0.0, math.sin(1.0)])
+    e = (D - B) / np.linalg.norm(D - B)
+    x = (b * b - c * c + np.dot(D - B, D - B)) / (2.0 * np.linalg.norm(D - B))
+    C = B + x * e + math.sqrt(b * b - x * x) * np.cross(e, [0.0, 1.0, 0.0])
+    s = System()
+
+    def rod(name, p, q, length):
+        u = (q - p) / length  # the rod's z axis along it: a rotation about y
+        half = 0.5 * math.atan2(u[0], u[2])
+        return s.add_body(name, mass=1.0, inertia=(length**2 / 12, length**2 / 12, 1e-4), position=(p + q) / 2,
+                          orientation=(math.cos(half), 0.0, math.sin(half), 0.0))
+
+    crank, coupler, rocker = rod("crank", A, B, a), rod("coupler", B, C, b), rod("rocker", D, C, c)
+    pivot = s.add_joint("revolute", s.ground, crank, point=A, axis=(0.0, -1.0, 0.0))
+    s.add_joint("revolute", crank, coupler, point=B, axis=(0.0, -1.0, 0.0))
+    s.add_joint("revolute", coupler, rocker, point=C, axis=(0.0, -1.0, 0.0))
+    s.add_joint("revolute", s.ground, rocker, point=D, axis=(0.0, -1.0, 0.0))
+    s.add_motor(pivot, angle=lambda t: t)
+    s.assemble()
+    return s
+
+
+DEAD_POINT_T = math.acos((1.5**2 + 2.0**2 - 2.2**2) / (2 * 1.5 * 2.0)) - 1.0
+
+
+@pytest.mark.parametrize("method", ["kinematic", pytest.param("DOP853", marks=pytest.mark.slow)])
+def test_a_motor_driving_a_linkage_into_its_dead_point_is_a_singular_system_error(method):
+    # (it was "the extrapolation ... is too far ...; give closer output times" and, with DOP853 after 15 s of
+    # CPU, "Required step size is less than spacing between numbers": advice that never helps)
+    system = _non_grashof_four_bar()
+    with pytest.raises(SingularSystemError, match=r"dead point at t=0\.33357") as info:
+        system.simulate(np.linspace(0.0, 3.0, 31), method=method)
+    assert info.value.t == pytest.approx(DEAD_POINT_T, abs=1e-5)
+    assert info.value.trajectory.t[-1] == pytest.approx(0.3)  # the outputs before it are kept
+    # short of the dead point the same run is fine
+    system.simulate(np.linspace(0.0, 0.3, 4), method=method)
