@@ -85,6 +85,7 @@ name           order  notes
 from __future__ import annotations
 
 import math
+import warnings
 import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -502,19 +503,41 @@ class _BudgetExceeded(Exception):
         self.t = t
 
 
-class _CountingModel:
-    """Wraps a model to count rhs calls, optionally at most ``max_calls`` (internal)."""
+#: An adaptive run warns (RuntimeWarning, once) when it has used this many right-hand sides and, at the pace
+#: it went so far, would need ten times as many to reach its end: a stiff or runaway model that ``max_steps``
+#: (ten million) would stop only after most of an hour.
+LONG_RUN_CALLS = 1_000_000
 
-    def __init__(self, model: Any, max_calls: float = math.inf):
+
+class _CountingModel:
+    """Wraps a model to count rhs calls, optionally at most ``max_calls`` (internal); ``span``: the run's
+    ``(t0, t1)``, for the warning of :data:`LONG_RUN_CALLS`."""
+
+    def __init__(self, model: Any, max_calls: float = math.inf, span: tuple[float, float] | None = None):
         self._model = model
         self.calls = 0
         self._max_calls = max_calls
+        self._span = span
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         self.calls += 1
         if self.calls > self._max_calls:
             raise _BudgetExceeded(float(t))
+        if self.calls == LONG_RUN_CALLS and self._span is not None:
+            self._warn_long(float(t))
         return self._model.rhs(t, y)
+
+    def _warn_long(self, t: float) -> None:
+        t0, t1 = self._span
+        done = (t - t0) / (t1 - t0) if t1 != t0 else 1.0
+        if done > 0.1:
+            return
+        need = f"about {LONG_RUN_CALLS / done:.1e}" if done > 0.0 else "far more"
+        warnings.warn(
+            f"this run has used {LONG_RUN_CALLS:,} right-hand sides to reach t={t:.6g} of t1={t1:g} "
+            f"({100.0 * done:.2g} %): at that pace it needs {need} in all (max_steps stops it at "
+            f"{self._max_calls:,.0f}); a stiff force or a runaway motion? Shorten the time span, loosen rtol, "
+            "or pass a smaller max_steps", RuntimeWarning, stacklevel=2)
 
 
 def _check_finite_and_drift(
@@ -799,7 +822,7 @@ def _run_adaptive(
             raise ValueError(f"t_eval: expected sorted 1-D times within t_span, got shape {t_eval.shape}")
     if getattr(model, "project", None) is not None or getattr(model, "stop_time", None) is not None:
         return _run_adaptive_projected(model, y0, t0, t1, method, rtol, atol, t_eval, inv0, max_drift, max_steps)
-    counter = _CountingModel(model, max_calls=max_steps)
+    counter = _CountingModel(model, max_calls=max_steps, span=(float(t0), float(t1)))
     # t_eval is served from scipy's dense output (what solve_ivp itself does
     # for t_eval), so the accepted steps stay countable.
     try:
@@ -896,7 +919,7 @@ def _run_adaptive_projected(
             f"method: '{method}' keeps internal state that model.project would invalidate; "
             "use RK45, DOP853, rk4 or midpoint"
         )
-    counter = _CountingModel(model, max_calls=max_steps)
+    counter = _CountingModel(model, max_calls=max_steps, span=(float(t0), float(t1)))
     project = getattr(model, "project", None)
     if project is None:  # stepped one accepted step at a time for the model's stop_time check
 

@@ -493,3 +493,20 @@ def test_a_step_too_small_to_count_is_refused_without_a_warning():
         warnings.simplefilter("error")
         with pytest.raises(ValueError, match="dt: .* more than max_steps"):
             s.simulate([0.0, 1.0], method="rk4", dt=1e-300)
+
+
+def test_a_run_that_would_take_most_of_an_hour_warns_early(monkeypatch):
+    # a 1e10 N/m spring on a 1 kg block: DOP853 needs about 2e8 right-hand sides for 100 s, which the default
+    # max_steps (1e7) would stop only after about 40 minutes; the warning comes at LONG_RUN_CALLS (scaled
+    # down here, with max_steps, to keep the test short)
+    import core.integrators as integrators
+
+    monkeypatch.setattr(integrators, "LONG_RUN_CALLS", 2000)
+    s = System()
+    b = s.add_body("b", mass=1.0, inertia=(0.1, 0.1, 0.1), position=(0.0, 0.0, -1.0))
+    s.add_joint("prismatic", s.ground, b, point=(0.0, 0.0, -1.0), axis=(0.0, 0.0, 1.0))
+    s.add_spring_damper(s.ground, (0.0, 0.0, 0.0), b, (0.0, 0.0, -1.0), stiffness=1e10)
+    s.assemble()
+    with pytest.warns(RuntimeWarning, match=r"used 2,000 right-hand sides to reach t=.* of t1=100 .* needs about"):
+        with pytest.raises(IntegrationError, match="max_steps=3000"):
+            s.simulate(np.linspace(0.0, 100.0, 11), max_steps=3000)
