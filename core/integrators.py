@@ -85,8 +85,8 @@ name           order  notes
 from __future__ import annotations
 
 import math
-import warnings
 import numbers
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -983,7 +983,10 @@ def _run_adaptive_projected(
                 try:
                     y_new = project(t_new, y_raw)
                 except IntegrationError as exc:
-                    raise _model_failure(model, t_prev, y_prev, exc) from exc
+                    err = _model_failure(model, t_prev, y_prev, exc)
+                    if err is exc:
+                        raise
+                    raise err from exc
                 if not np.all(np.isfinite(y_new)):
                     raise DivergenceError(
                         f"run diverged: non-finite state at step {n_steps} (t={t_new:.6g}); tighten the tolerances",
