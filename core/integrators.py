@@ -890,11 +890,19 @@ def attach_partial(exc: BaseException, t_rec: list, y_rec: list) -> None:
         exc.partial = (list(t_rec), [np.array(y) for y in y_rec])
 
 
-def _model_failure(model: Any, t: float, y: np.ndarray, exc: BaseException) -> BaseException:
+def _model_failure(model: Any, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
     """The error to raise for a run that failed after its last accepted state ``(t, y)``: ``exc``, or what
-    ``model.failure(t, y, exc)`` makes of it when the model has that hook (a mechanism at a dead point)."""
+    ``model.failure(t, y, exc)`` makes of it when the model has that hook (a mechanism at a dead point).
+    ``exc`` None: the run has not failed, but its steps shrank below :data:`STALLED_STEP` of its span (an error
+    or None)."""
     hook = getattr(model, "failure", None)
     return exc if hook is None else hook(t, y, exc)
+
+
+#: An accepted step shorter than this fraction of the run's span asks the model whether it has stalled at a
+#: singular state (``model.failure(t, y, None)``): DOP853 driven into a mechanism's dead point reached it to
+#: 1e-8 s in 0.4 s of CPU, then crawled 17 s more before its step fell below the spacing of floats.
+STALLED_STEP = 1e-9
 
 
 def _run_adaptive_projected(
@@ -1012,6 +1020,10 @@ def _run_adaptive_projected(
                             k_next += 1
                         stopped = (te, y_stop)
                         break
+                if t_new - t_prev < STALLED_STEP * abs(t1 - t0):
+                    err = _model_failure(model, t_new, y_new, None)
+                    if err is not None:
+                        raise err
                 t_prev, y_prev = t_new, np.array(y_new)  # (the last accepted state: the check's and a failure's)
                 if t_eval is None:
                     t_rec.append(t_new)

@@ -122,9 +122,10 @@ class _Dynamics:
         if not any(c.model == "constraint" for c in eng.contacts):
             self.stop_time = None
 
-    def failure(self, t: float, y: np.ndarray, exc: BaseException) -> BaseException:
-        """The error of a run that failed after its last accepted state ``(t, y)`` (``core.integrators`` asks):
-        a dead point's :class:`SingularSystemError` when the state is one (see :func:`dead_point_error`)."""
+    def failure(self, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
+        """The error of a run that failed after its last accepted state ``(t, y)``, or (``exc`` None) whose
+        steps have shrunk to nothing there (``core.integrators`` asks): a dead point's
+        :class:`SingularSystemError` when the state is one (see :func:`dead_point_error`), else ``exc``."""
         return dead_point_error(self.eng, t, y, exc)
 
     def stage_rejected(self) -> None:
@@ -980,21 +981,21 @@ def dead_point_ratio(eng: _Engine, t: float, y: np.ndarray) -> float:
     return float(sv[-1] / sv[0]) if sv[0] > 0.0 else 0.0
 
 
-def dead_point_error(eng: _Engine, t: float, y: np.ndarray, exc: BaseException) -> BaseException:
-    """``exc`` (a run that could not go on past the last accepted state ``(t, y)``), or a
-    :class:`SingularSystemError` when that state is a dead point (see :data:`DEAD_POINT_TOL`)."""
+def dead_point_error(eng: _Engine, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
+    """``exc`` (a run that could not go on past the last accepted state ``(t, y)``; None: a run whose steps
+    have shrunk to nothing), or a :class:`SingularSystemError` when that state is a dead point (see
+    :data:`DEAD_POINT_TOL`)."""
     try:
         ratio = dead_point_ratio(eng, t, y)
     except Exception:  # noqa: BLE001 - the diagnosis must not hide the failure
         return exc
     if not ratio <= DEAD_POINT_TOL:
         return exc
-    err = SingularSystemError(
+    own = "" if exc is None else f" The run's own error: {exc}"
+    return SingularSystemError(
         f"the mechanism reached a dead point at t={t:.6g}: its constraint Jacobian is nearly singular there "
         f"(smallest singular value {ratio:.1e} of the largest, in the mass metric), so no step passes it; a "
-        f"motor is driving a linkage beyond its limit position (change the motion or the dimensions). The "
-        f"run's own error: {exc}", t=t)
-    return err
+        f"motor is driving a linkage beyond its limit position (change the motion or the dimensions).{own}", t=t)
 
 
 def _normal_velocity_note(eng: _Engine, r: int, position: bool, rv: np.ndarray) -> str:
