@@ -688,6 +688,8 @@ def run_plot_angles(chunk: RunChunk) -> np.ndarray:
     return np.round(np.degrees(chunk.theta) - 360.0 * chunk.k, 9)
 
 
+#: The plots' x scale: the cam angle (deg), not a time axis.
+_X_SCALE = {"x": {"time": False}}
 #: Legend label of the System's force in the compliant run's plot (the off-scale impact peak is added to it).
 _RUN_FORCE_LABEL = "System (N)"
 #: The compliant run's force plot shows up to this many times the closed form's span above the closed form's
@@ -1013,7 +1015,6 @@ class CamFollowerScene(Scene):
                                               "contact after a separation"))
                 self.controls.add(Toggle("show_contact", "Contact point, normal, force", default=True))
             with gui.add_folder("Plots (one revolution)"):
-                x_scale = {"x": {"time": False}}
                 x_series = {"label": "θ (deg)"}
                 # the fill marks the separation interval; no stroke (it would draw a line at zero elsewhere)
                 shade = {"label": "N < 0", "stroke": "rgba(150, 60, 200, 0)", "fill": "rgba(150, 60, 200, 0.3)",
@@ -1022,31 +1023,31 @@ class CamFollowerScene(Scene):
                 plots = {
                     "lift": self.add_plot(
                         (empty,) * 3, (x_series, {"label": "s (mm)", "stroke": "#2266dd", "width": 2}, shade),
-                        title="lift s (mm)", scales=x_scale, aspect=1.7),
+                        title="lift s (mm)", scales=_X_SCALE, aspect=1.7),
                     "velocity": self.add_plot(
                         (empty,) * 3, (x_series, {"label": "v (m/s)", "stroke": "#0f766e", "width": 2}, shade),
-                        title="velocity ω s′ (m/s)", scales=x_scale, aspect=1.7),
+                        title="velocity ω s′ (m/s)", scales=_X_SCALE, aspect=1.7),
                     "acceleration": self.add_plot(
                         (empty,) * 3, (x_series, {"label": "a (m/s²)", "stroke": "#c2410c", "width": 2}, shade),
-                        title="acceleration ω² s″ (m/s²)", scales=x_scale, aspect=1.7),
+                        title="acceleration ω² s″ (m/s²)", scales=_X_SCALE, aspect=1.7),
                     "force": self.add_plot(
                         (empty,) * 5,
                         (x_series, {"label": "N (N)", "stroke": "#d97706", "width": 2},
                          {"label": "N = 0", "stroke": "#555555", "dash": [6, 4], "width": 1},
                          {"label": "N at jump speed", "stroke": "#888888", "dash": [3, 3], "width": 1}, shade),
-                        title="contact force N (N)", scales=x_scale, aspect=1.7),
+                        title="contact force N (N)", scales=_X_SCALE, aspect=1.7),
                 }
                 run_plots = {
                     "run_lift": self.add_plot(
                         (empty,) * 3,
                         (x_series, {"label": "cam under it (mm)", "stroke": "#2266dd", "width": 2},
                          {"label": "follower (mm)", "stroke": "#9633c8", "width": 2}),
-                        title="compliant run: lift (this revolution)", scales=x_scale, aspect=1.7, visible=False),
+                        title="compliant run: lift (this revolution)", scales=_X_SCALE, aspect=1.7, visible=False),
                     "run_force": self.add_plot(
                         (empty,) * 3,
                         (x_series, {"label": "closed form (N)", "stroke": "#888888", "dash": [6, 4], "width": 1},
                          {"label": _RUN_FORCE_LABEL, "stroke": "#d97706", "width": 2}),
-                        title="compliant run: contact force (this revolution)", scales=x_scale, aspect=1.7,
+                        title="compliant run: contact force (this revolution)", scales=_X_SCALE, aspect=1.7,
                         visible=False),
                 }
             self.add_download("download_csv", "Download CSV", "cam_follower.csv", self.csv_bytes,
@@ -1418,7 +1419,7 @@ class CamFollowerScene(Scene):
             else:
                 (lo, hi), peak = run_force_range(chunk)
                 plot = gui.run_plots[what]
-                plot.scales = {"x": {"time": False}, "y": {"auto": False, "range": [lo, hi]}}
+                plot.scales = {**_X_SCALE, "y": {"auto": False, "range": [lo, hi]}}
                 label = _RUN_FORCE_LABEL + ("" if peak is None else f", peak {_newtons(peak)} off scale")
                 if plot.series[2]["label"] != label:
                     plot.series = (*plot.series[:2], {**plot.series[2], "label": label})

@@ -1214,7 +1214,7 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
                     break
                 except (IntegrationError, ValueError) as exc:
                     if halving == _KINEMATIC_HALVINGS:
-                        err = dead_point_error(model.eng, t_a, y_a, exc)
+                        err = model.failure(t_a, y_a, exc)
                         if err is exc:
                             raise
                         raise err from exc
