@@ -49,8 +49,9 @@ from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.special import ellipj, elliprf, elliprj
+from scipy.special import elliprf, elliprj
 
+from core._elliptic import complete_k, jacobi
 from core._validation import float_array, output_times, positive_integer, short_repr
 from core.integrators import MAX_STEPS
 
@@ -602,6 +603,7 @@ class _TopConstants:
     delta: np.ndarray  # u2 - u1
     lam: np.ndarray  # lambda, rad/s (argument rate of sn)
     m: np.ndarray  # k^2
+    mc: np.ndarray  # 1 - k^2, formed without cancellation
     K: np.ndarray  # complete K(m)
     v0: np.ndarray  # sn argument at t = 0
     A: np.ndarray  # (b - a) / 2 : phi_dot = A/(1-u) + B/(1+u)
@@ -669,16 +671,33 @@ def _top_constants(params: RotorParams, s: np.ndarray) -> _TopConstants:
     gamma1 = np.maximum(-f2 - beta * (2.0 * x1 + x2), 0.0)
     lam = 0.5 * np.sqrt(gamma1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        m = np.where(gamma1 > 0.0, beta * delta / np.where(gamma1 > 0.0, gamma1, 1.0), 0.0)
-    m = np.clip(m, 0.0, 1.0 - 2.0**-52)
-    K = elliprf(0.0, 1.0 - m, 1.0)
+        g_pos = np.where(gamma1 > 0.0, gamma1, 1.0)
+        m = np.where(gamma1 > 0.0, beta * delta / g_pos, 0.0)
+        # 1 - m = beta (u3 - u2) / gamma1, formed without cancellation: m is
+        # within 1e-16 of 1 for a top started within 1e-8 rad of the vertical
+        # below its critical spin, where 1 - m ~ theta0^2 sets the period.
+        # With y = 1 - u the roots of g are y1 = 1 - u1, y2 = 1 - u2 and
+        # y3 = 1 - u3 <= 0, whose product is g0 / beta (g0 = 0 when u2 = 1:
+        # then y1 y3 = -g1 / beta).
+        y1 = eps_top + delta
+        y1_pos = np.where(y1 > 0.0, y1, 1.0)
+        y3 = np.where(eps_top > 0.0, g0 / (beta * y1_pos * np.where(eps_top > 0.0, eps_top, 1.0)),
+                      -g1 / (beta * y1_pos))
+        mc_top = np.where(gamma1 > 0.0, beta * (eps_top - y3) / g_pos, 1.0)
+    near_top = (eps_top_far < 0.25) & (m > 0.5) & (beta > 0.0) & np.isfinite(mc_top)
+    mc = np.where(near_top, mc_top, 1.0 - m)
+    # a state exactly on the separatrix is steady (theta0 at a double root)
+    mc = np.clip(mc, np.finfo(float).tiny, 1.0)
+    m = np.clip(m, 0.0, 1.0)
+    K = complete_k(mc)
     # phase: sn^2(v0) = r = (u0 - u1)/delta, increasing u on [0, K]
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where(delta > 0.0, -x1 / np.where(delta > 0.0, delta, 1.0), 0.0)
         rc = np.where(delta > 0.0, x2 / np.where(delta > 0.0, delta, 1.0), 1.0)
     r = np.clip(r, 0.0, 1.0)
     rc = np.clip(rc, 0.0, 1.0)
-    F = np.sqrt(r) * elliprf(rc, 1.0 - m * r, 1.0)
+    # 1 - m r = rc + mc r (r + rc = 1), no cancellation as m -> 1
+    F = np.sqrt(r) * elliprf(rc, rc + mc * r, 1.0)
     u_dot0 = -sn * thetad
     v0 = np.where(u_dot0 < 0.0, 2.0 * K - F, F)
     spin_base = d1 / I3 - a
@@ -692,6 +711,7 @@ def _top_constants(params: RotorParams, s: np.ndarray) -> _TopConstants:
         delta=delta,
         lam=lam,
         m=m,
+        mc=mc,
         K=K,
         v0=v0,
         A=A,
@@ -701,12 +721,12 @@ def _top_constants(params: RotorParams, s: np.ndarray) -> _TopConstants:
     )
 
 
-def _q_complete(one_minus_n, m):
-    """``Q(n) = int_0^K sn^2 / (1 - n sn^2) dv = R_J(0, 1-m, 1, 1-n) / 3``."""
-    return elliprj(0.0, 1.0 - m, 1.0, one_minus_n) / 3.0
+def _q_complete(one_minus_n, mc):
+    """``Q(n) = int_0^K sn^2 / (1 - n sn^2) dv = R_J(0, 1-m, 1, 1-n) / 3`` (``mc = 1 - m``)."""
+    return elliprj(0.0, mc, 1.0, one_minus_n) / 3.0
 
 
-def _q_incomplete(v, n, one_minus_n, m, K, qc):
+def _q_incomplete(v, n, one_minus_n, mc, K, qc):
     """``int_0^v sn^2/(1 - n sn^2) dv'`` for any real v (quasi-periodic).
 
     ``v = 2 K j + r`` with ``r`` in [-K, K); the principal part is
@@ -715,7 +735,7 @@ def _q_incomplete(v, n, one_minus_n, m, K, qc):
     """
     j = np.floor((v + K) / (2.0 * K))
     r = v - 2.0 * K * j
-    sn_, cn_, dn_, _ = ellipj(r, m)
+    sn_, cn_, dn_ = jacobi(r, mc, K)
     c2 = cn_**2
     p = c2 + sn_**2 * one_minus_n
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -792,7 +812,7 @@ def _char_plus(c: _TopConstants):
 def _char_minus(c: _TopConstants):
     """N = (m (1+u1) + delta)/(1+u2), 1 - N = (1-m)(1+u1)/(1+u2) for 1/(1+u)."""
     N = _safe_div(c.m * c.eps_bottom + c.delta, c.one_plus_u2)
-    one_minus_N = np.where(c.one_plus_u2 > 0.0, (1.0 - c.m) * _safe_div(c.eps_bottom, c.one_plus_u2), 1.0)
+    one_minus_N = np.where(c.one_plus_u2 > 0.0, c.mc * _safe_div(c.eps_bottom, c.one_plus_u2), 1.0)
     return N, one_minus_N
 
 
@@ -802,8 +822,8 @@ def _period_integrals(c: _TopConstants):
     N, one_minus_N = _char_minus(c)
     lam = np.where(c.lam > 0.0, c.lam, 1.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        q_plus = np.where(c.A != 0.0, _q_complete(one_minus_n, c.m), 0.0)
-        q_minus = np.where(c.B != 0.0, _q_complete(one_minus_N, c.m), 0.0)
+        q_plus = np.where(c.A != 0.0, _q_complete(one_minus_n, c.mc), 0.0)
+        q_minus = np.where(c.B != 0.0, _q_complete(one_minus_N, c.mc), 0.0)
     j_plus = _safe_div(2.0 * c.K + n * 2.0 * q_plus, lam * c.one_minus_u1)
     j_minus = _safe_div(2.0 * c.K + (N - c.m) * 2.0 * q_minus, lam * c.one_plus_u2)
     return j_plus, j_minus
@@ -889,14 +909,14 @@ class TopMotion:
             rates[:, 1] = 0.0
             rates[:, 2] = psid
             return angles, rates
-        lam, m, K, v0, delta = k["lam"], k["m"], k["K"], k["v0"], k["delta"]
+        lam, m, mc, K, v0, delta = k["lam"], k["m"], k["mc"], k["K"], k["v0"], k["delta"]
         A, B = k["A"], k["B"]
         one_minus_u1, one_plus_u2 = k["one_minus_u1"], k["one_plus_u2"]
         eps_top, eps_bottom = k["eps_top"], k["eps_bottom"]
         v = v0 + lam * t
         j = np.floor((v + K) / (2.0 * K))
         r = v - 2.0 * K * j
-        sn_, cn_, dn_, _ = ellipj(r, m)
+        sn_, cn_, dn_ = jacobi(r, mc, K)
         s2 = sn_**2
         one_m_u = one_minus_u1 * cn_**2 + eps_top * s2
         one_p_u = eps_bottom + delta * s2
@@ -922,14 +942,14 @@ class TopMotion:
         dv = lam * t
         if A != 0.0:
             n, one_minus_n, qc = k["n"], k["one_minus_n"], k["qc_plus"]
-            q = _q_incomplete(v, n, one_minus_n, m, K, qc) - k["q0_plus"]
+            q = _q_incomplete(v, n, one_minus_n, mc, K, qc) - k["q0_plus"]
             j_plus = (dv + n * q) / (lam * one_minus_u1)
         else:
             j_plus = np.zeros_like(t)
         if B != 0.0:
             # 1/(1+u) in terms of v'' = K - v: (1 - m s''^2) / ((1+u2)(1 - N s''^2))
             N, one_minus_N, qc = k["N"], k["one_minus_N"], k["qc_minus"]
-            q = _q_incomplete(K - v, N, one_minus_N, m, K, qc) - k["q0_minus"]
+            q = _q_incomplete(K - v, N, one_minus_N, mc, K, qc) - k["q0_minus"]
             j_minus = -(-(dv) + (N - m) * q) / (lam * one_plus_u2)
         else:
             j_minus = np.zeros_like(t)
@@ -992,20 +1012,20 @@ def top_motion(params: RotorParams, state0: Any) -> TopMotion:
         k.update(phid=float(phid), psid=float(psid))
         return TopMotion(params, s0, "steady", math.inf, k)
     k.update(
-        lam=float(c.lam), m=float(c.m), K=float(c.K), v0=float(c.v0), delta=float(c.delta),
+        lam=float(c.lam), m=float(c.m), mc=float(c.mc), K=float(c.K), v0=float(c.v0), delta=float(c.delta),
         A=float(c.A), B=float(c.B), one_minus_u1=float(c.one_minus_u1), one_plus_u2=float(c.one_plus_u2),
         eps_top=float(c.eps_top), eps_bottom=float(c.eps_bottom), spin_base=float(c.spin_base),
     )
-    m, K, v0 = k["m"], k["K"], k["v0"]
+    mc, K, v0 = k["mc"], k["K"], k["v0"]
     if k["A"] != 0.0:
         n, one_minus_n = (float(x) for x in _char_plus(c))
-        qc = float(_q_complete(one_minus_n, m))
-        q0 = float(_q_incomplete(np.float64(v0), n, one_minus_n, m, K, qc))
+        qc = float(_q_complete(one_minus_n, mc))
+        q0 = float(_q_incomplete(np.float64(v0), n, one_minus_n, mc, K, qc))
         k.update(n=n, one_minus_n=one_minus_n, qc_plus=qc, q0_plus=q0)
     if k["B"] != 0.0:
         N, one_minus_N = (float(x) for x in _char_minus(c))
-        qc = float(_q_complete(one_minus_N, m))
-        q0 = float(_q_incomplete(np.float64(K - v0), N, one_minus_N, m, K, qc))
+        qc = float(_q_complete(one_minus_N, mc))
+        q0 = float(_q_incomplete(np.float64(K - v0), N, one_minus_N, mc, K, qc))
         k.update(N=N, one_minus_N=one_minus_N, qc_minus=qc, q0_minus=q0)
     return TopMotion(params, s0, "closed_form", 2.0 * K / k["lam"], k)
 

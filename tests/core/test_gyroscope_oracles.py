@@ -27,6 +27,7 @@ from core.gyroscope import (
     sleeping_top_critical_spin,
     steady_precession_rates,
     steady_precession_torque,
+    top_motion,
 )
 
 # DOP853 at rtol 1e-12 over tens of periods: the reference itself is good to
@@ -310,3 +311,53 @@ def test_numerical_path_with_torque_near_the_pole_matches_reference():
     A_ref = np.array([_quat_matrix(p) for p in sol.y[:4].T])
     # DOP853 at rtol 1e-11 (simulate) vs 1e-12 (reference) over ~5 s
     np.testing.assert_allclose(matrices_from_angles(tr.angles), A_ref, atol=1e-8)
+
+
+def _falling_top(theta0):
+    """A sleeping top below its critical spin started theta0 from the vertical (at rest in theta)."""
+    return [0.0, theta0, 0.0, 0.0, 0.0, 1.0]
+
+
+def _growth_rate(params, psi_dot):
+    """sigma of theta ~ theta0 cosh(sigma t) near theta = 0 for a top below its
+    critical spin (linearized Eq. 8.21): sigma^2 = mgl/I - (I3 psi_dot / 2I)^2."""
+    return math.sqrt(params.mgl / params.I - (params.I3 * psi_dot / (2.0 * params.I)) ** 2)
+
+
+# Below 1e-8 rad the elliptic parameter m is within round-off of 1; its
+# complement 1 - m ~ theta0^2 sets the period.
+DECADES = [10.0**-e for e in range(4, 15)]
+
+
+@pytest.mark.parametrize("theta0", DECADES, ids=[f"1e{round(math.log10(x))}" for x in DECADES])
+def test_period_of_a_top_falling_from_near_the_vertical_grows_by_its_log(theta0):
+    """Each tenth of theta0 adds 2 ln(10) / sigma to the nutation period: the
+    top spends ln(10) / sigma longer leaving the vertical and as long coming
+    back. The rest of the period changes by O(theta0^2) relative (1e-8 at the
+    first step from 1e-4, measured 2e-9), so the tolerance is 1e-7."""
+    params = HEAVY
+    sigma = _growth_rate(params, 1.0)
+    assert sigma**2 * params.I < params.mgl  # below the critical spin
+    step = float(nutation(params, _falling_top(theta0 / 10.0)).period) - float(
+        nutation(params, _falling_top(theta0)).period)
+    np.testing.assert_allclose(step, 2.0 * math.log(10.0) / sigma, rtol=1e-7)
+
+
+def test_closed_form_top_falls_later_by_its_log_per_decade_of_theta0():
+    """The time simulate's closed form takes to reach theta = 1 rad grows by
+    ln(10) / sigma per decade of theta0 down to 1e-14 (same argument as the
+    period; crossing times found by brentq to 1e-12 s)."""
+    from scipy.optimize import brentq
+
+    params = HEAVY
+    sigma = _growth_rate(params, 1.0)
+    falls = []
+    for theta0 in DECADES:
+        motion = top_motion(params, _falling_top(theta0))
+        # theta reaches 1 rad about ln(2 / theta0) / sigma after the start
+        t_hi = motion.period / 2.0
+        falls.append(brentq(lambda t, m=motion: m.at([t]).angles[0, 1] - 1.0, 0.0, t_hi, xtol=1e-12))
+    np.testing.assert_allclose(np.diff(falls), math.log(10.0) / sigma, rtol=1e-7)
+    # and simulate returns the same motion
+    t = np.array([0.0, falls[-1]])
+    np.testing.assert_allclose(simulate(params, _falling_top(DECADES[-1]), t).angles[-1, 1], 1.0, atol=1e-9)
