@@ -12,6 +12,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from core._validation import _holds_bool
+
 #: Largest accepted deviation ``| ||p|| - 1 |`` of Euler parameters (and of
 #: unit axes) from unit norm. Inputs within it are accepted (and normalized
 #: where the result must be a rotation); inputs beyond it are rejected.
@@ -70,7 +72,10 @@ def as_float_array(x, name):
     """Convert ``x`` to a float64 array or raise a ValueError naming it.
 
     Complex input is refused rather than cast (a cast would silently drop
-    the imaginary part). A float64 ndarray is returned as is.
+    the imaginary part), and so is boolean input (``True`` is not the
+    angle 1 rad; numpy would turn ``[0.1, True, 0.2]`` into
+    ``[0.1, 1.0, 0.2]``), as in the rest of the core. A float64 ndarray is
+    returned as is.
     """
     if type(x) is np.ndarray and x.dtype is _FLOAT64:
         return x
@@ -87,6 +92,11 @@ def as_float_array(x, name):
         raise ValueError(
             f"Expected `{name}` to be real numbers, got complex "
             f"(dtype {arr.dtype}): {_short_repr(x)}"
+        )
+    if arr.dtype.kind == "b" or (arr.dtype.kind == "O" or not isinstance(x, np.ndarray)) and _holds_bool(x):
+        where = " " if isinstance(x, (bool, np.bool_)) else " in "
+        raise ValueError(
+            f"Expected `{name}` to be an array of real numbers, got a boolean{where}{_short_repr(x)}"
         )
     try:
         return arr.astype(np.float64, copy=False)

@@ -294,3 +294,28 @@ def test_near_gimbal_lock_within_tolerance(seq):
         warnings.simplefilter("error")
         back = cr.euler_angles_from_matrix(cr.matrix_from_euler_angles(angles, seq), seq)
     np.testing.assert_allclose(back, angles, atol=1e-9)
+
+
+BOOL_ANGLE_CALLS = [
+    (cr.matrix_from_euler_angles, ([True, False, True],), "angles", r"in \[True, False, True\]"),
+    (cr.matrix_from_euler_angles, (np.array([True, False, True]),), "angles", r"in array\(\[ True, False,  True\]\)"),
+    (cr.matrix_from_euler_angles, ([0.1, np.True_, 0.2],), "angles", r"in \[0.1, np.True_, 0.2\]"),
+    (cr.matrix_from_euler_angles, ([[0.1, 0.2, 0.3], [0.1, True, 0.3]],), "angles", "in"),
+    (cr.euler_parameters_from_euler_angles, ([0.1, True, 0.2],), "angles", "in"),
+    (cr.euler_angle_G, ([True, 0.2, 0.3],), "angles", "in"),
+    (cr.euler_angle_G_bar, ([0.1, 0.2, False],), "angles", "in"),
+    (cr.euler_angles_near_singularity, ([0.1, True, 0.3],), "angles", "in"),
+    (cr.omega_from_euler_angle_rates, ([0.1, 0.2, 0.3], [True, 0.0, 0.0]), "rates", "in"),
+    (cr.euler_angle_rates, ([0.1, 0.5, 0.3], [0.0, False, 0.0]), "omega_body", "in"),
+    (cr.matrix_from_axis_angle, ([0.0, 0.0, 1.0], True), "angle", r"True"),
+    (cr.elementary_matrix, (2, np.True_), "angle", r"np.True_"),
+]
+
+
+@pytest.mark.parametrize(
+    "f, args, name, shown", BOOL_ANGLE_CALLS, ids=[f"{f.__name__}-{k}" for k, (f, *_) in enumerate(BOOL_ANGLE_CALLS)]
+)
+def test_boolean_angles_are_refused(f, args, name, shown):
+    # True is not the angle 1 rad: numpy would silently turn it into 1.0.
+    with pytest.raises(ValueError, match=rf"Expected `{name}` to be an array of real numbers, got a boolean {shown}"):
+        f(*args)
