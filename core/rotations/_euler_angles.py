@@ -31,14 +31,26 @@ from ._validation import (
 )
 
 #: Distance (rad) of the middle angle from its singular value below which
-#: :func:`euler_angles_from_matrix` reports gimbal lock and sets the third
-#: angle to zero.
+#: :func:`euler_angles_from_matrix` reports gimbal lock (the first and third
+#: angles are then ill-conditioned; only their sum or difference is not).
 GIMBAL_LOCK_TOL = 1e-7
+
+# tan(distance / 2) of the middle angle from its singular value below which
+# the rotation is the locked one to round-off: the third angle is set to zero
+# there, which moves the matrix by at most about the distance (<= 2 eps).
+_LOCKED_RATIO = float(np.finfo(np.float64).eps)
+
+_LOCK_MESSAGE = (
+    "the middle angle is within GIMBAL_LOCK_TOL = {tol:g} rad of its singular value, so only the sum "
+    "or difference of the first and third angles is well conditioned; the returned angles reproduce "
+    "the matrix to round-off, and the third angle is set to zero where the middle angle is singular "
+    "to round-off."
+)
 
 
 class GimbalLockWarning(UserWarning):
-    """The middle Euler angle is at its singular value; see
-    :func:`euler_angles_from_matrix` for the choice of the lost angle."""
+    """The middle Euler angle is within :data:`GIMBAL_LOCK_TOL` of its singular
+    value; see :func:`euler_angles_from_matrix` for the angles returned there."""
 
 
 def _intrinsic_form(seq, angles):
@@ -221,20 +233,24 @@ def _angles_from_p(p, seq, warn=True):
     half_sum = np.arctan2(b, a)
     half_diff = np.arctan2(d, c)
     out = np.zeros(p.shape[:-1] + (3,))
-    middle = 2.0 * np.arctan2(np.hypot(c, d), np.hypot(a, b))
-    case1 = np.abs(middle) <= GIMBAL_LOCK_TOL
-    case2 = np.abs(middle - np.pi) <= GIMBAL_LOCK_TOL
-    case0 = ~(case1 | case2)
-    if warn and not case0.all():
-        index = np.argwhere(~case0)[0] if case0.ndim else ()
+    h_ab, h_cd = np.hypot(a, b), np.hypot(c, d)
+    middle = 2.0 * np.arctan2(h_cd, h_ab)
+    near = (np.abs(middle) <= GIMBAL_LOCK_TOL) | (np.abs(middle - np.pi) <= GIMBAL_LOCK_TOL)
+    if warn and near.any():
+        index = np.argwhere(near)[0] if near.ndim else ()
         warnings.warn(
-            f"Gimbal lock in sequence {seq!r}{_index_str(index)}: the middle "
-            "angle is at its singular value, so only the sum or difference of "
-            "the first and third angles is defined; the third angle is set "
-            "to zero.",
+            f"Gimbal lock in sequence {seq!r}{_index_str(index)}: " + _LOCK_MESSAGE.format(tol=GIMBAL_LOCK_TOL),
             GimbalLockWarning,
             stacklevel=3,
         )
+    # Near (not at) the singularity half_diff (or half_sum) comes from small
+    # (c, d) (or (a, b)) and carries an error of about eps / middle, but the
+    # matrix depends on it only through sin(middle): the general formulas
+    # still reproduce the matrix to round-off. Only where the middle angle
+    # is singular to round-off is the third angle set to zero.
+    case1 = h_cd <= _LOCKED_RATIO * h_ab
+    case2 = h_ab <= _LOCKED_RATIO * h_cd
+    case0 = ~(case1 | case2)
     first = 0 if extrinsic else 2
     third = 2 if extrinsic else 0
     out[..., 1] = middle
@@ -269,19 +285,17 @@ def _angles_from_p_single(p, seq, warn=True):
         a, b, c, d = w - qj, qi + qk, qj + w, qk - qi
     half_sum = math.atan2(b, a)
     half_diff = math.atan2(d, c)
-    middle = 2.0 * math.atan2(math.hypot(c, d), math.hypot(a, b))
-    case1 = abs(middle) <= GIMBAL_LOCK_TOL
-    case2 = abs(middle - math.pi) <= GIMBAL_LOCK_TOL
-    case0 = not (case1 or case2)
-    if warn and not case0:
+    h_ab, h_cd = math.hypot(a, b), math.hypot(c, d)
+    middle = 2.0 * math.atan2(h_cd, h_ab)
+    if warn and (abs(middle) <= GIMBAL_LOCK_TOL or abs(middle - math.pi) <= GIMBAL_LOCK_TOL):
         warnings.warn(
-            f"Gimbal lock in sequence {seq!r}: the middle "
-            "angle is at its singular value, so only the sum or difference of "
-            "the first and third angles is defined; the third angle is set "
-            "to zero.",
+            f"Gimbal lock in sequence {seq!r}: " + _LOCK_MESSAGE.format(tol=GIMBAL_LOCK_TOL),
             GimbalLockWarning,
             stacklevel=3,
         )
+    case1 = h_cd <= _LOCKED_RATIO * h_ab
+    case2 = h_ab <= _LOCKED_RATIO * h_cd
+    case0 = not (case1 or case2)
     first = 0 if extrinsic else 2
     third = 2 if extrinsic else 0
     out = [0.0, middle, 0.0]
@@ -326,10 +340,15 @@ def euler_angles_from_matrix(A, seq="ZXZ"):
     GimbalLockWarning
         When the middle angle is within :data:`GIMBAL_LOCK_TOL` of its
         singular value (0 or pi for proper sequences, +-pi/2 for Tait-Bryan
-        ones). Then only a combination of the first and third angles is
-        defined; the third angle is set to 0 and the first angle carries the
-        rotation, so ``matrix_from_euler_angles(angles, seq)`` still equals
-        ``A``.
+        ones). Then only the sum (or difference) of the first and third
+        angles is well conditioned: the two angles separately carry an
+        error of about ``eps / distance``, which the matrix feels only
+        multiplied by the distance, so ``matrix_from_euler_angles(angles,
+        seq)`` still reproduces ``A`` to round-off at any distance. Where
+        the middle angle is singular to round-off (``tan(distance / 2) <=
+        eps``, e.g. a matrix built with the middle angle exactly 0 or
+        pi/2) the third angle is set to 0 and the first angle carries the
+        rotation about the aligned axes.
     """
     parse_seq(seq)
     arr = as_float_array(A, "A")

@@ -280,14 +280,14 @@ def test_angle_errors_name_the_argument():
 @pytest.mark.parametrize("seq", ["ZXZ", "zxz", "ZYX", "xyz"])
 def test_near_gimbal_lock_within_tolerance(seq):
     # Within GIMBAL_LOCK_TOL of the singular middle angle the warning fires
-    # and the matrix is reproduced to about the distance to the singularity.
+    # and the matrix is still reproduced to round-off.
     singular = 0.0 if _is_proper(seq) else np.pi / 2
     for offset in (1e-9, 5e-8):
         angles = np.array([0.4, singular + offset if singular == 0.0 else singular - offset, -1.2])
         A = cr.matrix_from_euler_angles(angles, seq)
         with pytest.warns(cr.GimbalLockWarning):
             back = cr.euler_angles_from_matrix(A, seq)
-        np.testing.assert_allclose(cr.matrix_from_euler_angles(back, seq), A, atol=4 * offset)
+        np.testing.assert_allclose(cr.matrix_from_euler_angles(back, seq), A, rtol=0, atol=2e-15)
     # Just outside it: no warning, angles recovered (conditioning 1 / offset).
     angles = np.array([0.4, singular + 1e-5 if singular == 0.0 else singular - 1e-5, -1.2])
     with warnings.catch_warnings():
@@ -319,3 +319,45 @@ def test_boolean_angles_are_refused(f, args, name, shown):
     # True is not the angle 1 rad: numpy would silently turn it into 1.0.
     with pytest.raises(ValueError, match=rf"Expected `{name}` to be an array of real numbers, got a boolean {shown}"):
         f(*args)
+
+
+def _lock_offsets(seq, offset):
+    """Middle angles ``offset`` rad inside the documented range from each singular value of ``seq``."""
+    if _is_proper(seq):
+        return [0.0 + offset, np.pi - offset]
+    return [np.pi / 2 - offset, -np.pi / 2 + offset]
+
+
+@pytest.mark.parametrize("seq", SEQS)
+def test_angles_at_and_near_gimbal_lock_rebuild_the_matrix_to_round_off(seq):
+    # Within GIMBAL_LOCK_TOL the first and third angles are ill-conditioned
+    # separately, but the matrix depends on their difference (or sum) only
+    # through sin(distance): angles taken from the full quaternion rebuild it
+    # to a few ulps at every distance. (Zeroing the third angle there, as
+    # scipy does, misses by about the distance: 1e-9 at 1e-9 rad.)
+    rng = np.random.default_rng(abs(hash(seq)) % 2**32)
+    for offset in (0.0, 1e-12, 1e-9, 1e-7, 1e-5):
+        for middle in _lock_offsets(seq, offset):
+            angles = np.array([rng.uniform(-3, 3), middle, rng.uniform(-3, 3)])
+            A = cr.matrix_from_euler_angles(angles, seq)
+            reference = Rotation.from_euler(seq, angles).as_matrix()
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                single = cr.euler_angles_from_matrix(A, seq)
+                batch = cr.euler_angles_from_matrix(A[None], seq)[0]
+                from_p = cr.euler_angles_from_euler_parameters(cr.euler_parameters_from_matrix(A), seq)
+            locked = [w for w in caught if issubclass(w.category, cr.GimbalLockWarning)]
+            if offset <= 1e-9:
+                assert len(locked) == 3 and "within GIMBAL_LOCK_TOL" in str(locked[0].message)
+            if offset >= 1e-5:
+                assert not locked
+                # away from lock: scipy's angles (the same formulas)
+                ref_angles = Rotation.from_matrix(A).as_euler(seq)
+                np.testing.assert_allclose(single, ref_angles, rtol=0, atol=1e-10)
+            for back in (single, batch, from_p):
+                np.testing.assert_allclose(cr.matrix_from_euler_angles(back, seq), A, rtol=0, atol=2e-15)
+                np.testing.assert_allclose(Rotation.from_euler(seq, back).as_matrix(), reference, rtol=0, atol=3e-15)
+                assert abs(back[1] - middle) <= 4e-15  # the middle angle is well conditioned
+            if offset == 0.0:
+                # exactly singular: the documented choice, third angle zero
+                assert single[2] == batch[2] == 0.0
