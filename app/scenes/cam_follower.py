@@ -1042,12 +1042,12 @@ class CamFollowerScene(Scene):
                         (empty,) * 3,
                         (x_series, {"label": "cam under it (mm)", "stroke": "#2266dd", "width": 2},
                          {"label": "follower (mm)", "stroke": "#9633c8", "width": 2}),
-                        title="compliant run: lift (this revolution)", scales=_X_SCALE, aspect=1.7, visible=False),
+                        title="compliant run: lift (mm)", scales=_X_SCALE, aspect=1.7, visible=False),
                     "run_force": self.add_plot(
                         (empty,) * 3,
                         (x_series, {"label": "closed form (N)", "stroke": "#888888", "dash": [6, 4], "width": 1},
                          {"label": _RUN_FORCE_LABEL, "stroke": "#d97706", "width": 2}),
-                        title="compliant run: contact force (this revolution)", scales=_X_SCALE, aspect=1.7,
+                        title="compliant run: force N (N)", scales=_X_SCALE, aspect=1.7,
                         visible=False),
                 }
             self.add_download("download_csv", "Download CSV", "cam_follower.csv", self.csv_bytes,
