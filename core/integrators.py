@@ -34,6 +34,13 @@ Every method integrates a *model*: any object with
     local error), and to every dense-output state at ``t_eval``. The
     splitting methods and ``LSODA`` (which keep internal state that a
     projection would invalidate) refuse a model with ``project``.
+``euler_parameter_slice : slice`` (optional)
+    Where the model's state holds Euler parameters (e.g. ``slice(3, 7)``
+    for :class:`core.rigid_body.EulerParameterModel`): :func:`integrate`
+    refuses a ``state0`` whose parameters there have norm 0 or differ from
+    1 by ``max_drift`` or more (a run stops as diverged once ``|p|`` has
+    moved that far), so a norm 0 or 2 is an error, not a silent run; a
+    smaller drift, what a previous run ended in, is continued as it is.
 ``stop_time(t0, y0, t1, y1, dense) -> float | None`` (optional)
     An event check after every (projected) step of ``rk4``, ``midpoint``,
     ``RK45`` and ``DOP853``: ``dense(t)`` gives the (projected) state at a
@@ -644,8 +651,10 @@ def integrate(
     ------
     ValueError
         For an unknown method, a bad ``t_span``, ``dt``, ``state0`` (shape,
-        non-finite or complex entries) or option that does not apply to the
-        method, and for a fixed-step run of more than ``max_steps`` steps.
+        non-finite or complex entries; Euler parameters at the model's
+        ``euler_parameter_slice`` of norm 0 or off 1 by ``max_drift`` or
+        more) or option that does not apply to the method, and for a
+        fixed-step run of more than ``max_steps`` steps.
     DivergenceError
         When the state becomes non-finite or an invariant blows up (the
         message names the step and time).
@@ -673,6 +682,9 @@ def integrate(
     if isinstance(max_drift, (bool, np.bool_)) or not isinstance(max_drift, numbers.Real) or not max_drift > 0:
         raise ValueError(f"max_drift: expected a real number > 0 (inf: never stop), got {max_drift!r}")
     max_steps = positive_integer(max_steps, "max_steps")
+    p_slice = getattr(model, "euler_parameter_slice", None)
+    if p_slice is not None:
+        _check_state0_euler_parameters(y0, p_slice, max_drift)
     inv0 = None
     if getattr(model, "invariants", None) is not None and getattr(model, "conserves_invariants", True):
         inv0 = {k: np.asarray(v, dtype=float).reshape(-1) for k, v in model.invariants(y0[None, :]).items()}
@@ -706,6 +718,29 @@ def integrate(
     raise ValueError(
         f"method: expected one of {sorted(FIXED_STEP_METHODS) + list(ADAPTIVE_METHODS)}, got {method!r}"
     )
+
+
+def _check_state0_euler_parameters(y0: np.ndarray, where: slice, max_drift: float) -> None:
+    """Refuse a ``state0`` whose Euler parameters ``y0[where]`` are no orientation.
+
+    Their norm must differ from 1 by less than ``max_drift``, the relative
+    change of an invariant (``|p|`` is one for every Euler-parameter model)
+    at which a run stops as diverged: norm 0 (no orientation) or 2 is
+    refused with the default ``max_drift = 1``, and norm 0 with any. A
+    state a previous run ended in carries that run's drift of ``|p|``
+    (chained runs continue from it), which is why the unit-norm tolerance
+    of user input, ``core.rotations.UNIT_NORM_TOL``, is not applied here.
+    """
+    p = y0[where]
+    norm = math.sqrt(float(p @ p))
+    if not (norm > 0.0 and abs(norm - 1.0) < max_drift):
+        lo, hi = where.start, where.stop
+        raise ValueError(
+            f"state0: expected Euler parameters state0[{lo}:{hi}] of norm within max_drift={max_drift:g} of 1 "
+            f"(a run stops as diverged once |p| has moved that far; a norm 0 is no orientation), got norm "
+            f"{norm!r}; pack the state with core.rigid_body.euler_parameter_state or free_body_state, which "
+            "normalize unit Euler parameters (within core.rotations.UNIT_NORM_TOL)"
+        )
 
 
 def _run_fixed(

@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.special import ellipj, ellipkm1, elliprf, elliprj
@@ -164,12 +164,15 @@ def _unit_p_batch(p: Any, name: str = "p") -> np.ndarray:
     return a / n[..., None]
 
 
-def _unit_p(p: Any, name: str = "p0", tol: float = 1e-9) -> np.ndarray:
-    a = _vec(p, name, 4)
-    n = float(np.linalg.norm(a))
-    if abs(n - 1.0) > tol:
-        raise ValueError(f"{name}: expected unit Euler parameters (| |{name}| - 1 | <= {tol:g}), got norm {n!r}")
-    return a / n
+def _unit_p(p: Any, name: str = "p0") -> np.ndarray:
+    """One orientation as Euler parameters (4,), unit within ``UNIT_NORM_TOL``, normalized.
+
+    The rule of every entry that takes an orientation as Euler parameters
+    (:func:`free_body_exact`, the state packers, :func:`angular_momentum_global`,
+    and :mod:`core.rotations`): a norm 0, 2 or NaN is refused, naming ``name``
+    and the norm.
+    """
+    return _unit_p_batch(_vec(p, name, 4), name)
 
 
 def _p_from_rotation(A: np.ndarray) -> np.ndarray:
@@ -390,8 +393,9 @@ class RigidBody:
 
 
 def euler_parameter_state(r: Any, p: Any, v: Any, omega_body: Any) -> np.ndarray:
-    """Pack the (13,) state of :class:`EulerParameterModel` (p must be unit)."""
-    return np.concatenate([_vec(r, "r"), _unit_p(p, "p", 1e-6), _vec(v, "v"), _vec(omega_body, "omega_body")])
+    """Pack the (13,) state of :class:`EulerParameterModel`; ``p`` unit within
+    :data:`core.rotations.UNIT_NORM_TOL`, normalized."""
+    return np.concatenate([_vec(r, "r"), _unit_p(p, "p"), _vec(v, "v"), _vec(omega_body, "omega_body")])
 
 
 def rodriguez_state(r: Any, gamma: Any, v: Any, omega_body: Any) -> np.ndarray:
@@ -430,6 +434,9 @@ class EulerParameterModel:
 
     body: RigidBody
     state_size: int = 13
+    #: Where the Euler parameters sit in the state (checked by
+    #: :func:`core.integrators.integrate` in ``state0``).
+    euler_parameter_slice: ClassVar[slice] = slice(3, 7)
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """State derivative (13,) at time ``t``."""
@@ -539,8 +546,9 @@ class RodriguezModel:
 
 # ------------------------------------------------------------- free body
 def free_body_state(p: Any, omega_body: Any) -> np.ndarray:
-    """Pack the (7,) state ``(p, omega_body)`` of :class:`FreeBodyModel`."""
-    return np.concatenate([_unit_p(p, "p", 1e-6), _vec(omega_body, "omega_body")])
+    """Pack the (7,) state ``(p, omega_body)`` of :class:`FreeBodyModel`; ``p`` unit
+    within :data:`core.rotations.UNIT_NORM_TOL`, normalized."""
+    return np.concatenate([_unit_p(p, "p"), _vec(omega_body, "omega_body")])
 
 
 def _qmul(a: tuple, b: tuple) -> tuple:
@@ -589,6 +597,9 @@ class FreeBodyModel:
     """
 
     state_size = 7
+    #: Where the Euler parameters sit in the state (checked by
+    #: :func:`core.integrators.integrate` in ``state0``).
+    euler_parameter_slice = slice(0, 4)
 
     def __init__(self, inertia: Any, *, compensated: bool = False):
         self.inertia = _inertia(inertia)
@@ -1204,7 +1215,8 @@ def free_body_solution(
         tensor in the body frame (diagonalized here; results are rotated
         back to the body frame).
     omega_body0 : (3,) initial angular velocity in the body frame, rad/s.
-    p0 : (4,) initial unit Euler parameters (scalar first), body to global.
+    p0 : (4,) initial unit Euler parameters (scalar first), body to global,
+        unit within :data:`core.rotations.UNIT_NORM_TOL` (normalized).
     equal_tol : principal moments closer than ``equal_tol * max moment`` are
         treated as equal (closed-form regular precession).
     tables : tabulate sn, cn, dn and the periodic part of the precession
@@ -1346,7 +1358,9 @@ def free_body_exact(inertia: Any, omega_body0: Any, p0: Any, t: Any) -> FreeBody
         inertia tensor in the body frame, kg m^2.
     omega_body0 : (3,) angular velocity at t = 0 in the body frame, rad/s.
     p0 : (4,) unit Euler parameters at t = 0 (theta0..theta3, scalar first;
-        ``A(p0)`` maps body to global).
+        ``A(p0)`` maps body to global), unit within
+        :data:`core.rotations.UNIT_NORM_TOL` (1e-6) and normalized, as
+        everywhere in the core.
     t : (...) times, s (any shape, any sign), with ``|t| |L| / J_min <=
         FREE_BODY_MAX_PHASE`` (1e14 rad).
 

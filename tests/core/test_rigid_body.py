@@ -12,6 +12,7 @@ solution.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -574,3 +575,59 @@ def test_free_body_solution_does_not_freeze_the_callers_array():
     w0 = np.array([0.3, 1.0, 0.2])
     rb.free_body_solution([1.0, 2.0, 3.0], w0, P0)
     assert w0.flags.writeable
+
+
+# ------------------------------------------------ orientations and loads given by the user
+@pytest.mark.parametrize("scale", [1.0 + 0.9e-6, 1.0 - 0.9e-6, 1.0 + 1.1e-6, 0.0, 2.0])
+def test_every_orientation_entry_applies_one_unit_norm_rule(scale):
+    # free_body_exact, the state packers and angular_momentum_global share
+    # core.rotations.UNIT_NORM_TOL: within it the parameters are normalized,
+    # beyond it (norm 0, 2, or just past 1e-6) a ValueError names the
+    # argument and the norm. (free_body_exact refused 1 + 1e-8 before.)
+    from core.rotations import UNIT_NORM_TOL
+
+    J, w = [1.0, 2.0, 3.0], [0.3, -0.5, 0.2]
+    p = scale * P0
+    calls = {
+        "p0": lambda: rb.free_body_exact(J, w, p, 0.0).p,
+        "p": lambda: rb.free_body_state(p, w)[:4],
+        "p ": lambda: rb.euler_parameter_state(np.zeros(3), p, np.zeros(3), w)[3:7],
+        "p  ": lambda: rb.angular_momentum_global(J, w, p),
+    }
+    if abs(scale - 1.0) <= UNIT_NORM_TOL:
+        np.testing.assert_allclose(calls["p0"](), P0, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(calls["p"](), P0, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(calls["p "](), P0, rtol=0, atol=1e-15)
+        calls["p  "]()
+        return
+    shown = re.escape(repr(float(np.linalg.norm(p))))
+    for name, call in calls.items():
+        name = name.strip()
+        with pytest.raises(ValueError, match=rf"^{name}: expected unit Euler parameters "
+                                             rf"\(\| \|{name}\| - 1 \| <= 1e-06\), got norm {shown}; renormalize"):
+            call()
+
+
+@pytest.mark.parametrize("method", ["rk4", "splitting", "DOP853"])
+def test_integrate_refuses_euler_parameters_that_are_no_orientation(method):
+    # norm 0 or 2 used to run silently (p = 0 stays 0: no orientation at all)
+    w = np.array([0.3, -0.5, 0.2])
+    free = rb.FreeBodyModel([1.0, 2.0, 3.0])
+    body = rb.EulerParameterModel(rb.RigidBody(1.0, [1.0, 2.0, 3.0]))
+    kw = {"dt": 0.1} if method != "DOP853" else {}
+    half = np.full(4, 0.5)  # unit, exactly: the norms below are exact
+    for scale in (0.0, 2.0, 3.5):
+        cases = [(free, np.concatenate([scale * half, w]), r"state0\[0:4\]")]
+        if not method.startswith("splitting"):
+            cases.append((body, np.concatenate([np.zeros(3), scale * half, np.zeros(3), w]), r"state0\[3:7\]"))
+        for model, y0, where in cases:
+            with pytest.raises(ValueError, match=rf"^state0: expected Euler parameters {where} of norm within "
+                                                 rf"max_drift=1 of 1 .* got norm {re.escape(repr(scale))};"):
+                itg.integrate(model, y0, (0.0, 1.0), method=method, **kw)
+    # a drifted state (what a previous run ended in) continues; the rule is
+    # the run's own divergence limit max_drift on |p|
+    y0 = np.concatenate([1.5 * P0, w])
+    run = itg.integrate(free, y0, (0.0, 1.0), method=method, **kw)
+    assert abs(np.linalg.norm(run.states[-1, :4]) - 1.5) < 1e-3
+    with pytest.raises(ValueError, match=r"state0: expected Euler parameters state0\[0:4\] of norm within max_drift=0.1"):
+        itg.integrate(free, y0, (0.0, 1.0), method=method, max_drift=0.1, **kw)
