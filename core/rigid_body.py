@@ -40,7 +40,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy.special import ellipj, ellipkm1, elliprf, elliprj
 
-from core._validation import float_array, real_number
+from core._validation import float_array, real_number, short_repr
 from core.rotations import (
     UNIT_NORM_TOL,
     euler_parameters_from_matrix,
@@ -368,18 +368,32 @@ class RigidBody:
     mass : float, kg (> 0).
     inertia : (3, 3) inertia tensor about the center of mass in the body
         frame, kg m^2 (a (3,) input is taken as principal moments).
-    force : callable ``(t, state) -> (3,)`` applied force at the center of
-        mass in the global frame, N; ``None`` for no force.
-    torque_body : callable ``(t, state) -> (3,)`` applied moment about the
-        center of mass in the body frame (n-bar), N m; ``None`` for none.
+    force : applied force at the center of mass in the global frame, N:
+        ``None`` (no force), a constant (3,) vector, or a callable
+        ``(t, state) -> (3,)``.
+    torque_body : applied moment about the center of mass in the body frame
+        (n-bar), N m: ``None``, a constant (3,) vector, or a callable
+        ``(t, state) -> (3,)``.
 
-    ``state`` passed to the loads is the model's flat state vector.
+    ``state`` passed to the loads is the model's flat state vector. A
+    constant is stored as a read-only float64 (3,) array. A callable's value
+    is checked at every evaluation: anything but a (3,) vector of finite
+    real numbers raises a ``ValueError`` naming ``force`` or
+    ``torque_body``, the time and what it returned (a non-finite value is
+    blamed on the callable only when the state it was given is finite;
+    otherwise the integrator reports the divergence).
+
+    Raises
+    ------
+    ValueError
+        For a bad mass or inertia, and for a ``force`` or ``torque_body``
+        that is neither None, a finite (3,) vector nor a callable.
     """
 
     mass: float
     inertia: np.ndarray = field(repr=False)
-    force: Vector | None = None
-    torque_body: Vector | None = None
+    force: Vector | np.ndarray | None = None
+    torque_body: Vector | np.ndarray | None = None
 
     def __post_init__(self) -> None:
         mass = real_number(self.mass, "mass", expected="a finite number > 0")
@@ -390,6 +404,22 @@ class RigidBody:
         J.setflags(write=False)
         object.__setattr__(self, "inertia", J)
         object.__setattr__(self, "_inertia_inv", np.linalg.inv(J))
+        for name, unit, frame in (("force", "N", "global"), ("torque_body", "N m", "body")):
+            object.__setattr__(self, name, _load_spec(getattr(self, name), name, unit, frame))
+
+
+def _load_spec(value: Any, name: str, unit: str, frame: str) -> Vector | np.ndarray | None:
+    """A load of :class:`RigidBody` as given: None, a callable, or a read-only constant (3,) array."""
+    if value is None or callable(value):
+        return value
+    expected = f"None, a constant (3,) vector ({unit}, {frame} frame) or a callable (t, state) -> (3,)"
+    a = float_array(value, name, expected=expected, copy=True)
+    if a.shape != (3,):
+        raise ValueError(f"{name}: expected {expected}, got {short_repr(value)} (shape {a.shape})")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected finite values, got {a.tolist()}")
+    a.setflags(write=False)
+    return a
 
 
 def euler_parameter_state(r: Any, p: Any, v: Any, omega_body: Any) -> np.ndarray:
@@ -403,10 +433,39 @@ def rodriguez_state(r: Any, gamma: Any, v: Any, omega_body: Any) -> np.ndarray:
     return np.concatenate([_vec(r, "r"), _vec(gamma, "gamma"), _vec(v, "v"), _vec(omega_body, "omega_body")])
 
 
+_NO_LOAD = np.zeros(3)
+_NO_LOAD.setflags(write=False)
+
+
+def _load_value(load: Vector | np.ndarray | None, name: str, t: float, y: np.ndarray) -> np.ndarray:
+    """The value (3,) of one load of a :class:`RigidBody` at ``(t, y)``.
+
+    A callable's return value must be a (3,) vector of finite real numbers;
+    otherwise a ValueError names the load, the time and what it returned
+    (numpy would report a failed broadcast deep in the integrator, and a
+    NaN would surface as a divergence blamed on the step size).
+    """
+    if load is None:
+        return _NO_LOAD
+    if not callable(load):
+        return load  # a constant, validated by RigidBody
+    value = load(t, y)
+    out = float_array(value, name, expected=f"the callable to return a (3,) vector of real numbers at t={t:.6g}")
+    if out.shape != (3,):
+        raise ValueError(
+            f"{name}: expected the callable to return shape (3,), got shape {out.shape} at t={t:.6g}: "
+            f"{short_repr(value)}"
+        )
+    if not (math.isfinite(out[0]) and math.isfinite(out[1]) and math.isfinite(out[2])) and np.all(np.isfinite(y)):
+        raise ValueError(
+            f"{name}: expected the callable to return finite values, got {out.tolist()} at t={t:.6g} "
+            "for a finite state"
+        )
+    return out
+
+
 def _loads(body: RigidBody, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    F = np.zeros(3) if body.force is None else float_array(body.force(t, y), "force")
-    n = np.zeros(3) if body.torque_body is None else float_array(body.torque_body(t, y), "torque_body")
-    return F, n
+    return _load_value(body.force, "force", t, y), _load_value(body.torque_body, "torque_body", t, y)
 
 
 def _euler_equations(body: RigidBody, omega_body: np.ndarray, n_body: np.ndarray) -> np.ndarray:

@@ -631,3 +631,75 @@ def test_integrate_refuses_euler_parameters_that_are_no_orientation(method):
     assert abs(np.linalg.norm(run.states[-1, :4]) - 1.5) < 1e-3
     with pytest.raises(ValueError, match=r"state0: expected Euler parameters state0\[0:4\] of norm within max_drift=0.1"):
         itg.integrate(free, y0, (0.0, 1.0), method=method, max_drift=0.1, **kw)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"force": 3}, r"^force: expected None, a constant \(3,\) vector \(N, global frame\) or a callable "
+                       r"\(t, state\) -> \(3,\), got 3 \(shape \(\)\)"),
+        ({"force": [1.0, 2.0]}, r"^force: expected None, a constant \(3,\) vector .* got \[1.0, 2.0\] \(shape \(2,\)\)"),
+        ({"force": "up"}, r"^force: expected None, a constant \(3,\) vector .* got text 'up'"),
+        ({"force": [0.0, True, 0.0]}, r"^force: expected None, a constant \(3,\) vector .* got a boolean in"),
+        ({"force": [0.0, np.nan, 0.0]}, r"^force: expected finite values, got \[0.0, nan, 0.0\]"),
+        ({"torque_body": 1j}, r"^torque_body: expected real numbers, got complex"),
+        ({"torque_body": {"x": 1}}, r"^torque_body: expected None, a constant \(3,\) vector \(N m, body frame\)"),
+    ],
+)
+def test_rigid_body_loads_are_validated_when_the_body_is_built(kwargs, match):
+    # RigidBody(force=3) was accepted and failed later with a TypeError
+    # ('int' object is not callable) inside the integrator.
+    with pytest.raises(ValueError, match=match):
+        rb.RigidBody(1.0, [1.0, 2.0, 3.0], **kwargs)
+
+
+def test_constant_loads_are_vectors_and_give_the_closed_form_motion():
+    # constant force: r = r0 + v0 t + F t^2 / (2 m) (RK4 is exact for it);
+    # constant body torque about a principal axis of a body at rest:
+    # omega_body = n t / J about that axis.
+    F, n = np.array([0.0, 0.0, -9.81]), np.array([0.0, 0.0, 0.6])
+    body = rb.RigidBody(2.0, [1.0, 2.0, 3.0], force=list(F), torque_body=n)
+    assert body.force.flags.writeable is False and body.force.dtype == np.float64
+    n[2] = 99.0  # the body keeps its own copy
+    y0 = rb.euler_parameter_state([0, 0, 1.0], [1, 0, 0, 0], [1.0, 0, 0], [0, 0, 0])
+    run = itg.integrate(rb.EulerParameterModel(body), y0, (0.0, 2.0), method="rk4", dt=0.1)
+    np.testing.assert_allclose(run.states[-1, 0:3], [2.0, 0.0, 1.0 - 9.81], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run.states[-1, 10:13], [0.0, 0.0, 0.6 * 2.0 / 3.0], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("method", ["rk4", "midpoint", "RK45"])
+def test_a_load_callable_returning_the_wrong_shape_is_named(method):
+    # was numpy's "could not broadcast input array from shape (2,) into shape (3,)"
+    y0 = rb.euler_parameter_state(np.zeros(3), P0, np.zeros(3), [0.1, 0.2, 0.3])
+    kw = {"dt": 0.1} if method != "RK45" else {}
+    for kwargs, name, shape in (({"force": lambda t, y: np.zeros(2)}, "force", r"\(2,\)"),
+                                ({"torque_body": lambda t, y: np.zeros((3, 1))}, "torque_body", r"\(3, 1\)"),
+                                ({"force": lambda t, y: 0.0}, "force", r"\(\)")):
+        model = rb.EulerParameterModel(rb.RigidBody(1.0, [1.0, 2.0, 3.0], **kwargs))
+        with pytest.raises(ValueError, match=rf"^{name}: expected the callable to return shape \(3,\), got shape "
+                                             rf"{shape} at t=0(\.05)?:"):
+            itg.integrate(model, y0, (0.0, 1.0), method=method, **kw)
+    model = rb.EulerParameterModel(rb.RigidBody(1.0, [1.0, 2.0, 3.0], force=lambda t, y: "up"))
+    with pytest.raises(ValueError, match=r"^force: expected the callable to return a \(3,\) vector of real numbers "
+                                         r"at t=0(\.05)?, got text 'up'"):
+        itg.integrate(model, y0, (0.0, 1.0), method=method, **kw)
+
+
+@pytest.mark.parametrize("method", ["rk4", "RK45"])
+def test_a_load_callable_returning_nan_is_named_with_the_time_and_value(method):
+    # was DivergenceError "non-finite state at step 3 (t=0.3); reduce the
+    # step or tighten the tolerances", which blames the step size
+    def force(t, y):
+        return np.array([math.nan if t > 0.25 else 0.0, 0.0, 1.0])
+
+    y0 = rb.euler_parameter_state(np.zeros(3), P0, np.zeros(3), [0.1, 0.2, 0.3])
+    model = rb.EulerParameterModel(rb.RigidBody(1.0, [1.0, 2.0, 3.0], force=force))
+    kw = {"dt": 0.1} if method == "rk4" else {"rtol": 1e-6}
+    with pytest.raises(ValueError, match=r"^force: expected the callable to return finite values, got "
+                                         r"\[nan, 0.0, 1.0\] at t=0\.[23]\d* for a finite state") as info:
+        itg.integrate(model, y0, (0.0, 1.0), method=method, **kw)
+    assert not isinstance(info.value, itg.DivergenceError)
+    torque = rb.RigidBody(1.0, [1.0, 2.0, 3.0], torque_body=lambda t, y: np.array([0.0, math.inf, 0.0]))
+    with pytest.raises(ValueError, match=r"^torque_body: expected the callable to return finite values, got "
+                                         r"\[0.0, inf, 0.0\] at t=0 "):
+        itg.integrate(rb.EulerParameterModel(torque), y0, (0.0, 1.0), method=method, **kw)
