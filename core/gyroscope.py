@@ -56,6 +56,7 @@ from core._validation import float_array, output_times, positive_integer, short_
 from core.integrators import MAX_STEPS
 
 __all__ = [
+    "GYROSCOPE_MAX_ANGLE",
     "GyroscopeTrajectory",
     "Invariants",
     "NutationResult",
@@ -79,6 +80,18 @@ __all__ = [
 # returns (hysteresis keeps the switches few).
 _SIN_ENTER_PARAMETERS = 0.05
 _SIN_LEAVE_PARAMETERS = 0.1
+
+#: Largest magnitude (rad) of the angles ``phi``, ``theta``, ``psi`` of a
+#: state, and of the angles of a motion at its sample times: the bound of
+#: :data:`core.rigid_body.FREE_BODY_MAX_PHASE` for the same reason. A float64
+#: angle carries an absolute error of about ``eps`` times its size: at 1e14
+#: rad one unit in the last place is 0.016 rad (about a degree), and at 1e300
+#: sin and cos are those of an angle known to no digit. States beyond it are
+#: refused (naming the state and the angle), and so are sample times at
+#: which the motion's angles would pass it (naming ``t``).
+GYROSCOPE_MAX_ANGLE = 1e14
+
+_ANGLE_NAMES = ("phi", "theta", "psi")
 
 
 # ----------------------------------------------------------------- parameters
@@ -231,6 +244,17 @@ def _check_state(state: Any, name: str = "state") -> np.ndarray:
         )
     if not np.all(np.isfinite(s)):
         raise ValueError(f"{name}: expected finite values, got {s}")
+    big = np.abs(s[..., :3]) > GYROSCOPE_MAX_ANGLE
+    if big.any():
+        index = tuple(int(i) for i in np.argwhere(big)[0])
+        angle = _ANGLE_NAMES[index[-1]]
+        where = f" at index {index[:-1]}" if index[:-1] else ""
+        raise ValueError(
+            f"{name}: expected angles |phi|, |theta|, |psi| <= GYROSCOPE_MAX_ANGLE = {GYROSCOPE_MAX_ANGLE:g} rad, "
+            f"got {angle} = {float(s[index])!r}{where}: a float64 angle that large is known only to about "
+            "eps times its size (a degree at 1e14 rad), so its sine and cosine mean nothing; reduce it modulo "
+            "2 pi (phi, psi) or map theta into [0, pi]"
+        )
     return s
 
 
@@ -889,6 +913,7 @@ class TopMotion:
         angles, rates = self._evaluate(tt)
         if not (np.all(np.isfinite(angles)) and np.all(np.isfinite(rates))):
             raise ValueError("state0: the motion reached a non-finite state")
+        _check_motion_angles(tt, angles)
         for a in (tt, angles, rates):
             a.setflags(write=False)
         return GyroscopeTrajectory(t=tt, angles=angles, rates=rates, method=self.method)
@@ -972,6 +997,18 @@ class TopMotion:
         rates[:, 1] = thetad
         rates[:, 2] = psid
         return angles, rates
+
+
+def _check_motion_angles(t: np.ndarray, angles: np.ndarray) -> None:
+    """Refuse sample times at which an angle of the motion exceeds :data:`GYROSCOPE_MAX_ANGLE` (naming ``t``)."""
+    big = np.abs(angles) > GYROSCOPE_MAX_ANGLE
+    if big.any():
+        i, k = (int(j) for j in np.argwhere(big)[0])
+        raise ValueError(
+            f"t: expected times at which the angles stay within GYROSCOPE_MAX_ANGLE = {GYROSCOPE_MAX_ANGLE:g} rad, "
+            f"got t[{i}] = {float(t[i])!r} s where {_ANGLE_NAMES[k]} = {float(angles[i, k]):.6g} rad: there one "
+            "float64 rounding of the angle turns the rotor by more than a degree; ask for earlier times"
+        )
 
 
 def top_motion(params: RotorParams, state0: Any) -> TopMotion:
@@ -1462,6 +1499,7 @@ def simulate(
             "torques: the motion reached sin(theta) = 0, where constant generalized torques "
             "M_phi != +-M_psi need an unbounded torque on the rotor (massless gimbals in gimbal lock)"
         )
+    _check_motion_angles(tt, angles)
     for a in (tt, angles, rates):
         a.setflags(write=False)
     return GyroscopeTrajectory(t=tt, angles=angles, rates=rates, method="numerical")

@@ -304,3 +304,36 @@ def test_torques_singular_at_gimbal_lock_raise_a_clear_error():
     params = RotorParams(I=1.0, I3=0.8, mgl=2.0)
     with pytest.raises(ValueError, match=r"torques: the motion reached sin\(theta\) = 0"):
         simulate(params, [0, 0.0, 0, 0, 0, 10], np.linspace(0, 2, 50), torques=(5.0, 0.0, 0.0))
+
+
+# ------------------------------------------------ huge angles, the lower pole, the horizontal
+def test_state_angles_beyond_the_max_angle_are_refused():
+    # phi = psi = 1e300 used to run: sin and cos of an angle known to no digit
+    from core.gyroscope import GYROSCOPE_MAX_ANGLE, top_motion
+    from core.rigid_body import FREE_BODY_MAX_PHASE
+
+    assert GYROSCOPE_MAX_ANGLE == FREE_BODY_MAX_PHASE == 1e14
+    params = RotorParams(I=1.0, I3=1.5, mgl=0.5)
+    for state, name, shown in (([1e300, 1.0, 1e300, 0.1, 0.0, 30.0], "phi", r"1e\+300"),
+                               ([0.0, -2e14, 0.0, 0.1, 0.0, 30.0], "theta", r"-200000000000000\.0"),
+                               ([[0.0, 1.0, 0.0, 0.1, 0.0, 30.0], [0.0, 1.0, 1.5e14, 0.1, 0.0, 30.0]], "psi",
+                                r"150000000000000\.0 at index \(1,\)")):
+        calls = [("state", f) for f in (nutation, invariants, rotor_vectors, equations_of_motion)]
+        if np.ndim(state) == 1:
+            calls += [("state0", lambda p, s: simulate(p, s, [0.0, 1.0])), ("state0", top_motion)]
+        for arg, f in calls:
+            with pytest.raises(ValueError, match=rf"^{arg}: expected angles \|phi\|, \|theta\|, \|psi\| <= "
+                                                 rf"GYROSCOPE_MAX_ANGLE = 1e\+14 rad, got {name} = {shown}"):
+                f(params, state)
+    # at the bound: accepted; a motion sampled where psi passes it: refused, naming t
+    state = [0.0, 1.0, 1e14, 0.1, 0.0, 30.0]
+    assert np.isfinite(invariants(params, state).energy)
+    motion = top_motion(params, state)
+    with pytest.raises(ValueError, match=r"^t: expected times at which the angles stay within GYROSCOPE_MAX_ANGLE = "
+                                         r"1e\+14 rad, got t\[1\] = 1\.0 s where psi = 1e\+14 rad"):
+        motion.at([0.0, 1.0])
+    state = [0.0, 1.0, 0.0, 0.1, 0.0, 30.0]
+    with pytest.raises(ValueError, match=r"^t: .* got t\[2\] = 10000000000000\.0 s where psi = 3\.0048\de\+14 rad"):
+        simulate(params, state, [0.0, 1.0, 1e13])
+    with pytest.raises(ValueError, match=r"^t: .* got t\[1\] = 1\.0 s where psi = 1e\+14 rad"):  # numerical path
+        simulate(params, [0.0, 1.0, 1e14 - 1.0, 0.1, 0.0, 30.0], [0.0, 1.0], torques=(0.0, 0.1, 0.0))
