@@ -646,9 +646,14 @@ def _top_constants(params: RotorParams, s: np.ndarray) -> _TopConstants:
     """
     I, I3, mgl = params.I, params.I3, params.mgl
     theta, phid, thetad, psid = s[..., 1], s[..., 3], s[..., 4], s[..., 5]
-    sn, u0 = np.sin(theta), np.cos(theta)
+    # theta = np.pi (the double nearest pi, 1.2e-16 below it) is the lower
+    # pole itself, as theta = 0 is the upper one: sin theta = 1 + cos theta = 0
+    # there, so that a rotor at rest in theta there is an equilibrium (or a
+    # steady spin about the vertical), not a nutation of amplitude 1e-16.
+    pole = theta == np.pi
+    sn, u0 = np.where(pole, 0.0, np.sin(theta)), np.cos(theta)
     om_u0 = 2.0 * np.sin(0.5 * theta) ** 2  # 1 - u0
-    op_u0 = 2.0 * np.cos(0.5 * theta) ** 2  # 1 + u0
+    op_u0 = np.where(pole, 0.0, 2.0 * np.cos(0.5 * theta) ** 2)  # 1 + u0
     beta = 2.0 * mgl / I
     d1 = I3 * (psid + phid * u0)
     a = d1 / I

@@ -337,3 +337,34 @@ def test_state_angles_beyond_the_max_angle_are_refused():
         simulate(params, state, [0.0, 1.0, 1e13])
     with pytest.raises(ValueError, match=r"^t: .* got t\[1\] = 1\.0 s where psi = 1e\+14 rad"):  # numerical path
         simulate(params, [0.0, 1.0, 1e14 - 1.0, 0.1, 0.0, 30.0], [0.0, 1.0], torques=(0.0, 0.1, 0.0))
+
+
+@pytest.mark.parametrize("mgl", [0.5, 0.0])
+@pytest.mark.parametrize(("phi_dot", "psi_dot"), [(0.0, 0.0), (0.0, 5.0), (1.0, 5.0), (0.3, -2.0)])
+def test_nutation_at_the_lower_pole_is_steady_and_the_limit_of_nearby_states(mgl, phi_dot, psi_dot):
+    # theta = pi (np.pi, the double nearest pi) with theta_dot = 0: the rotor
+    # axis points straight down; the state is an equilibrium (hanging top)
+    # or a steady spin about the vertical. It used to report a nutation of
+    # amplitude 4e-13 and period 4.44 s (mgl = 0.5, at rest).
+    params = RotorParams(I=1.0, I3=1.5, mgl=mgl)
+    at_pole = nutation(params, [0.2, math.pi, 0.1, phi_dot, 0.0, psi_dot])
+    assert at_pole.theta_min == at_pole.theta_max == math.pi
+    assert math.isinf(at_pole.period)
+    # at the pole only phi - psi is an orientation (Rz(phi) Rx(pi) Rz(psi) = Rz(phi - psi) Rx(pi))
+    rate = float(at_pole.mean_precession_rate - at_pole.mean_spin_rate)
+    assert rate == pytest.approx(phi_dot - psi_dot, rel=1e-15, abs=1e-15)
+    tr = simulate(params, [0.2, math.pi, 0.1, phi_dot, 0.0, psi_dot], np.linspace(0.0, 3.0, 7))
+    assert tr.method == "steady" and np.all(tr.angles[:, 1] == math.pi)
+    np.testing.assert_allclose(np.diff(tr.angles[:, 0] - tr.angles[:, 2]), 0.5 * (phi_dot - psi_dot), atol=1e-14)
+    # the limit theta0 -> pi: the bounds close on pi (the axis circles within
+    # a few delta of the vertical), and for the heavy top the period tends to
+    # the small oscillation about the lower pole: a gyroscopic pendulum whose
+    # two circular modes beat at sqrt(I3^2 w3^2 + 4 I mgl) / I
+    w3 = psi_dot - phi_dot
+    omega = math.sqrt((params.I3 * w3) ** 2 + 4.0 * params.I * mgl) / params.I
+    for delta in (1e-9, 1e-12):
+        near = nutation(params, [0.2, math.pi - delta, 0.1, phi_dot, 0.0, psi_dot])
+        assert math.pi - 3.0 * delta <= near.theta_min <= near.theta_max <= math.pi
+        assert float(near.mean_precession_rate - near.mean_spin_rate) == pytest.approx(phi_dot - psi_dot, abs=1e-9)
+        if mgl > 0.0:
+            assert float(near.period) == pytest.approx(2.0 * math.pi / omega, rel=1e-9)
