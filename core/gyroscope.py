@@ -174,8 +174,10 @@ class SteadyPrecessionRates:
     ----------
     slow : (...) the slow rate (the root of Eq. 8.23 with M_theta = 0 that
         tends to ``mgl / (I3 spin)`` for a fast top), rad/s.
-    fast : (...) the fast rate (tends to ``I3 spin / (I cos theta)``);
-        ``inf`` at ``theta = pi/2``, where it does not exist, rad/s.
+    fast : (...) the fast rate (tends to ``I3 spin / (I cos theta)``),
+        rad/s; at ``theta = pi/2``, where it does not exist, its limit
+        ``sign(spin cos theta) inf`` from theta's side of the horizontal
+        (0 without spin).
     """
 
     slow: np.ndarray  # (...)
@@ -466,9 +468,17 @@ def steady_precession_rates(params: RotorParams, theta: Any, spin: Any) -> Stead
 
         \dot\phi_{slow,fast} = \frac{I_3\omega_3 \mp \sqrt{I_3^2\omega_3^2 - 4 I\, mgl \cos\theta}}{2 I \cos\theta}
 
-    (evaluated without cancellation). At ``cos theta = 0`` only the slow rate
-    ``mgl / (I3 spin)`` exists and ``fast`` is ``inf``. The spin rate that
-    goes with a precession rate is ``psi_dot = spin - phi_dot cos theta``.
+    (evaluated without cancellation). At ``cos theta = 0`` (``|cos theta| <
+    1e-15``: ``np.pi / 2`` and its neighbours) the quadratic is linear: only
+    the slow rate ``mgl / (I3 spin)`` exists, the steady precession of the
+    chapter's horizontal gyroscope (``M_theta = I3 phi_dot psi_dot - mgl =
+    0``). The fast root ``~ I3 spin / (I cos theta)`` has gone to infinity;
+    ``fast`` is its limit from the side of the horizontal that ``theta``
+    lies on, ``sign(spin cos theta) inf`` (``+inf`` for ``np.pi / 2``,
+    6e-17 rad above the horizontal, and a positive spin), and ``0`` without
+    spin (``mgl = 0``, where the fast root is 0 at every theta). The spin
+    rate that goes with a precession rate is ``psi_dot = spin - phi_dot cos
+    theta``.
 
     Parameters
     ----------
@@ -497,7 +507,9 @@ def steady_precession_rates(params: RotorParams, theta: Any, spin: Any) -> Stead
     sn, cs = np.sin(th), np.cos(th)
     if np.any(np.abs(sn) < 1e-12):
         raise ValueError(f"theta: steady precession needs sin(theta) != 0, got theta={th}")
-    cs = np.where(np.abs(cs) < 1e-15, 0.0, cs)
+    horizontal = np.abs(cs) < 1e-15
+    side = np.where(cs < 0.0, -1.0, 1.0)  # below (-) or above (+) the horizontal
+    cs = np.where(horizontal, 0.0, cs)
     h = I3 * w3
     disc = h**2 - 4.0 * I * mgl * cs
     if np.any(disc < 0.0):
@@ -511,7 +523,11 @@ def steady_precession_rates(params: RotorParams, theta: Any, spin: Any) -> Stead
     big = h + np.where(h >= 0.0, root, -root)  # |big| = |h| + root, no cancellation
     with np.errstate(divide="ignore", invalid="ignore"):
         slow = np.where(big != 0.0, 2.0 * mgl / np.where(big != 0.0, big, 1.0), 0.0)
-        fast = np.where(cs != 0.0, big / (2.0 * I * np.where(cs != 0.0, cs, 1.0)), np.inf)
+        # at the horizontal the fast root I3 spin / (I cos theta) has left for
+        # infinity on the side of theta's cosine: its limit is signed, and 0
+        # without spin (then mgl = 0 and the fast root is 0 at every theta)
+        limit = np.where(h == 0.0, 0.0, np.sign(h) * side * np.inf)
+        fast = np.where(cs != 0.0, big / (2.0 * I * np.where(cs != 0.0, cs, 1.0)), limit)
     return SteadyPrecessionRates(slow=slow, fast=fast)
 
 

@@ -368,3 +368,44 @@ def test_nutation_at_the_lower_pole_is_steady_and_the_limit_of_nearby_states(mgl
         assert float(near.mean_precession_rate - near.mean_spin_rate) == pytest.approx(phi_dot - psi_dot, abs=1e-9)
         if mgl > 0.0:
             assert float(near.period) == pytest.approx(2.0 * math.pi / omega, rel=1e-9)
+
+
+def test_steady_precession_rates_at_the_horizontal_balance_gravity_with_signed_limits():
+    # At theta = pi/2, Eq. 8.23 with M_theta = 0 is I3 phi_dot psi_dot = mgl:
+    # one (slow) root. The fast root I3 spin / (I cos theta) leaves for
+    # infinity with the sign of spin cos(theta); it used to be +inf for
+    # either sign of the spin.
+    params = RotorParams(I=1.0, I3=1.5, mgl=0.5)
+    above, below = math.pi / 2, np.nextafter(math.pi / 2, 4.0)  # cos = +6e-17, -1.6e-16
+    assert math.cos(above) > 0.0 > math.cos(below)
+    spins = np.array([5.0, -5.0, 0.5, -1e-3])
+    for theta, side in ((above, 1.0), (below, -1.0)):
+        r = steady_precession_rates(params, theta, spins)
+        # the slow rate balances gravity exactly (the torque of Eq. 8.23 vanishes)
+        psi_dot = spins - r.slow * math.cos(theta)
+        M = steady_precession_torque(params, theta, r.slow, psi_dot)
+        # to round-off, plus the term I cos(theta) phi_dot^2 of the float theta
+        # that the horizontal (|cos theta| < 1e-15) leaves out
+        dropped = params.I * abs(math.cos(theta)) * r.slow**2
+        assert np.all(np.abs(M) <= 4 * np.finfo(float).eps * params.mgl + dropped)
+        np.testing.assert_allclose(r.slow, params.mgl / (params.I3 * spins), rtol=1e-15)
+        assert np.all(np.isinf(r.fast)) and np.all(np.sign(r.fast) == side * np.sign(spins))
+        # the limit: the finite fast root just off the horizontal on the same
+        # side has that sign and balances gravity too
+        off = theta - side * 1e-7
+        finite = steady_precession_rates(params, off, spins)
+        assert np.all(np.sign(finite.fast) == np.sign(r.fast)) and np.all(np.abs(finite.fast) > 1e4)
+        psi_dot = spins - finite.fast * math.cos(off)
+        terms = np.abs(finite.fast * params.I3 * psi_dot) + params.mgl
+        M = steady_precession_torque(params, off, finite.fast, psi_dot)
+        assert np.all(np.abs(M) <= 1e-8 * terms)
+        # and 1 / fast = 0 solves the equation divided by phi_dot^2:
+        # I cos(theta) - I3 spin / phi_dot + mgl / phi_dot^2 = 0 at cos(theta) = 0
+        inverse = 1.0 / r.fast
+        assert np.all(inverse == 0.0)
+    # the balanced rotor without spin: every phi_dot is steady at pi/2, and the
+    # fast root is 0 at every other theta, so its limit is 0 (was inf)
+    balanced = RotorParams(I=1.0, I3=1.5, mgl=0.0)
+    r = steady_precession_rates(balanced, above, 0.0)
+    assert r.slow == 0.0 and r.fast == 0.0
+    assert steady_precession_rates(balanced, above - 1e-7, 0.0).fast == 0.0
