@@ -206,16 +206,27 @@ class ControlPanel:
     def set(self, key: str, value: Any) -> None:
         """Show the scene value ``value`` in control ``key`` (not a change).
 
+        A browser's value of ``key`` that arrived after the loop's last
+        :meth:`take_changes` is newer than anything the loop shows: it is
+        kept (and taken as a change next frame), not overwritten. (A scene
+        that fills the fields of a newly chosen input would otherwise drop
+        a value another browser typed into one of them in that frame.)
+
         Raises
         ------
         ValueError
             If the control would refuse ``value`` (a scene bug, never user input).
         """
+        self._set(key, value, over_browser=False)
+
+    def _set(self, key: str, value: Any, *, over_browser: bool) -> None:
         spec = self.specs[key]
         checked = self._checked(spec, value)
         handle = self.handles[key]
         shown = spec.display(checked)
         with self._lock:
+            if key in self._changed and not over_browser:
+                return
             self._values[key] = checked
             self._pending.pop(key, None)
         if handle.value != shown:
@@ -309,9 +320,10 @@ class ControlPanel:
         return accepted, refused
 
     def apply(self, accepted: Mapping[str, Any]) -> None:
-        """Show and use ``accepted`` (values :meth:`check` accepted); they count as changes."""
+        """Show and use ``accepted`` (values :meth:`check` accepted); they count as changes (a loaded state
+        replaces browsers' values not yet taken)."""
         for key, value in accepted.items():
-            self.set(key, value)
+            self._set(key, value, over_browser=True)
         with self._lock:
             self._changed |= set(accepted)
             if accepted:

@@ -141,3 +141,31 @@ def test_formatting_round_trips() -> None:
     assert format_number(3.0) == "3" and format_number(1e-5) == "1e-05"
     assert format_vector((1.0, 0.5, -2e-9)) == "1, 0.5, -2e-09"
     assert describe("x" * 100).endswith("...'") and describe(math.nan) == "nan"
+
+
+def test_a_browser_value_not_yet_taken_survives_the_loop_showing_another(server) -> None:
+    """The loop fills a field (``set``, not a change) in the frame a browser typed into it: the browser's
+    value is newer, so it stays and is taken as a change next frame; a loaded state still replaces it."""
+    from app.gate import Gate
+    from app.panel import ControlPanel
+    from tests.helpers import send_value
+
+    with server.gui.add_folder("Race test") as folder:
+        panel = ControlPanel(server.gui, Gate.for_gui(server.gui), lambda client, *notice: None)
+        panel.add(VectorText("axis", "Axis", default=(0.0, 0.0, 1.0), nonzero=True))
+        panel.add(NumberText("angle", "Angle", default=0.0))
+        try:
+            panel.take_changes()
+            assert send_value(panel, "axis", "1, 2, 3")
+            panel.set("axis", (0.0, 1.0, 0.0))  # the loop, before its next take_changes
+            assert panel.value("axis") == (1.0, 2.0, 3.0)
+            assert panel.take_changes() == {"axis"}
+            panel.set("axis", (0.0, 1.0, 0.0))  # taken: the loop's value shows
+            assert panel.value("axis") == (0.0, 1.0, 0.0)
+            assert panel.handles["axis"].value == "0, 1, 0"
+            assert send_value(panel, "angle", "30")
+            assert panel.load({"angle": 45.0}) == []
+            assert panel.value("angle") == 45.0 and panel.take_changes() == {"angle"}
+        finally:
+            panel.remove_all()
+            folder.remove()
