@@ -10,6 +10,7 @@ on the page with every plotted value below the projection's bound.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -30,6 +31,19 @@ def _view(png: bytes) -> np.ndarray:
     """The 3-D view of a page screenshot: the part left of the control panel."""
     pixels = png_pixels(png)[..., :3]
     return pixels[:, : int(0.6 * pixels.shape[1])]
+
+
+def _settled_view(page, timeout: float = 20.0) -> np.ndarray:
+    """The 3-D view once two screenshots 0.3 s apart agree: a page on a loaded machine may still be drawing
+    frames the server sent before it paused."""
+    deadline = time.monotonic() + timeout
+    last = _view(page.screenshot())
+    while True:
+        page.wait_for_timeout(300)
+        now = _view(page.screenshot())
+        if np.abs(now - last).max() < 0.05 or time.monotonic() > deadline:
+            return now
+        last = now
 
 
 def test_moving_n_changes_the_links_drawn(scene_page) -> None:
@@ -69,8 +83,7 @@ def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
     page.wait_for_timeout(300)
     t_paused = scene.sim_time
     positions = np.array(scene.rods.batched_positions)
-    page.wait_for_timeout(800)
-    held = _view(page.screenshot())
+    held = _settled_view(page)
     page.wait_for_timeout(500)
     assert scene.sim_time == t_paused
     np.testing.assert_array_equal(np.asarray(scene.rods.batched_positions), positions)
