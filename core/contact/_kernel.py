@@ -353,7 +353,9 @@ def contact_rows(group: _Group, fr: _Frames, gi: _Geo, gj: _Geo, level: int, rol
     L = group.L
     rs = np.empty((k, r))
     rs[:, :rp] = 1.0 / L[:, None]
-    rs[:, rp:] = L[:, None] / (np.linalg.norm(n_a, axis=1)[:, None] * np.linalg.norm(tb, axis=1))
+    # point rows (a length per parameter) over L, normal rows (n_a . t_b over |n_a| |t_b|, a number per
+    # parameter) as they are: the entries of a column then compare like L curvatures, whatever the units
+    rs[:, rp:] = 1.0 / (np.linalg.norm(n_a, axis=1)[:, None] * np.linalg.norm(tb, axis=1))
     cn = np.linalg.norm(Cs * rs[:, :, None], axis=1)
     cs = 1.0 / np.where(cn > 0, cn, np.inf)
     prod_r = np.prod(rs, axis=1)[:, None] / rs

@@ -350,7 +350,7 @@ def evaluate_one(cs, fr: Frames1, gi: _G, gj: _G, Es: list, level: int, *, rank:
             Nraw.append((-1.0 if q % 2 else 1.0) * _det4(minor))
     if rank:  # rank indicator (Eq. 8.109)
         L = cs.L
-        rs = [1.0 / L] * rp + [L / (_norm(n_a) * _norm(tb[m])) for m in range(p)]
+        rs = [1.0 / L] * rp + [1.0 / (_norm(n_a) * _norm(tb[m])) for m in range(p)]
         prod_cs = 1.0
         for col in range(2 * p):
             v = math.sqrt(sum((Cs[x][col] * rs[x]) ** 2 for x in range(r)))

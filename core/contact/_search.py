@@ -127,16 +127,17 @@ def find_contact(name: str, surface_i: Any, R_i: np.ndarray, A_i: np.ndarray, su
         return best
     if singular is not None:
         raise singular
-    if candidates and not inward():  # no convergence: a line contact has a rank-deficient C_s at the sampled
-        # guess already (a surface turned inside out gets the orientation hint below instead)
+    if candidates:  # no convergence: a line contact, or surfaces that conform (a ball in a socket of its own
+        # radius, where the socket's normal rightly points inward), has a rank-deficient C_s at the sampled guess
         s_i, s_j = candidates[0]
         ch_i, l_i = surface_i._default_chart(s_i)
         ch_j, l_j = surface_j._default_chart(s_j)
         raw_i = _stack_geometry([surface_i], l_i[None], [ch_i], 2)
         raw_j = _stack_geometry([surface_j], l_j[None], [ch_j], 2)
         gi, gj = _globalize(raw_i, fr.A_i), _globalize(raw_j, fr.A_j)
-        for g, surf, label, sv in ((gi, surface_i, "surface_i", s_i), (gj, surface_j, "surface_j", s_j)):
-            _check_regular(g, surf, label, sv)
+        if not inward():  # (a surface turned inside out gets the orientation hint below instead)
+            for g, surf, label, sv in ((gi, surface_i, "surface_i", s_i), (gj, surface_j, "surface_j", s_j)):
+                _check_regular(g, surf, label, sv)
         _, Es, _, _, _ = _extremal(group, fr, gi, gj)
         kin = contact_rows(group, fr, gi, gj, 0, np.zeros(1, dtype=bool), Es)
         check_rank(name, {"rank": float(kin.rank[0])})

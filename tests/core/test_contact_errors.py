@@ -7,7 +7,16 @@ import math
 import numpy as np
 import pytest
 
-from core.contact import CONTACT_RANK_TOL, ContactError, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
+from core.contact import (
+    CONTACT_RANK_TOL,
+    ContactError,
+    Ellipsoid,
+    ParametricSurface,
+    PlanarCurve,
+    Plane,
+    Sphere,
+    Torus,
+)
 from core.multibody import System
 from core.rotations import euler_parameters_from_axis_angle
 
@@ -276,3 +285,65 @@ def test_a_contact_that_becomes_a_line_contact_stops_the_run_with_its_time():
 
 def test_rank_tolerance_is_public():
     assert 0.0 < CONTACT_RANK_TOL < 1e-6
+
+
+def _rank_at_start(surface_i, surface_j, z):
+    """The rank indicator (Eq. 8.109) that add_contact tests, for surface_j on a body at height z."""
+    import core.contact._search as search
+
+    seen = []
+    real = search.check_rank
+
+    def spy(name, info):
+        seen.append(float(info["rank"]))
+        return real(name, info)
+
+    system = System()
+    body = system.add_body("b", mass=1.0, inertia=(1.0, 1.0, 1.0), position=(0.0, 0.0, z))
+    search.check_rank = spy
+    try:
+        system.add_contact(system.ground, surface_i, body, surface_j)
+    finally:
+        search.check_rank = real
+    return seen[0]
+
+
+@pytest.mark.parametrize("scale", [1e-5, 1e-3, 1.0, 1e3])
+def test_rank_indicator_does_not_depend_on_the_units(scale):
+    """The same shapes in other units give the same indicator: a 0.1 mm ball is a point contact as a 10 cm
+    one is (the normal rows carried an extra factor of the length scale, so the indicator went as L^2 and
+    refused a sphere of 9e-5 m on a plane). Reference: the shapes at 1 m."""
+    cases = [(Plane(), Sphere(scale), scale), (Sphere(2.0 * scale), Sphere(scale), 3.0 * scale),
+             (Plane(), Ellipsoid(scale, 2.0 * scale, 0.5 * scale), 0.5 * scale),
+             (Plane(), Torus(scale, 0.2 * scale), 1.2 * scale)]
+    for (si, sj, z), (ri, rj, z1) in zip(cases, [(Plane(), Sphere(1.0), 1.0), (Sphere(2.0), Sphere(1.0), 3.0),
+                                                 (Plane(), Ellipsoid(1.0, 2.0, 0.5), 0.5),
+                                                 (Plane(), Torus(1.0, 0.2), 1.2)], strict=True):
+        # the indicator is formed from derivatives good to ~1e-15 relative; 1e-9 leaves room for the search
+        np.testing.assert_allclose(_rank_at_start(si, sj, z), _rank_at_start(ri, rj, z1), rtol=1e-9)
+    # and a line contact stays refused at every scale
+    system, body = _ball_system(z=0.1 * scale / 0.1)
+    cyl = ParametricSurface(lambda s: scale / 0.1 * _cylinder(s), bounds=((-0.5, 0.5), (-math.pi, math.pi)))
+    with pytest.raises(ContactError, match=r"C_s has lost rank"):
+        system.add_contact(system.ground, Plane(), body, cyl)
+
+
+@pytest.mark.parametrize("socket_radius", [0.1, 0.1 * (1.0 + 1e-6)])
+def test_a_ball_in_a_socket_of_its_own_radius_gets_the_conforming_advice(socket_radius):
+    """A socket's normal rightly points inward (a bowl): the conforming pair is a rank loss (the advice
+    names the socket), not a surface to turn outward. A socket 1 % larger is a point contact."""
+
+    def bowl(r):
+        return lambda u: r * np.stack([np.cos(u[..., 0]) * np.cos(u[..., 1]), -np.sin(u[..., 0]),
+                                       np.cos(u[..., 0]) * np.sin(u[..., 1])], -1)
+
+    def build(r):
+        system = System(gravity=(0.0, 0.0, -9.81))
+        ball = system.add_body("ball", mass=1.5, inertia=(1.0, 1.0, 1.0), position=(0.0, 0.0, -(r - 0.1)))
+        socket = ParametricSurface(bowl(r), bounds=((-1.4, 1.4), (-math.pi, math.pi)))
+        return system, system.add_contact(system.ground, socket, ball, Sphere(0.1))
+
+    with pytest.raises(ContactError, match=r"C_s has lost rank.*give the socket a larger radius"):
+        build(socket_radius)
+    system, c = build(0.101)
+    np.testing.assert_allclose(system.simulate([0.0, 0.1]).contact(c).normal_force, 1.5 * 9.81, rtol=1e-12)
