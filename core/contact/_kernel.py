@@ -121,6 +121,8 @@ class _Group:
         self.swap = np.array([bool(c.surface_j.degenerate_tangents) for c in contacts], dtype=bool)
         self.rim_i = np.array([bool(c.surface_i.degenerate_tangents) for c in contacts], dtype=bool)
         self.rim_j = self.swap
+        self.flat = np.array([[bool(c.surface_i.unbounded)] * p + [bool(c.surface_j.unbounded)] * p
+                              for c in contacts], dtype=bool).reshape(len(contacts), 2 * p)
         self.surf_i = [c.surface_i for c in contacts]
         self.surf_j = [c.surface_j for c in contacts]
         L = np.array([min(c.surface_i.length_scale, c.surface_j.length_scale) for c in contacts], dtype=float)
@@ -252,16 +254,18 @@ def solve_parameters(group: _Group, fr: _Frames, s: np.ndarray, charts: list, or
         except np.linalg.LinAlgError:
             ds = np.full_like(s, np.nan)
         scale = _column_scales(group, gi, gj)
-        step = np.max(np.abs(ds) * scale, axis=1) / group.L
+        steps = np.abs(ds) * scale
+        step = np.max(steps, axis=1) / group.L
+        curved = np.max(np.where(group.flat, 0.0, steps), axis=1) / group.L  # (planes' parameters move freely)
         if not np.all(np.isfinite(step)):
             bad = int(np.argmax(~np.isfinite(step)))
             raise _at(ContactError(_lost(group.contacts[bad], t, "the extremal conditions are singular (E_s, rank "
                                          "of C_s < 2p, Eq. 8.109): a line or surface contact, or a singular "
                                          "point of a parametrization"), t=t), s, charts)
         lim = 0.25 if damped else 0.5
-        big = step > lim
+        big = curved > lim
         if big.any():
-            ds = np.where(big[:, None], ds * (lim / np.where(big, step, 1.0))[:, None], ds)
+            ds = np.where(big[:, None] & ~group.flat, ds * (lim / np.where(big, curved, 1.0))[:, None], ds)
         done = step <= _STEP_TOL
         if done.all():
             s = s + ds
@@ -473,6 +477,10 @@ class _Static:
         self.swap = bool(contact.surface_j.degenerate_tangents)
         self.rim_i = bool(contact.surface_i.degenerate_tangents)
         self.rim_j = bool(contact.surface_j.degenerate_tangents)
+        # an unbounded plane: Newton's steps along it are not limited (it is linear in its parameters), and a
+        # contact point that moved far along it has not jumped
+        self.flat_i = bool(contact.surface_i.unbounded)
+        self.flat_j = bool(contact.surface_j.unbounded)
         L = min(contact.surface_i.length_scale, contact.surface_j.length_scale)
         self.L = float(L) if math.isfinite(L) else 1.0
         self.rolling = bool(contact.rolling)
@@ -731,8 +739,10 @@ class ContactKernel:
                 prev = state.setdefault("points", {}).get(q)
                 old_sign = state.setdefault("signs", {}).get(q)
             if strict and restarted and prev is not None:
-                L = self.static[q].L
-                jump = max(float(np.linalg.norm(u[0] - prev[0])), float(np.linalg.norm(u[1] - prev[1])))
+                st_q = self.static[q]
+                L = st_q.L
+                jump = max(0.0 if st_q.flat_i else float(np.linalg.norm(u[0] - prev[0])),
+                           0.0 if st_q.flat_j else float(np.linalg.norm(u[1] - prev[1])))
                 if jump > 0.25 * L:
                     when = "" if t is None else f" at t={t:.6g}"
                     since = "" if t0 is None or t is None else f" since t={t0:.6g}"

@@ -259,19 +259,28 @@ def newton_one(cs, fr: Frames1, s: list, charts: list, order: int, *, t: float |
                                      "Eq. 8.109): a line or surface contact, or a singular point of a "
                                      "parametrization"), t=t)
         step = 0.0
-        for side, g, off in ((cs.rim_i, gi, 0), (cs.rim_j, gj, p)):
+        curved = 0.0  # the step on the curved sides: an unbounded plane's parameters move freely
+        for side, g, off, flat in ((cs.rim_i, gi, 0, cs.flat_i), (cs.rim_j, gj, p, cs.flat_j)):
             for l in range(p):
                 sc = _norm(g.T[l])
                 if side:
                     sc = max(sc, L * _norm(g.n1[l]) / _norm(g.n))
-                step = max(step, abs(ds[off + l]) * sc)
+                x = abs(ds[off + l]) * sc
+                step = max(step, x)
+                if not flat:
+                    curved = max(curved, x)
         step /= L
+        curved /= L
         if not math.isfinite(step):
             raise ContactError(_lost(cs.contact, t, "the contact geometry is not finite"), t=t)
         lim = 0.25 if damped else 0.5
-        f = lim / step if step > lim else 1.0
-        for q in range(2 * p):
-            s[q] -= f * ds[q]
+        f = lim / curved if curved > lim else 1.0
+        fi = 1.0 if cs.flat_i else f
+        fj = 1.0 if cs.flat_j else f
+        for q in range(p):
+            s[q] -= fi * ds[q]
+        for q in range(p, 2 * p):
+            s[q] -= fj * ds[q]
         if step <= _STEP_TOL:
             if cur < order:  # one more evaluation, with the third derivatives
                 cur = order
