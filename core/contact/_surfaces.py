@@ -739,9 +739,12 @@ class _ContourDerivatives:
             raise ValueError(
                 f"{name}: the function is not analytic in its complex parameters (component {comp} of its value "
                 f"near s={where[0] if p == 1 else where}: it takes the real part, abs() or conj() of part of its "
-                "argument, or varies too fast on the complex steps' circle of radius "
-                f"{h:g}), so its derivatives cannot come from complex steps; write it with complex-safe "
-                "numpy arithmetic (z * z, not abs(z) ** 2 or np.real(z ** 2)) or pass first=, second= and third=")
+                "argument; write it with complex-safe numpy arithmetic, z * z, not abs(z) ** 2 or np.real(z ** 2)), "
+                f"or it varies too fast on the complex steps' circle, of radius {h:g} in the parameters' own units "
+                "(a feature a few hundredths of a unit across, such as a bump 5 cm wide with parameters in metres, "
+                f"or a singularity within {h:g} of s: give the parameters larger units, such as centimetres or an "
+                "angle); its derivatives cannot come from complex steps, so fix it or pass first=, second= and "
+                "third=")
 
     def __call__(self, s: np.ndarray, order: int, name: str):
         p, N, h = self.p, self.N, self.h
