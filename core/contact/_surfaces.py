@@ -233,6 +233,9 @@ class Surface:
 
         Exact for the plane, sphere and torus; for the ellipsoid the point
         with the same direction from the centre after scaling by the axes.
+        Where many points are equally near (the centre of a sphere or an
+        ellipsoid, a point of a torus's axis), one of them: longitude 0 (at
+        a sphere's or an ellipsoid's centre, latitude 0 too).
         """
         raise NotImplementedError(f"{type(self).__name__} has no inverse map")
 
