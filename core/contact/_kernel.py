@@ -463,8 +463,10 @@ def contact_rows(group: _Group, fr: _Frames, gi: _Geo, gj: _Geo, level: int, rol
     return out
 
 
-#: Systems with at most this many contacts evaluate them on Python floats (``_scalar``).
-SCALAR_MAX = 8
+#: Systems with at most this many contacts evaluate them on Python floats (``_scalar``). The batched path
+#: forms each contact's surface geometry by its own numpy calls on one-row arrays (the surfaces differ), so it
+#: costs more per contact at any count: 11 balls on inclines took 21 s batched, 5 s on floats (it was 8).
+SCALAR_MAX = 1000
 
 
 class _Static:
