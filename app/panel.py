@@ -203,39 +203,37 @@ class ControlPanel:
                 self._clicks = [c for c in self._clicks if c[0] not in wanted]
         return taken
 
-    def set(self, key: str, value: Any) -> None:
+    def set(self, key: str, value: Any, *, keep_browser: bool = False) -> None:
         """Show the scene value ``value`` in control ``key`` (not a change).
 
-        A browser's value of ``key`` that arrived after the loop's last
-        :meth:`take_changes` is newer than anything the loop shows: it is
-        kept (and taken as a change next frame), not overwritten. (A scene
-        that fills the fields of a newly chosen input would otherwise drop
-        a value another browser typed into one of them in that frame.)
+        ``keep_browser``: for a field that only shows the scene's state (the
+        sandbox fills the fields of a newly chosen input from the current
+        orientation), a browser's value of ``key`` that arrived after the
+        loop's last :meth:`take_changes` is newer than what the loop shows:
+        it is kept and taken as a change next frame, not overwritten (which
+        dropped an axis typed in the frame the input was switched).
 
         Raises
         ------
         ValueError
             If the control would refuse ``value`` (a scene bug, never user input).
         """
-        self._set(key, value, over_browser=False)
-
-    def _set(self, key: str, value: Any, *, over_browser: bool) -> None:
         spec = self.specs[key]
         checked = self._checked(spec, value)
         handle = self.handles[key]
         shown = spec.display(checked)
         with self._lock:
-            if key in self._changed and not over_browser:
+            if keep_browser and key in self._changed:
                 return
             self._values[key] = checked
             self._pending.pop(key, None)
         if handle.value != shown:
             handle.value = shown
 
-    def set_many(self, values: Mapping[str, Any]) -> None:
+    def set_many(self, values: Mapping[str, Any], *, keep_browser: bool = False) -> None:
         """:meth:`set` for several controls."""
         for key, value in values.items():
-            self.set(key, value)
+            self.set(key, value, keep_browser=keep_browser)
 
     @staticmethod
     def _checked(spec: Control, value: Any) -> Any:
@@ -320,10 +318,9 @@ class ControlPanel:
         return accepted, refused
 
     def apply(self, accepted: Mapping[str, Any]) -> None:
-        """Show and use ``accepted`` (values :meth:`check` accepted); they count as changes (a loaded state
-        replaces browsers' values not yet taken)."""
+        """Show and use ``accepted`` (values :meth:`check` accepted); they count as changes."""
         for key, value in accepted.items():
-            self._set(key, value, over_browser=True)
+            self.set(key, value)
         with self._lock:
             self._changed |= set(accepted)
             if accepted:

@@ -260,23 +260,25 @@ class OrientationInput:
         Returns a note when the fields cannot show it (Rodriguez parameters
         of a half turn), else None.
         """
+        # (a value a browser typed into a field since this frame took the changes is newer: it stays)
         controls = self.controls
         if input_name == "Euler angles":
             deg = np.clip(np.round(np.degrees(views.euler), 1), -180.0, 180.0)
-            controls.set_many({k: float(d) for k, d in zip(self.key_euler, deg)})
+            controls.set_many({k: float(d) for k, d in zip(self.key_euler, deg)}, keep_browser=True)
         elif input_name == "Axis and angle":
-            controls.set(self.key_axis, tuple(float(x) for x in np.round(views.axis, 6)))
-            controls.set(self.key_angle, round(math.degrees(views.angle), 2))
+            controls.set(self.key_axis, tuple(float(x) for x in np.round(views.axis, 6)), keep_browser=True)
+            controls.set(self.key_angle, round(math.degrees(views.angle), 2), keep_browser=True)
         elif input_name == "Euler parameters":
-            controls.set_many({k: float(x) for k, x in zip(self.key_ep, np.round(views.p, 6))})
+            controls.set_many({k: float(x) for k, x in zip(self.key_ep, np.round(views.p, 6))}, keep_browser=True)
             self._ep_status("|p| = 1: the Euler parameters of the current orientation.")
         elif input_name == "Rodriguez parameters":
             if views.gamma is None:
                 return ("The angle is 180\u00b0: \u03b3 = axis tan(90\u00b0) is infinite, "
                         "so the fields keep their values.")
-            controls.set(self.key_gamma, tuple(float(f"{x:.6g}") for x in views.gamma))
+            controls.set(self.key_gamma, tuple(float(f"{x:.6g}") for x in views.gamma), keep_browser=True)
         elif input_name == "Rotation vector":
-            controls.set(self.key_rotvec, tuple(float(x) for x in np.round(views.rotation_vector, 6)))
+            controls.set(self.key_rotvec, tuple(float(x) for x in np.round(views.rotation_vector, 6)),
+                         keep_browser=True)
         return None
 
     def show_sequence(self, seq: str) -> None:

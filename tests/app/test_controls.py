@@ -144,8 +144,9 @@ def test_formatting_round_trips() -> None:
 
 
 def test_a_browser_value_not_yet_taken_survives_the_loop_showing_another(server) -> None:
-    """The loop fills a field (``set``, not a change) in the frame a browser typed into it: the browser's
-    value is newer, so it stays and is taken as a change next frame; a loaded state still replaces it."""
+    """The loop fills a field that only shows the scene's state (``set(..., keep_browser=True)``) in the
+    frame a browser typed into it: the browser's value is newer, so it stays and is taken as a change next
+    frame. A plain ``set`` (a preset, a scene's own change) and a loaded state replace it."""
     from app.gate import Gate
     from app.panel import ControlPanel
     from tests.helpers import send_value
@@ -157,12 +158,16 @@ def test_a_browser_value_not_yet_taken_survives_the_loop_showing_another(server)
         try:
             panel.take_changes()
             assert send_value(panel, "axis", "1, 2, 3")
-            panel.set("axis", (0.0, 1.0, 0.0))  # the loop, before its next take_changes
+            panel.set("axis", (0.0, 1.0, 0.0), keep_browser=True)  # the loop, before its next take_changes
             assert panel.value("axis") == (1.0, 2.0, 3.0)
             assert panel.take_changes() == {"axis"}
-            panel.set("axis", (0.0, 1.0, 0.0))  # taken: the loop's value shows
+            panel.set("axis", (0.0, 1.0, 0.0), keep_browser=True)  # taken: the loop's value shows
             assert panel.value("axis") == (0.0, 1.0, 0.0)
             assert panel.handles["axis"].value == "0, 1, 0"
+            assert send_value(panel, "axis", "1, 2, 3")
+            panel.set("axis", (0.0, 0.0, 1.0))  # a scene's own change
+            assert panel.value("axis") == (0.0, 0.0, 1.0)
+            panel.take_changes()
             assert send_value(panel, "angle", "30")
             assert panel.load({"angle": 45.0}) == []
             assert panel.value("angle") == 45.0 and panel.take_changes() == {"angle"}
