@@ -61,14 +61,20 @@ def _agm(mc: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
     return tuple(cs), tuple(as_)
 
 
+def agm_sn_cn(u: np.ndarray, mc: float) -> tuple[np.ndarray, np.ndarray]:
+    """sn and cn as the sine and cosine of the amplitude, from the arithmetic-geometric mean started at
+    ``b0 = sqrt(mc)`` (A&S 16.4): no rounding of ``m = 1 - mc``, but cn only to ``1e-16`` absolute."""
+    cs, as_ = _agm(mc)
+    phi = (2.0 ** len(cs)) * as_[-1] * u
+    for c, a in zip(reversed(cs), reversed(as_), strict=True):
+        phi = 0.5 * (phi + np.arcsin(np.clip(c / a * np.sin(phi), -1.0, 1.0)))
+    return np.sin(phi), np.cos(phi)
+
+
 def _direct(u: np.ndarray, mc: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """sn, cn, dn for ``0 <= u <= K/2`` and ``mc < SCIPY_MC`` (see the module's error budget)."""
     if mc >= EXPANSION_MC:
-        cs, as_ = _agm(mc)
-        phi = (2.0 ** len(cs)) * as_[-1] * u
-        for c, a in zip(reversed(cs), reversed(as_), strict=True):
-            phi = 0.5 * (phi + np.arcsin(np.clip(c / a * np.sin(phi), -1.0, 1.0)))
-        sn, cn = np.sin(phi), np.cos(phi)
+        sn, cn = agm_sn_cn(u, mc)
     else:
         # A&S 16.15: sn = tanh u + mc/4 (sinh u cosh u - u) sech^2 u, ...
         ch = np.cosh(u)

@@ -40,6 +40,7 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy.special import ellipj, ellipkm1, elliprf, elliprj
 
+from core._elliptic import agm_sn_cn
 from core._validation import float_array, real_number, short_repr
 from core.rotations import (
     UNIT_NORM_TOL,
@@ -990,19 +991,7 @@ def _ellipj_accurate(u: np.ndarray, m: float, mc: float) -> tuple[np.ndarray, np
         sn, cn, _, _ = ellipj(u, m)
         # dn^2 = 1 - m sn^2 = cn^2 + mc sn^2, without cancellation near u = K
         return sn, cn, np.sqrt(cn * cn + mc * sn * sn)
-    a, b = 1.0, math.sqrt(mc)
-    cs, as_ = [], []
-    for _ in range(40):
-        c = 0.5 * (a - b)
-        a, b = 0.5 * (a + b), math.sqrt(a * b)
-        cs.append(c)
-        as_.append(a)
-        if abs(c) <= 1e-17 * a:
-            break
-    phi = (2.0 ** len(cs)) * as_[-1] * u
-    for c, a in zip(reversed(cs), reversed(as_), strict=True):
-        phi = 0.5 * (phi + np.arcsin(np.clip(c / a * np.sin(phi), -1.0, 1.0)))
-    sn, cn = np.sin(phi), np.cos(phi)
+    sn, cn = agm_sn_cn(u, mc)
     # dn^2 = 1 - m sn^2 = cn^2 + mc sn^2, without cancellation near u = K
     return sn, cn, np.sqrt(cn * cn + mc * sn * sn)
 
