@@ -338,7 +338,8 @@ def test_the_job_continues_from_the_previous_chunk_and_refuses_a_gap():
     c0 = _compute_chunk(model, 0, None)
     c1 = _compute_chunk(model, 1, c0)
     assert c1.t[0] == c0.t[-1] == 1.0
-    np.testing.assert_array_equal(c1.frames[0, :14], c0.frames[-1, :14])
+    # the same state: the run's start only normalizes the Euler parameters again (a few ulps, as the machine rounds)
+    np.testing.assert_allclose(c1.frames[0, :14], c0.frames[-1, :14], rtol=0.0, atol=1e-15)
     assert abs(float(c1.energy[-1]) - c0.setup.energy0) < 1e-4
     with pytest.raises(ValueError, match="previous: chunk 2 continues from chunk 1, which was not given"):
         _compute_chunk(model, 2, c0)

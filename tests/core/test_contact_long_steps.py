@@ -15,9 +15,9 @@ the run reported as completed; on a tilted plane the run stopped with
 Oracle: energy (no damping, so the Hunt-Crossley contact is conservative:
 what it loses or gains is integration error, which the onset of the contact
 inside a step, not smooth in the press (d^1.5), makes larger than rtol at
-every impact: 1e-6 relative over the run, against 5e-8 to 2e-7 measured at
-the tolerances used), the same run with the bodies given in the other
-order, and the ball never pressed in deeper than its energy allows.
+every impact, and which depends on where the steps fall against the onset),
+the same run with the bodies given in the other order, and the ball never
+pressed in deeper than its energy allows.
 """
 
 from __future__ import annotations
@@ -51,7 +51,10 @@ def test_a_ball_dropped_on_a_fixed_sphere_bounces_and_rolls_off_with_its_energy(
     traj = system.simulate(np.linspace(0.0, 1.5, 61))  # sparse outputs: long steps
     assert traj.status == "completed"
     energy = np.asarray(traj.energy)
-    assert np.max(np.abs(energy - energy[0])) < 1e-6 * abs(energy[0])
+    # integration error at the impacts, set by where DOP853's steps fall against each onset of contact: over 41
+    # drop heights within 1 um of this one (each a different sequence of steps), 1.7e-7 to 1.1e-5 relative
+    # (median 4e-7) for either order of the bodies at rtol 1e-8; the regression this guards gained 1e11
+    assert np.max(np.abs(energy - energy[0])) < 3e-5 * abs(energy[0])
     gap = np.asarray(traj.contact(contact).gap)
     assert gap.min() > -0.2 * BALL  # pressed in by millimetres, never through
     assert np.asarray(traj.position(ball))[-1, 2] < -1.0  # it bounced, rolled off and fell past the sphere
