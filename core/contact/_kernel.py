@@ -639,8 +639,9 @@ class ContactKernel:
             batched = self.k > SCALAR_MAX
         cached = state.get("cache")
         modes = state["mode"].tobytes()  # (a compliant contact is evaluated without its gamma)
+        ykey = y.tobytes()
         if cached is not None and cached[1] >= level and cached[2] == batched and cached[5] == modes and (
-                np.array_equal(cached[0], y)):
+                cached[6] == ykey):
             if commit:
                 self._commit_last(state, t, cached[3], y, A, strict)
             return cached[3]
@@ -653,7 +654,7 @@ class ContactKernel:
             raise ContactError(
                 f"contact {c.name!r}: C_s lost rank{when} (Eq. 8.109; scaled volume {res['rank'][c.index]:.1e}): "
                 "the surfaces touch along a line or over an area, where the contact point is not unique", t=t)
-        state["cache"] = (np.array(y), level, batched, res, A, modes)
+        state["cache"] = (np.array(y), level, batched, res, A, modes, ykey)
         if commit:
             self._commit_last(state, t, res, y, A, strict)
         return res

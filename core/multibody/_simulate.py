@@ -47,7 +47,7 @@ from ._analysis import (
     row_label,
 )
 from ._elements import Body, Joint, Motor
-from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, matrices, parameter_rates
+from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, einsum, matrices, parameter_rates
 from ._system import State, _make_state
 
 __all__ = [
@@ -284,7 +284,7 @@ class _Dynamics:
         y_in = y
         y = np.array(y, dtype=float)
         P = y[n3:n7].reshape(n, 4)
-        P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
+        P /= np.sqrt(einsum("ij,ij->i", P, P))[:, None]
         if eng.m == 0:
             return y
         tol = self.position_tol
@@ -330,7 +330,7 @@ class _Dynamics:
             y[:n3] -= dq[:n3]
             P = y[n3:n7].reshape(n, 4)
             P -= parameter_rates(P, dq[n3:].reshape(n, 3))
-            P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
+            P /= np.sqrt(einsum("ij,ij->i", P, P))[:, None]
             prev = res
         Dk = D if kv is None else D[kv]
         Ctk = Ct if kv is None else Ct[kv]
@@ -1077,8 +1077,10 @@ def _trusted(n: int, y_a: np.ndarray, z: np.ndarray, y_new: np.ndarray, h: float
     although its displacement is small.
     """
     n3, n7 = 3 * n, 7 * n
-    d = np.abs(np.stack([y_new[:n7] - z[:n7], y_new[:n7] - y_a[:n7], h * f_a[:n7], y_new[:n7]]))
-    (corr_R, corr_p), (disp_R, disp_p), (rate_R, rate_p), (size_R, _) = np.maximum.reduceat(d, (0, n3), axis=1).tolist()
+    yn = y_new[:n7]
+    d = np.abs(np.concatenate([yn - z[:n7], yn - y_a[:n7], h * f_a[:n7], yn])).tolist()
+    corr_R, corr_p, disp_R, disp_p = max(d[:n3]), max(d[n3:n7]), max(d[n7 : n7 + n3]), max(d[n7 + n3 : 2 * n7])
+    rate_R, rate_p, size_R = max(d[2 * n7 : 2 * n7 + n3]), max(d[2 * n7 + n3 : 3 * n7]), max(d[3 * n7 : 3 * n7 + n3])
     for corr, moved, floor in ((corr_R, max(disp_R, rate_R), 1e-9 * (1.0 + size_R)),
                                (corr_p, max(disp_p, rate_p), 1e-9)):
         if corr > floor and corr > _KINEMATIC_TRUST * moved:
@@ -1137,7 +1139,7 @@ def _kinematic_prediction(n: int, y: np.ndarray, t: float, hist: tuple, tq: floa
         z[n3:n7] = ((2 * u3 - 3 * u2 + 1) * y_p[n3:n7] + (u3 - 2 * u2 + u) * H * f_p[n3:n7]
                     + (-2 * u3 + 3 * u2) * y[n3:n7] + (u3 - u2) * H * f[n3:n7])
         P = z[n3:n7].reshape(n, 4)
-        P /= np.sqrt(np.einsum("ij,ij->i", P, P))[:, None]
+        P /= np.sqrt(einsum("ij,ij->i", P, P))[:, None]
     else:
         phi = (h * y[10 * n :] + 0.5 * h * h * f[n7 + n3 :]).tolist()
         P = y[n3:n7].tolist()
@@ -1205,7 +1207,7 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
                 try:
                     z = _kinematic_prediction(n, y_a, t_a, (t_p, y_p, f_p, f_a), t_new)
                     y_new = model.project(t_new, z)
-                    if not np.all(np.isfinite(y_new)):
+                    if not np.isfinite(y_new).all():
                         raise IntegrationError(f"the kinematic solution at t={t_new:.6g} is not finite", t=t_new)
                     if not _trusted(n, y_a, z, y_new, t_new - t_a, f_a):
                         raise IntegrationError(
