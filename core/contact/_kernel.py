@@ -723,16 +723,20 @@ class ContactKernel:
         last = state.get("last", {})
         tracks = state.get("track")
         replay = bool(state.get("replay"))
+        body_points = res.get("body_points")  # (the float path's, per contact: the points in the bodies' frames)
         for c in self.contacts:
             q = c.index
             if q not in last:
                 continue
             s, charts, restarted, sign = last[q]
-            u = []
-            for body, key in ((c.body_i, "point_i"), (c.body_j, "point_j")):
-                b = body.index
-                x = res[key][q]
-                u.append(x if b < 0 else A[b].T @ (x - y[3 * b : 3 * b + 3]))
+            if body_points is not None:
+                u = [np.array(x) for x in body_points[q]]
+            else:
+                u = []
+                for body, key in ((c.body_i, "point_i"), (c.body_j, "point_j")):
+                    b = body.index
+                    x = res[key][q]
+                    u.append(x if b < 0 else A[b].T @ (x - y[3 * b : 3 * b + 3]))
             tr = None if tracks is None else tracks.get(q)
             near = tr.nearest(t) if tr is not None and t is not None and tr.times else None
             if near is not None:
@@ -820,6 +824,8 @@ class ContactKernel:
         if level >= 2:
             res_gamma, res_rate, res_gamma_c, res_gamma_r = res["gamma"], res["rate"], res["gamma_c"], res["gamma_r"]
         vals, gaps, normals, pis, pjs, ranks = [], [], [], [], [], []
+        body_points = [None] * self.k
+        _rotT = _scalar._rotT
         for cs in self.static:
             fr = Frames1()
             bi, bj = cs.bi, cs.bj
@@ -869,6 +875,7 @@ class ContactKernel:
             last_all[q] = (np.array(s), charts, restarted, _det_sign(Es))
             t_last_all[q] = t
             out = evaluate_one(cs, fr, gi, gj, Es, level, rank=level < 2, gamma=not light)  # (rank: at projections)
+            body_points[q] = (_rotT(fr.Ai, gi.rho), _rotT(fr.Aj, gj.rho))
             if rate_all is not None:
                 sd = out["sdot"]
                 speed = max(abs(x) for x in sd) if sd else 0.0
@@ -903,6 +910,7 @@ class ContactKernel:
         res["point_i"] = np.array(pis, dtype=float)
         res["point_j"] = np.array(pjs, dtype=float)
         res["rank"] = np.array(ranks, dtype=float)
+        res["body_points"] = body_points
         return res
 
     def _pose_frames(self, cs, y: np.ndarray):

@@ -717,13 +717,17 @@ class _Engine:
         if self.contact_kernel is None:
             return self._joint_motor_rows(t, Y, Phi, gam, level=level)
         mm = self.m_motor
-        C0, D0, Ct0, g0 = self._joint_motor_rows(t, Y, Phi, gam, level=level) if mm else (None, None, None, None)
         m = self.m
-        n6 = 6 * self.n
-        C = np.zeros(m)
-        Ct = np.zeros(m)
-        D = np.zeros((m, n6)) if level >= 1 else None
-        gamma = np.zeros(m) if level >= 2 else None
+        if self.motors:  # new arrays of all m rows, the joints' and motors' filled
+            C, D, Ct, gamma = self._joint_motor_rows(t, Y, Phi, gam, level=level, rows=m)
+            mm = 0  # (nothing to copy)
+        else:
+            C0, D0, Ct0, g0 = self._joint_motor_rows(t, Y, Phi, gam, level=level) if mm else (None,) * 4
+            n6 = 6 * self.n
+            C = np.zeros(m)
+            Ct = np.zeros(m)
+            D = np.zeros((m, n6)) if level >= 1 else None
+            gamma = np.zeros(m) if level >= 2 else None
         if mm:
             C[:mm] = C0
             Ct[:mm] = Ct0
@@ -752,26 +756,30 @@ class _Engine:
                     gamma[rr] = res_gamma_r[q, : rr.size]
         return C, D, Ct, gamma
 
-    def _joint_motor_rows(self, t: float, Y, Phi, gam, *, level: int):
+    def _joint_motor_rows(self, t: float, Y, Phi, gam, *, level: int, rows: int | None = None):
         """Rows of the joints and motors: constraint vector, Jacobian, C_t and gamma.
 
         Adds the motors: ``C = sin(theta - f) = P1 cos f - P2 sin f`` for an
         angle, ``C = s - f`` for a displacement, with ``C_t`` and the
         acceleration terms from ``f, f_dot, f_ddot``. Without motors the
-        arrays are views of the table's (do not modify them).
+        arrays are views of the table's (do not modify them). With motors,
+        ``rows`` (at least ``m_motor``) sizes the new arrays, the rows past
+        the motors' zero: :meth:`constraint_rows` fills the contacts' rows
+        in them.
         """
         m_dir, m = self.m_dir, self.m_motor
         if not self.motors:
             D = (self.Dt if self.m_tab == m else self.Dt[:m]) if level >= 1 else None
             gamma = (gam if self.m_tab == m else gam[:m]) if level >= 2 else None
             return (Phi if self.m_tab == m else Phi[:m]), D, self._zero_m, gamma
-        C = np.empty(m)
+        size = m if rows is None else rows
+        C = np.zeros(size)
         C[:m_dir] = Phi[:m_dir]
-        Ct = np.zeros(m)
+        Ct = np.zeros(size)
         D = None
         gamma = None
         if level >= 2:
-            gamma = np.empty(m)
+            gamma = np.zeros(size)
             gamma[:m_dir] = gam[:m_dir]
         if self.disp_motors:
             fv = np.array([mt.values(t) for mt in self.disp_motors]).reshape(-1, 3)
@@ -790,7 +798,7 @@ class _Engine:
             cosd = P2 * cf + P1 * sf  # cos(theta - f)
             Ct[m_dir] = -fd * cosd
             if level >= 1:
-                D = np.empty((m, 6 * self.n))
+                D = np.empty((size, 6 * self.n)) if size == m else np.zeros((size, 6 * self.n))
                 D[:m_dir] = self.Dt[:m_dir]
                 np.subtract(cf * self.Dt[i1], sf * self.Dt[i2], out=D[m_dir])
             if gamma is not None:
@@ -806,23 +814,25 @@ class _Engine:
             p12 = self._aux_motor12
             P12 = Phi[p12]
             P1, P2 = P12[:k], P12[k:]
-            C[m_dir:] = P1 * cf - P2 * sf
+            C[m_dir:m] = P1 * cf - P2 * sf
             cosd = P2 * cf + P1 * sf  # cos(theta - f)
-            Ct[m_dir:] = -fd * cosd
+            Ct[m_dir:m] = -fd * cosd
             if level >= 1:
-                D = np.empty((m, 6 * self.n))
+                D = np.empty((size, 6 * self.n)) if size == m else np.zeros((size, 6 * self.n))
                 D[:m_dir] = self.Dt[:m_dir]
                 D12 = self.Dt[p12]
-                D[m_dir:] = cf[:, None] * D12[:k] - sf[:, None] * D12[k:]
+                D[m_dir:m] = cf[:, None] * D12[:k] - sf[:, None] * D12[k:]
             if gamma is not None:
                 dP12 = self.rates(Y, p12)
                 dP1, dP2 = dP12[:k], dP12[k:]
                 g12 = gam[p12]
                 # C_dd = D a - (cf g1 - sf g2) - 2 fd (sf dP1 + cf dP2) - fdd cosd - fd^2 C = 0
-                gamma[m_dir:] = ((cf * g12[:k] - sf * g12[k:]) + 2.0 * fd * (sf * dP1 + cf * dP2)
-                                 + fdd * cosd + fd * fd * C[m_dir:])
+                gamma[m_dir:m] = ((cf * g12[:k] - sf * g12[k:]) + 2.0 * fd * (sf * dP1 + cf * dP2)
+                                  + fdd * cosd + fd * fd * C[m_dir:m])
         elif level >= 1:
-            D = self.Dt[:m_dir]
+            D = self.Dt[:m_dir] if size == m else np.zeros((size, 6 * self.n))
+            if size != m:
+                D[:m_dir] = self.Dt[:m_dir]
         if not math.isfinite(C.sum()) and not np.all(np.isfinite(C)):
             raise ValueError(f"motor: a driving function returned a non-finite value at t={t:.6g}")
         return C, D, Ct, gamma
