@@ -119,7 +119,13 @@ class _Dynamics:
         # the outputs are the ends of the steps (a kinematic analysis): their contact rates s_dot are the warm
         # start's prediction for the next step (see _record_output)
         self.outputs_end_steps = False
-        if not any(c.model == "constraint" for c in eng.contacts):
+        # a compliant contact's touch or lift (its gap crossing zero) ends an adaptive run's step there, when
+        # the run sets locate_touches (see stop_time); touched: the last stop was one
+        self.locate_touches = False
+        self.touched = False
+        self._gap_prev: tuple | None = None  # (t, gaps) at the end of the last step
+        self._separations = any(c.model == "constraint" for c in eng.contacts)
+        if not eng.contacts:
             self.stop_time = None
 
     def failure(self, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
@@ -215,7 +221,8 @@ class _Dynamics:
         return out
 
     def stop_time(self, t0: float, y0: np.ndarray, t1: float, y1: np.ndarray, dense) -> float | None:
-        """The integrators' event check: the earliest zero crossing of a normal force in ``[t0, t1]``.
+        """The integrators' event check: the earliest zero crossing of a normal force, or of a compliant
+        contact's gap, in ``[t0, t1]``.
 
         A constraint-model contact whose normal force is below
         ``-separation_tol`` at the end of the step has crossed zero in it;
@@ -223,7 +230,79 @@ class _Dynamics:
         the step's (projected) dense output and recorded in ``events``. With
         ``on_separation="bilateral"`` the run goes on (None is returned);
         otherwise it stops at the earliest crossing.
+
+        With ``locate_touches`` (an adaptive run), a compliant contact whose
+        gap changed sign in the step (a touch or a lift, see
+        :meth:`_touch_time`) ends the run there too, unless a separation
+        comes first; ``touched`` tells the caller to go on from that instant
+        with a new run.
         """
+        touch = self._touch_time(t0, y0, t1, y1, dense) if self.locate_touches else None
+        if touch is not None:
+            t1, y1 = touch, dense(touch)
+        te = self._separation_time(t0, y0, t1, y1, dense) if self._separations else None
+        if te is not None or touch is None:
+            if touch is not None:
+                self._gap_prev = None
+            return te
+        self.touched = True
+        return touch
+
+    def _gaps(self, t: float, y: np.ndarray) -> np.ndarray:
+        """(k,) gaps of the contacts in the compliant model at ``(t, y)`` (nan for the others)."""
+        eng = self.eng
+        n = eng.n
+        res = eng.contact_kernel.evaluate(y, matrices(y[3 * n : 7 * n].reshape(n, 4)), 0, eng.contact_state, t=t,
+                                          commit=False)
+        return np.where(eng.contact_state["mode"] != 0, res["gap"], np.nan)
+
+    def _touch_time(self, t0: float, y0: np.ndarray, t1: float, y1: np.ndarray, dense) -> float | None:
+        """The earliest instant in ``(t0, t1]`` at which a compliant contact's gap crosses zero, or None.
+
+        The Hunt-Crossley force ``k d^e`` is not smooth where
+        the press ``d`` starts or ends (its second derivative is unbounded
+        for ``e < 2``): a step of an order-8 method across that instant
+        carries an error its estimate misses, and how large it is depends on
+        where the step falls. Located by Brent's method on the gap along the
+        step's dense output, the instant becomes the end of one step and the
+        start of the next. A ball dropped on a sphere 41 times from heights
+        within 1 um: energy errors of 1.4e-7 to 1.5e-7 at rtol 1e-8, against
+        1.7e-7 to 1.1e-5 with steps across the touches.
+
+        A gap within 1e-12 of the contact's length scale of zero at ``t0``
+        (the start of a run at a touch or a separation) is not a crossing.
+        """
+        eng = self.eng
+        if not eng.contact_state["mode"].any():
+            self._gap_prev = None
+            return None
+        prev = self._gap_prev
+        g0 = prev[1] if prev is not None and prev[0] == t0 else self._gaps(t0, y0)
+        g1 = self._gaps(t1, y1)
+        self._gap_prev = (t1, g1)
+        at_zero = np.abs(g0) <= 1e-12 * eng.contact_kernel._L
+        crossed = np.flatnonzero(((g0 > 0.0) != (g1 > 0.0)) & np.isfinite(g0) & np.isfinite(g1) & ~at_zero)
+        found = []
+        for c in crossed.tolist():
+            def f(tt, c=c):
+                return float(self._gaps(tt, dense(tt))[c])
+
+            try:
+                te = brentq(f, t0, t1, xtol=1e-15 * max(1.0, abs(t1)), rtol=4.0 * np.finfo(float).eps, maxiter=200)
+            except ValueError:  # no sign change along the dense output
+                continue
+            if te > t0:
+                found.append((te, c))
+        if not found:
+            return None
+        te, c = min(found)
+        g_te = self._gaps(te, dense(te))
+        g_te[c] = g1[c]  # the next step starts on the side the gap crossed to
+        self._gap_prev = (te, g_te)
+        return te
+
+    def _separation_time(self, t0: float, y0: np.ndarray, t1: float, y1: np.ndarray, dense) -> float | None:
+        """The separation part of :meth:`stop_time` (constraint-model contacts)."""
         tol = self.separation_tol
         cached = self._lam_last
         if cached is not None and cached[0] == t1:
@@ -1417,6 +1496,10 @@ def simulate(
     if model.project is not None:
         model.output_times = frozenset(float(x) for x in tt)
         y0 = model.project(t0, y0)
+    model.locate_touches = adaptive and any(c.model != "constraint" or (on_separation == "compliant")
+                                            for c in eng.contacts)
+    if not (model._separations or model.locate_touches):
+        model.stop_time = None
 
     kc = len(eng.contacts)
     if kc:
@@ -1442,7 +1525,7 @@ def simulate(
             )
     n_steps = n_rhs = 0
     pending_event = None
-    if model.stop_time is not None:
+    if model.stop_time is not None and model._separations:
         # force scale of the separation test; a contact that pulls already at t0 separates there
         _, lam0, _, _, _ = model.accelerations(t0, y0)  # (kept from the output at t0)
         Q0 = model.applied_last
@@ -1527,6 +1610,9 @@ def simulate(
             n_rhs += res.n_rhs
             if res.stop_time is not None:
                 t_cur, y_cur = float(res.stop_time), np.array(res.stop_state)
+                if model.touched:  # a compliant contact touched or lifted: a new run from that instant
+                    model.touched = False
+                    continue
                 pending_event = model.events[-1]
                 continue
             if adaptive:
