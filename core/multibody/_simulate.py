@@ -124,6 +124,7 @@ class _Dynamics:
         self.locate_touches = False
         self.touched = False
         self._gap_prev: tuple | None = None  # (t, gaps) at the end of the last step
+        self._stage_evals: dict = {}  # t -> contact evaluation of the right-hand sides since the last step
         self._separations = any(c.model == "constraint" for c in eng.contacts)
         if not eng.contacts:
             self.stop_time = None
@@ -195,6 +196,8 @@ class _Dynamics:
             al = self.alpha
             gamma = gamma - 2.0 * al * (D @ y[n7:] + Ct) - al * al * C
         Q = eng.applied(t, y, At, Y, Phi, self._state)
+        if self.locate_touches:
+            self._stage_evals[t] = eng.contact_eval  # (the stage at the step's end: its gaps serve the touch check)
         if eng.m:
             eng.last_factor = None
             a, lam = self._solve(t, y, D, Q, gamma)
@@ -259,9 +262,9 @@ class _Dynamics:
     def _touch_time(self, t0: float, y0: np.ndarray, t1: float, y1: np.ndarray, dense) -> float | None:
         """The earliest instant in ``(t0, t1]`` at which a compliant contact's gap crosses zero, or None.
 
-        The Hunt-Crossley force ``k d^e`` is not smooth where
-        the press ``d`` starts or ends (its second derivative is unbounded
-        for ``e < 2``): a step of an order-8 method across that instant
+        The Hunt-Crossley force ``k d^e`` is not smooth where the press
+        ``d`` starts or ends (its second derivative is unbounded for ``e <
+        2``): a step of an order-8 method across that instant
         carries an error its estimate misses, and how large it is depends on
         where the step falls. Located by Brent's method on the gap along the
         step's dense output, the instant becomes the end of one step and the
@@ -273,12 +276,17 @@ class _Dynamics:
         (the start of a run at a touch or a separation) is not a crossing.
         """
         eng = self.eng
+        stage = self._stage_evals.get(t1)
+        self._stage_evals.clear()
         if not eng.contact_state["mode"].any():
             self._gap_prev = None
             return None
         prev = self._gap_prev
         g0 = prev[1] if prev is not None and prev[0] == t0 else self._gaps(t0, y0)
-        g1 = self._gaps(t1, y1)
+        if stage is not None:  # the step's stage at its end (before the projection, a round-off away)
+            g1 = np.where(eng.contact_state["mode"] != 0, stage["gap"], np.nan)
+        else:
+            g1 = self._gaps(t1, y1)
         self._gap_prev = (t1, g1)
         at_zero = np.abs(g0) <= 1e-12 * eng.contact_kernel._L
         crossed = np.flatnonzero(((g0 > 0.0) != (g1 > 0.0)) & np.isfinite(g0) & np.isfinite(g1) & ~at_zero)
