@@ -246,9 +246,16 @@ class PlotRefresh:
         self._since = math.inf
         self._queue = []
 
-    def due(self, dt: float, *, moving: bool) -> str | None:
-        """The plot to refresh in this frame, if any (``moving``: the data changed)."""
+    def due(self, dt: float, *, moving: bool, hold: bool = False) -> str | None:
+        """The plot to refresh in this frame, if any (``moving``: the data changed).
+
+        ``hold``: the frame has other work of its own (a buffer it sends now
+        and then); nothing is refreshed in it, the time still counts, and the
+        plot that was due comes in the next frame.
+        """
         self._since += dt
+        if hold:
+            return None
         if not self._queue and moving and self._since >= self.period:
             self._queue = list(self.names)
             self._since = 0.0
