@@ -32,6 +32,8 @@ from app.nodes import set_array, set_pose, wxyz_z_to
 
 __all__ = ["ChunkedTrail", "StickHead", "extend_trail", "trail_segments", "FAR_SEGMENTS"]
 
+Vec = tuple[float, float, float]
+
 #: Two zero-length segments 5 km away, beyond the view's far plane, added to every
 #: chunk node so that its bounds hold anything a scene draws. (They were meant
 #: against culling by bounds computed once; the page in fact rebuilds a line's
@@ -172,12 +174,12 @@ class ChunkedTrail(_Framed):
         self._dirty: set[int] = set()
         self._head = 0  # chunk holding the newest segment
         self._count = 0  # segments in the head chunk
-        self._last: np.ndarray | None = None  # newest point
+        self._last: tuple[float, float, float] | None = None  # newest point
 
     @property
     def newest(self) -> np.ndarray | None:
         """The newest point (3,), or None for an empty curve."""
-        return self._last
+        return None if self._last is None else np.array(self._last)
 
     @property
     def thickness(self) -> float:
@@ -197,7 +199,7 @@ class ChunkedTrail(_Framed):
             n = self._count if k == self._head else self.chunk_segments
             if n:
                 parts.append(self._segments[k, :n, 0])
-        parts.append(self._last.astype(np.float32)[None])
+        parts.append(np.array([self._last], dtype=np.float32))
         return np.concatenate(parts)
 
     def clear(self) -> None:
@@ -208,18 +210,23 @@ class ChunkedTrail(_Framed):
         self._count = 0
         self._last = None
 
-    def add(self, point: np.ndarray) -> bool:
-        """Append ``point`` (3,) unless it is within ``min_step`` of the newest one; whether it was added."""
-        point = np.asarray(point, dtype=float)
+    def add(self, point: Any) -> bool:
+        """Append ``point`` (3,) unless it is within ``min_step`` of the newest one; whether it was added.
+
+        A point costs the loop thread a few float operations and one row of
+        the chunk's buffer (it is called for every point of a curve, every
+        frame): the unused segments of the newest chunk collapse onto the
+        newest point when :meth:`flush` sends it.
+        """
+        p = (float(point[0]), float(point[1]), float(point[2]))
         last = self._last
         if last is not None:
-            d = point - last
-            if not float(d @ d) > self.min_step * self.min_step:
+            dx, dy, dz = p[0] - last[0], p[1] - last[1], p[2] - last[2]
+            if not dx * dx + dy * dy + dz * dz > self.min_step * self.min_step:
                 return False
-        self._last = point
-        if last is None:  # the first point: a dot (every segment on it) in the head chunk
+        self._last = p
+        if last is None:  # the first point: a dot (every segment on it, at the flush) in the head chunk
             self._used[self._head] = True
-            self._segments[self._head, :self.chunk_segments] = point
             self._dirty.add(self._head)
             return True
         if self._count == self.chunk_segments:  # the head is full: reuse the oldest node
@@ -227,10 +234,7 @@ class ChunkedTrail(_Framed):
             self._count = 0
             self._used[self._head] = True
         k, n = self._head, self._count
-        seg = self._segments[k]
-        seg[n, 0] = last
-        seg[n, 1] = point
-        seg[n + 1:self.chunk_segments] = point  # unused segments collapse onto the newest point
+        self._segments[k, n] = (last, p)
         self._count = n + 1
         self._dirty.add(k)
         return True
@@ -239,6 +243,8 @@ class ChunkedTrail(_Framed):
         """Send the chunks that changed since the last flush (call inside ``target.atomic()``)."""
         if not self._dirty:
             return
+        if self._last is not None:  # the newest chunk's unused segments collapse onto the newest point
+            self._segments[self._head, self._count:self.chunk_segments] = self._last
         for k in sorted(self._dirty):
             node = self.nodes[k]
             if self._used[k]:
@@ -315,11 +321,13 @@ class StickHead(_Framed):
         self._shown = np.zeros(self.count, dtype=bool)  # as sent
         self._tip_shown = False
         self._visibility_due = False
-        self._placed: set[int] = set()  # sticks placed since the last draw
+        self._placed: dict[int, tuple[Vec, Vec]] = {}  # sticks placed since the last draw: their ends
         self._next = 0  # the ring's next stick
-        self._anchor: np.ndarray | None = None  # the newest chord's end (the first point before any chord)
-        self._last: np.ndarray | None = None  # the newest point
-        self._direction: np.ndarray | None = None  # unit direction of the newest chord
+        # (points as float triples: a frame feeds a point or two, and numpy's calls on 3-vectors cost more than
+        # the arithmetic)
+        self._anchor: Vec | None = None  # the newest chord's end (the first point before any chord)
+        self._last: Vec | None = None  # the newest point
+        self._direction: Vec | None = None  # unit direction of the newest chord
 
     @property
     def segments(self) -> np.ndarray:
@@ -329,7 +337,8 @@ class StickHead(_Framed):
         out = [np.stack([self._starts[order], self._ends[order]], axis=1)]
         tip = self._tip()
         if tip is not None:
-            out.append(np.array([[self._last, self._last + self.length * tip]]))
+            last = np.array(self._last)
+            out.append(np.array([[last, last + self.length * np.array(tip)]]))
         return np.concatenate(out)
 
     def set_length(self, length: float) -> None:
@@ -355,45 +364,52 @@ class StickHead(_Framed):
         self._last = None
         self._direction = None
 
-    def add(self, point: np.ndarray) -> None:
+    def add(self, point: Any) -> None:
         """Extend the curve to ``point`` (3,) along a straight piece from the newest point."""
-        p = np.array(point, dtype=float)
+        px, py, pz = float(point[0]), float(point[1]), float(point[2])
         if self._anchor is None or self._last is None:
-            self._anchor = p.copy()
-            self._last = p
+            self._anchor = self._last = (px, py, pz)
             return
-        anchor, prev = self._anchor, self._last
+        ax, ay, az = self._anchor
+        qx, qy, qz = self._last
         length2 = self.length * self.length
-        while float((p - anchor) @ (p - anchor)) >= length2:
+        while (px - ax) ** 2 + (py - ay) ** 2 + (pz - az) ** 2 >= length2:
             # the chord's end: the point of [prev, p] at distance `length` from the anchor
             # (|prev - anchor| < length, so exactly one such point lies past prev)
-            a, b = prev - anchor, p - prev
-            bb, ab = float(b @ b), float(a @ b)
-            u = (-ab + math.sqrt(max(ab * ab - bb * (float(a @ a) - length2), 0.0))) / bb
-            end = prev + min(max(u, 0.0), 1.0) * b
-            self._place(anchor, end)
-            anchor = prev = end
-        self._anchor = anchor
-        self._last = p
+            a = (qx - ax, qy - ay, qz - az)
+            bx, by, bz = px - qx, py - qy, pz - qz
+            bb = bx * bx + by * by + bz * bz
+            ab = a[0] * bx + a[1] * by + a[2] * bz
+            aa = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
+            u = min(max((-ab + math.sqrt(max(ab * ab - bb * (aa - length2), 0.0))) / bb, 0.0), 1.0)
+            end = (qx + u * bx, qy + u * by, qz + u * bz)
+            self._place((ax, ay, az), end)
+            ax, ay, az = qx, qy, qz = end
+        self._anchor = (ax, ay, az)
+        self._last = (px, py, pz)
 
-    def _place(self, start: np.ndarray, end: np.ndarray) -> None:
+    def _place(self, start: Vec, end: Vec) -> None:
         k = self._next
         self._next = (k + 1) % self.count
+        sx, sy, sz = start
+        dx, dy, dz = end[0] - sx, end[1] - sy, end[2] - sz
+        norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+        ux, uy, uz = self._direction = (dx / norm, dy / norm, dz / norm)
+        stick_end = (sx + self.length * ux, sy + self.length * uy, sz + self.length * uz)
         self._starts[k] = start
-        d = end - start
-        self._direction = d / math.sqrt(float(d @ d))
-        self._ends[k] = start + self.length * self._direction
+        self._ends[k] = stick_end
         if not self._used[k]:
             self._used[k] = True
             self._visibility_due = True
-        self._placed.add(k)
+        self._placed[k] = (start, stick_end)
 
-    def _tip(self) -> np.ndarray | None:
+    def _tip(self) -> Vec | None:
         """Unit direction of the tip from the newest point (back along the newest chord), or None (no chord
         yet)."""
         if self._last is None or self._direction is None:
             return None
-        return -self._direction
+        ux, uy, uz = self._direction
+        return (-ux, -uy, -uz)
 
     def draw(self) -> None:
         """Send the poses of the sticks placed since the last draw and of the tip (call inside
@@ -405,8 +421,10 @@ class StickHead(_Framed):
         """
         new_chord = bool(self._placed)
         for k in sorted(self._placed):
-            d = self._ends[k] - self._starts[k]
-            set_pose(self.nodes[k], position=self._starts[k], wxyz=wxyz_z_to(d, math.sqrt(float(d @ d))))
+            start, end = self._placed[k]
+            dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
+            norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+            set_pose(self.nodes[k], position=start, wxyz=wxyz_z_to((dx, dy, dz), norm))
         self._placed.clear()
         if self._visibility_due:
             self._visibility_due = False

@@ -156,3 +156,34 @@ def test_a_late_joiner_sees_the_whole_chunked_curve(server) -> None:
         assert not any(node["visible"] for name, node in empty.nodes().items() if name.startswith("/trail_late/"))
     finally:
         empty.close()
+
+
+def test_a_flush_sends_the_newest_chunk_with_its_unused_segments_on_the_newest_point(server) -> None:
+    # points come every frame, flushes a few frames apart (a scene's track at 10 Hz): what is sent is the
+    # curve up to the newest point, and the chunk's remaining segments are that point (drawn as nothing)
+    trail = ChunkedTrail(_Owner(server), "/trail_between_flushes", (0, 150, 140), thickness=2.0, capacity=32,
+                         min_step=0.01, chunk_segments=8)
+    points = _curve(40, offset=2.0)
+    trail.add(points[0])
+    with server.atomic():
+        trail.flush()  # the first point alone: a dot, every segment on it
+    first = np.asarray(trail.nodes[0].points)[:-2]
+    np.testing.assert_allclose(first, np.broadcast_to(points[0], first.shape), rtol=1e-6)
+    for i, p in enumerate(points[1:], start=1):
+        assert trail.add(p)
+        if i % 3 == 0 or i == len(points) - 1:
+            with server.atomic():
+                trail.flush()
+            assert not trail.pending
+            sent = np.concatenate([np.asarray(h.points)[:-2] for h in trail.nodes if h.visible])
+            real = sent[np.linalg.norm(sent[:, 1] - sent[:, 0], axis=1) > 0]
+            # the segments drawn join consecutive points, up to the newest one
+            assert np.linalg.norm(real[:, 1] - points[i], axis=1).min() < 1e-6
+            drawn = trail.points
+            np.testing.assert_allclose(drawn[-1], points[i], rtol=1e-6)
+            assert real.shape[0] == drawn.shape[0] - 1
+            # the rest collapse onto the newest point
+            newest = np.asarray(trail.nodes[trail._head].points)[:-2]
+            rest = newest[trail._count:]
+            np.testing.assert_allclose(rest, np.broadcast_to(points[i], rest.shape), rtol=1e-6)
+    np.testing.assert_array_equal(trail.newest, points[-1])
