@@ -20,7 +20,9 @@ of the previous chunk and runs :meth:`core.multibody.System.simulate`
 energy and the constraint residuals, the lean, spin and heading rate
 (:func:`core.rotations.euler_angles_from_euler_parameters` and
 :func:`core.rotations.euler_angle_rates_from_omega` in the disk's ``"ZXY"``
-angles) and formats the CSV rows. A run that cannot go on -- the disk leaves
+angles), forms the plotted series (lean in degrees, the log10 energy drift
+and residuals) and the track's points (below), and formats the CSV rows, so
+that a frame only slices arrays. A run that cannot go on -- the disk leaves
 the ground (the normal force reaches zero: a constraint cannot pull), lies
 down flat (the contact loses rank, Eq. 8.109) or leans past
 :data:`core.models.FLAT_LEAN` -- ends its chunk there, and the clock stops at
@@ -39,7 +41,11 @@ points reach the screen a page frame later: at the 2-4 fps of a software-
 rendered page a track stretched every frame ended up to a metre behind).
 Between two samples that turn sharply (a small coin's loops) the track
 follows the parabola through the last three samples in pieces
-(:func:`track_pieces`), so it is a curve, not a polygon of sample chords.
+(:func:`track_pieces`, formed by the chunk job), so it is a curve, not a
+polygon of sample chords. The plots and the readout are refreshed one per
+frame, four times a second (:class:`app.scenes._plots.PlotRefresh`); a
+frame that sends the track's newest chunk leaves the next of them to the
+frame after it, so no frame carries both.
 """
 
 from __future__ import annotations
@@ -157,6 +163,8 @@ _CENTRE, _P, _POINT, _FORCE = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 
 _LEAN, _ENERGY, _RES_P, _RES_V, _NORMAL = 7, 8, 9, 10, 11
 # Columns of _Chunk.rates: lean rate, spin omega_2 (about the axis), heading rate (rad/s), speed (m/s).
 _LEAN_RATE, _SPIN, _HEADING_RATE, _SPEED = 0, 1, 2, 3
+# Columns of _Chunk.plots.columns: the plotted series, lean (deg), log10 |E - E0|, log10 max |C|, log10 max |dC/dt|, N.
+_PLOT_LEAN, _PLOT_ENERGY, _PLOT_RES_P, _PLOT_RES_V, _PLOT_NORMAL = 0, 1, 2, 3, 4
 
 #: The controls that define the motion (a change restarts it).
 _MODEL_KEYS = frozenset({"lean_deg", "spin", "heading_rate", "contact", "radius", "mass"})
@@ -279,6 +287,11 @@ class _Chunk:
     parameters, contact point, contact force; interpolated as one row);
     ``q_end`` / ``v_end`` are the final state the next chunk continues from.
     ``end`` is empty while the motion goes on, else why it stopped at ``t[-1]``.
+    ``track`` holds the points that extend the contact point's track to
+    each sample (lifted over the ground, through :func:`track_pieces`; a
+    sample at the time of the one before adds none) and ``plots`` the
+    plotted series, both formed with the chunk, so that a frame only slices
+    them.
     """
 
     k: int
@@ -287,6 +300,9 @@ class _Chunk:
     frames: np.ndarray  # (n, 13) centre (3), p (4), contact point (3), contact force on the disk (3)
     rates: np.ndarray  # (n, 4) lean rate, spin omega_2, heading rate (rad/s), speed of the centre (m/s)
     table: Table  # t and the CSV columns: centre, p, lean, E, max |C|, max |dC/dt|, N
+    plots: Table  # t and the plotted series: lean (deg), log10 |E - E0|, log10 max |C|, log10 max |dC/dt|, N
+    track: np.ndarray  # (m, 3) track points (global, m, lifted); sample i adds track[track_start[i]:track_start[i + 1]]
+    track_start: np.ndarray  # (n + 1,) int
     q_end: np.ndarray  # (7,)
     v_end: np.ndarray  # (6,)
     energy0: float  # J, at t = 0
@@ -378,9 +394,47 @@ def _still(previous: _Chunk, k: int, end: str, cpu0: float) -> _Chunk:
     return dataclasses.replace(
         previous, k=k, t=previous.t[-1:].repeat(2), frames=previous.frames[-1:].repeat(2, axis=0),
         rates=previous.rates[-1:].repeat(2, axis=0),
-        table=Table.build(previous.t[-1:], previous.table.columns[-1:]), end=end, n_steps=0, n_rhs=0,
+        table=Table.build(previous.t[-1:], previous.table.columns[-1:]),
+        plots=Table(previous.plots.t[-1:], previous.plots.columns[-1:], ()), track=_NO_TRACK,
+        track_start=np.zeros(3, dtype=np.intp), end=end, n_steps=0, n_rhs=0,
         cpu_seconds=time.thread_time() - cpu0, worker=os.getpid(),
     )
+
+
+_NO_TRACK = np.zeros((0, 3))
+_NO_TRACK.setflags(write=False)
+
+
+def _track(t: np.ndarray, points: np.ndarray, previous: _Chunk | None) -> tuple[np.ndarray, np.ndarray]:
+    """The track points of a chunk's samples: ``(track (m, 3), track_start (n + 1,))`` (see :class:`_Chunk`).
+
+    ``t`` (n,) and ``points`` (n, 3) are the samples' times and contact
+    points (global). Each sample extends the track from the two samples
+    before it (the previous chunk's last two for the first ones; none at
+    t = 0) through :func:`track_pieces`. A sample at the time of the one
+    before (a chunk's first, which ends the previous chunk) adds nothing.
+    """
+    lifted = np.array(points, dtype=float)
+    lifted[:, 2] += _TRACK_LIFT
+    samples: list[np.ndarray] = []
+    last = -math.inf
+    if previous is not None:
+        before = previous.frames[-2:, _POINT].copy()
+        before[:, 2] += _TRACK_LIFT
+        samples = list(before)
+        last = float(previous.t[-1])
+    parts: list[np.ndarray] = []
+    start = [0]
+    for ti, q in zip(t.tolist(), lifted):
+        if ti > last:
+            pieces = track_pieces(samples, q)
+            parts.extend(pieces)
+            samples = [*samples[-1:], q]
+            last = ti
+        start.append(len(parts))
+    track = np.array(parts, dtype=float).reshape(-1, 3)
+    track_start = np.array(start, dtype=np.intp)
+    return track, track_start
 
 
 def _compute_chunk(model: Model, k: int, previous: _Chunk | None) -> _Chunk:
@@ -437,16 +491,19 @@ def _compute_chunk(model: Model, k: int, previous: _Chunk | None) -> _Chunk:
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{name}: the motion left the finite range near t = {t[0]:.3g} s")
     table = Table.build(s["t"], columns)
+    energy0 = previous.energy0 if previous is not None else float(columns[0, _ENERGY])
+    series = np.stack([np.degrees(lean), log10_floor(s["energy"] - energy0), log10_floor(s["res_p"]),
+                       log10_floor(s["res_v"]), s["normal"]], axis=1)
     tt = s["t"]
     if tt.size == 1:  # the run ended where it began: a still chunk of two equal samples
         tt, frames, rate_columns = (np.repeat(a, 2, axis=0) for a in (tt, frames, rate_columns))
-    energy0 = previous.energy0 if previous is not None else float(columns[0, _ENERGY])
+    track, track_start = _track(tt, frames[:, _POINT], previous)
     q_end, v_end = np.array(s["q"][-1]), np.array(s["v"][-1])
-    for a in (tt, frames, rate_columns, q_end, v_end):
+    for a in (tt, frames, rate_columns, q_end, v_end, series, track, track_start):
         a.setflags(write=False)
-    return _Chunk(k, model, tt, frames, rate_columns, table, q_end, v_end, energy0, end,
-                  sum(int(tr.n_steps) for tr in trajs), sum(int(tr.n_rhs) for tr in trajs),
-                  time.thread_time() - cpu0, os.getpid())
+    return _Chunk(k, model, tt, frames, rate_columns, table, Table(table.t, series, ()), track, track_start,
+                  q_end, v_end, energy0, end, sum(int(tr.n_steps) for tr in trajs),
+                  sum(int(tr.n_rhs) for tr in trajs), time.thread_time() - cpu0, os.getpid())
 
 
 # -- meshes (created once, in build) ---------------------------------------------------
@@ -563,7 +620,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.playback = Playback(PRESETS, controls=self.controls)
         self.timeline = ChunkTimeline(self.executor, functools.partial(_compute_chunk, Model.from_inputs(_DEFAULT)),
                                       chunk_time=_CHUNK_SIM_TIME, sequential=True, capacity=_CHUNKS_KEPT)
-        self.history = History()
+        self.history = History()  # the CSV's tables
+        self.plot_history = History()  # the plotted series (_Chunk.plots)
         self._refresh = PlotRefresh(("window", "readout", "lean", "energy", "residual", "normal"), _REFRESH_PERIOD)
         # Owned by update() (the session loop thread).
         self.model: Model | None = None
@@ -574,8 +632,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.energy0 = math.nan
         self.columns = np.full(12, math.nan)  # the CSV columns at the computed sample nearest the clock
         self.rates = np.full(4, math.nan)  # lean rate, spin, heading rate, speed at that sample
-        self.centre = np.zeros(3)  # m, as drawn (global)
-        self.contact_point = np.zeros(3)  # m, as drawn (global)
+        self._row = [0.0] * 13  # the row of _Chunk.frames drawn last (interpolated)
         self.last_chunk: _Chunk | None = None
         self._drawn: tuple[Any, ...] | None = None
         self._refreshed_time = -1.0
@@ -584,7 +641,6 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self._error_paused = False  # the failure paused a running clock (not one paused by hand)
         self._end_reported = ""
         self._track_time = -math.inf  # time of the newest sample in the track
-        self._track_samples: list[np.ndarray] = []  # the track's last two samples (lifted), for its pieces
         self._since_track = math.inf
         self._scale = math.nan  # radius the disk mesh is drawn at
         self._arrow_length = 0.0  # m, length of the force arrow as sent
@@ -693,6 +749,16 @@ class RollingDiskScene(PlaybackRequests, Scene):
         return Inputs.from_values(self.controls.values())
 
     @property
+    def centre(self) -> np.ndarray:
+        """(3,) the disk's centre as drawn (global, m)."""
+        return np.array(self._row[_CENTRE])
+
+    @property
+    def contact_point(self) -> np.ndarray:
+        """(3,) the contact point as drawn (global, m)."""
+        return np.array(self._row[_POINT])
+
+    @property
     def track_points(self) -> np.ndarray:
         """(n, 3) the contact point's track drawn (global, m, lifted over the ground), oldest first."""
         return self.track.points
@@ -748,9 +814,9 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.track.clear()
         self.track_head.clear()
         self._track_time = -math.inf
-        self._track_samples = []
         self._since_track = math.inf
         self.history.clear()
+        self.plot_history.clear()
         self._drawn = None
         self._refreshed_time = -1.0
         self._refresh.force()
@@ -800,12 +866,11 @@ class RollingDiskScene(PlaybackRequests, Scene):
 
     def _draw(self, chunk: _Chunk, dt: float) -> None:
         assert self.gui is not None and self.model is not None
-        follow = bool(self.controls.value("follow"))
-        show_track = bool(self.controls.value("show_track"))
-        show_force = bool(self.controls.value("show_force"))
-        due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
+        value = self.controls.value
+        follow, show_track, show_force = bool(value("follow")), bool(value("show_track")), bool(value("show_force"))
         key = (self.sim_time, chunk.k, follow, show_track, show_force, chunk.model)
         if key == self._drawn:
+            due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
             if due is not None:  # paused: the poses are on the page; only a last refresh may be due
                 with self.target.atomic():
                     self._refresh_one(due)
@@ -813,41 +878,48 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self._drawn = key
         self.energy0 = chunk.energy0
         self.history.add(chunk.k, chunk.table)
-        # linear interpolation between the two samples around the clock
+        self.plot_history.add(chunk.k, chunk.plots)
+        # linear interpolation between the two samples around the clock, on floats (13 numbers)
         t = chunk.t
-        h = float(t[1] - t[0])
-        x = (self.sim_time - float(t[0])) / h if h > 0.0 else 0.0
+        t0 = float(t[0])
+        h = float(t[1]) - t0
+        x = (self.sim_time - t0) / h if h > 0.0 else 0.0
         j = min(max(int(x), 0), t.size - 2)
         w = min(max(x - j, 0.0), 1.0)
-        frames = chunk.frames
-        row = frames[j] + w * (frames[j + 1] - frames[j])
+        row = [a + w * (b - a) for a, b in zip(chunk.frames[j].tolist(), chunk.frames[j + 1].tolist())]
         near = j + 1 if w >= 0.5 else j  # conserved quantities at a computed sample
         self.columns = chunk.table.columns[min(near, chunk.table.columns.shape[0] - 1)]
         self.rates = chunk.rates[near]
-        centre, point, force = row[_CENTRE], row[_POINT], row[_FORCE]
-        p = row[_P]
-        p = p / math.sqrt(float(p @ p))  # nlerp
-        self.centre, self.contact_point = centre, point
+        self._row = row
+        cx, cy, cz, p0, p1, p2, p3, px, py, pz, fx, fy, fz = row
+        k = 1.0 / math.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)  # nlerp
         # the track: every computed contact point the clock has passed (the
         # rest of the chunk before, when the clock crossed into this one)
         previous = self.last_chunk
-        sources = [previous, chunk] if previous is not None and previous.k == chunk.k - 1 else [chunk]
+        sources = (previous, chunk) if previous is not None and previous.k == chunk.k - 1 else (chunk,)
         for source in sources:
-            new = (source.t > self._track_time) & (source.t <= self.sim_time)
-            if source.model == chunk.model and np.any(new):
-                for q in source.frames[new, _POINT]:
-                    self._add_track_point(q)
-                self._track_time = float(source.t[new][-1])
+            if source is not chunk and source.model != chunk.model:
+                continue
+            i0 = int(np.searchsorted(source.t, self._track_time, side="right"))
+            i1 = int(np.searchsorted(source.t, self.sim_time, side="right"))
+            if i1 > i0:
+                starts = source.track_start
+                for q in source.track[starts[i0]:starts[i1]]:
+                    self.track.add(q)
+                    self.track_head.add(q)
+                self._track_time = float(source.t[i1 - 1])
         # the head runs on to the contact point drawn (on the straight piece to the next sample)
-        self.track_head.add(np.array([point[0], point[1], point[2] + _TRACK_LIFT]))
+        self.track_head.add((px, py, pz + _TRACK_LIFT))
         self._since_track += dt
         send_track = show_track and self.track.pending and self._since_track >= _TRACK_PERIOD
+        # a frame that sends the track's newest chunk leaves the next plot or readout to the frame after it
+        due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time, hold=send_track)
         self.last_chunk = chunk
         self.drawn_model = chunk.model
-        offset = (float(centre[0]), float(centre[1])) if follow else (0.0, 0.0)
+        ox, oy = (cx, cy) if follow else (0.0, 0.0)
         radius = chunk.model.radius
         mg = chunk.model.mass * _GRAVITY
-        magnitude = math.sqrt(float(force @ force))
+        magnitude = math.sqrt(fx * fx + fy * fy + fz * fz)
         length = _ARROW_RADII * radius * magnitude / (magnitude + mg)
         send_length = abs(length - self._arrow_length) > 0.02 * self._arrow_length or (length == 0.0) != (
             self._arrow_length == 0.0)
@@ -858,11 +930,10 @@ class RollingDiskScene(PlaybackRequests, Scene):
                 self.disk_marker.scale = radius
                 self.point_mesh.scale = _POINT_RADIUS * radius
                 self.resize_arrows(self.force_arrow, **_arrow_sizes(radius))
-            set_pose(self.disk, position=(centre[0] - offset[0], centre[1] - offset[1], centre[2]), wxyz=p)
-            set_pose(self.ground, position=(-offset[0], -offset[1], 0.0))
-            set_pose(self.grid, position=(-math.fmod(offset[0], _GRID_SECTION), -math.fmod(offset[1], _GRID_SECTION),
-                                          0.0))
-            set_pose(self.point, position=(point[0], point[1], point[2] + _TRACK_LIFT))
+            set_pose(self.disk, position=(cx - ox, cy - oy, cz), wxyz=(p0 * k, p1 * k, p2 * k, p3 * k))
+            set_pose(self.ground, position=(-ox, -oy, 0.0))
+            set_pose(self.grid, position=(-math.fmod(ox, _GRID_SECTION), -math.fmod(oy, _GRID_SECTION), 0.0))
+            set_pose(self.point, position=(px, py, pz + _TRACK_LIFT))
             if self.track.visible != show_track:
                 self.track.visible = show_track
                 self.track_head.visible = show_track
@@ -874,27 +945,19 @@ class RollingDiskScene(PlaybackRequests, Scene):
             if self.force_frame.visible != show_force:
                 self.force_frame.visible = show_force
             if show_force:
-                set_pose(self.force_frame, wxyz=wxyz_z_to(force, magnitude))
+                set_pose(self.force_frame, wxyz=wxyz_z_to((fx, fy, fz), magnitude))
                 if send_length:
                     self._arrow_length = length
                     set_array(self.force_arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))
             if due is not None:
                 self._refresh_one(due)
-        if chunk.final and self.sim_time >= float(chunk.t[-1]) and self._end_reported != chunk.end:
+        if chunk.final and self.sim_time >= float(t[-1]) and self._end_reported != chunk.end:
             self._end_reported = chunk.end
             self.ended = chunk.end
             self.playback.set_playing(False)
             self.notify("Rolling disk stopped", f"{chunk.end[0].upper()}{chunk.end[1:]}. "
                         "Change a control, pick a preset or press Reset.", "warning")
             self._refresh.force()
-
-    def _add_track_point(self, point: np.ndarray) -> None:
-        """Extend the track to the next sample of the contact point, through :func:`track_pieces`."""
-        lifted = np.array([point[0], point[1], point[2] + _TRACK_LIFT])
-        for q in track_pieces(self._track_samples, lifted):
-            self.track.add(q)
-            self.track_head.add(q)
-        self._track_samples = [*self._track_samples[-1:], lifted]
 
     # -- plots, readout, export ----------------------------------------------------------
     def _window_start(self) -> float:
@@ -906,22 +969,24 @@ class RollingDiskScene(PlaybackRequests, Scene):
             # each refresh cycle starts here: the readout and plots of the
             # cycle (the next frames) show the window as it is now
             self._refreshed_time = self.sim_time
-            self._plot_window = self.history.trimmed_window(self._window_start(), self.sim_time)
+            start = self._window_start()
+            self.history.trim(start)
+            self._plot_window = self.plot_history.trimmed_window(start, self.sim_time)
             return
         if what == "readout":
             self.gui.readout.content = self._readout()
             return
-        t, columns = self._plot_window
+        t, series = self._plot_window  # formed with the chunks (_Chunk.plots)
         if t.size == 0:
             return
         if what == "lean":
-            self.gui.plot_lean.data = (t, np.degrees(columns[:, _LEAN]))
+            self.gui.plot_lean.data = (t, series[:, _PLOT_LEAN])
         elif what == "energy":
-            self.gui.plot_energy.data = (t, log10_floor(columns[:, _ENERGY] - self.energy0))
+            self.gui.plot_energy.data = (t, series[:, _PLOT_ENERGY])
         elif what == "residual":
-            self.gui.plot_residual.data = (t, log10_floor(columns[:, _RES_P]), log10_floor(columns[:, _RES_V]))
+            self.gui.plot_residual.data = (t, series[:, _PLOT_RES_P], series[:, _PLOT_RES_V])
         elif what == "normal" and self.drawn_model is not None:
-            self.gui.plot_normal.data = (t, columns[:, _NORMAL], np.full_like(t, self.drawn_model.mass * _GRAVITY))
+            self.gui.plot_normal.data = (t, series[:, _PLOT_NORMAL], np.full_like(t, self.drawn_model.mass * _GRAVITY))
 
     def _info(self, model: Model) -> str:
         """The critical upright spin of the model and the initial spin against it."""

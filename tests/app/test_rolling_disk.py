@@ -466,3 +466,40 @@ def test_chunks_continue_the_system_and_a_fall_ends_them():
     assert f0.final and ("flat" in f0.end) and f0.t[-1] < 0.5
     f1 = _compute_chunk(flat, 1, f0)  # after the end, the last sample is held
     assert f1.final and np.all(f1.t == f0.t[-1]) and np.all(f1.frames == f0.frames[-1])
+
+
+def test_chunks_carry_the_tracks_pieces_and_the_plotted_series():
+    # a frame only slices these: the track's points (the contact point's samples lifted over the ground, with
+    # the pieces between sharply turning samples) and the plotted series, formed by the chunk job
+    model = Model.from_inputs(Inputs(radius=0.03, lean_deg=20.0, spin=10.0))  # a small coin's loops
+    c0 = _compute_chunk(model, 0, None)
+    c1 = _compute_chunk(model, 1, c0)
+    lift = np.array([0.0, 0.0, 0.0015])
+    # the samples in the order the clock passes them (chunk 1's first is chunk 0's last), each extending the
+    # track from the two before it
+    samples = [*(c0.frames[:, 7:10] + lift), *(c1.frames[1:, 7:10] + lift)]
+    expected, before = [], []
+    for q in samples:
+        expected.extend(track_pieces(before, q))
+        before = [*before[-1:], q]
+    np.testing.assert_array_equal(np.concatenate([c0.track, c1.track]), np.array(expected))
+    assert len(expected) > len(samples)  # pieces between the samples of the loops
+    for chunk in (c0, c1):
+        assert chunk.track_start.shape == (chunk.t.size + 1,) and chunk.track_start[0] == 0
+        assert chunk.track_start[-1] == chunk.track.shape[0] and np.all(np.diff(chunk.track_start) >= 0)
+        assert np.all(np.diff(chunk.track_start)[1:] >= 1)  # every sample after the first adds its own point
+    assert c0.track_start[1] == 1 and c1.track_start[1] == 0  # chunk 1's first sample was drawn with chunk 0
+    for chunk in (c0, c1):
+        columns, series = chunk.table.columns, chunk.plots.columns
+        np.testing.assert_array_equal(chunk.plots.t, chunk.table.t)
+        np.testing.assert_array_equal(series[:, 0], np.degrees(columns[:, 7]))
+        with np.errstate(divide="ignore"):  # (E - E0 = 0 at t = 0: the log plots' floor)
+            drift = np.maximum(np.log10(np.abs(columns[:, 8] - c0.energy0)), -17.0)
+        np.testing.assert_array_equal(series[:, 1], drift)
+        np.testing.assert_array_equal(series[:, 4], columns[:, 11])
+    # a chunk after the motion ended holds its last sample and adds no track
+    flat = Model.from_inputs(Inputs(lean_deg=20.0, spin=0.0, contact=SLIDING))
+    f0 = _compute_chunk(flat, 0, None)
+    f1 = _compute_chunk(flat, 1, f0)
+    assert f1.track.shape == (0, 3) and np.all(f1.track_start == 0)
+    np.testing.assert_array_equal(f1.plots.columns, f0.plots.columns[-1:])
