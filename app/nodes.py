@@ -17,6 +17,12 @@ equal), checked finite, and sent as one update message.
 Like :mod:`app.gate`, this module reaches into viser 1.1's handle internals
 (``_impl.wxyz``, ``_impl.position``, ``_impl.props``,
 ``_impl.api._queue_scene_message``).
+
+:func:`set_plot_data` is the same for a plot's data (``gui.add_uplot``):
+viser's setter compares the type hint with each of its array types for
+every array (about 100 us a plot on a loop thread that slept between
+frames); here each series is copied as float64 and the data sent as one
+update message, as viser's setter does (``_impl.props``, ``_queue_update``).
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from typing import Any
 import numpy as np
 from viser import _messages
 
-__all__ = ["set_pose", "set_array", "set_arrays", "wxyz_z_to"]
+__all__ = ["set_pose", "set_array", "set_arrays", "set_plot_data", "wxyz_z_to"]
 
 _RTOL = 1e-5
 _ATOL = 1e-8
@@ -108,6 +114,21 @@ def set_arrays(handle: Any, **values: Any) -> None:
         changed[name] = array.copy()
     if changed:
         impl.api._queue_scene_message(_messages.SceneNodeUpdateMessage(impl.name, changed))
+
+
+def set_plot_data(handle: Any, data: Any) -> None:
+    """Set the data of a plot (a ``gui.add_uplot`` handle): ``data`` is a sequence of 1-D series, x first.
+
+    Each series is copied as a float64 array (so the caller may reuse its
+    buffers) and the tuple is sent as one update message, as viser's own
+    setter does. Nothing is sent for a removed plot.
+    """
+    impl = handle._impl
+    if impl.removed:
+        return
+    value = tuple(np.array(series, dtype=np.float64) for series in data)
+    impl.props.data = value
+    handle._queue_update("data", value)
 
 
 def wxyz_z_to(v: Any, norm: float) -> tuple[float, float, float, float]:
