@@ -62,7 +62,7 @@ import numpy as np
 import trimesh
 
 from app.controls import Choice, Slider, Toggle
-from app.nodes import set_array, set_pose, wxyz_z_to
+from app.nodes import set_array, set_plot_data, set_pose, wxyz_z_to
 from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
@@ -979,14 +979,16 @@ class RollingDiskScene(PlaybackRequests, Scene):
         t, series = self._plot_window  # formed with the chunks (_Chunk.plots)
         if t.size == 0:
             return
+        gui = self.gui
         if what == "lean":
-            self.gui.plot_lean.data = (t, series[:, _PLOT_LEAN])
+            set_plot_data(gui.plot_lean, (t, series[:, _PLOT_LEAN]))
         elif what == "energy":
-            self.gui.plot_energy.data = (t, series[:, _PLOT_ENERGY])
+            set_plot_data(gui.plot_energy, (t, series[:, _PLOT_ENERGY]))
         elif what == "residual":
-            self.gui.plot_residual.data = (t, series[:, _PLOT_RES_P], series[:, _PLOT_RES_V])
+            set_plot_data(gui.plot_residual, (t, series[:, _PLOT_RES_P], series[:, _PLOT_RES_V]))
         elif what == "normal" and self.drawn_model is not None:
-            self.gui.plot_normal.data = (t, series[:, _PLOT_NORMAL], np.full_like(t, self.drawn_model.mass * _GRAVITY))
+            mg = np.full_like(t, self.drawn_model.mass * _GRAVITY)
+            set_plot_data(gui.plot_normal, (t, series[:, _PLOT_NORMAL], mg))
 
     def _info(self, model: Model) -> str:
         """The critical upright spin of the model and the initial spin against it."""
