@@ -1,8 +1,11 @@
-"""Plot refresh schedule (app/scenes/_plots.py): one plot per frame, at the refresh period, held by busy frames."""
+"""Plots of the timed scenes (app/scenes/_plots.py): the refresh schedule (one plot per frame, at the refresh
+period, held by busy frames) and the history's windows."""
 
 from __future__ import annotations
 
-from app.scenes._plots import PlotRefresh
+import numpy as np
+
+from app.scenes._plots import History, PlotRefresh, Table
 
 DT = 1.0 / 64.0  # (exact in binary: a period of 0.25 s is 16 frames)
 
@@ -35,3 +38,55 @@ def test_a_held_frame_refreshes_nothing_and_the_plot_comes_in_the_next_frame():
     assert names == ["a", "b", "c"] * 3
     assert [i for i, d in enumerate(due) if d == "a"] == [1, 17, 33]
     assert [i for i, d in enumerate(due) if d == "c"] == [3, 20, 35]  # (18 is held: b and c come a frame later)
+
+
+def _reference_window(tables: list[tuple[np.ndarray, np.ndarray]], t_start: float, t_end: float,
+                      max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """The window by definition: the samples in [t_start, t_end], a table's first left out where it repeats
+    the time before, decimated to every s-th sample counted from the oldest, the newest time always kept."""
+    ts, cs, last = [], [], -np.inf
+    for t, columns in tables:
+        keep = (t >= t_start) & (t <= t_end) & (t > last)
+        ts.append(t[keep])
+        cs.append(columns[keep])
+        if keep.any():
+            last = t[keep][-1]
+    t, columns = np.concatenate(ts), np.concatenate(cs)
+    if t.size == 0:
+        return np.zeros(0), np.zeros((0, 0))
+    stride = max(1, -(-t.size // max_points))
+    picked = list(range(0, t.size, stride))
+    if t[picked[-1]] != t[-1]:  # the newest time (a held sample repeats it)
+        picked.append(t.size - 1)
+    return t[picked], columns[picked]
+
+
+def test_history_windows_and_csv_hold_each_sample_once():
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        period, n = float(rng.choice([0.5, 1.0 / 3.0])), int(rng.integers(1, 40))
+        history, tables = History(), []
+        for k in range(int(rng.integers(1, 25))):
+            t = np.linspace(k * period, (k + 1) * period, n + 1)  # each chunk's first time ends the one before
+            if rng.random() < 0.1:
+                t = np.repeat(t[-1:], 2)  # a motion that ended: its last sample held
+            elif rng.random() < 0.1:
+                t = t[: int(rng.integers(1, t.size + 1))]  # a run cut short
+            columns = rng.normal(size=(t.size, 2))
+            history.add(k, Table.build(t, columns))
+            tables.append((t, columns))
+        span = len(tables) * period
+        for _ in range(5):
+            a = float(rng.uniform(-0.5, span + 0.5))
+            if rng.random() < 0.3:  # a window starting on a sample
+                a = float(tables[int(rng.integers(0, len(tables)))][0][0])
+            b = float(rng.uniform(a, span + 1.0))
+            t, columns = history.window(a, b, max_points=50)
+            t_ref, columns_ref = _reference_window(tables, a, b, 50)
+            np.testing.assert_array_equal(t, t_ref)
+            if t.size:
+                np.testing.assert_array_equal(columns, columns_ref)
+            # the CSV: every sample of the window, not decimated
+            every, _ = _reference_window(tables, a, b, 10**9)
+            rows = history.csv("h", a, b).decode().splitlines()[1:]
+            assert [row.split(",")[0] for row in rows] == ["%.15g" % x for x in every]
