@@ -50,6 +50,7 @@ frame after it, so no frame carries both.
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import functools
 import math
@@ -630,8 +631,8 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.waiting = False  # the clock holds: the chunk it needs is not ready
         self.ended = ""  # why the motion stopped (a final chunk was reached), else ""
         self.energy0 = math.nan
-        self.columns = np.full(12, math.nan)  # the CSV columns at the computed sample nearest the clock
-        self.rates = np.full(4, math.nan)  # lean rate, spin, heading rate, speed at that sample
+        self._near: tuple[_Chunk, int] | None = None  # the chunk drawn and its computed sample nearest the clock
+        self._floats: dict[int, tuple[Any, ...]] = {}  # _floats_of's lists of the chunks drawn, by index
         self._row = [0.0] * 13  # the row of _Chunk.frames drawn last (interpolated)
         self.last_chunk: _Chunk | None = None
         self._drawn: tuple[Any, ...] | None = None
@@ -747,6 +748,22 @@ class RollingDiskScene(PlaybackRequests, Scene):
     @property
     def inputs(self) -> Inputs:
         return Inputs.from_values(self.controls.values())
+
+    @property
+    def columns(self) -> np.ndarray:
+        """(12,) the CSV columns (after t) at the computed sample nearest the clock (NaN before a chunk is drawn)."""
+        if self._near is None:
+            return np.full(12, math.nan)
+        chunk, near = self._near
+        return chunk.table.columns[min(near, chunk.table.columns.shape[0] - 1)]
+
+    @property
+    def rates(self) -> np.ndarray:
+        """(4,) lean rate, spin, heading rate (rad/s) and speed (m/s) at that sample."""
+        if self._near is None:
+            return np.full(4, math.nan)
+        chunk, near = self._near
+        return chunk.rates[near]
 
     @property
     def centre(self) -> np.ndarray:
@@ -880,16 +897,14 @@ class RollingDiskScene(PlaybackRequests, Scene):
         self.history.add(chunk.k, chunk.table)
         self.plot_history.add(chunk.k, chunk.plots)
         # linear interpolation between the two samples around the clock, on floats (13 numbers)
-        t = chunk.t
-        t0 = float(t[0])
-        h = float(t[1]) - t0
+        times, frames, track, track_start = self._floats_of(chunk)
+        t0 = times[0]
+        h = times[1] - t0
         x = (self.sim_time - t0) / h if h > 0.0 else 0.0
-        j = min(max(int(x), 0), t.size - 2)
+        j = min(max(int(x), 0), len(times) - 2)
         w = min(max(x - j, 0.0), 1.0)
-        row = [a + w * (b - a) for a, b in zip(chunk.frames[j].tolist(), chunk.frames[j + 1].tolist())]
-        near = j + 1 if w >= 0.5 else j  # conserved quantities at a computed sample
-        self.columns = chunk.table.columns[min(near, chunk.table.columns.shape[0] - 1)]
-        self.rates = chunk.rates[near]
+        row = [a + w * (b - a) for a, b in zip(frames[j], frames[j + 1])]
+        self._near = (chunk, j + 1 if w >= 0.5 else j)  # conserved quantities at a computed sample
         self._row = row
         cx, cy, cz, p0, p1, p2, p3, px, py, pz, fx, fy, fz = row
         k = 1.0 / math.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)  # nlerp
@@ -900,14 +915,14 @@ class RollingDiskScene(PlaybackRequests, Scene):
         for source in sources:
             if source is not chunk and source.model != chunk.model:
                 continue
-            i0 = int(np.searchsorted(source.t, self._track_time, side="right"))
-            i1 = int(np.searchsorted(source.t, self.sim_time, side="right"))
+            times, _, track, track_start = self._floats_of(source)
+            i0 = bisect.bisect_right(times, self._track_time)
+            i1 = bisect.bisect_right(times, self.sim_time)
             if i1 > i0:
-                starts = source.track_start
-                for q in source.track[starts[i0]:starts[i1]]:
+                for q in track[track_start[i0]:track_start[i1]]:
                     self.track.add(q)
                     self.track_head.add(q)
-                self._track_time = float(source.t[i1 - 1])
+                self._track_time = times[i1 - 1]
         # the head runs on to the contact point drawn (on the straight piece to the next sample)
         self.track_head.add((px, py, pz + _TRACK_LIFT))
         self._since_track += dt
@@ -951,13 +966,23 @@ class RollingDiskScene(PlaybackRequests, Scene):
                     set_array(self.force_arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))
             if due is not None:
                 self._refresh_one(due)
-        if chunk.final and self.sim_time >= float(t[-1]) and self._end_reported != chunk.end:
+        if chunk.final and self.sim_time >= float(chunk.t[-1]) and self._end_reported != chunk.end:
             self._end_reported = chunk.end
             self.ended = chunk.end
             self.playback.set_playing(False)
             self.notify("Rolling disk stopped", f"{chunk.end[0].upper()}{chunk.end[1:]}. "
                         "Change a control, pick a preset or press Reset.", "warning")
             self._refresh.force()
+
+    def _floats_of(self, chunk: _Chunk) -> tuple[list[float], list[list[float]], list[list[float]], list[int]]:
+        """The arrays a frame reads of ``chunk`` as lists of floats (its times, frames, track points and their
+        start per sample), made once per chunk: a frame's few numbers cost less as floats than as numpy calls."""
+        cached = self._floats.get(chunk.k)
+        if cached is None or cached[0] is not chunk:
+            cached = (chunk, chunk.t.tolist(), chunk.frames.tolist(), chunk.track.tolist(), chunk.track_start.tolist())
+            self._floats = {k: v for k, v in self._floats.items() if abs(k - chunk.k) <= 1}  # (the two drawn)
+            self._floats[chunk.k] = cached
+        return cached[1:]
 
     # -- plots, readout, export ----------------------------------------------------------
     def _window_start(self) -> float:
