@@ -204,7 +204,11 @@ def _serve(args: argparse.Namespace) -> int:
             print(f"rigidlab: open {app.url}")
             _lan_notes(args.host, app.port, app.mode)
             print("rigidlab: press Ctrl-C to stop", flush=True)
-        threading.Event().wait()
+        # woken twice a second: a stop signal the kernel delivers to another thread of the process (one of
+        # viser's) only sets Python's flag, and the handler runs when the main thread next runs Python code;
+        # blocked in Event().wait() it never did, and the server ignored that SIGTERM
+        while True:
+            time.sleep(0.5)
     except KeyboardInterrupt:
         if worker is None:
             print("\nrigidlab: stopping", flush=True)
