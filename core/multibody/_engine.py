@@ -720,21 +720,18 @@ class _Engine:
         m = self.m
         if self.motors:  # new arrays of all m rows, the joints' and motors' filled
             C, D, Ct, gamma = self._joint_motor_rows(t, Y, Phi, gam, level=level, rows=m)
-            mm = 0  # (nothing to copy)
-        else:
-            C0, D0, Ct0, g0 = self._joint_motor_rows(t, Y, Phi, gam, level=level) if mm else (None,) * 4
-            n6 = 6 * self.n
+        else:  # (the joints' rows are views of the table's: copied into new arrays)
             C = np.zeros(m)
             Ct = np.zeros(m)
-            D = np.zeros((m, n6)) if level >= 1 else None
+            D = np.zeros((m, 6 * self.n)) if level >= 1 else None
             gamma = np.zeros(m) if level >= 2 else None
-        if mm:
-            C[:mm] = C0
-            Ct[:mm] = Ct0
-            if D is not None:
-                D[:mm] = D0
-            if gamma is not None:
-                gamma[:mm] = g0
+            if mm:
+                C0, D0, _, g0 = self._joint_motor_rows(t, Y, Phi, gam, level=level)
+                C[:mm] = C0
+                if D is not None:
+                    D[:mm] = D0
+                if gamma is not None:
+                    gamma[:mm] = g0
         res = self.contact_eval
         mode = self.contact_state["mode"].tolist()
         value = res["value"]
@@ -798,7 +795,7 @@ class _Engine:
             cosd = P2 * cf + P1 * sf  # cos(theta - f)
             Ct[m_dir] = -fd * cosd
             if level >= 1:
-                D = np.empty((size, 6 * self.n)) if size == m else np.zeros((size, 6 * self.n))
+                D = np.zeros((size, 6 * self.n))
                 D[:m_dir] = self.Dt[:m_dir]
                 np.subtract(cf * self.Dt[i1], sf * self.Dt[i2], out=D[m_dir])
             if gamma is not None:
@@ -818,7 +815,7 @@ class _Engine:
             cosd = P2 * cf + P1 * sf  # cos(theta - f)
             Ct[m_dir:m] = -fd * cosd
             if level >= 1:
-                D = np.empty((size, 6 * self.n)) if size == m else np.zeros((size, 6 * self.n))
+                D = np.zeros((size, 6 * self.n))
                 D[:m_dir] = self.Dt[:m_dir]
                 D12 = self.Dt[p12]
                 D[m_dir:m] = cf[:, None] * D12[:k] - sf[:, None] * D12[k:]

@@ -126,8 +126,6 @@ class _Dynamics:
         self._gap_prev: tuple | None = None  # (t, gaps) at the end of the last step
         self._stage_evals: dict = {}  # t -> contact evaluation of the right-hand sides since the last step
         self._separations = any(c.model == "constraint" for c in eng.contacts)
-        if not eng.contacts:
-            self.stop_time = None
 
     def failure(self, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
         """The error of a run that failed after its last accepted state ``(t, y)``, or (``exc`` None) whose
@@ -1504,10 +1502,11 @@ def simulate(
     if model.project is not None:
         model.output_times = frozenset(float(x) for x in tt)
         y0 = model.project(t0, y0)
-    model.locate_touches = adaptive and any(c.model != "constraint" or (on_separation == "compliant")
-                                            for c in eng.contacts)
+    # a contact may be in the compliant model during the run: from the start, or after a separation
+    model.locate_touches = adaptive and bool(eng.contacts) and (
+        on_separation == "compliant" or any(c.model != "constraint" for c in eng.contacts))
     if not (model._separations or model.locate_touches):
-        model.stop_time = None
+        model.stop_time = None  # (the integrators skip the event check)
 
     kc = len(eng.contacts)
     if kc:
@@ -1533,7 +1532,7 @@ def simulate(
             )
     n_steps = n_rhs = 0
     pending_event = None
-    if model.stop_time is not None and model._separations:
+    if model._separations:
         # force scale of the separation test; a contact that pulls already at t0 separates there
         _, lam0, _, _, _ = model.accelerations(t0, y0)  # (kept from the output at t0)
         Q0 = model.applied_last
