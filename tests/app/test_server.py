@@ -323,10 +323,11 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _serve_until_ready(*args: str, sigint_ignored: bool = False):
+def _serve_until_ready(*args: str, sigint_ignored: bool = False, new_session: bool = False):
     """``rigidlab serve --port 0 *args`` in a subprocess, read until it says how to stop it (60 s at most):
     ``(process, lines)``. ``sigint_ignored``: started as a shell without job control starts a background
-    job (``rigidlab serve &`` in a script), with SIGINT ignored."""
+    job (``rigidlab serve &`` in a script), with SIGINT ignored. ``new_session``: in a process group of its
+    own (``process.pid``), to check that nothing of it is left."""
     import os
     import subprocess
     import sys
@@ -335,7 +336,7 @@ def _serve_until_ready(*args: str, sigint_ignored: bool = False):
         [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())", "serve", "--port", "0",
          *args],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        preexec_fn=_ignore_sigint if sigint_ignored else None,
+        preexec_fn=_ignore_sigint if sigint_ignored else None, start_new_session=new_session,
     )
     deadline = time.monotonic() + 60
     lines = []
@@ -644,30 +645,14 @@ def test_rigidlab_serve_stops_on_a_sigterm_that_another_of_its_threads_receives(
     test above timed out once in CI). Here the signal is sent to a thread other than the main one (tgkill)."""
     import ctypes
     import os
-    import re
     import signal
-    import subprocess
-    import sys
 
     libc = ctypes.CDLL(None, use_errno=True)
     if not hasattr(libc, "tgkill"):
         pytest.skip("tgkill is not in this C library")
-    process = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())", "serve", "--port", "0"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
-    lines: list[str] = []
+    process, lines = _serve_until_ready(new_session=True)  # the main thread waits from its last line on
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            line = process.stdout.readline()  # type: ignore[union-attr]
-            if not line:
-                break
-            lines.append(line)
-            if re.search(r"press Ctrl-C to stop", line):  # the main thread waits from here on
-                break
-        assert lines and "press Ctrl-C" in lines[-1], "".join(lines)
+        assert lines and lines[-1].startswith("rigidlab: press Ctrl-C"), "".join(lines)
         time.sleep(0.5)
         others = [int(t) for t in os.listdir(f"/proc/{process.pid}/task") if int(t) != process.pid]
         assert others, "the server has no thread besides the main one"
