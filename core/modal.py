@@ -1225,16 +1225,34 @@ class SweepResult:
         return np.abs(self.eigenvalues.imag) / (2.0 * math.pi)
 
     def boundaries(self, *, xtol: float | None = None) -> np.ndarray:
-        """Parameter values where a mode crosses ``Re(s) = 0``, by root finding.
+        """Parameter values where the model loses (or regains) stability, by root finding between grid values.
 
-        Between neighbouring values where the largest real part of the
-        non-rigid modes, ``h(v) = max Re(s) - STABILITY_TOL * scale``, changes
-        sign, Brent's method (``build`` is called again in this process)
-        finds the crossing to ``xtol`` (default ``1e-10 (1 + max
-        abs(values))``), whatever the spacing of the grid: the crossing of
-        ``max Re(s) = 0`` itself when it changes sign between the same
-        values, else that of ``h`` (undamped modes, whose real parts are
-        round-off of either sign).
+        Between neighbouring values where one side is unstable (a non-rigid
+        mode with ``Re(s) > STABILITY_TOL * scale``) and the other is not,
+        ``build`` is called again in this process and Brent's method finds,
+        to ``xtol`` (default ``1e-10 (1 + max abs(values))``) and whatever
+        the spacing of the grid:
+
+        * the crossing of ``max Re(s) = STABILITY_TOL * scale`` (``scale``
+          the largest ``abs(s)``): on an undamped stable side the real parts
+          are zero (round-off of either sign), and instability begins where
+          two imaginary roots collide, with each other (flutter: ``+-a + i
+          b``) or at zero (divergence: ``+-sigma``). Past the collision the
+          real part grows as ``c sqrt(v - v*)``, so this crossing lies
+          ``(STABILITY_TOL scale / c)^2`` from the collision ``v*`` (about
+          1e-16 relative for the heavy top);
+        * when the stable side is asymptotically stable (every real part
+          below ``-STABILITY_TOL * scale``) and ``max Re(s)`` passes
+          through the band ``abs(Re s) <= STABILITY_TOL * scale`` linearly
+          (a damped mode crossing the imaginary axis), the crossing of
+          ``max Re(s) = 0`` itself inside that band.
+
+        A divergence through a root classified rigid (``abs(s) <= RIGID_TOL
+        * scale``) is found where the root leaves that class: for an
+        undamped model ``s^2`` is linear in the stiffness, so this lies
+        ``RIGID_TOL^2`` times the largest stiffness eigenvalue from the
+        collision; a damped real root ``s ~ v - v*`` is found ``RIGID_TOL *
+        scale / (ds/dv)`` from it.
 
         Returns
         -------
@@ -1246,13 +1264,11 @@ class SweepResult:
         if not xt > 0:
             raise ValueError(f"xtol: expected a tolerance > 0, got {xt!r}")
         h = np.array([_margin(self.eigenvalues[i], self.rigid[i]) for i in range(v.size)])
-        h0 = np.array([_margin(self.eigenvalues[i], self.rigid[i], offset=False) for i in range(v.size)])
         out = []
         for i in range(v.size - 1):
             if (h[i] > 0) != (h[i + 1] > 0):
-                exact = (h0[i] > 0) != (h0[i + 1] > 0)
-                out.append(brentq(lambda x: _margin_of(self.build(x), offset=not exact), v[i], v[i + 1], xtol=xt,
-                                  maxiter=200))
+                out.append(_crossing(self.build, float(v[i]), float(v[i + 1]), stable_first=not h[i] > 0,
+                                     xtol=xt))
         return np.array(out)
 
     def to_csv(self) -> str:
@@ -1287,6 +1303,45 @@ def _margin_of(model: Any, *, offset: bool = True) -> float:
         raise ValueError(f"build: expected build(value) to return a LinearModel, got {short_repr(model)}")
     m = model.modes()
     return _margin(m.eigenvalues, m.rigid, offset=offset)
+
+
+def _crossing(build: Callable, a: float, b: float, *, stable_first: bool, xtol: float) -> float:
+    """The stability boundary between ``a`` (stable when ``stable_first``) and ``b`` (see ``boundaries``)."""
+    cache: dict[float, tuple[float, float]] = {}
+
+    def margin(x: float) -> tuple[float, float]:
+        """``(max Re(s) of the non-rigid modes, STABILITY_TOL * scale)`` at ``x``."""
+        if x not in cache:
+            model = build(x)
+            if not isinstance(model, LinearModel):
+                raise ValueError(f"build: expected build(value) to return a LinearModel, got {short_repr(model)}")
+            m = model.modes()
+            tol = STABILITY_TOL * m.scale
+            cache[x] = (_margin(m.eigenvalues, m.rigid, offset=False), tol)
+        return cache[x]
+
+    def band(sign: float) -> Callable[[float], float]:
+        return lambda x: margin(x)[0] - sign * margin(x)[1]
+
+    stable = a if stable_first else b
+    # where the unstable side begins: robust against real parts that are round-off on the stable side
+    upper = brentq(band(1.0), a, b, xtol=xtol, maxiter=200)
+    re, tol = margin(stable)
+    if not re < -tol:
+        return upper  # a critical (undamped) stable side: instability begins at a collision of imaginary roots
+    # an asymptotically stable side: where max Re(s) enters the band |Re s| <= tol, then whether it crosses the
+    # band linearly (a damped mode crossing the axis) or lingers in it (an undamped stretch before a collision)
+    if not band(-1.0)(upper) > 0:
+        return upper
+    lower = brentq(band(-1.0), stable, upper, xtol=xtol, maxiter=200)
+    width = upper - lower
+    if not abs(width) > 4.0 * xtol:
+        return 0.5 * (lower + upper)
+    for frac, expect in ((0.25, -0.5), (0.75, 0.5)):
+        re_q, tol_q = margin(lower + frac * width)
+        if not abs(re_q - expect * tol_q) <= 0.25 * tol_q:
+            return upper
+    return brentq(lambda x: margin(x)[0], lower, upper, xtol=xtol, maxiter=200)
 
 
 def _solve(build: Callable, value: float) -> Modes:

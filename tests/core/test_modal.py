@@ -275,6 +275,58 @@ def test_boundary_is_the_crossing_of_zero():
     assert b.shape == (1,) and abs(b[0]) < 1e-14
 
 
+def test_undamped_divergence_boundary_is_the_collision_at_zero():
+    """s = +-sqrt(-v): imaginary for v > 0 (real parts exactly 0), real for v < 0; the boundary is v = 0,
+    not the grid value 0.5 where max Re(s) happens to be exactly 0."""
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        result = sweep(lambda v: LinearModel([[1.0]], [[v]]), [-1.0, 0.5, 1.0], executor=pool)
+        b = result.boundaries(xtol=1e-13)
+        assert b.shape == (1,) and abs(b[0]) <= 1e-13  # brentq's guarantee; the sign change of h is at 0 exactly
+        # two degrees of freedom: det K = 2 v - 1 vanishes at v = 1/2; the smallest stiffness eigenvalue is
+        # lam ~ 4/5 (v - 1/2) and counts as rigid while abs(lam) <= RIGID_TOL^2 lam_max (lam_max = 5/2)
+        coupled = sweep(lambda v: LinearModel(np.eye(2), [[2.0, -1.0], [-1.0, v]]), [-1.0, 0.9, 2.0], executor=pool)
+        b = coupled.boundaries(xtol=1e-14)
+    assert b.shape == (1,) and abs(b[0] - 0.5) <= RIGID_TOL**2 * 2.5 / 0.8 + 1e-14
+
+
+def _gyroscopic_pair(g: float) -> LinearModel:
+    """Two inverted pendulum-like coordinates (K = -4 I) coupled by G = g [[0, 1], [-1, 0]]."""
+    return LinearModel(np.eye(2), -4.0 * np.eye(2), G=g * np.array([[0.0, 1.0], [-1.0, 0.0]]))
+
+
+@pytest.mark.parametrize("grid", [np.linspace(1.0, 7.0, 6), [0.0, 3.0, 5.0, 8.0], np.linspace(0.0, 10.0, 3)])
+def test_undamped_flutter_boundary_is_the_collision_of_imaginary_roots(grid):
+    """s^4 + (g^2 - 8) s^2 + 16 = 0: two imaginary pairs for g >= 2 sqrt(4) = 4, colliding at s = +-2i and
+    leaving the axis as +-a +- i b below. Past the collision Re(s) = c sqrt(4 - g) with c ~ 1, so the crossing of
+    Re(s) = STABILITY_TOL * scale lies (1e-8 * 2)^2 = 4e-16 from g = 4."""
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        result = sweep(_gyroscopic_pair, grid, executor=pool)
+    b = result.boundaries(xtol=1e-13)
+    assert b.shape == (1,) and abs(b[0] - 4.0) <= 1e-13 + 1e-15
+
+
+HEAVY_TOP = RotorParams(I=0.02, I3=0.01, mgl=0.2)
+
+
+def _heavy_top_model(spin: float) -> LinearModel:
+    return linearize(steady_top(HEAVY_TOP, spin=spin).system)
+
+
+@pytest.mark.parametrize("grid", [np.linspace(0.0, 30.0, 6), np.linspace(1.0, 30.0, 6)])
+def test_heavy_top_boundary_from_a_coarse_undamped_grid(grid):
+    """The sleeping top is undamped: above the critical spin 2 sqrt(mgl I) / I3 = 12.649 rad/s its real parts
+    are round-off of either sign (exactly 0 at 18 and 18.4 rad/s on these grids), below it two imaginary pairs
+    have collided. Re(s) ~ 1.26 sqrt(w_c - w) near w_c: the offset crossing lies 6e-16 from it."""
+    wc = sleeping_top_critical_spin(HEAVY_TOP)
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        result = sweep(_heavy_top_model, grid, executor=pool)
+    b = result.boundaries(xtol=1e-12)
+    assert b.shape == (1,)
+    # xtol, the offset crossing, and the relative error that linearize estimates for its difference
+    # derivatives (2.9e-10; 2e-14 relative seen)
+    assert abs(b[0] - wc) <= 1e-12 + 2e-15 + wc * _heavy_top_model(wc).derivative_error
+
+
 def test_damped_rotor_is_asymptotically_stable():
     modes = linearize(disk_rotor(200.0, damping=20.0).system).modes()
     live = ~modes.rigid
