@@ -62,7 +62,9 @@ inputs are never mutated.
 Every step function and :func:`integrate` validate their inputs: the state
 must be a finite real vector (complex input is refused, not cast), ``dt`` a
 finite number > 0 and ``t`` a finite real number; a :class:`ValueError`
-names the argument. A run is limited to :data:`MAX_STEPS` steps (fixed-step
+names the argument. An adaptive run stops with :class:`DivergenceError`
+at the first non-finite derivative ``model.rhs`` returns (naming its time).
+A run is limited to :data:`MAX_STEPS` steps (fixed-step
 methods, checked before the run starts) or right-hand-side evaluations
 (adaptive methods, checked as they are made): a step of 1e-12 s over 1000 s
 is refused at once instead of filling memory for hours. ``integrate(...,
@@ -518,13 +520,17 @@ LONG_RUN_CALLS = 1_000_000
 
 class _CountingModel:
     """Wraps a model to count rhs calls, optionally at most ``max_calls`` (internal); ``span``: the run's
-    ``(t0, t1)``, for the warning of :data:`LONG_RUN_CALLS`."""
+    ``(t0, t1)``, for the warning of :data:`LONG_RUN_CALLS`; ``finite``: raise :class:`DivergenceError` for a
+    non-finite derivative (the adaptive methods: scipy's step control does not stop on NaN, see
+    :func:`_check_derivative`)."""
 
-    def __init__(self, model: Any, max_calls: float = math.inf, span: tuple[float, float] | None = None):
+    def __init__(self, model: Any, max_calls: float = math.inf, span: tuple[float, float] | None = None, *,
+                 finite: bool = False):
         self._model = model
         self.calls = 0
         self._max_calls = max_calls
         self._span = span
+        self._finite = finite
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         self.calls += 1
@@ -532,7 +538,10 @@ class _CountingModel:
             raise _BudgetExceeded(float(t))
         if self.calls == LONG_RUN_CALLS and self._span is not None:
             self._warn_long(float(t))
-        return self._model.rhs(t, y)
+        f = self._model.rhs(t, y)
+        if self._finite:
+            _check_derivative(t, y, f)
+        return f
 
     def _warn_long(self, t: float) -> None:
         t0, t1 = self._span
@@ -545,6 +554,29 @@ class _CountingModel:
             f"({100.0 * done:.2g} %): at that pace it needs {need} in all (max_steps stops it at "
             f"{self._max_calls:,.0f}); a stiff force or a runaway motion? Shorten the time span, loosen rtol, "
             "or pass a smaller max_steps", RuntimeWarning, stacklevel=2)
+
+
+def _check_derivative(t: float, y: np.ndarray, f: Any) -> None:
+    """Raise :class:`DivergenceError` when a right-hand side ``f`` (at time ``t``, state ``y``) is not finite.
+
+    scipy's adaptive steppers do not stop on it: a NaN error estimate rejects
+    the step and shrinks it until the step is below the spacing of floats (an
+    ``IntegrationError`` far from the cause), and a NaN derivative at the
+    start gives a NaN first step, after which ``DOP853`` and ``RK45`` loop
+    without end at ``t = nan``.
+    """
+    with np.errstate(invalid="ignore"):
+        ok = bool(np.all(np.isfinite(f)))
+    if ok:
+        return
+    t = float(t)
+    where = "a non-finite state" if not np.all(np.isfinite(y)) else "a finite state"
+    raise DivergenceError(
+        f"run diverged: the model's right-hand side returned a non-finite derivative at t={t:.6g} (at {where}); "
+        "a force or a motion law that is not finite there, or a run that blew up: reduce the time span or "
+        "tighten the tolerances",
+        t=t,
+    )
 
 
 def _check_finite_and_drift(
@@ -657,7 +689,11 @@ def integrate(
         fixed-step run of more than ``max_steps`` steps.
     DivergenceError
         When the state becomes non-finite or an invariant blows up (the
-        message names the step and time).
+        message names the step and time), and for the adaptive methods as
+        soon as ``model.rhs`` returns a non-finite derivative, at a trial
+        stage too (the message names its time): scipy's step control would
+        shrink the step to nothing, or loop at ``t = nan`` when it happens
+        at the start.
     IntegrationError
         When scipy's solver or the implicit iteration fails, or an adaptive
         run reaches ``max_steps`` right-hand-side evaluations.
@@ -857,7 +893,7 @@ def _run_adaptive(
             raise ValueError(f"t_eval: expected sorted 1-D times within t_span, got shape {t_eval.shape}")
     if getattr(model, "project", None) is not None or getattr(model, "stop_time", None) is not None:
         return _run_adaptive_projected(model, y0, t0, t1, method, rtol, atol, t_eval, inv0, max_drift, max_steps)
-    counter = _CountingModel(model, max_calls=max_steps, span=(float(t0), float(t1)))
+    counter = _CountingModel(model, max_calls=max_steps, span=(float(t0), float(t1)), finite=True)
     # t_eval is served from scipy's dense output (what solve_ivp itself does
     # for t_eval), so the accepted steps stay countable.
     try:
@@ -962,7 +998,7 @@ def _run_adaptive_projected(
             f"method: '{method}' keeps internal state that model.project would invalidate; "
             "use RK45, DOP853, rk4 or midpoint"
         )
-    counter = _CountingModel(model, max_calls=max_steps, span=(float(t0), float(t1)))
+    counter = _CountingModel(model, max_calls=max_steps, span=(float(t0), float(t1)), finite=True)
     project = getattr(model, "project", None)
     if project is None:  # stepped one accepted step at a time for the model's stop_time check
 

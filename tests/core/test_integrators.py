@@ -166,6 +166,37 @@ def test_divergence_error_names_step_and_time():
         itg.integrate(BlowUp(), np.ones(1), (0.0, 2.0), method="rk4", dt=1e-3)
 
 
+class NotANumber:
+    """y'' = -y until ``t_nan``, then a NaN derivative (a force law that fails there)."""
+
+    state_size = 2
+
+    def __init__(self, t_nan: float, *, project: bool = False):
+        self.t_nan = t_nan
+        if project:
+            self.project = lambda t, y: y
+
+    def rhs(self, t, y):
+        return np.array([y[1], math.nan if t >= self.t_nan else -y[0]])
+
+
+@pytest.mark.parametrize("project", [False, True])
+@pytest.mark.parametrize("method", itg.ADAPTIVE_METHODS)
+@pytest.mark.parametrize("t_nan", [0.0, 0.5])
+def test_adaptive_run_with_a_nan_derivative_is_divergence(method, t_nan, project):
+    """A NaN derivative at the start gave DOP853 and RK45 a NaN first step, after which they looped at t = nan
+    (ten million evaluations); later, they shrank the step to the spacing of floats. Now DivergenceError names
+    the time of the first non-finite derivative: a trial stage at or after t_nan, before the next step ends."""
+    if project and method == "LSODA":
+        pytest.skip("LSODA refuses a model with project")
+    with pytest.raises(itg.DivergenceError, match=r"run diverged: the model's right-hand side returned a "
+                                                  r"non-finite derivative at t=(?P<t>\S+) \(at a finite state\)") as info:
+        # (max_steps: the old loop at t = nan ends as an IntegrationError in seconds instead of minutes)
+        itg.integrate(NotANumber(t_nan, project=project), Y0, (0.0, 2.0), method=method, max_steps=100_000)
+    assert info.value.t >= t_nan and (info.value.t == 0.0 if t_nan == 0.0 else info.value.t < 1.0)
+    assert f"t={info.value.t:.6g}" in str(info.value)
+
+
 def test_invariant_blow_up_is_divergence():
     # Explicit steps far beyond the stability limit (w dt = 3.9 > 2.83 for
     # RK4) make the energy grow geometrically; the run stops with a clear error.
