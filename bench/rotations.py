@@ -6,7 +6,11 @@ N = 1e3, 1e5 and 1e6 rotations. Each row times both implementations on the
 same seeded inputs, alternating them, and reports the best time per call, the
 ratio (scipy time / our time; above 1 means core.rotations is faster) and
 the largest absolute difference between the two outputs (quaternions are
-compared up to their sign).
+compared up to their sign). Batches of at least
+``core.rotations._batch.COMPILED_MIN`` rotations run core.rotations'
+compiled kernels (numba); their first call in the process (the import of
+numba and the compile, or the load from numba's cache) is made before
+anything is timed, when the outputs are compared.
 
 Single-call rows: the same operations on one rotation (input shape (3,),
 (4,) or (3, 3), what a scene does per frame), the Euler-angle matrix for all

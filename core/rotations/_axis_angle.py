@@ -14,7 +14,7 @@ from ._euler_parameters import (
     _matrix_from_unit_p,
     _p_from_matrix,
 )
-from ._batch import BLOCK, blocks
+from ._batch import BLOCK, blocks, compiled
 from ._validation import (
     UNIT_NORM2_TOL,
     as_float_array,
@@ -95,6 +95,25 @@ def matrix_from_axis_angle(axis, angle):
     an = an.reshape(-1)
     n = an.shape[0]
     out = np.empty((n, 3, 3))
+    kernels = compiled(n)
+    if kernels is not None:
+        # The same validation and arithmetic in one compiled loop.
+        ok = not kernels.matrix_from_axis_angle(
+            np.ascontiguousarray(ax), np.ascontiguousarray(an), out, UNIT_NORM2_TOL
+        )
+    else:
+        ok = _matrix_from_axis_angle_blocks(ax, an, out)
+    if not ok:
+        check_unit_vector(axis_in, "axis")  # raises, naming the batch index
+        check_scalar_array(angle_in, "angle")
+    return out.reshape(batch + (3, 3))
+
+
+def _matrix_from_axis_angle_blocks(ax, an, out):
+    """Rotation matrices of axes ``ax`` (n, 3) and angles ``an`` (n,) into
+    ``out`` (n, 3, 3), block by block; whether every input passed the
+    validation (unit axis, finite angle)."""
+    n = an.shape[0]
     ok = np.empty(n, dtype=bool)
     ws = np.empty((17, min(n, BLOCK)))
     mul = np.multiply
@@ -141,10 +160,7 @@ def matrix_from_axis_angle(axis, angle):
             h /= den
             comp[1:] *= h
             _matrix_from_rows(comp, out[s:e], ws)
-    if not ok.all():
-        check_unit_vector(axis_in, "axis")  # raises, naming the batch index
-        check_scalar_array(angle_in, "angle")
-    return out.reshape(batch + (3, 3))
+    return bool(ok.all())
 
 
 def axis_angle_from_matrix(A):

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ._batch import BLOCK, blocks
+from ._batch import BLOCK, blocks, compiled
 from ._validation import (
     ORTHOGONALITY_TOL,
     NORMALIZED_TOL,
@@ -116,10 +116,32 @@ def _matrix_kernel(flat, ok):
     return out
 
 
+def _matrices(flat):
+    """Rotation matrices (n, 3, 3) of Euler parameters ``flat`` (n, 4), and
+    whether every row passed the unit-norm test of check_euler_parameters.
+
+    Batches of at least ``COMPILED_MIN`` rotations run the compiled kernel
+    (which decides the normalization per rotation rather than per block),
+    smaller ones :func:`_matrix_kernel`. Invalid rows give NaN or garbage
+    silently; the caller decides what to do about them.
+    """
+    n = flat.shape[0]
+    kernels = compiled(n)
+    if kernels is not None:
+        out = np.empty((n, 3, 3))
+        bad = kernels.matrix_from_euler_parameters(
+            np.ascontiguousarray(flat), out, UNIT_NORM2_TOL, NORMALIZED_TOL
+        )
+        return out, bad == 0
+    ok = np.empty(n, dtype=bool)
+    with np.errstate(all="ignore"):
+        out = _matrix_kernel(flat, ok)
+    return out, bool(ok.all())
+
+
 def _matrix_from_unit_p(p):
     """Rotation matrices of unit Euler parameters (no validation)."""
-    flat = p.reshape(-1, 4)
-    out = _matrix_kernel(flat, np.empty(flat.shape[0], dtype=bool))
+    out, _ = _matrices(p.reshape(-1, 4))
     return out.reshape(p.shape[:-1] + (3, 3))
 
 
@@ -264,14 +286,11 @@ def matrix_from_euler_parameters(p):
             return out
     if arr.ndim < 1 or arr.shape[-1] != 4:
         check_euler_parameters(arr, "p")
-    flat = arr.reshape(-1, 4)
-    ok = np.empty(flat.shape[0], dtype=bool)
-    # The validation of check_euler_parameters is fused into the blocks;
+    # The validation of check_euler_parameters is fused into the kernels;
     # invalid entries only produce NaN silently until they are reported
-    # below, and nothing is returned unless every block passed.
-    with np.errstate(all="ignore"):
-        out = _matrix_kernel(flat, ok)
-    if not ok.all():
+    # below, and nothing is returned unless every rotation passed.
+    out, ok = _matrices(arr.reshape(-1, 4))
+    if not ok:
         check_euler_parameters(arr, "p")  # raises, naming the batch index
     return out.reshape(arr.shape[:-1] + (3, 3))
 
@@ -318,9 +337,16 @@ def _shepperd_block(A, out):
 def _p_from_matrix(A):
     """Euler parameters of rotation matrices (no validation), theta0 >= 0."""
     flat = A.reshape(-1, 3, 3)
-    out = np.empty((flat.shape[0], 4))
-    for s, e in blocks(flat.shape[0]):
-        _shepperd_block(flat[s:e], out[s:e])
+    n = flat.shape[0]
+    out = np.empty((n, 4))
+    kernels = compiled(n)
+    if kernels is not None:
+        kernels.euler_parameters_from_matrix(
+            np.ascontiguousarray(flat), out, ORTHOGONALITY_TOL
+        )
+    else:
+        for s, e in blocks(n):
+            _shepperd_block(flat[s:e], out[s:e])
     return out.reshape(A.shape[:-2] + (4,))
 
 
@@ -353,6 +379,14 @@ def euler_parameters_from_matrix(A):
     flat = arr.reshape(-1, 3, 3)
     n = flat.shape[0]
     out = np.empty((n, 4))
+    kernels = compiled(n)
+    if kernels is not None:
+        # The same validation and arithmetic in one compiled loop.
+        if kernels.euler_parameters_from_matrix(
+            np.ascontiguousarray(flat), out, ORTHOGONALITY_TOL
+        ):
+            check_matrix(arr, "A")  # raises, naming the batch index
+        return out.reshape(arr.shape[:-2] + (4,))
     ok = np.empty(n, dtype=bool)
     # Invalid entries are only reported after the loop; until then they
     # may produce NaN silently.
