@@ -66,6 +66,8 @@ except ImportError:  # numpy < 2
 
 from core.integrators import RunFailure
 
+from ._compiled import compile_engine
+
 # ---------------------------------------------------------------- constants
 
 
@@ -257,6 +259,8 @@ class _Engine:
         self.y_size = 13 * n
         self._zero_m = np.zeros(self.m_motor)
         self._zero_m.setflags(write=False)
+        # the flat description for the compiled kernels (None: contacts or a singular inertia, numpy only)
+        self.compiled = compile_engine(self)
 
     # ------------------------------------------------------------ compile
     def _mass_properties(self, bodies, joints) -> None:
@@ -354,6 +358,7 @@ class _Engine:
             joint_rows.append(idx)
             self.row_labels += [(jt, lab) for lab in labels]
         self.joint_rows = [np.array(r, dtype=np.intp) for r in joint_rows]
+        self._rows = rows  # the table's description (kept for the compiled kernels, see _compiled)
         m_joint = sum(len(r) for r in joint_rows)
         disp = [mt for mt in motors if mt.coordinate == "displacement"]
         ang = [mt for mt in motors if mt.coordinate == "angle"]
@@ -622,6 +627,7 @@ class _Engine:
         w.blockA = self.blockA.copy()
         w.K_aug = None if self.K_aug is None else self.K_aug.copy()
         w.keep = None if self.keep is None else self.keep.copy()
+        w.compiled = None if self.compiled is None else self.compiled.workspace()
         if self.contact_kernel is not None:
             w.contact_state = self.contact_kernel.copy_state(self.contact_state)
             w.contact_eval = None

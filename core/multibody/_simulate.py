@@ -47,7 +47,17 @@ from ._analysis import (
     row_label,
 )
 from ._elements import Body, Joint, Motor
-from ._engine import SingularSystemError, _Engine, _FactorizationFailed, cross, einsum, matrices, parameter_rates
+from . import _kernel
+from ._engine import (
+    SingularSystemError,
+    _call_load,
+    _Engine,
+    _FactorizationFailed,
+    cross,
+    einsum,
+    matrices,
+    parameter_rates,
+)
 from ._system import State, _make_state
 
 __all__ = [
@@ -126,6 +136,9 @@ class _Dynamics:
         self._gap_prev: tuple | None = None  # (t, gaps) at the end of the last step
         self._stage_evals: dict = {}  # t -> contact evaluation of the right-hand sides since the last step
         self._separations = any(c.model == "constraint" for c in eng.contacts)
+        # the compiled kernels (None: the numpy evaluation): see _compiled and _kernel
+        self.kc = eng.compiled
+        self._has_loads = self.kc is not None and bool(self.kc.user_forces or self.kc.user_torques)
 
     def failure(self, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
         """The error of a run that failed after its last accepted state ``(t, y)``, or (``exc`` None) whose
@@ -184,8 +197,48 @@ class _Dynamics:
         self._acc_eval = eng.contact_eval
         return self._acc_last
 
+    def _loads(self, t: float, y: np.ndarray, F: np.ndarray, T: np.ndarray) -> None:
+        """The user's forces and torques at ``(t, y)`` into ``F`` (k, 3) and ``T`` (l, 3), global (Python callables)."""
+        state = self._state(t, y)
+        kc = self.kc
+        for k, (item, _, _) in enumerate(kc.user_forces):
+            F[k] = _call_load(item, t, state, "force")
+        for k, (item, _) in enumerate(kc.user_torques):
+            T[k] = _call_load(item, t, state, "torque")
+
+    def _spring_error(self, k: int, t: float) -> SingularSystemError:
+        return SingularSystemError(
+            f"spring_damper '{self.eng.springs[k].name}': its two points coincide at t={t:.6g}, "
+            "the direction of its force is undefined (free_length > 0)", t=t)
+
+    def _rhs_compiled(self, t: float, y: np.ndarray) -> np.ndarray | None:
+        """The right-hand side on the compiled kernels: rows, forces and Baraff's O(N) solve of Eq. 8.109.
+
+        One call into ``_kernel.rhs_packed`` after the Python callables (motor
+        laws, user loads) have written their values. None when the tree's
+        factorization meets a pivot that is not definite (the caller then
+        takes the numpy path, which checks the rank).
+        """
+        kc = self.kc
+        kc.select(self.eng.keep)
+        if kc.motors:
+            kc.motor_values(t)
+        if self._has_loads:
+            self._loads(t, y, kc.uf_F, kc.ut_T)
+        ydot = np.empty(self.state_size)
+        st = _kernel.rhs_packed(kc.I, kc.F, kc.TI, kc.W, y, ydot, self.alpha)
+        if st:
+            if st >= 3:
+                raise self._spring_error(st - 3, t)
+            return None
+        return ydot
+
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """``y_dot = [R_dot, p_dot = G_bar^T omega_body / 2, a]`` (Eqs. 8.51-8.54)."""
+        if self.kc is not None:
+            ydot = self._rhs_compiled(t, y)
+            if ydot is not None:
+                return ydot
         eng = self.eng
         n, n3, n7, n10 = self._n, self._n3, self._n7, self._n10
         At, Y, Phi, gam = eng.table(t, y, level=2, commit=False)  # a stage: not a warm start of the contacts
@@ -354,6 +407,26 @@ class _Dynamics:
             raise _FactorizationFailed(t)
         return WD, c
 
+    def _project_compiled(self, t: float, y_in: np.ndarray) -> np.ndarray | None:
+        """:meth:`project` on the compiled kernels (``_kernel.project_packed``): each Newton step and each
+        velocity correction is one O(N) solve of ``[[W, D^T], [D, 0]]`` (Eq. 8.109's matrix with the metric
+        W). None when a pivot is not definite (the caller then takes the numpy path, which checks the rank)."""
+        kc = self.kc
+        kc.select(self.eng.keep)
+        if kc.motors:
+            kc.motor_values(t)
+        y = np.array(y_in, dtype=float)
+        st, res, rv = _kernel.project_packed(kc.I, kc.F, kc.TI, kc.W, y, self.position_tol)
+        if st in (4, 5):
+            raise IntegrationError(
+                f"projection onto the constraints did not converge at t={t:.6g} (residual {res:.3e}); "
+                "tighten the tolerances or reduce the step", t=t)
+        if st:
+            return None
+        if t in self.output_times:
+            self.residuals[t] = (y.copy(), res, rv)
+        return y
+
     def project(self, t: float, y: np.ndarray) -> np.ndarray:
         """Newton projection of positions onto ``C(q, t) = 0``, then of velocities onto ``D v + C_t = 0``.
 
@@ -364,6 +437,10 @@ class _Dynamics:
         position_tol``; then ``v -= W^-1 D^T (D W^-1 D^T)^-1 (D v + C_t)``,
         repeated while the residual is above round-off.
         """
+        if self.kc is not None and self.kc.m:
+            out = self._project_compiled(t, y)
+            if out is not None:
+                return out
         eng = self.eng
         n, n3, n7 = self._n, self._n3, self._n7
         y_in = y
