@@ -892,3 +892,237 @@ def project_packed(I, F, TI, W, y, tol):
     for r in range(cv.shape[0]):
         rv = max(rv, abs(cv[r]))
     return 0, res, rv
+
+
+# ---------------------------------------------------------------- the step loop (DOP853 with projection)
+#
+# The loop of ``core.integrators._run_adaptive_projected`` with scipy's DOP853
+# (``scipy.integrate._ivp.rk``: the same coefficients, passed in from scipy,
+# the same initial step, error norm, step control and dense output), the
+# projection after every accepted step and the outputs, all compiled: one
+# call runs a whole span. Anything unusual (a pivot that is not definite, a
+# projection that does not converge, a non-finite value, a step that shrank
+# to nothing) returns LOOP_FALLBACK, and the caller runs the span again on
+# the interpreted path, which diagnoses it; a used-up budget returns
+# LOOP_BUDGET with the outputs so far.
+LOOP_DONE = 0
+LOOP_FALLBACK = 1
+LOOP_BUDGET = 2
+_SAFETY = 0.9
+_MIN_FACTOR = 0.2
+_MAX_FACTOR = 10.0
+_STALE_DERIVATIVE_TOL = 1e-3
+
+
+@njit(cache=True, error_model="numpy")
+def _rms(x, scale):
+    s = 0.0
+    for i in range(x.shape[0]):
+        v = x[i] / scale[i]
+        s += v * v
+    return np.sqrt(s) / np.sqrt(x.shape[0])
+
+
+@njit(cache=True, error_model="numpy")
+def _stage_sum(K, a, s, h, y, out):
+    """``out = y + (K[:s].T @ a[:s]) * h``."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for j in range(s):
+            acc += K[j, i] * a[j]
+        out[i] = y[i] + acc * h
+
+
+@njit(cache=True, error_model="numpy")
+def dop853_projected(I, F, TI, W, y, f, carry, t1, t_out, k_out, rtol, atol, position_tol, n_rhs, max_rhs, stalled,
+                     A, B, C, E3, E5, D, out_y, out_res):
+    """Run DOP853 with projection from ``(carry[0], y)`` towards ``t1``; the states at ``t_out[k_out:]``
+    (ascending, after the start) into ``out_y`` and their position and velocity residuals into ``out_res``.
+
+    ``carry = (t, h_abs, t_prev)``: the run's time, next step size (0: a new run, which evaluates ``f`` and
+    picks the first step as scipy does) and the end of the step before; with ``y`` and ``f`` (the state and
+    its derivative) they are updated in place, so a run stopped at its budget (``n_rhs + 16 > max_rhs``
+    before a step) goes on from there when called again. Returns ``(status, k_out, accepted steps,
+    n_rhs)``.
+    """
+    ny = y.shape[0]
+    n_stages = 12
+    K = np.zeros((16, ny))
+    ytmp = np.empty(ny)
+    y_new = np.empty(ny)
+    scale = np.empty(ny)
+    Fd = np.empty((7, ny))
+    n_steps = 0
+    n_out = t_out.shape[0]
+    t = carry[0]
+    h_abs = carry[1]
+    t_prev = carry[2]
+    if h_abs <= 0.0:
+        if n_rhs + 2 > max_rhs:
+            return LOOP_BUDGET, k_out, n_steps, n_rhs
+        if rhs_packed(I, F, TI, W, y, f, 0.0) != 0:
+            return LOOP_FALLBACK, k_out, n_steps, n_rhs
+        n_rhs += 1
+        for i in range(ny):
+            if not np.isfinite(f[i]):
+                return LOOP_FALLBACK, k_out, n_steps, n_rhs
+        # initial step (scipy.integrate._ivp.common.select_initial_step, error estimator order 7)
+        interval = abs(t1 - t)
+        for i in range(ny):
+            scale[i] = atol + abs(y[i]) * rtol
+        d0 = _rms(y, scale)
+        d1 = _rms(f, scale)
+        h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+        h0 = min(h0, interval)
+        for i in range(ny):
+            ytmp[i] = y[i] + h0 * f[i]
+        if rhs_packed(I, F, TI, W, ytmp, K[1], 0.0) != 0:
+            return LOOP_FALLBACK, k_out, n_steps, n_rhs
+        n_rhs += 1
+        for i in range(ny):
+            ytmp[i] = K[1, i] - f[i]
+        d2 = _rms(ytmp, scale) / h0
+        if d1 <= 1e-15 and d2 <= 1e-15:
+            h1 = max(1e-6, h0 * 1e-3)
+        else:
+            h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+        h_abs = min(100.0 * h0, h1, interval)
+        carry[1] = h_abs
+    while t < t1:
+        if n_rhs + 16 > max_rhs:  # (a step takes at most 16 right-hand sides)
+            return LOOP_BUDGET, k_out, n_steps, n_rhs
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        if h_abs < min_step:
+            h_abs = min_step
+        rejected = False
+        while True:
+            if h_abs < min_step:
+                return LOOP_FALLBACK, k_out, n_steps, n_rhs
+            t_new = t + h_abs
+            if t_new - t1 > 0.0:
+                t_new = t1
+            h = t_new - t
+            h_abs = abs(h)
+            for i in range(ny):
+                K[0, i] = f[i]
+            for s in range(1, n_stages):
+                _stage_sum(K, A[s], s, h, y, ytmp)
+                if rhs_packed(I, F, TI, W, ytmp, K[s], 0.0) != 0:
+                    return LOOP_FALLBACK, k_out, n_steps, n_rhs
+                n_rhs += 1
+            for i in range(ny):
+                acc = 0.0
+                for j in range(n_stages):
+                    acc += K[j, i] * B[j]
+                y_new[i] = y[i] + h * acc
+            if rhs_packed(I, F, TI, W, y_new, K[n_stages], 0.0) != 0:
+                return LOOP_FALLBACK, k_out, n_steps, n_rhs
+            n_rhs += 1
+            # error norm (DOP853._estimate_error_norm)
+            e5 = 0.0
+            e3 = 0.0
+            for i in range(ny):
+                sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+                a5 = 0.0
+                a3 = 0.0
+                for j in range(n_stages + 1):
+                    a5 += K[j, i] * E5[j]
+                    a3 += K[j, i] * E3[j]
+                a5 /= sc
+                a3 /= sc
+                e5 += a5 * a5
+                e3 += a3 * a3
+            if e5 == 0.0 and e3 == 0.0:
+                err = 0.0
+            else:
+                err = h_abs * e5 / np.sqrt((e5 + 0.01 * e3) * ny)
+            if not np.isfinite(err):  # a stage that is not finite: diagnosed on the interpreted path
+                return LOOP_FALLBACK, k_out, n_steps, n_rhs
+            if err < 1.0:
+                if err == 0.0:
+                    factor = _MAX_FACTOR
+                else:
+                    factor = min(_MAX_FACTOR, _SAFETY * err ** (-1.0 / 8.0))
+                if rejected:
+                    factor = min(1.0, factor)
+                h_abs *= factor
+                break
+            h_abs *= max(_MIN_FACTOR, _SAFETY * err ** (-1.0 / 8.0))
+            rejected = True
+            if n_rhs + 16 > max_rhs:
+                carry[1] = h_abs
+                return LOOP_BUDGET, k_out, n_steps, n_rhs
+        n_steps += 1
+        # dense output of the unprojected step, when an output falls inside it
+        if k_out < n_out and t_out[k_out] < t_new:
+            for s in range(n_stages + 1, 16):
+                _stage_sum(K, A[s], s, h, y, ytmp)
+                if rhs_packed(I, F, TI, W, ytmp, K[s], 0.0) != 0:
+                    return LOOP_FALLBACK, k_out, n_steps, n_rhs
+                n_rhs += 1
+            for i in range(ny):
+                dy = y_new[i] - y[i]
+                Fd[0, i] = dy
+                Fd[1, i] = h * K[0, i] - dy
+                Fd[2, i] = 2.0 * dy - h * (K[n_stages, i] + K[0, i])
+                for r in range(4):
+                    acc = 0.0
+                    for j in range(16):
+                        acc += D[r, j] * K[j, i]
+                    Fd[3 + r, i] = h * acc
+        # projection of the step's end
+        y_raw = y_new.copy()
+        st, res, rv = project_packed(I, F, TI, W, y_new, position_tol)
+        if st != 0:
+            return LOOP_FALLBACK, k_out, n_steps, n_rhs
+        for i in range(ny):
+            if not np.isfinite(y_new[i]):
+                return LOOP_FALLBACK, k_out, n_steps, n_rhs
+        if t_new - t_prev < stalled:  # (the interpreted path asks whether it is a dead point)
+            return LOOP_FALLBACK, k_out, n_steps, n_rhs
+        k0 = k_out
+        while k_out < n_out and t_out[k_out] <= t_new:
+            te = t_out[k_out]
+            if te == t_new:
+                for i in range(ny):
+                    out_y[k_out, i] = y_new[i]
+                out_res[k_out, 0] = res
+                out_res[k_out, 1] = rv
+            else:
+                x = (te - t) / h
+                for i in range(ny):
+                    v = 0.0
+                    for r in range(6, -1, -1):
+                        v += Fd[r, i]
+                        if (6 - r) % 2 == 0:
+                            v *= x
+                        else:
+                            v *= 1.0 - x
+                    ytmp[i] = v + y[i]
+                st, r0, r1 = project_packed(I, F, TI, W, ytmp, position_tol)
+                if st != 0:
+                    return LOOP_FALLBACK, k0, n_steps, n_rhs
+                for i in range(ny):
+                    out_y[k_out, i] = ytmp[i]
+                out_res[k_out, 0] = r0
+                out_res[k_out, 1] = r1
+            k_out += 1
+        change = 0.0
+        for i in range(ny):
+            c = abs(y_new[i] - y_raw[i]) / (atol + rtol * max(abs(y_raw[i]), abs(y_new[i])))
+            if c > change:
+                change = c
+        for i in range(ny):
+            f[i] = K[n_stages, i]
+        if change > _STALE_DERIVATIVE_TOL:
+            if rhs_packed(I, F, TI, W, y_new, f, 0.0) != 0:
+                return LOOP_FALLBACK, k0, n_steps, n_rhs
+            n_rhs += 1
+        for i in range(ny):
+            y[i] = y_new[i]
+        t = t_new
+        t_prev = t_new
+        carry[0] = t
+        carry[1] = h_abs
+        carry[2] = t_prev
+    return LOOP_DONE, k_out, n_steps, n_rhs

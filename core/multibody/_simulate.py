@@ -14,6 +14,7 @@ constraints (mass-weighted); Baumgarte's feedback is the compared option.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import threading
 import warnings
@@ -27,12 +28,16 @@ from scipy.linalg import lapack
 from scipy.optimize import brentq
 
 from core._validation import output_times, positive_integer, real_number, short_repr
+from core import integrators
 from core.integrators import (
     MAX_STEPS,
+    STALLED_STEP,
     DriftReport,
     IntegrationError,
     RunFailure,
     Trajectory,
+    _budget_error,
+    _BudgetExceeded,
     attach_partial,
     integrate,
 )
@@ -1671,6 +1676,10 @@ def simulate(
                 res = _run_kinematic(model, y_cur, t_cur, np.concatenate([[t_cur], tt[idx:]]), max_steps)
                 record(res.t[1:], res.states[1:])
                 idx += res.t.size - 1
+            elif adaptive and (res := _run_compiled(model, method, y_cur, t_cur, tt[idx:], rtol, atol,
+                                                    max_steps)) is not None:
+                record(res.t, res.states)
+                idx += res.t.size
             elif adaptive:
                 res = integrate(model, y_cur, (t_cur, float(tt[-1])),
                                 method=KINEMATIC_CONTINUATION if kinematic else method, rtol=rtol, atol=atol,
@@ -1714,6 +1723,78 @@ def simulate(
         raise
     return _finish(system, eng, model, method, stabilization, out_t, out_y, out_mode, kc, n, n_steps, n_rhs,
                    "separated" if stopped else "completed")
+
+
+@dataclass(frozen=True)
+class _CompiledRun:
+    """What :func:`_run_compiled` hands back to :func:`simulate` (the fields it reads of a Trajectory)."""
+
+    t: np.ndarray  # (k,) output times after the start
+    states: np.ndarray  # (k, 13 n)
+    n_steps: int
+    n_rhs: int
+    stop_time: None = None
+
+
+def _run_compiled(model: _Dynamics, method: str, y0: np.ndarray, t0: float, t_out: np.ndarray, rtol: float,
+                  atol: float, max_steps: int) -> _CompiledRun | None:
+    """A DOP853 run with projection as one compiled call (``_kernel.dop853_projected``), or None where the
+    interpreted loop is needed: another method or stabilization, contacts or events, Python callables
+    (motor laws, user loads) in the right-hand side, or a run the compiled loop handed back (a pivot, a
+    projection or a step it could not take: the interpreted loop diagnoses it).
+
+    It takes the same steps as ``core.integrators`` with scipy's DOP853 (the same coefficients, initial
+    step, error norm, step control and dense output), at a few microseconds per step instead of a few
+    hundred of interpreter overhead.
+    """
+    kc = model.kc
+    if (method != "DOP853" or kc is None or kc.motors or model._has_loads or model.project is None
+            or model.alpha or getattr(model, "stop_time", None) is not None
+            or rtol < 100 * np.finfo(float).eps or not t_out.size or not t_out[-1] > t0):
+        return None
+    kc.select(model.eng.keep)
+    t_out = np.ascontiguousarray(t_out, dtype=float)
+    first = int(np.count_nonzero(t_out <= t0))
+    pending = t_out[first:]
+    y = np.array(y0, dtype=float)
+    f = np.empty_like(y)
+    out_y = np.empty((pending.size, y.size))
+    out_res = np.empty((pending.size, 2))
+    t1 = float(t_out[-1])
+    carry = np.array([float(t0), 0.0, float(t0)])
+    co = _dop853_tables()
+    k = n_steps = n_rhs = 0
+    warn_at = integrators.LONG_RUN_CALLS  # (read per run: tests scale it down)
+    while True:
+        stop = warn_at if n_rhs < warn_at < max_steps else max_steps
+        status, k, steps, n_rhs = _kernel.dop853_projected(
+            kc.I, kc.F, kc.TI, kc.W, y, f, carry, t1, pending, k, float(rtol), float(atol), model.position_tol,
+            n_rhs, int(stop), STALLED_STEP * abs(t1 - t0), *co, out_y, out_res)
+        n_steps += steps
+        if status == _kernel.LOOP_BUDGET and stop < max_steps:  # the long-run check of core.integrators
+            integrators._CountingModel(model, max_calls=max_steps, span=(float(t0), t1))._warn_long(float(carry[0]))
+            warn_at = max_steps
+            continue
+        break
+    times = np.concatenate([t_out[:first], pending[:k]])
+    states = np.concatenate([np.repeat(np.asarray(y0, dtype=float)[None, :], first, axis=0), out_y[:k]])
+    for q in range(k):
+        model.residuals[float(pending[q])] = (out_y[q].copy(), float(out_res[q, 0]), float(out_res[q, 1]))
+    if status == _kernel.LOOP_BUDGET:
+        exc = _budget_error(method, _BudgetExceeded(float(carry[0])), t1, max_steps)
+        exc.partial = ([float(t0), *times.tolist()], [np.array(y0), *states])
+        raise exc
+    if status != _kernel.LOOP_DONE:
+        return None
+    return _CompiledRun(times, states, int(n_steps), int(n_rhs))
+
+
+@functools.cache
+def _dop853_tables() -> tuple:
+    """scipy's DOP853 coefficients ``(A, B, C, E3, E5, D)`` as contiguous float arrays (read once)."""
+    from scipy.integrate._ivp import dop853_coefficients as dc
+
+    return tuple(np.ascontiguousarray(a, dtype=float) for a in (dc.A, dc.B, dc.C, dc.E3, dc.E5, dc.D))
 
 
 def _finish(system, eng, model, method, stabilization, out_t, out_y, out_mode, kc, n, n_steps, n_rhs,
