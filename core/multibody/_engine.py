@@ -275,12 +275,9 @@ class _Engine:
         ).reshape(n)
         self.singular_bodies = tuple(b for b, ok in zip(bodies, regular) if not ok)
         self.mass_regular = bool(regular.all())
-        # M (6n, 6n) in velocity order [R_dot (3n), omega_body (3n)]
-        M = np.zeros((6 * n, 6 * n))
-        for k in range(n):
-            M[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = self.mass[k] * np.eye(3)
-            M[3 * n + 3 * k : 3 * n + 3 * k + 3, 3 * n + 3 * k : 3 * n + 3 * k + 3] = self.inertia[k]
-        self.M = M
+        # the dense M (6n, 6n), U, Dt, Dw and blockA are made when first read (see __getattr__): the compiled
+        # kernels never need them, and 3000 bodies would take gigabytes
+        self._shared: dict[str, Any] = {}
         self.minv = self.minv_sqrt = self.minv_blocks = None
         if self.mass_regular:
             if self.inertia_diagonal:
@@ -291,10 +288,6 @@ class _Engine:
                 blocks[:n] = np.eye(3) / self.mass[:, None, None]
                 blocks[n:] = np.linalg.inv(self.inertia)
                 self.minv_blocks = blocks
-                dense = np.zeros((6 * n, 6 * n))
-                for b in range(2 * n):
-                    dense[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = blocks[b]
-                self.minv_dense = dense
         # Metric of the position and velocity projections: M where it is
         # regular; a body with zero rotational inertia gets m l^2 I with l
         # the largest distance from its centre of mass to one of its joint
@@ -465,20 +458,12 @@ class _Engine:
             sel += [vec(_ext(getattr(sp, "body_" + side[-1]), g), sp._local[side], 1.0) for sp in springs]
         for side in ("u_i", "u_j"):
             sel += [vec(_ext(getattr(sp, "body_" + side[-1]), g), sp._local[side], 0.0) for sp in springs]
-        U = np.zeros((len(sel), 4 * (n + 1)))
-        for r, entry in enumerate(sel):
-            for b, v in entry.items():
-                U[r, 4 * b : 4 * b + 4] += v
-        self.U = U
+        self._sel = sel
 
         # Jacobian scatter: the global-omega entries of the live slots go to
         # the omega columns of their bodies in Dw; R_dot entries of dot-2 rows
         # (+-a) go straight to Dt; the point rows' constant R_dot entries
         # (+-e_k) are filled once.
-        self.Dt_full = np.zeros((m_tab, 6 * n + 6))
-        self.Dw = np.zeros((m_tab, 3 * n + 3))
-        self.Dt = self.Dt_full[:, : 6 * n]  # (view)
-
         def col_R(b):
             return 3 * b if b < n else 6 * n
 
@@ -498,11 +483,65 @@ class _Engine:
         ]) if r2.size else np.zeros(0, np.intp))
         self.R_rows = np.concatenate([r2, r2])
         self.R_sign = np.concatenate([np.ones(r2.size), -np.ones(r2.size)]).reshape(-1, 1)
-        for rr in self.rows_pc:
-            e = np.asarray(rows.a[rr][1])
-            cj, ci = col_R(rows.b1[rr][0]), col_R(rows.b2[rr][0])
-            self.Dt_full[rr, cj : cj + 3] += e
-            self.Dt_full[rr, ci : ci + 3] -= e
+        self._pc_entries = [(int(rr), col_R(rows.b1[rr][0]), col_R(rows.b2[rr][0]), np.asarray(rows.a[rr][1]))
+                            for rr in self.rows_pc]
+
+    # ------------------------------------------------------------ dense tables, made when first read
+    _SHARED = ("U", "M", "minv_dense")
+    _WORK = ("Dt_full", "Dw", "Dt", "blockA")
+
+    def __getattr__(self, name: str) -> Any:
+        if name in _Engine._SHARED:  # constants, shared with the workspaces
+            shared = self.__dict__.get("_shared")
+            if shared is None:
+                raise AttributeError(name)
+            if name not in shared:
+                shared[name] = getattr(self, "_make_" + name)()
+            self.__dict__[name] = shared[name]
+            return shared[name]
+        if name in _Engine._WORK and "_pc_entries" in self.__dict__:  # this workspace's own work arrays
+            self._make_work()
+            return self.__dict__[name]
+        raise AttributeError(name)
+
+    def _make_U(self) -> np.ndarray:
+        n = self.n
+        U = np.zeros((len(self._sel), 4 * (n + 1)))
+        for r, entry in enumerate(self._sel):
+            for b, v in entry.items():
+                U[r, 4 * b : 4 * b + 4] += v
+        return U
+
+    def _make_M(self) -> np.ndarray:
+        """M (6n, 6n) in velocity order [R_dot (3n), omega_body (3n)]."""
+        n = self.n
+        M = np.zeros((6 * n, 6 * n))
+        for k in range(n):
+            M[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = self.mass[k] * np.eye(3)
+            M[3 * n + 3 * k : 3 * n + 3 * k + 3, 3 * n + 3 * k : 3 * n + 3 * k + 3] = self.inertia[k]
+        return M
+
+    def _make_minv_dense(self) -> np.ndarray | None:
+        if self.minv_blocks is None:
+            return None
+        n = self.n
+        dense = np.zeros((6 * n, 6 * n))
+        for b in range(2 * n):
+            dense[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = self.minv_blocks[b]
+        return dense
+
+    def _make_work(self) -> None:
+        """The numpy evaluation's Jacobian buffers (the point rows' constant R_dot entries +-e_k filled)."""
+        n, m_tab = self.n, self.m_tab
+        Dt_full = np.zeros((m_tab, 6 * n + 6))
+        for rr, cj, ci, e in self._pc_entries:
+            Dt_full[rr, cj : cj + 3] += e
+            Dt_full[rr, ci : ci + 3] -= e
+        self.Dt_full = Dt_full
+        self.Dw = np.zeros((m_tab, 3 * n + 3))
+        self.Dt = Dt_full[:, : 6 * n]  # (view)
+        self.blockA = np.zeros((3 * n, 3 * n)) if self.dense else None
+        self._jacobian_of = None
 
     def _contact_rows(self, contacts, starts) -> None:
         """Rows of the contacts after the joint and motor rows (see ``core.contact._kernel``).
@@ -558,12 +597,11 @@ class _Engine:
         B3 = self.B.reshape(n + 1, 4, 9)
         B3[n, 0:3, 0:3] = np.eye(3)
         self._B3 = B3
-        self.blockA = np.zeros((3 * n, 3 * n))
-        # blockA[3b + j, 3b + k] = A_b[j, k] = At[b, k, j]
-        bi_, k_, j_ = np.meshgrid(np.arange(n), np.arange(3), np.arange(3), indexing="ij")
-        self.blockA_idx = ((3 * bi_ + j_) * 3 * n + 3 * bi_ + k_).ravel()
-        # small systems: the body-frame conversion as one GEMM with diag(A_k)
+        # small systems: the body-frame conversion as one GEMM with diag(A_k) (blockA, made with Dt)
         self.dense = n <= 32
+        if self.dense:  # blockA[3b + j, 3b + k] = A_b[j, k] = At[b, k, j]
+            bi_, k_, j_ = np.meshgrid(np.arange(n), np.arange(3), np.arange(3), indexing="ij")
+            self.blockA_idx = ((3 * bi_ + j_) * 3 * n + 3 * bi_ + k_).ravel()
         self.Q0 = np.zeros(6 * n)
         if n:
             self.Q0[: 3 * n] = (self.mass[:, None] * self.gravity[None, :]).ravel()
@@ -621,10 +659,9 @@ class _Engine:
         n = self.n
         w.B = self.B.copy()
         w._B3 = w.B.reshape(n + 1, 4, 9)
-        w.Dt_full = self.Dt_full.copy()
-        w.Dt = w.Dt_full[:, : 6 * n]
-        w.Dw = self.Dw.copy()
-        w.blockA = self.blockA.copy()
+        for name in _Engine._WORK:  # (made again when the workspace first reads them)
+            w.__dict__.pop(name, None)
+        w._jacobian_of = None  # (its buffers hold no Jacobian yet)
         w.K_aug = None if self.K_aug is None else self.K_aug.copy()
         w.keep = None if self.keep is None else self.keep.copy()
         w.compiled = None if self.compiled is None else self.compiled.workspace()
