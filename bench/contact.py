@@ -38,7 +38,10 @@ Errors: position = the largest distance from the reference over the run
   the defaults, which are about 12 times further off after 1 s; ``condim``
   6 with its default rolling friction brakes the disk), RK4 at the time
   steps :data:`MUJOCO_TIMESTEPS` (1/1200 and 1/4800 s); its contact force
-  is the sum of the normal components from ``mj_contactForce``.
+  is the sum of the normal components from ``mj_contactForce``. Outputs
+  are read after ``mj_forward`` at each frame's state (after an RK4
+  ``mj_step`` the positions and contacts in ``mjData`` are those of the
+  last Runge-Kutta stage, not of the step's end).
 
 CPU time is ``time.process_time``, best of up to three runs (fewer for
 runs over 2 s). Then the issue's targets: the cam-follower's CPU per 60 Hz
@@ -260,6 +263,9 @@ def run_mujoco(case: Case, timestep: float) -> tuple[np.ndarray, np.ndarray, flo
         out[0], force[0] = d.xipos[body], normal_force()
         for i in range(1, case.t.size):
             mujoco.mj_step(m, d, nstep=steps)
+            # after an RK4 mj_step, xipos and the contacts still hold the last stage's evaluation: recompute
+            # them (and the contact forces) at the frame's state before reading
+            mujoco.mj_forward(m, d)
             out[i], force[i] = d.xipos[body], normal_force()
 
     _, cpu = cpu_time(loop)

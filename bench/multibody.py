@@ -30,14 +30,33 @@ the error it reaches:
   the loop, the crank driven by a ``joint`` equality to a 1e10 kg "clock"
   body sliding at the motor's speed (equality ``solref`` = (2 dt, 1),
   ``solimp`` = (0.9999, 0.9999, 0.001, 0.5, 2); ``max |C|`` is MuJoCo's
-  equality violation);
-* Exudyn (redundant coordinates: ``CreateRigidBody`` with Euler
-  parameters, ``CreateRevoluteJoint``; for the slider-crank a
-  ``CreateGenericJoint`` with an offset user function as the motor,
-  spherical, universal and prismatic joints as in rigidlab), generalized-
-  alpha (its solver for joints; spectral radius 0.9, modified Newton,
-  Newton relative tolerance 1e-10) with step 1/(60 k) s.
+  equality violation). Positions are read after ``mj_kinematics`` (chains)
+  or ``mj_forward`` (slider-crank, for its constraint rows) at every
+  output: right after an RK4 ``mj_step``, mjData holds the positions of
+  the last Runge-Kutta stage, not those of the step's end (read there,
+  RK4 seemed to need dt 1/1740 s instead of 1/960 s for 1e-9 on the
+  10-link chain);
+* Exudyn, four paths, each searched on its own:
+  - redundant coordinates (``CreateRigidBody`` with Euler parameters,
+    ``CreateRevoluteJoint``; for the slider-crank a ``CreateGenericJoint``
+    with an offset user function as the motor, spherical, universal and
+    prismatic joints as in rigidlab), generalized-alpha (its solver for
+    joints; spectral radius 0.9, modified Newton, Newton relative
+    tolerance 1e-10) with step 1/(60 k) s, with its dense linear solver
+    (``EXUdense``, the default) and with its sparse one
+    (``linearSolver.solverType = EigenSparse``);
+  - chains only: minimal coordinates (``mbs.CreateKinematicTree``, an
+    ``ObjectKinematicTree`` of RevoluteX joints with the links' mass,
+    centre and inertia, the same gravity and initial angles) with
+    explicit RK44 at dt = 1/(60 k) s, and with DOPRI5 (error control,
+    ``rtol = atol`` on the rigidlab grid; its adaptive steps do not end on
+    the outputs, so the run stops at every output through
+    ``MainSolverExplicit.SolveSteps``, about 20 % dearer than one
+    ``SolveDynamic`` on the 10-link chain); centres of mass from the joint
+    angles.
 
+Each table row is its engine's cheapest path that reaches the target (the
+column "path" names it); a second table lists every path tried.
 A peer whose next run would cost more than ``PEER_CPU_CAP`` seconds is
 reported as "not reached" with the best error it got. The ratio column is
 the peer's CPU time over rigidlab's at the same target (> 1: rigidlab is
@@ -48,7 +67,7 @@ T = 100 s.
 
 Run from the project root::
 
-    .venv/bin/python bench/multibody.py            # all models (~6 min)
+    .venv/bin/python bench/multibody.py            # all models (~12 min on a loaded 2-core machine)
     .venv/bin/python bench/multibody.py --quick    # chain2 and chain5 only
     .venv/bin/python bench/multibody.py --models chain10 slider_crank
 
@@ -99,7 +118,7 @@ REFERENCE_RTOL = 1e-13
 RTOL_STEPS_PER_DECADE = 8
 FRAME_TARGET_MS = 2.0
 RESIDUAL_TARGET = 1e-10
-COLUMNS = ("model", "target", "engine", "setting", "CPU (s)", "position error (m)", "constraint residual",
+COLUMNS = ("model", "target", "engine", "path", "setting", "CPU (s)", "position error (m)", "constraint residual",
            "CPU / rigidlab")
 
 
@@ -181,7 +200,10 @@ class Run:
 class Engine:
     """An engine with one accuracy knob, indexed by an integer effort (larger: finer, costlier)."""
 
-    name = ""
+    name = ""  # unique: the key of the memo and the log
+    peer = ""  # the engine a row reports (its cheapest path is kept)
+    path = ""  # the formulation and integrator of this path
+    grid = "dt"  # "rtol": a tolerance grid (one step is close); "dt": fixed steps (20 % is close)
     order = 1.0  # error ~ knob^order, the first guess of the search
     effort_range = (1, 1)
     cost_cap: float | None = None
@@ -189,6 +211,13 @@ class Engine:
     def missing(self) -> str | None:
         """None when the engine can run, else why not."""
         return None
+
+    def applies(self, case: "Case") -> bool:
+        """Whether this path can run ``case``."""
+        return True
+
+    def path_for(self, case: "Case") -> str:
+        return self.path
 
     def knob(self, effort: int) -> float:
         raise NotImplementedError
@@ -214,6 +243,9 @@ class Engine:
 
 class Rigidlab(Engine):
     name = "rigidlab"
+    peer = "rigidlab"
+    path = "DOP853, absolute coordinates + multipliers, projection"
+    grid = "rtol"
     order = 1.0
     effort_range = (16, 104)  # rtol 1e-2 .. 1e-13
 
@@ -264,7 +296,12 @@ class _FixedStep(Engine):
 
 class MuJoCo(_FixedStep):
     name = "MuJoCo"
+    peer = "MuJoCo"
+    path = "RK4, minimal (hinge joints)"
     order = 4.0
+
+    def path_for(self, case):
+        return self.path if case.kind == "chain" else "RK4, hinges + slide, soft equality constraints"
 
     def missing(self):
         try:
@@ -294,9 +331,14 @@ class MuJoCo(_FixedStep):
         equality = mujoco.mjtConstraint.mjCNSTR_EQUALITY
         residual = np.zeros(case.t.size)
 
+        # after an RK4 mj_step, mjData's positions (and constraint rows) are those of the last Runge-Kutta
+        # stage, not of the step's end: recompute them at the frame's state before reading
+        refresh = mujoco.mj_kinematics if case.kind == "chain" else mujoco.mj_forward
+
         def loop():
             for i in range(1, case.t.size):
                 mujoco.mj_step(m, d, nstep=effort)
+                refresh(m, d)
                 out[i] = d.xipos[ids]
                 if d.nefc:
                     residual[i] = np.abs(d.efc_pos[: d.nefc][d.efc_type[: d.nefc] == equality]).max(initial=0.0)
@@ -305,9 +347,22 @@ class MuJoCo(_FixedStep):
         return out, (float(residual.max()) if case.kind != "chain" else None), cpu
 
 
-class Exudyn(_FixedStep):
-    name = "Exudyn"
+class ExudynAlpha(_FixedStep):
+    """Exudyn's redundant coordinates (rigid bodies with Euler parameters, joints as constraints),
+    generalized-alpha, with the linear solver ``linear_solver``."""
+
+    peer = "Exudyn"
     order = 2.0
+    linear_solver = "EXUdense"
+
+    @property
+    def name(self):
+        return f"Exudyn alpha {self.linear_solver}"
+
+    @property
+    def path(self):
+        kind = "sparse (EigenSparse)" if "Sparse" in self.linear_solver else "dense (EXUdense)"
+        return f"gen.-alpha, redundant coordinates, {kind}"
 
     def missing(self):
         try:
@@ -326,21 +381,139 @@ class Exudyn(_FixedStep):
         exu = _import_exudyn()
         model = case.build()
         _container, mbs, sensors = exudyn_model(exu, model, case.kind)
-        settings = exu.SimulationSettings()
-        integration = settings.timeIntegration
-        integration.numberOfSteps = effort * (case.t.size - 1)
-        integration.endTime = float(case.t[-1])
-        integration.verboseMode = 0
-        integration.newton.useModifiedNewton = True
-        integration.newton.relativeTolerance = 1e-10  # default 1e-8 leaves ~2e-9 m in the slider-crank
-        settings.solution.file.write = False
-        settings.solution.sensors.writePeriod = 1.0 / FPS
-        settings.show.computationTime = False
-        settings.show.statistics = False
+        settings = _exudyn_settings(exu, case, effort * (case.t.size - 1))
+        settings.linearSolver.solverType = getattr(exu.LinearSolverType, self.linear_solver)
+        settings.timeIntegration.newton.useModifiedNewton = True
+        settings.timeIntegration.newton.relativeTolerance = 1e-10  # default 1e-8 leaves ~2e-9 m in the slider-crank
         _, cpu = cpu_time(lambda: mbs.SolveDynamic(settings, solverType=exu.DynamicSolverType.GeneralizedAlpha))
         data = np.stack([mbs.GetSensorStoredData(s) for s in sensors], axis=1)  # (rows, bodies, [t, x, y, z])
         rows = np.searchsorted(data[:, 0, 0], case.t - 0.25 / (FPS * effort))
         return data[np.minimum(rows, len(data) - 1), :, 1:], None, cpu
+
+
+class ExudynAlphaSparse(ExudynAlpha):
+    linear_solver = "EigenSparse"
+
+
+class ExudynTreeRK44(_FixedStep):
+    """Exudyn's minimal coordinates (``ObjectKinematicTree``: one joint angle per link), explicit RK44;
+    centres of mass from the stored joint coordinates (the tree's forward kinematics, after the run)."""
+
+    name = "Exudyn tree RK44"
+    peer = "Exudyn"
+    path = "RK44, minimal coordinates (ObjectKinematicTree)"
+    order = 4.0
+
+    def missing(self):
+        return ExudynAlpha.missing(self)
+
+    def applies(self, case):
+        return case.kind == "chain"
+
+    def start(self, target):
+        return 4 if target >= 1e-7 else 16
+
+    def setting(self, effort):
+        return f"RK44, {self._dt_text(effort)}"
+
+    def run(self, case, effort):
+        exu = _import_exudyn()
+        tree = chain_tree(case.n_links)
+        _container, mbs, node = exudyn_tree_model(exu, tree, chain_angles0(case.n_links))
+        from exudyn.utilities import SensorNode
+
+        sensor = mbs.AddSensor(SensorNode(
+            nodeNumber=node, storeInternal=True, writeToFile=False,
+            outputVariableType=exu.OutputVariableType.Coordinates))
+        mbs.Assemble()
+        settings = _exudyn_settings(exu, case, effort * (case.t.size - 1))
+        _, cpu = cpu_time(lambda: mbs.SolveDynamic(settings, solverType=exu.DynamicSolverType.RK44))
+        data = mbs.GetSensorStoredData(sensor)  # (rows, [t, q_0 .. q_n-1])
+        rows = np.searchsorted(data[:, 0], case.t - 0.25 / (FPS * effort))
+        q = data[np.minimum(rows, len(data) - 1), 1:]
+        return tree_points(tree, q)[0], None, cpu
+
+
+class ExudynTreeDOPRI5(Engine):
+    """Exudyn's ``ObjectKinematicTree`` with DOPRI5 (error control, ``rtol = atol``). Exudyn's adaptive
+    steps do not end on the output times, so the run stops at every 60 Hz frame: ``MainSolverExplicit``
+    initialized once, then ``it.endTime`` set to the next frame and ``SolveSteps`` (the step size carries
+    over); the joint coordinates are read at each frame. On the 10-link chain this costs about 20 % more
+    than one ``SolveDynamic`` over the same time."""
+
+    name = "Exudyn tree DOPRI5"
+    peer = "Exudyn"
+    path = "DOPRI5, minimal coordinates (ObjectKinematicTree)"
+    grid = "rtol"
+    order = 1.0
+    effort_range = (16, 104)
+    cost_cap = PEER_CPU_CAP
+
+    missing = ExudynAlpha.missing
+    applies = ExudynTreeRK44.applies
+    knob = Rigidlab.knob
+    effort_for = Rigidlab.effort_for
+
+    def start(self, target):
+        # coarse tolerances plateau (steps of at most one frame): start at the target itself
+        return self.effort_for(target)
+
+    def setting(self, effort):
+        return f"DOPRI5 rtol = atol {self.knob(effort):.2g}"
+
+    def cost_of(self, effort, runs):
+        made = [e for e in runs if math.isfinite(runs[e].error)] or list(runs)
+        if not made:
+            return 0.0
+        near = min(made, key=lambda e: abs(e - effort))
+        return runs[near].cpu * (self.knob(near) / self.knob(effort)) ** 0.2  # 5th order: cost ~ tol^(-1/5)
+
+    def run(self, case, effort):
+        exu = _import_exudyn()
+        tree = chain_tree(case.n_links)
+        _container, mbs, _node = exudyn_tree_model(exu, tree, chain_angles0(case.n_links))
+        mbs.Assemble()
+        settings = _exudyn_settings(exu, case, case.t.size - 1)
+        integration = settings.timeIntegration
+        integration.solverType = exu.DynamicSolverType.DOPRI5
+        integration.automaticStepSize = True
+        integration.relativeTolerance = integration.absoluteTolerance = self.knob(effort)
+        return _dopri5_run(exu, mbs, settings, tree, case.t)
+
+
+def _dopri5_run(exu, mbs, settings, tree, t):
+    """(centres (n_out, n, 3), None, CPU s): ``MainSolverExplicit`` stopped at every output time."""
+    solver = exu.MainSolverExplicit()
+    q = np.empty((t.size, len(tree.mass)))
+
+    def loop():
+        solver.InitializeSolver(mbs, settings)
+        q[0] = mbs.systemData.GetODE2Coordinates()
+        for i in range(1, t.size):
+            solver.it.endTime = float(t[i])
+            solver.SolveSteps(mbs, settings)
+            q[i] = mbs.systemData.GetODE2Coordinates()
+        solver.FinalizeSolver(mbs, settings)
+
+    _, cpu = cpu_time(loop)
+    if abs(solver.it.currentTime - t[-1]) > 1e-9:
+        raise RuntimeError(f"DOPRI5 stopped at t = {solver.it.currentTime:g} s")
+    return tree_points(tree, q)[0], None, cpu
+
+
+def _exudyn_settings(exu, case, n_steps: int):
+    """Simulation settings over ``case.t`` with ``n_steps`` steps (the largest step of an adaptive solver),
+    sensors every 60 Hz frame, no files, no console output."""
+    settings = exu.SimulationSettings()
+    integration = settings.timeIntegration
+    integration.numberOfSteps = int(n_steps)
+    integration.endTime = float(case.t[-1])
+    integration.verboseMode = 0
+    settings.solution.file.write = False
+    settings.solution.sensors.writePeriod = 1.0 / FPS
+    settings.show.computationTime = False
+    settings.show.statistics = False
+    return settings
 
 
 def _import_exudyn():
@@ -353,7 +526,9 @@ def _import_exudyn():
     return exudyn
 
 
-ENGINES = {"rigidlab": Rigidlab, "MuJoCo": MuJoCo, "Exudyn": Exudyn}
+#: The paths of each peer; a table row reports the peer's cheapest path that reaches the target.
+ENGINES = {"rigidlab": (Rigidlab,), "MuJoCo": (MuJoCo,),
+           "Exudyn": (ExudynAlpha, ExudynAlphaSparse, ExudynTreeRK44, ExudynTreeDOPRI5)}
 
 
 # ------------------------------------------------------------------ peer models
@@ -496,6 +671,102 @@ def exudyn_model(exu, model, kind: str):
     return container, mbs, sensors
 
 
+# ------------------------------------------------------------------ the chain as a kinematic tree
+@dataclass(frozen=True)
+class ChainTree:
+    """:func:`core.models.pendulum_chain` as a kinematic tree (link k's parent is link k - 1), read from
+    the rigidlab System hanging at rest (tilt 0): every joint frame is then parallel to the global frame,
+    and the joint coordinates are the relative angles about the common joint axis (global x)."""
+
+    offset: np.ndarray  # (n, 3) joint k from joint k - 1 (joint 0 from the origin), global axes (m)
+    com: np.ndarray  # (n, 3) centre of mass of link k from joint k (m)
+    tip: np.ndarray  # (3,) the free end of the last link from its joint (m)
+    mass: np.ndarray  # (n,) kg
+    inertia: np.ndarray  # (n, 3, 3) about the centre of mass, global axes (kg m^2)
+    axis: np.ndarray  # (3,) the joints' common axis
+    gravity: np.ndarray  # (3,) m/s^2
+
+
+def chain_tree(n_links: int, *, system=None, tilt: float = 0.0) -> ChainTree:
+    """The kinematic tree of ``pendulum_chain(n_links)`` (same masses, inertias, joints, gravity), read
+    from ``system`` (default: a new ``pendulum_chain(n_links)``), a chain at rest tilted by ``tilt`` (rad)."""
+    if system is None:
+        system = pendulum_chain(n_links, tilt=tilt)
+    state = system.state
+    c, s = math.cos(tilt), math.sin(tilt)
+    untilt = np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])  # turns the chain back by -tilt about x
+    points = np.array([untilt @ np.asarray(j.point, dtype=float) for j in system.joints])
+    centres = np.array([untilt @ state.position(b) for b in system.bodies])
+    axes = np.array([untilt @ np.asarray(j.axis, dtype=float) for j in system.joints])
+    if not np.allclose(axes, axes[0]) or not np.allclose(axes[0], [1.0, 0.0, 0.0]):
+        raise ValueError("chain_tree: expected every joint about the global x axis")
+    frames = [untilt @ state.rotation_matrix(b) for b in system.bodies]
+    inertia = np.array([A @ np.asarray(b.inertia) @ A.T for A, b in zip(frames, system.bodies, strict=True)])
+    offset = np.diff(np.vstack([np.zeros(3), points]), axis=0)
+    tip = 2.0 * (centres[-1] - points[-1])  # uniform rods: the centre is mid-length
+    return ChainTree(offset, centres - points, tip, np.array([b.mass for b in system.bodies], dtype=float),
+                     inertia, axes[0], np.asarray(system.gravity, dtype=float))
+
+
+def chain_angles0(n_links: int) -> np.ndarray:
+    """(n,) relative joint angles of ``pendulum_chain(n_links, tilt=CHAIN_TILT)``: the top joint turned by
+    the tilt, the others straight."""
+    q0 = np.zeros(n_links)
+    q0[0] = CHAIN_TILT
+    return q0
+
+
+def _rotate_x(phi: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(..., 3): vectors ``v`` (..., 3) turned by ``phi`` (...) about the x axis."""
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([np.broadcast_to(v[..., 0], c.shape), c * v[..., 1] - s * v[..., 2],
+                     s * v[..., 1] + c * v[..., 2]], axis=-1)
+
+
+def tree_points(tree: ChainTree, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centres (..., n, 3), tip (..., 3)) of the chain at relative joint angles ``q`` (..., n)."""
+    phi = np.cumsum(q, axis=-1)  # absolute angles about x
+    moved = _rotate_x(phi[..., :-1], tree.offset[1:])  # (..., n - 1, 3)
+    joints = tree.offset[0] + np.concatenate([np.zeros(q.shape[:-1] + (1, 3)), np.cumsum(moved, axis=-2)],
+                                             axis=-2)
+    centres = joints + _rotate_x(phi, tree.com)
+    tip = joints[..., -1, :] + _rotate_x(phi[..., -1], tree.tip)
+    return centres, tip
+
+
+def exudyn_tree_model(exu, tree: ChainTree, q0: np.ndarray):
+    """(SystemContainer, MainSystem, node of the joint coordinates) of the chain as an Exudyn
+    ``ObjectKinematicTree`` (``mbs.CreateKinematicTree``: RevoluteX joints, the links' mass, centre and
+    inertia about the centre), at the joint angles ``q0`` and at rest; not yet assembled."""
+    from exudyn.rigidBodyUtilities import RigidBodyInertia, TreeLink
+
+    container = exu.SystemContainer()
+    mbs = container.AddSystem()
+    links = []
+    for k in range(len(tree.mass)):
+        frame = np.eye(4)
+        frame[:3, 3] = tree.offset[k]
+        links.append(TreeLink(linkInertia=RigidBodyInertia(tree.mass[k], tree.inertia[k], tree.com[k],
+                                                           inertiaTensorAtCOM=True),
+                              jointType=exu.JointType.RevoluteX, jointHT=frame, graphicsDataList=[]))
+    obj = mbs.CreateKinematicTree(listOfTreeLinks=links, initialCoordinates=np.asarray(q0, dtype=float),
+                                  gravity=tree.gravity, baseGraphicsDataList=[], show=False)
+    return container, mbs, mbs.GetObject(obj)["nodeNumber"]
+
+
+def pinocchio_chain_model(pin, tree: ChainTree):
+    """(pin.Model, pin.Data) of the chain: revolute joints about x (``JointModelRX``) placed at the joint
+    offsets, each link's mass, centre and inertia about the centre, the same gravity."""
+    model = pin.Model()
+    parent = 0
+    for k in range(len(tree.mass)):
+        parent = model.addJoint(parent, pin.JointModelRX(), pin.SE3(np.eye(3), tree.offset[k]), f"joint{k}")
+        model.appendBodyToJoint(parent, pin.Inertia(float(tree.mass[k]), tree.com[k], tree.inertia[k]),
+                                pin.SE3.Identity())
+    model.gravity = pin.Motion(tree.gravity, np.zeros(3))
+    return model, model.createData()
+
+
 # ------------------------------------------------------------------ search
 def evaluate(engine: Engine, case: Case, effort: int, runs: dict[int, Run]) -> Run:
     """Run ``engine`` at ``effort`` once (memoized in ``runs``); a failed run counts as an infinite error."""
@@ -565,7 +836,7 @@ def search(engine: Engine, case: Case, target: float, runs: dict[int, Run], *, m
             nxt = round(math.sqrt(top * bottom))
             if nxt in runs or nxt <= bottom or nxt >= top:
                 break
-        if best is None and worst is not None:
+        if best is None and worst is not None and engine.grid == "dt":
             coarser = [e for e in failing if engine.knob(e) >= 2.0 * engine.knob(worst)]
             if coarser and runs[worst].error > 0.5 * runs[max(coarser)].error:
                 break  # halving the step no longer halves the error: a floor, not the step size
@@ -585,7 +856,7 @@ def search(engine: Engine, case: Case, target: float, runs: dict[int, Run], *, m
 
 
 def _close(engine: Engine, fine: int, coarse: int) -> bool:
-    if isinstance(engine, Rigidlab):
+    if engine.grid == "rtol":
         return coarse - fine <= 1
     return engine.knob(fine) / engine.knob(coarse) <= 1.2 or coarse - fine <= 1
 
@@ -618,47 +889,64 @@ def build_table(models=MODELS, *, targets=TARGETS, t_end: float = T_END, engines
     repeats : int
         Best of this many runs for settings under 2 s of CPU.
     """
-    engine_objs = [Rigidlab()] + [ENGINES[name]() for name in engines if name != "rigidlab"]
-    missing = {e.name: e.missing() for e in engine_objs if e.missing()}
+    engine_objs = [Rigidlab()] + [cls() for name in engines if name != "rigidlab" for cls in ENGINES[name]]
+    missing = {e.peer: e.missing() for e in engine_objs if e.missing()}
     for name, why in missing.items():
         log(f"{name}: {why}")
+    peers = list(dict.fromkeys(e.peer for e in engine_objs))
     rows: list[dict] = []
-    summary: dict = {"missing": missing, "cases": {}}
+    summary: dict = {"missing": missing, "cases": {}, "paths": []}
     for name in models:
         case = make_case(name, t_end=t_end)
         log(f"[{name}] reference: {case.reference_note}, CPU {case.reference_cpu:.2f} s")
-        rows.append(_row(case.label, "-", "reference", case.reference_note, case.reference_cpu,
+        rows.append(_row(case.label, "-", "reference", "-", case.reference_note, case.reference_cpu,
                          case.reference_check, None, None, note="self-check" if case.kind == "chain" else "exact"))
         summary["cases"][name] = {"reference_cpu": case.reference_cpu, "reference_check": case.reference_check,
                                   "rtol": {}}
         memo: dict[str, dict[int, Run]] = {e.name: {} for e in engine_objs}
         for target in targets:
             base = None
-            for engine in engine_objs:
-                if engine.name in missing:
+            for peer in peers:
+                if peer in missing:
                     continue
-                run, reached = search(engine, case, target, memo[engine.name])
-                if reached:
-                    best_of(engine, case, run, repeats)
+                tried = []
+                for engine in (e for e in engine_objs if e.peer == peer and e.applies(case)):
+                    run, reached = search(engine, case, target, memo[engine.name])
+                    if reached:
+                        best_of(engine, case, run, repeats)
+                    tried.append((engine, run, reached))
+                    summary["paths"].append({"model": case.label, "target": target, "engine": peer,
+                                             "path": engine.path_for(case), "setting": engine.setting(run.effort),
+                                             "reached": reached, "cpu_s": run.cpu, "error_m": run.error})
+                    log(f"[{name}] {target:g} {peer} ({engine.path_for(case)}): {engine.setting(run.effort)}, "
+                        f"{'reached' if reached else 'not reached'}, CPU {run.cpu:.3f} s, error {run.error:.2e}")
+                passing = [x for x in tried if x[2]]
+                engine, run, reached = (min(passing, key=lambda x: x[1].cpu) if passing
+                                        else min(tried, key=lambda x: x[1].error))
                 setting = engine.setting(run.effort)
                 if not reached:
                     setting = f"not reached: best {run.error:.1e} at {setting}"
-                if engine.name == "rigidlab":
+                if peer == "rigidlab":
                     base = run.cpu if reached else None
                     if reached:
                         summary["cases"][name]["rtol"][f"{target:g}"] = engine.knob(run.effort)
-                ratio = run.cpu / base if (reached and base and engine.name != "rigidlab") else None
-                rows.append(_row(case.label, f"{target:g}", engine.name, setting, run.cpu, run.error, run.residual,
-                                 ratio, reached=reached, knob=engine.knob(run.effort), runs=len(memo[engine.name])))
-                log(f"[{name}] {target:g} {engine.name}: {setting}, CPU {run.cpu:.3f} s, error {run.error:.2e}")
+                ratio = run.cpu / base if (reached and base and peer != "rigidlab") else None
+                rows.append(_row(case.label, f"{target:g}", peer, engine.path_for(case), setting, run.cpu, run.error,
+                                 run.residual, ratio, reached=reached, knob=engine.knob(run.effort),
+                                 runs=len(memo[engine.name])))
+    for entry in summary["paths"]:
+        base = next((r["cpu_s"] for r in rows if r["model"] == entry["model"] and r["engine"] == "rigidlab"
+                     and r["target"] == f"{entry['target']:g}" and r["reached"]), None)
+        entry["ratio"] = entry["cpu_s"] / base if (base and entry["reached"]) else None
     return rows, summary
 
 
-def _row(model, target, engine, setting, cpu, error, residual, ratio, *, note=None, reached=True, knob=None,
+def _row(model, target, engine, path, setting, cpu, error, residual, ratio, *, note=None, reached=True, knob=None,
          runs=None) -> dict:
     error_text = f"{error:.1e}" + (f" ({note})" if note else "")
     return {
-        "model": model, "target": target, "engine": engine, "setting": setting, "CPU (s)": f"{cpu:.3f}",
+        "model": model, "target": target, "engine": engine, "path": path, "setting": setting,
+        "CPU (s)": f"{cpu:.3f}",
         "position error (m)": error_text,
         "constraint residual": "-" if residual is None else f"{residual:.1e}",
         "CPU / rigidlab": "-" if ratio is None else f"{ratio:.2f}",
@@ -672,6 +960,18 @@ def format_table(rows: list[dict]) -> str:
     lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "|".join("---:" if c in ("CPU (s)", "CPU / rigidlab") else "---"
                                                            for c in COLUMNS) + "|"]
     lines += ["| " + " | ".join(str(r[c]) for c in COLUMNS) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def format_paths(paths: list[dict]) -> str:
+    """Every path of every engine at every target (the table keeps each engine's cheapest) as Markdown."""
+    lines = ["| model | target | engine | path | setting | CPU (s) | error (m) | CPU / rigidlab |",
+             "|---|---|---|---|---|---:|---|---:|"]
+    for p in paths:
+        setting = p["setting"] if p["reached"] else f"not reached ({p['setting']})"
+        ratio = "-" if p["ratio"] is None else f"{p['ratio']:.2f}"
+        lines.append(f"| {p['model']} | {p['target']:g} | {p['engine']} | {p['path']} | {setting} | "
+                     f"{p['cpu_s']:.3f} | {p['error_m']:.1e} | {ratio} |")
     return "\n".join(lines)
 
 
@@ -731,6 +1031,21 @@ def _machine() -> str:
     return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
 
 
+def git_revision() -> str:
+    """The measured rigidlab: ``<commit> (<commit date>)``, plus a note when core/ has uncommitted changes."""
+    import subprocess
+
+    root = Path(__file__).resolve().parent.parent
+    try:
+        head = subprocess.run(["git", "log", "-1", "--format=%h (%cs)"], cwd=root, capture_output=True, text=True,
+                              check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "core"], cwd=root, capture_output=True,
+                               text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown revision"
+    return head + (" + uncommitted changes in core/" if dirty else "")
+
+
 def _versions() -> dict:
     import scipy
 
@@ -741,6 +1056,10 @@ def _versions() -> dict:
         versions["mujoco"] = mujoco.__version__
     with contextlib.suppress(ImportError):
         versions["exudyn"] = _import_exudyn().__version__
+    with contextlib.suppress(ImportError):
+        import pinocchio
+
+        versions["pinocchio"] = pinocchio.__version__
     return versions
 
 
@@ -756,13 +1075,15 @@ def main(argv: list[str] | None = None) -> None:
     started = time.perf_counter()
     machine, versions = _machine(), _versions()
     print(f"# rigidlab multibody benchmark{' (quick)' if args.quick else ''}, "
-          f"{datetime.date.today().isoformat()}")
+          f"{datetime.date.today().isoformat()}, rigidlab {git_revision()}")
     print(f"{machine}; " + ", ".join(f"{k} {v}" for k, v in versions.items()))
     print(f"T = {T_END:g} s, outputs at {FPS} Hz; error = largest distance of a body's centre of mass from the "
           f"reference; CPU = process time, best of up to 3 runs\n")
     rows, summary = build_table(models)
     print()
     print(format_table(rows))
+    print("\nEvery path tried (each row of the table above is its engine's cheapest path reaching the target):\n")
+    print(format_paths(summary["paths"]))
     print("\n" + ratio_summary(rows))
     targets = {}
     rtol = summary["cases"].get("chain10", {}).get("rtol", {}).get("1e-06")
