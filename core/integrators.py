@@ -67,8 +67,11 @@ at the first non-finite derivative ``model.rhs`` returns (naming its time).
 A run is limited to :data:`MAX_STEPS` steps (fixed-step
 methods, checked before the run starts) or right-hand-side evaluations
 (adaptive methods, checked as they are made): a step of 1e-12 s over 1000 s
-is refused at once instead of filling memory for hours. ``integrate(...,
-max_steps=n)`` raises the limit.
+is refused at once instead of filling memory for hours, and an adaptive
+run whose pace after :data:`PACE_CHECK_CALLS` evaluations (or any doubling
+of them) needs more than :data:`PACE_MARGIN` times the limit stops then.
+``integrate(..., max_steps=n)`` raises the limit. ``rtol`` is at least
+:data:`MIN_RTOL` (100 machine epsilons).
 
 Methods (``integrate(..., method=name)``):
 
@@ -110,6 +113,7 @@ __all__ = [
     "FIXED_STEP_METHODS",
     "MAX_STEPS",
     "METHOD_ORDERS",
+    "MIN_RTOL",
     "DivergenceError",
     "DriftReport",
     "IntegrationError",
@@ -132,6 +136,12 @@ __all__ = [
 #: pure-Python steppers; a run that needs more is almost always a mistake in
 #: ``dt`` or ``t_span``.
 MAX_STEPS = 10_000_000
+
+#: Smallest relative tolerance ``rtol`` of the adaptive methods: 100 machine
+#: epsilons (2.2e-14), below which scipy's ``RK45``, ``DOP853`` and ``LSODA``
+#: would raise it to this value anyway (with a warning) while a run that asked
+#: for less accuracy than round-off allows crawls through a long span.
+MIN_RTOL = 100.0 * float(np.finfo(float).eps)
 
 
 #: What a failed run's exception carries within its process (see :func:`attach_partial`): left out when the
@@ -504,12 +514,37 @@ METHOD_ORDERS: Mapping[str, int] = {
 
 
 # ---------------------------------------------------------------- runs
-class _BudgetExceeded(Exception):
-    """Raised inside a solver's rhs call when a run used up its budget."""
+class _BudgetExceeded(IntegrationError):
+    """Raised inside a solver's rhs call when a run used up its budget of ``max_calls`` evaluations, or
+    (``projected``: the evaluations the whole run needs at its pace so far, after ``calls`` for the fraction
+    ``done`` of its span) cannot end within it. The runners turn it into the error of :func:`_budget_error`
+    (naming the method); one raised where no runner catches it (a compiled loop calling
+    ``_CountingModel._warn_long``) is an :class:`IntegrationError` with a message of its own."""
 
-    def __init__(self, t: float):
-        super().__init__(t)
-        self.t = t
+    def __init__(self, t: float, *, projected: float | None = None, calls: int = 0, done: float = 0.0,
+                 t1: float = math.nan, max_calls: float = math.inf):
+        if projected is None:
+            message = f"the run stopped at t={t:.6g}: it used its budget of right-hand-side evaluations"
+        else:
+            message = (f"the run stopped at t={t:.6g} before t1={t1:g}: at its pace so far ({calls:,} right-hand-side "
+                       f"evaluations for {100.0 * done:.3g} % of the time span) it needs about {projected:.3g}, more "
+                       f"than {PACE_MARGIN:g} x max_steps={max_calls:.0f} (core.integrators.MAX_STEPS = {MAX_STEPS}); "
+                       "shorten the time span, loosen rtol/atol, or pass a larger max_steps")
+        super().__init__(message, t=t)
+        self.projected = projected
+        self.calls = calls
+        self.done = done
+
+
+#: An adaptive run looks at its pace after this many right-hand sides and again at every doubling of the
+#: count: when, at the pace so far, it needs more than ``PACE_MARGIN`` times its ``max_steps`` to reach its end
+#: (a horizon of 1e300 s, tolerances at round-off over a long span, a stiff force), it stops with
+#: :class:`IntegrationError` then, not after ``max_steps`` evaluations (ten million: up to hours for a
+#: multibody model at 0.04-1 ms each).
+PACE_CHECK_CALLS = 10_000
+#: See :data:`PACE_CHECK_CALLS`: the slack granted to a run whose pace may still improve (steps that grow after
+#: a transient).
+PACE_MARGIN = 2.0
 
 
 #: An adaptive run warns (RuntimeWarning, once) when it has used this many right-hand sides and, at the pace
@@ -536,18 +571,44 @@ class _CountingModel:
         self.calls += 1
         if self.calls > self._max_calls:
             raise _BudgetExceeded(float(t))
-        if self.calls == LONG_RUN_CALLS and self._span is not None:
-            self._warn_long(float(t))
+        if self._span is not None:
+            if self.calls == LONG_RUN_CALLS:
+                self._warn_long(float(t))
+            if self.calls % PACE_CHECK_CALLS == 0 and self._max_calls < math.inf:
+                k = self.calls // PACE_CHECK_CALLS
+                if k & (k - 1) == 0:  # at PACE_CHECK_CALLS times a power of two
+                    self._check_pace(float(t))
         f = self._model.rhs(t, y)
         if self._finite:
             _check_derivative(t, y, f)
         return f
 
+    def _check_pace(self, t: float, calls: int | None = None) -> None:
+        """Raise :class:`_BudgetExceeded` when the run, at its pace so far (``calls`` evaluations to reach
+        ``t``, default the count of this wrapper), cannot end within its budget."""
+        calls = self.calls if calls is None else calls
+        t0, t1 = self._span
+        done = (t - t0) / (t1 - t0) if t1 != t0 else 1.0
+        projected = calls / done if done > 0.0 else math.inf
+        if not projected <= PACE_MARGIN * self._max_calls:
+            raise _BudgetExceeded(t, projected=projected, calls=calls, done=done, t1=t1, max_calls=self._max_calls)
+
     def _warn_long(self, t: float) -> None:
+        """At :data:`LONG_RUN_CALLS` evaluations: warn of a run that needs ten times as many, and stop one that
+        cannot end within its budget (:meth:`_check_pace`; compiled loops call this too)."""
         t0, t1 = self._span
         done = (t - t0) / (t1 - t0) if t1 != t0 else 1.0
         if done > 0.1:
             return
+        self._warn_long_message(t, done)
+        if self._max_calls < math.inf:
+            try:
+                self._check_pace(t, LONG_RUN_CALLS)
+            except _BudgetExceeded as exc:  # (a plain IntegrationError where no runner names the method)
+                raise IntegrationError(str(exc), t=exc.t) from None
+
+    def _warn_long_message(self, t: float, done: float) -> None:
+        t1 = self._span[1]
         need = f"about {LONG_RUN_CALLS / done:.1e}" if done > 0.0 else "far more"
         warnings.warn(
             f"this run has used {LONG_RUN_CALLS:,} right-hand sides to reach t={t:.6g} of t1={t1:g} "
@@ -663,15 +724,20 @@ def integrate(
         ``n = ceil((t1 - t0) / dt)`` equal steps of ``(t1 - t0) / n``.
     save_every : fixed-step methods: record every ``save_every``-th step
         (and always the first and last state).
-    rtol, atol : adaptive methods: scipy's tolerances.
+    rtol, atol : adaptive methods: scipy's tolerances, > 0; ``rtol >=
+        MIN_RTOL`` (2.2e-14).
     t_eval : adaptive methods: times to record (default: scipy's steps).
     max_drift : a run stops with :class:`DivergenceError` when an invariant
         moves by more than ``max_drift`` times its initial magnitude.
     max_steps : largest number of steps of a fixed-step run, refused before
         it starts when ``ceil((t1 - t0) / dt)`` exceeds it, and of
         right-hand-side evaluations of an adaptive run, which stops with
-        :class:`IntegrationError` when it has made that many; default
-        :data:`MAX_STEPS` (ten million).
+        :class:`IntegrationError` when it has made that many, or earlier,
+        after :data:`PACE_CHECK_CALLS` (ten thousand) evaluations or any
+        doubling of them, when at its pace so far it needs more than
+        :data:`PACE_MARGIN` (2) times as many to reach ``t1`` (a horizon of
+        1e300 s stops after ten thousand); default :data:`MAX_STEPS` (ten
+        million).
 
     Returns
     -------
@@ -682,7 +748,8 @@ def integrate(
     Raises
     ------
     ValueError
-        For an unknown method, a bad ``t_span``, ``dt``, ``state0`` (shape,
+        For an unknown method, a bad ``t_span``, ``dt``, ``rtol`` below
+        :data:`MIN_RTOL`, ``state0`` (shape,
         non-finite or complex entries; Euler parameters at the model's
         ``euler_parameter_slice`` of norm 0 or off 1 by ``max_drift`` or
         more) or option that does not apply to the method, and for a
@@ -696,7 +763,8 @@ def integrate(
         at the start.
     IntegrationError
         When scipy's solver or the implicit iteration fails, or an adaptive
-        run reaches ``max_steps`` right-hand-side evaluations.
+        run reaches ``max_steps`` right-hand-side evaluations or shows that
+        it would (see ``max_steps``).
     """
     y0 = float_array(state0, "state0", expected="an (m,) state vector of real numbers", copy=True)
     m = int(getattr(model, "state_size", y0.size))
@@ -886,6 +954,10 @@ def _run_adaptive(
             raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}") from None
     if not (tols[0] > 0 and tols[1] > 0):
         raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}")
+    if not tols[0] >= MIN_RTOL:
+        raise ValueError(f"rtol: expected a relative tolerance >= core.integrators.MIN_RTOL = {MIN_RTOL:.3g} (100 "
+                         f"machine epsilons: a smaller one asks for digits that round-off does not keep), got "
+                         f"{rtol!r}")
     rtol, atol = tols
     if t_eval is not None:
         t_eval = float_array(t_eval, "t_eval", expected="sorted 1-D times within t_span")
@@ -916,7 +988,17 @@ def _run_adaptive(
 
 
 def _budget_error(method: str, stop: _BudgetExceeded, t1: float, max_steps: int) -> IntegrationError:
-    """The error of an adaptive run that used its ``max_steps`` right-hand sides before ``t1``."""
+    """The error of an adaptive run that used its ``max_steps`` right-hand sides before ``t1``, or whose pace
+    shows that it would (see :data:`PACE_CHECK_CALLS`)."""
+    if stop.projected is not None:
+        return IntegrationError(
+            f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: at its pace so far ({stop.calls:,} "
+            f"right-hand-side evaluations for {100.0 * stop.done:.3g} % of the time span) it needs about "
+            f"{stop.projected:.3g}, more than {PACE_MARGIN:g} x max_steps={max_steps} "
+            f"(core.integrators.MAX_STEPS = {MAX_STEPS}); shorten t_span, loosen rtol/atol, or pass a larger "
+            "max_steps",
+            t=stop.t,
+        )
     return IntegrationError(
         f"{method} stopped at t={stop.t:.6g} before t1={t1:g}: it used max_steps={max_steps} "
         f"right-hand-side evaluations (core.integrators.MAX_STEPS = {MAX_STEPS}); loosen rtol/atol, "

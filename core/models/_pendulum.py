@@ -7,12 +7,18 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from core._validation import output_times, positive_integer, real_number
+from core.integrators import integrate
 from core.multibody import System
 
-__all__ = ["ROD_RADIUS_RATIO", "ReducedChainMotion", "pendulum_chain", "pendulum_chain_reduced"]
+__all__ = ["MAX_LINKS", "ROD_RADIUS_RATIO", "ReducedChainMotion", "pendulum_chain", "pendulum_chain_reduced"]
+
+#: Most links of a chain (:func:`pendulum_chain`, :func:`pendulum_chain_reduced`). The assembly of a System
+#: analyses the rank of its constraint rows densely, a cost cubic in the number of links: 100 links take 0.5 s,
+#: 200 take 15 s and 300 about a minute on the development machine (2 cores), so a chain of 10**6 would never
+#: finish; the reduced equations solve an n x n system per right-hand side. Longer chains are refused.
+MAX_LINKS = 300
 
 #: Radius of a rod link over its length: it gives the rod its axial moment
 #: ``m r^2 / 2``, which revolute joints about parallel axes never excite
@@ -24,6 +30,9 @@ ROD_RADIUS_RATIO = 0.01
 def _chain_arguments(n: Any, length: Any, mass: Any, kind: Any, tilt: Any, gravity: Any):
     """Validated ``(n, L, m, tilt, g)`` of a pendulum chain."""
     n = positive_integer(n, "n")
+    if n > MAX_LINKS:
+        raise ValueError(f"n: expected a number of links from 1 to core.models._pendulum.MAX_LINKS = {MAX_LINKS} (the "
+                         f"assembly's cost grows as n^3: 300 links take about a minute), got {n}")
     L = real_number(length, "length", expected="a finite length > 0 (m)")
     if not L > 0:
         raise ValueError(f"length: expected a finite length > 0 (m), got {L!r}")
@@ -57,7 +66,8 @@ def pendulum_chain(
     Parameters
     ----------
     n : int
-        Number of links, >= 1.
+        Number of links, 1 to :data:`MAX_LINKS` (300: building the chain
+        takes about a minute there, its cost growing as ``n^3``).
     length : float
         Link length L (m), > 0.
     mass : float
@@ -129,6 +139,14 @@ class ReducedChainMotion:
     centres: np.ndarray  # (n_times, n, 3)
 
 
+@dataclass(frozen=True)
+class _ReducedChain:
+    """The reduced equations as a model of :func:`core.integrators.integrate`."""
+
+    state_size: int
+    rhs: Any
+
+
 def pendulum_chain_reduced(
     n: int,
     t: Any,
@@ -171,11 +189,23 @@ def pendulum_chain_reduced(
         Non-decreasing output times (s), at least one; the chain is
         released at ``t[0]``.
     rtol, atol : float, keyword-only
-        DOP853's tolerances on the angles (rad) and rates (rad/s), > 0.
+        DOP853's tolerances on the angles (rad) and rates (rad/s), > 0;
+        ``rtol >= core.integrators.MIN_RTOL`` (2.2e-14).
 
     Returns
     -------
     ReducedChainMotion
+
+    Raises
+    ------
+    ValueError
+        For bad arguments (``n`` above :data:`MAX_LINKS`, ``rtol`` below
+        ``core.integrators.MIN_RTOL``).
+    core.integrators.IntegrationError
+        When DOP853 fails or needs more than ``core.integrators.MAX_STEPS``
+        right-hand sides (a run too long for its tolerances stops after
+        ``core.integrators.PACE_CHECK_CALLS``, see
+        :func:`core.integrators.integrate`).
     """
     n, L, m, tilt, g = _chain_arguments(n, length, mass, kind, tilt, gravity)
     times = output_times(t)
@@ -201,11 +231,9 @@ def pendulum_chain_reduced(
 
     y0 = np.concatenate([np.full(n, tilt), np.zeros(n)])
     if times[-1] > times[0]:
-        sol = solve_ivp(rhs, (times[0], times[-1]), y0, method="DOP853", rtol=tolerances[0], atol=tolerances[1],
-                        t_eval=times)
-        if not sol.success:
-            raise RuntimeError(f"pendulum_chain_reduced: DOP853 failed: {sol.message}")
-        y = sol.y.T
+        model = _ReducedChain(2 * n, rhs)
+        y = np.array(integrate(model, y0, (float(times[0]), float(times[-1])), method="DOP853", rtol=tolerances[0],
+                               atol=tolerances[1], t_eval=times).states)
     else:
         y = np.tile(y0, (times.size, 1))
     angles, rates = y[:, :n].copy(), y[:, n:].copy()

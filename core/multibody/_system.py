@@ -36,7 +36,7 @@ from ._elements import (
 )
 from ._engine import _Engine, matrices
 
-__all__ = ["INERTIA_TRIANGLE_TOL", "PERPENDICULAR_TOL", "State", "System"]
+__all__ = ["INERTIA_TRIANGLE_TOL", "MAX_BAUMGARTE", "PERPENDICULAR_TOL", "State", "System"]
 
 #: Relative tolerance of the triangle inequality of principal moments:
 #: ``J3 - (J1 + J2) <= INERTIA_TRIANGLE_TOL * J3`` (as in core.rigid_body).
@@ -45,6 +45,17 @@ INERTIA_TRIANGLE_TOL = 1e-12
 #: Largest ``|cos|`` of the angle between the two cross arms of a universal
 #: joint (they must be perpendicular).
 PERPENDICULAR_TOL = 1e-6
+
+#: Largest rate ``alpha`` (rad/s) of Baumgarte's feedback ``gamma - 2 alpha
+#: (D v + C_t) - alpha^2 C`` (``System.simulate(stabilization="baumgarte")``).
+#: Its time constant ``1/alpha`` is then 10 microseconds: DOP853 takes about
+#: ``10 alpha`` right-hand sides per second of motion to follow it (1e6 and a
+#: minute of CPU for 1 s of a double pendulum), and ``alpha^2`` turns the
+#: round-off of the constraints (1e-16 of the model's size) into accelerations
+#: of 1e-6 of that size per s^2. A larger rate only adds cost and noise
+#: (``"projection"`` holds the constraints to round-off): at 1e6 the double
+#: pendulum's run diverged within 5 ms, and 1e300 made ``alpha^2`` overflow.
+MAX_BAUMGARTE = 1e5
 
 
 # ------------------------------------------------------------- validation
@@ -250,6 +261,38 @@ class State:
                 raise ValueError(f"dv: expected finite increments of shape ({6 * n},), got {short_repr(dv)}")
             y[7 * n :] += d
         return _make_state(self._owner, self.t, y)
+
+
+def _check_run_limits(t: Any, method: Any, rtol: Any, stabilization: Any, baumgarte: Any, max_steps: Any,
+                      adaptive: tuple[str, ...]) -> None:
+    """Refuse the options of ``System.simulate`` that would make a run overflow or never end: ``baumgarte``
+    above :data:`MAX_BAUMGARTE`, or with ``alpha (t[-1] - t[0])`` above ``max_steps`` for an adaptive run with
+    Baumgarte's stabilization; ``rtol`` below ``core.integrators.MIN_RTOL`` (the other checks are
+    ``core.multibody._simulate.simulate``'s)."""
+    from core._validation import output_times, positive_integer
+    from core.integrators import MIN_RTOL
+
+    alpha = real_number(baumgarte, "baumgarte", expected="a finite rate > 0 (rad/s)")
+    if not 0.0 < alpha <= MAX_BAUMGARTE:
+        raise ValueError(f"baumgarte: expected a finite rate > 0 and <= core.multibody._system.MAX_BAUMGARTE = "
+                         f"{MAX_BAUMGARTE:g} rad/s (a feedback time under 10 microseconds only adds cost and noise; "
+                         f"stabilization='projection' holds the constraints to round-off), got {alpha!r}")
+    is_adaptive = isinstance(method, str) and method in adaptive
+    if is_adaptive and isinstance(rtol, (int, float, np.integer, np.floating)) and not isinstance(rtol, bool):
+        if 0.0 < float(rtol) < MIN_RTOL:
+            raise ValueError(f"rtol: expected a relative tolerance >= core.integrators.MIN_RTOL = {MIN_RTOL:.3g} "
+                             f"(100 machine epsilons: a smaller one asks for digits that round-off does not keep), "
+                             f"got {rtol!r}")
+    if is_adaptive and stabilization == "baumgarte" and method != "kinematic":
+        times = output_times(t)
+        budget = positive_integer(max_steps, "max_steps")
+        span = float(times[-1] - times[0])
+        if alpha * span > budget:
+            raise ValueError(
+                f"baumgarte: an adaptive run follows the feedback's time 1/alpha with at least one right-hand side "
+                f"each: alpha={alpha:g} rad/s over t[-1] - t[0] = {span:g} s needs at least {alpha * span:.3g}, "
+                f"more than max_steps={budget}; use a smaller baumgarte or a shorter time span, "
+                "stabilization='projection', or pass a larger max_steps")
 
 
 def _make_state(owner: Any, t: float, y: np.ndarray) -> State:
@@ -1144,7 +1187,8 @@ class System:
             velocities, accelerations and multipliers (Eqs. 8.105-8.107),
             without integration error (see ``core.multibody._simulate.simulate``).
         rtol, atol : float, keyword-only
-            Adaptive methods: scipy's tolerances (defaults 1e-8, 1e-10);
+            Adaptive methods: scipy's tolerances (defaults 1e-8, 1e-10;
+            ``rtol >= core.integrators.MIN_RTOL``, 2.2e-14);
             ``"kinematic"``: those of DOP853 after a compliant continuation.
         dt : float, keyword-only
             Fixed-step methods: the largest step (required).
@@ -1155,17 +1199,25 @@ class System:
             (D v + C_t) - alpha^2 C``, no projection; ``"none"``: the bare
             index-1 equations (the residuals drift).
         baumgarte : float, keyword-only
-            ``alpha`` of Baumgarte's feedback (rad/s, > 0).
+            ``alpha`` of Baumgarte's feedback (rad/s), ``0 < alpha <=
+            MAX_BAUMGARTE`` (1e5). An adaptive run follows the feedback's
+            time ``1/alpha`` with at least one right-hand side each: with
+            ``stabilization="baumgarte"``, one whose ``alpha (t[-1] -
+            t[0])`` exceeds ``max_steps`` is refused before it starts.
         position_tol : float, keyword-only
             Newton tolerance of the position projection, ``max |C|``.
         max_steps : int, keyword-only
             Limit on steps (fixed) or right-hand-side evaluations
-            (adaptive); default ``core.integrators.MAX_STEPS``. An adaptive
-            run takes at least one evaluation per radian of its fastest
-            body's turn: one whose ``|omega| (t[-1] - t[0])`` at the start
-            exceeds ``max_steps`` is refused before it starts, and one above
-            ``core.multibody._simulate.LONG_RUN_RADIANS`` (1e5 rad, minutes of CPU) warns
-            (RuntimeWarning).
+            (adaptive); default ``core.integrators.MAX_STEPS`` (1e7). An
+            adaptive run takes at least one evaluation per radian of its
+            fastest body's turn: one whose ``|omega| (t[-1] - t[0])`` at the
+            start exceeds ``max_steps`` is refused before it starts, and one
+            above ``core.multibody._simulate.LONG_RUN_RADIANS`` (1e5 rad,
+            minutes of CPU) warns (RuntimeWarning). One whose pace after
+            ``core.integrators.PACE_CHECK_CALLS`` (1e4) evaluations, or any
+            doubling of them, needs more than ``PACE_MARGIN`` (2) times
+            ``max_steps`` stops then with ``IntegrationError`` (a horizon of
+            1e300 s ends within seconds).
         on_separation : str, keyword-only
             Contacts in the constraint model: when a normal force crosses
             zero, ``"stop"`` (default) ends the run there,
@@ -1185,10 +1237,12 @@ class System:
             constrained equations are singular; ``IntegrationError`` when
             the integrator fails.
         """
-        from core.integrators import MAX_STEPS
+        from core.integrators import ADAPTIVE_METHODS, MAX_STEPS
 
-        from ._simulate import simulate
+        from ._simulate import KINEMATIC_METHOD, simulate
 
+        _check_run_limits(t, method, rtol, stabilization, baumgarte,
+                          MAX_STEPS if max_steps is None else max_steps, ADAPTIVE_METHODS + (KINEMATIC_METHOD,))
         return simulate(
             self, t, method=method, rtol=rtol, atol=atol, dt=dt, stabilization=stabilization, baumgarte=baumgarte,
             position_tol=position_tol, max_steps=MAX_STEPS if max_steps is None else max_steps,

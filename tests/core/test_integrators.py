@@ -8,6 +8,7 @@ convergence order of every fixed-step method, and a finite-time blow-up
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import FrozenInstanceError
 
 import numpy as np
@@ -379,6 +380,50 @@ def test_adaptive_runs_stop_at_max_steps_evaluations():
         itg.integrate(Oscillator(), Y0, (0.0, 1000.0), method="RK45", max_steps=50)
     run = itg.integrate(Oscillator(), Y0, (0.0, 1.0), method="RK45", max_steps=10_000)
     assert run.n_rhs <= 10_000
+
+
+@pytest.mark.parametrize("method", itg.ADAPTIVE_METHODS)
+@pytest.mark.parametrize(("t1", "tolerances"), [(1e300, {}), (1e7, dict(rtol=1e-13, atol=1e-13))])
+def test_adaptive_runs_that_cannot_end_within_max_steps_stop_at_their_first_pace_check(method, t1, tolerances):
+    """A horizon of 1e300 s, or 1e7 s (1.6e6 periods) at rtol 1e-13, ran until max_steps (ten million
+    evaluations: minutes here, hours for a multibody model); the pace after PACE_CHECK_CALLS says so at once."""
+    assert itg.PACE_CHECK_CALLS == 10_000 and itg.PACE_MARGIN == 2.0
+    model = Oscillator()
+    with pytest.raises(itg.IntegrationError, match=rf"{method} stopped at t=\S+ before t1={re.escape(f'{t1:g}')}: at its pace so far "
+                                                   r"\(10,000 right-hand-side evaluations for \S+ % of the time "
+                                                   r"span\) it needs about \S+, more than 2 x max_steps=10000000"):
+        itg.integrate(model, Y0, (0.0, t1), method=method, **tolerances)
+    # a run within its budget is not stopped by the check: 1000 s at rtol 1e-10 takes about 1e5 evaluations
+    run = itg.integrate(model, Y0, (0.0, 1000.0), method="DOP853", rtol=1e-10, atol=1e-12)
+    assert run.n_rhs > 4 * itg.PACE_CHECK_CALLS
+    np.testing.assert_allclose(run.states[-1], model.exact(Y0, 1000.0), atol=1e-6)
+
+
+def test_the_long_run_check_of_compiled_loops_stops_a_run_beyond_its_budget():
+    """Compiled loops count their own evaluations and call _CountingModel._warn_long at LONG_RUN_CALLS: a run
+    that at that pace needs more than PACE_MARGIN x max_steps stops there with an IntegrationError."""
+    counter = itg._CountingModel(Oscillator(), max_calls=10_000_000, span=(0.0, 1e7))
+    with pytest.warns(RuntimeWarning, match="this run has used 1,000,000 right-hand sides"):
+        with pytest.raises(itg.IntegrationError, match=r"the run stopped at t=1000 before t1=1e\+07: at its pace so far "
+                                                       r"\(1,000,000 right-hand-side evaluations for 0.01 % of the "
+                                                       r"time span\) it needs about 1e\+10") as info:
+            counter._warn_long(1000.0)
+    assert type(info.value) is itg.IntegrationError and info.value.t == 1000.0
+    # at a pace that ends within the budget it only warns
+    with pytest.warns(RuntimeWarning, match="this run has used 1,000,000 right-hand sides"):
+        itg._CountingModel(Oscillator(), max_calls=10_000_000, span=(0.0, 2e4))._warn_long(2000.0)
+
+
+@pytest.mark.parametrize("method", itg.ADAPTIVE_METHODS)
+def test_rtol_below_round_off_is_refused(method):
+    """scipy raises an rtol below 100 machine epsilons to that value (with a warning); asked for 1e-16 over a
+    long span, the run crawled until max_steps."""
+    assert itg.MIN_RTOL == 100.0 * np.finfo(float).eps
+    with pytest.raises(ValueError, match=r"rtol: expected a relative tolerance >= core.integrators.MIN_RTOL = "
+                                         r"2.22e-14 \(100 machine epsilons: .*\), got 1e-16"):
+        itg.integrate(Oscillator(), Y0, (0.0, 1e6), method=method, rtol=1e-16)
+    run = itg.integrate(Oscillator(), Y0, (0.0, 1.0), method=method, rtol=itg.MIN_RTOL, atol=1e-14)
+    np.testing.assert_allclose(run.states[-1], Oscillator().exact(Y0, 1.0), atol=1e-9)
 
 
 def test_integrate_refuses_bad_numbers():

@@ -20,6 +20,7 @@ import pytest
 from scipy.special import ellipk
 
 from core.gyroscope import RotorParams
+from core.integrators import IntegrationError
 from core.models import (
     ROD_RADIUS_RATIO,
     HeavyTop,
@@ -32,6 +33,7 @@ from core.models import (
     slider_crank,
     spatial_double_pendulum,
 )
+from core.models._pendulum import MAX_LINKS
 from core.multibody import System
 
 
@@ -88,6 +90,26 @@ def test_single_link_large_amplitude_period(kind, l_eq):
 def test_pendulum_chain_arguments(kwargs, message):
     with pytest.raises(ValueError, match=message):
         pendulum_chain(**kwargs)
+
+
+@pytest.mark.parametrize("n", [10**6, MAX_LINKS + 1])
+def test_chains_longer_than_max_links_are_refused_at_once(n):
+    """pendulum_chain(10**6) never finished (the assembly's cost grows as n^3: 300 links take about a minute)."""
+    assert MAX_LINKS == 300
+    message = rf"n: expected a number of links from 1 to core.models._pendulum.MAX_LINKS = 300 .*, got {n}"
+    with pytest.raises(ValueError, match=message):
+        pendulum_chain(n)
+    with pytest.raises(ValueError, match=message):
+        pendulum_chain_reduced(n, [0.0, 1.0])
+
+
+def test_reduced_chain_runs_that_could_not_end_are_stopped():
+    """The reduced equations ran through scipy's solve_ivp with no budget: a horizon of 1e300 s ran forever."""
+    with pytest.raises(IntegrationError, match=r"DOP853 stopped at t=\S+ before t1=1e\+300: at its pace so far "
+                                               r"\(10,000 right-hand-side evaluations"):
+        pendulum_chain_reduced(2, [0.0, 1e300], tilt=0.3)
+    with pytest.raises(ValueError, match=r"rtol: expected a relative tolerance >= core.integrators.MIN_RTOL"):
+        pendulum_chain_reduced(2, [0.0, 1e4], tilt=0.3, rtol=1e-16)
 
 
 def test_tilted_chain_is_straight_and_at_rest():

@@ -495,6 +495,52 @@ def test_a_step_too_small_to_count_is_refused_without_a_warning():
             s.simulate([0.0, 1.0], method="rk4", dt=1e-300)
 
 
+@pytest.mark.parametrize(
+    ("t", "kwargs", "message"),
+    [
+        ([0.0, 1.0], dict(stabilization="baumgarte", baumgarte=1e300),
+         r"baumgarte: expected a finite rate > 0 and <= core.multibody._system.MAX_BAUMGARTE = 100000 rad/s .*, "
+         r"got 1e\+300"),
+        ([0.0, 1.0], dict(baumgarte=2e5), r"baumgarte: expected a finite rate > 0 and <= .*, got 200000.0"),
+        ([0.0, 1000.0], dict(stabilization="baumgarte", baumgarte=1e5),
+         r"baumgarte: an adaptive run follows the feedback's time 1/alpha with at least one right-hand side each: "
+         r"alpha=100000 rad/s over t\[-1\] - t\[0\] = 1000 s needs at least 1e\+08, more than max_steps=10000000"),
+        ([0.0, 1e300], dict(stabilization="baumgarte"),
+         r"baumgarte: .* alpha=20 rad/s over t\[-1\] - t\[0\] = 1e\+300 s needs at least 2e\+301"),
+        ([0.0, 1e4], dict(rtol=1e-16),
+         r"rtol: expected a relative tolerance >= core.integrators.MIN_RTOL = 2.22e-14 .*, got 1e-16"),
+        ([0.0, 1e300], dict(method="rk4", dt=0.01), r"dt: t_span \(0, 1e\+300\) with dt=0.01 needs 1e\+302 steps"),
+    ],
+)
+def test_runs_that_could_not_end_are_refused_before_they_start(t, kwargs, message):
+    # MAX_BAUMGARTE: 1e5 rad/s took 1e6 right-hand sides (a minute) for 1 s of this chain, 1e6 diverged in 5 ms,
+    # 1e300 overflowed alpha^2; an rtol of 1e-16 over 1e4 s, or a horizon of 1e300 s, ran until max_steps
+    from core.multibody._system import MAX_BAUMGARTE
+
+    assert MAX_BAUMGARTE == 1e5
+    system = pendulum_chain(2, tilt=0.3)
+    with pytest.raises(ValueError, match=message):
+        system.simulate(t, **kwargs)
+
+
+@pytest.mark.parametrize("method", ["DOP853", "RK45"])
+def test_a_horizon_of_1e300_seconds_stops_at_the_first_pace_check(method, monkeypatch):
+    """It ran until max_steps (ten million right-hand sides: about ten minutes for this chain). The interpreted
+    loop checks its pace after core.integrators.PACE_CHECK_CALLS (1e4) evaluations, a compiled loop at
+    LONG_RUN_CALLS (scaled down here to keep the test short either way)."""
+    import core.integrators as integrators
+
+    monkeypatch.setattr(integrators, "LONG_RUN_CALLS", 20_000)
+    system = pendulum_chain(2, tilt=0.3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # (the long-run warning at LONG_RUN_CALLS)
+        with pytest.raises(IntegrationError, match=r"stopped at t=\S+ before t1=1e\+300: at its pace so far "
+                                                   r"\((10|20),000 right-hand-side evaluations .* more than 2 x "
+                                                   r"max_steps=10000000") as info:
+            system.simulate([0.0, 1e300], method=method)
+    assert info.value.trajectory is not None and info.value.trajectory.status == "failed"
+
+
 def test_a_run_that_would_take_most_of_an_hour_warns_early(monkeypatch):
     # a 1e10 N/m spring on a 1 kg block: DOP853 needs about 2e8 right-hand sides for 100 s, which the default
     # max_steps (1e7) would stop only after about 40 minutes; the warning comes at LONG_RUN_CALLS (scaled
