@@ -423,24 +423,43 @@ class System:
         ------
         ValueError
             For a state of another System or one taken before bodies were
-            added.
+            added, and naming the field (``state.t``, ``state.q``,
+            ``state.v``) for one whose fields are not what a State of this
+            System holds (a State is a frozen dataclass, but
+            ``dataclasses.replace`` makes any): a time that is not a finite
+            real number, ``q`` or ``v`` not real, finite, of shape ``(7n,)``
+            and ``(6n,)``, or Euler parameters of norm 0.
         """
         if not isinstance(state, State):
             raise ValueError(f"state: expected a State, got {short_repr(state)}")
         if state._owner is not self:
             raise ValueError("state: belongs to another System")
         n = len(self._bodies)
-        if state.n_bodies != n:
+        t = real_number(state.t, "state.t", expected="a finite time (s)")
+        q = float_array(state.q, "state.q", expected=f"a ({7 * n},) vector of real numbers", copy=True)
+        v = float_array(state.v, "state.v", expected=f"a ({6 * n},) vector of real numbers", copy=True)
+        k = v.size // 6 if v.ndim == 1 and v.size % 6 == 0 else -1
+        if 0 < k != n and q.shape == (7 * k,):  # a whole state of fewer (or more) bodies
             raise ValueError(
-                f"state: describes {state.n_bodies} bodies, this System has {n} (bodies were added after it was taken)"
+                f"state: describes {k} bodies, this System has {n} (bodies were added after it was taken)"
             )
-        y = np.concatenate([state.q, state.v])
-        if not np.all(np.isfinite(y)):
-            raise ValueError("state: expected finite values")
+        for name, a, size, layout in (("q", q, 7 * n, "R (3n) | Euler parameters (4n)"),
+                                      ("v", v, 6 * n, "R_dot (3n) | omega_body (3n)")):
+            if a.shape != (size,):
+                raise ValueError(f"state.{name}: expected shape ({size},) for {n} bodies ([{layout}]), got "
+                                 f"{a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"state.{name}: expected finite values, got {short_repr(a.tolist())}")
+        y = np.concatenate([q, v])
         P = y[3 * n : 7 * n].reshape(n, 4)
-        y[3 * n : 7 * n] = (P / np.linalg.norm(P, axis=1)[:, None]).ravel()
+        norms = np.linalg.norm(P, axis=1)
+        if np.any(norms == 0.0):
+            b = int(np.argmax(norms == 0.0))
+            raise ValueError(f"state.q: expected Euler parameters of norm 1, got norm 0 for body "
+                             f"{self._bodies[b].name!r} (q[{3 * n + 4 * b}:{3 * n + 4 * b + 4}])")
+        y[3 * n : 7 * n] = (P / norms[:, None]).ravel()
         self._y = y
-        self._t = float(state.t)
+        self._t = t
         known = state._contacts
         if known is not None and len(known) == len(self._contacts):
             # the surface parameters at this state (the non-generalized coordinates of the contacts):

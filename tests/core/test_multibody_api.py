@@ -320,6 +320,34 @@ def test_state_snapshot_and_set_state(two):
         state.displaced(dq=np.zeros(3))
 
 
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        (dict(t=math.nan), r"state.t: expected a finite time \(s\), got nan"),
+        (dict(t=math.inf), r"state.t: expected a finite time \(s\), got inf"),
+        (dict(t="0"), r"state.t: expected a finite time \(s\), got '0'"),
+        (dict(q=np.zeros(0)), r"state.q: expected shape \(14,\) for 2 bodies \(\[R \(3n\) \| Euler parameters "
+                              r"\(4n\)\]\), got \(0,\)"),
+        (dict(q=np.zeros(0), v=np.zeros(0)), r"state.q: expected shape \(14,\) for 2 bodies"),
+        (dict(v=np.zeros(5)), r"state.v: expected shape \(12,\) for 2 bodies"),
+        (dict(v=np.full(12, math.nan)), r"state.v: expected finite values"),
+        (dict(q=np.zeros(14) + 0j), r"state.q: expected real numbers, got complex"),
+        (dict(q=np.r_[np.zeros(6), np.zeros(4), 1.0, 0.0, 0.0, 0.0]),
+         r"state.q: expected Euler parameters of norm 1, got norm 0 for body 'link0' \(q\[6:10\]\)"),
+    ],
+)
+def test_set_state_refuses_a_state_whose_fields_a_system_cannot_hold(fields, message):
+    """A State is frozen, but dataclasses.replace makes any: t = nan was taken as the System's time, and an
+    empty q failed in a reshape (or was taken, with v, for a state of 0 bodies)."""
+    import dataclasses
+
+    system = pendulum_chain(2)
+    before = system.state
+    with pytest.raises(ValueError, match=message):
+        system.set_state(dataclasses.replace(before, **fields))
+    assert system.state.t == before.t and np.array_equal(system.state.q, before.q)
+
+
 def test_a_body_added_after_simulate_is_unknown_to_the_results():
     system = pendulum_chain(2, tilt=0.3)
     traj = system.simulate([0.0, 0.05, 0.1])
