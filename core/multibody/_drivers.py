@@ -17,6 +17,15 @@ projection) and ``f_ddot`` (for the acceleration right side). They come from
 
 Functions that branch on their argument (``abs``, ``max``, ``np.clip``)
 give wrong complex-step derivatives; pass the tuple for those.
+
+Every value a law returns at a real time must be a finite real number (a
+complex type with a zero imaginary part, as ``cmath.sin`` returns, counts as
+real): ``f(t)`` is taken at every evaluation, also with complex steps, and
+a complex value (``(1 + 1j) t``, ``cmath.sqrt(0.05 - t)`` past 0.05 s) is
+refused, with a ValueError naming the motor and ``t``, where the motor is
+added (at its current time) and at the first evaluation that meets it. A law
+that is complex on the real axis made the complex step report its imaginary
+part divided by ``1e-30``: rates of 1e29 rad/s.
 """
 
 from __future__ import annotations
@@ -36,14 +45,17 @@ _W = cmath.exp(0.25j * math.pi)
 
 
 def _real(value: Any, name: str, t: float) -> float:
+    """``value`` (a law's value at the real time ``t``) as a finite float; a complex number with a nonzero
+    imaginary part is refused like any other value that is not a real number."""
     if isinstance(value, (bool, np.bool_)):
         raise ValueError(f"{name}: expected the function to return a real number, got {short_repr(value)}")
     try:
         v = complex(value)
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected the function to return a real number, got {short_repr(value)}") from None
-    if v.imag != 0.0 and not isinstance(value, complex):
-        raise ValueError(f"{name}: expected a real number at t={t:g}, got {short_repr(value)}")
+    if v.imag != 0.0:
+        raise ValueError(f"{name}: expected a real number at t={t:g}, got the complex number {v!r} (a motor law "
+                         "must be real for real times)")
     r = v.real
     if not math.isfinite(r):
         raise ValueError(f"{name}: expected a finite value at t={t:g}, got {r!r}")
@@ -57,7 +69,9 @@ def driver_function(spec: Any, name: str, t0: float) -> tuple[Callable[[float], 
     ------
     ValueError
         When ``spec`` is neither a callable nor a tuple of three callables,
-        or ``f(t0)`` is not a finite real number.
+        or ``f(t0)`` (or a derivative at ``t0``) is not a finite real number
+        (a complex value included); ``name`` begins the message. The
+        returned ``values`` raises the same for a later ``t``.
     """
     if isinstance(spec, tuple):
         if len(spec) != 3 or not all(callable(g) for g in spec):
@@ -84,14 +98,17 @@ def driver_function(spec: Any, name: str, t0: float) -> tuple[Callable[[float], 
     if complex_ok:
 
         def by_complex_step(t: float) -> tuple[float, float, float]:
+            value = _real(f(t), name, t)  # (the steps below cannot tell an imaginary part of f(t) from f_dot)
             v = complex(f(complex(t, _H1)))
             z1 = complex(f(t + _H2 * _W))
             z2 = complex(f(t - _H2 * _W))
-            value = v.real
-            if not math.isfinite(value):
-                raise ValueError(f"{name}: expected a finite value at t={t:g}, got {value!r}")
-            return value, v.imag / _H1, (z1.imag + z2.imag) / (_H2 * _H2)
+            rate, acceleration = v.imag / _H1, (z1.imag + z2.imag) / (_H2 * _H2)
+            if not (math.isfinite(rate) and math.isfinite(acceleration)):
+                raise ValueError(f"{name}: expected finite complex-step derivatives at t={t:g}, got f_dot={rate!r}, "
+                                 f"f_ddot={acceleration!r}")
+            return value, rate, acceleration
 
+        _first(by_complex_step, t0, name)
         return by_complex_step, "complex step"
 
     def by_differences(t: float) -> tuple[float, float, float]:
@@ -102,7 +119,18 @@ def driver_function(spec: Any, name: str, t0: float) -> tuple[Callable[[float], 
         d2 = (_real(f(t + h2), name, t) - 2.0 * f0 + _real(f(t - h2), name, t)) / (h2 * h2)
         return f0, d1, d2
 
+    _first(by_differences, t0, name)
     return by_differences, "finite differences"
+
+
+def _first(values: Callable[[float], tuple[float, float, float]], t0: float, name: str) -> None:
+    """Evaluate a motor's ``values`` once at ``t0`` (where it is added): its errors are reported there."""
+    try:
+        values(t0)
+    except ValueError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - reported with the argument's name
+        raise ValueError(f"{name}: the function raised {type(exc).__name__} near t={t0:g}: {exc}") from exc
 
 
 def _call(g: Callable, t: float, name: str) -> Any:

@@ -762,7 +762,10 @@ class System:
             For a joint of another System, a coordinate the joint kind does
             not have, a coordinate already driven, both or neither of
             ``angle`` and ``displacement``, or a function that does not
-            return a finite real number at the current time.
+            return a finite real number at the current time (a complex
+            value included); the message names the motor. A law that
+            returns a complex (or non-finite) value at a later time raises
+            the same ValueError where that value is first taken.
         """
         jt = self._joint(joint)
         if (angle is None) == (displacement is None):
@@ -777,7 +780,14 @@ class System:
         for mt in self._motors:
             if mt.joint is jt and mt.coordinate == coord:
                 raise ValueError(f"joint: the {coord} of joint {jt.name!r} is already driven by motor {mt.name!r}")
-        func, how = driver_function(angle if angle is not None else displacement, coord, self._t)
+        label = name
+        if label is None:  # the name add_motor gives it (registered below, once the law is accepted)
+            k = 1
+            while f"motor{k}" in self._names["item"]:
+                k += 1
+            label = f"motor{k}"
+        func, how = driver_function(angle if angle is not None else displacement, f"motor {label!r}, {coord}",
+                                    self._t)
         name = self._item_name(name, "motor")
         motor = Motor(name, jt, coord, how, len(self._motors), func, self)
         self._motors.append(motor)

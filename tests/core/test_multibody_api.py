@@ -184,6 +184,60 @@ def test_motor_arguments(two):
         system.add_motor(hinge, angle=lambda t: t)
 
 
+def _hinged_rod(law):
+    """A rod on a revolute joint about x, hanging from the origin, driven by ``law`` (assembled at t = 0)."""
+    system = System(gravity=(0.0, 0.0, -9.81))
+    rod = system.add_body("rod", mass=1.0, inertia=(0.1, 0.1, 0.01), position=(0.0, 0.0, -0.5))
+    hinge = system.add_joint("revolute", system.ground, rod, point=(0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+    return system, hinge, system.add_motor(hinge, angle=law, name="drive")
+
+
+@pytest.mark.parametrize(
+    ("law", "message"),
+    [
+        (lambda t: 0.5j + t, r"motor 'motor1', angle: expected a real number at t=0, got the complex number 0.5j"),
+        (lambda t: np.complex128(0.1j), r"motor 'motor1', angle: expected a real number at t=0, got the complex "
+                                        r"number 0.1j"),
+        ((lambda t: t, lambda t: 1.0 + 1.0j, lambda t: 0.0),
+         r"motor 'motor1', angle \(f_dot\): expected a real number at t=0, got the complex number \(1\+1j\)"),
+    ],
+)
+def test_a_motor_law_with_a_complex_value_is_refused_where_it_is_added(law, message):
+    """The complex step took Im f(t + 1e-30 i) / 1e-30 as the rate: a law with an imaginary part reported
+    rates of 1e29 rad/s."""
+    system = System()
+    rod = system.add_body("rod", mass=1.0, inertia=(0.1, 0.1, 0.01), position=(0.0, 0.0, -0.5))
+    hinge = system.add_joint("revolute", system.ground, rod, point=(0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match=message):
+        system.add_motor(hinge, angle=law)
+    assert system.add_motor(hinge, angle=lambda t: 0.0 * t).name == "motor1"  # the refused one took no name
+
+
+def test_a_motor_law_that_turns_complex_is_refused_where_its_value_is_first_taken():
+    import cmath
+
+    # real (zero) at t = 0, where it is added; complex at every later time
+    system, _, motor = _hinged_rod(lambda t: (1.0 + 1.0j) * t)
+    with pytest.raises(ValueError, match=r"motor 'drive', angle: expected a real number at t=0.1, got the complex "
+                                         r"number \(0.1\+0.1j\)"):
+        motor.values(0.1)
+    system.assemble()
+    with pytest.raises(ValueError, match=r"motor 'drive', angle: expected a real number at t=\S+, got the complex"):
+        system.simulate([0.0, 0.1])
+    # real until 0.05 s, then sqrt of a negative number: complex
+    _, _, motor = _hinged_rod(lambda t: cmath.sqrt(0.05 - t))
+    with pytest.raises(ValueError, match=r"motor 'drive', angle: expected a real number at t=0.1, got the complex "
+                                         r"number 0.2236\d*j"):
+        motor.values(0.1)
+    # a complex type with a zero imaginary part on the real axis is a real law (and gets complex steps):
+    # f = sin, f_dot = cos (exact to round-off), f_ddot = -sin (h2^4 f^(6) / 360 = 3e-19 plus the round-off of
+    # Im f(t +- h2 w) ~ h2 |f'|, over h2^2: eps |f'| / h2 = 2e-12; 9e-13 seen)
+    _, _, motor = _hinged_rod(cmath.sin)
+    assert motor.derivatives == "complex step"
+    f, fd, fdd = motor.values(0.3)
+    assert f == math.sin(0.3) and abs(fd - math.cos(0.3)) <= 1e-15 and abs(fdd + math.sin(0.3)) <= 1e-11
+
+
 def test_force_elements_are_validated(two):
     system, a, b = two
     hinge = system.add_joint("revolute", system.ground, a, point=(0, 0, 0), axis=(1, 0, 0))
