@@ -700,13 +700,13 @@ TH = 0
 WH = 4 * len(T_FIELDS)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _v1(P, H, base, k):
     o = H[base + 4 * k]
     return P[o : o + H[base + 4 * k + 1]]
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _v2(P, H, base, k):
     o = H[base + 4 * k]
     d0 = H[base + 4 * k + 1]
@@ -714,7 +714,7 @@ def _v2(P, H, base, k):
     return P[o : o + d0 * d1].reshape((d0, d1))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _v3(P, H, base, k):
     o = H[base + 4 * k]
     d0 = H[base + 4 * k + 1]

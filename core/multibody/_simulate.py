@@ -1764,24 +1764,42 @@ def _run_compiled(model: _Dynamics, method: str, y0: np.ndarray, t0: float, t_ou
     carry = np.array([float(t0), 0.0, float(t0)])
     co = _dop853_tables()
     k = n_steps = n_rhs = 0
-    warn_at = integrators.LONG_RUN_CALLS  # (read per run: tests scale it down)
+    # the checks of core.integrators._CountingModel, at the same counts (read per run: tests scale them down):
+    # the long-run warning and the pace check that stops a run which cannot end within max_steps
+    counter = integrators._CountingModel(model, max_calls=max_steps, span=(float(t0), t1))
+    warn_at = integrators.LONG_RUN_CALLS
+    pace_at = integrators.PACE_CHECK_CALLS
+    stopped = None
     while True:
-        stop = warn_at if n_rhs < warn_at < max_steps else max_steps
+        stop = min(max_steps, warn_at if n_rhs < warn_at else max_steps, pace_at)
         status, k, steps, n_rhs = _kernel.dop853_projected(
             kc.I, kc.F, kc.TI, kc.W, y, f, carry, t1, pending, k, float(rtol), float(atol), model.position_tol,
             n_rhs, int(stop), STALLED_STEP * abs(t1 - t0), *co, out_y, out_res)
         n_steps += steps
-        if status == _kernel.LOOP_BUDGET and stop < max_steps:  # the long-run check of core.integrators
-            integrators._CountingModel(model, max_calls=max_steps, span=(float(t0), t1))._warn_long(float(carry[0]))
-            warn_at = max_steps
-            continue
-        break
+        if status != _kernel.LOOP_BUDGET or stop >= max_steps:
+            break
+        t_now = float(carry[0])
+        try:
+            if n_rhs + 16 > warn_at and stop == warn_at:
+                counter._warn_long(t_now)
+                warn_at = max_steps
+            if n_rhs + 16 > pace_at:
+                counter._check_pace(t_now, n_rhs)
+                pace_at *= 2
+        except _BudgetExceeded as exc:
+            stopped = exc
+            break
+        except IntegrationError as exc:
+            stopped = exc
+            break
     times = np.concatenate([t_out[:first], pending[:k]])
     states = np.concatenate([np.repeat(np.asarray(y0, dtype=float)[None, :], first, axis=0), out_y[:k]])
     for q in range(k):
         model.residuals[float(pending[q])] = (out_y[q].copy(), float(out_res[q, 0]), float(out_res[q, 1]))
     if status == _kernel.LOOP_BUDGET:
-        exc = _budget_error(method, _BudgetExceeded(float(carry[0])), t1, max_steps)
+        if stopped is None:
+            stopped = _BudgetExceeded(float(carry[0]))
+        exc = _budget_error(method, stopped, t1, max_steps) if isinstance(stopped, _BudgetExceeded) else stopped
         exc.partial = ([float(t0), *times.tolist()], [np.array(y0), *states])
         raise exc
     if status != _kernel.LOOP_DONE:
