@@ -180,6 +180,9 @@ def _serve(args: argparse.Namespace) -> int:
     # outright and left its fork server and resource tracker running, orphaned
     previous = _stop_signals_as_interrupt()
     app = None
+    # the compiled kernels, compiled in a child process at low priority (once per machine; later starts only
+    # load numba's cache) while the first page loads: the first simulation never waits on the compiler
+    warm = _warm_kernels() if worker is None else None
     try:
         try:
             app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
@@ -213,11 +216,22 @@ def _serve(args: argparse.Namespace) -> int:
         if worker is None:
             print("\nrigidlab: stopping", flush=True)
     finally:
+        if warm is not None and warm.poll() is None:
+            warm.terminate()
         if app is not None:
             app.stop()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     return 0
+
+
+def _warm_kernels() -> subprocess.Popen | None:
+    """Start ``python -m core._warm`` at low priority (see core/_warm.py); None if it cannot start."""
+    try:
+        return subprocess.Popen([sys.executable, "-m", "core._warm"], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL, preexec_fn=lambda: os.nice(10))
+    except OSError:
+        return None
 
 
 def _stop_signals_as_interrupt() -> dict:
