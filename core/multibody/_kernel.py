@@ -31,6 +31,11 @@ Small functions over the flat arrays of :class:`core.multibody._compiled.Compile
   ``H_ii - sum_children H_ic D_c^-1 H_ci``, a 6 x 6 (body, positive definite)
   or r x r (rows, negative definite) block, so the work is O(N). Rows that
   close loops are handled by the caller with a small Schur complement.
+
+Every kernel is compiled with ``nogil=True``: it touches no Python object, so
+a simulation running in a background job does not hold the thread that
+streams the scene (a compiled DOP853 run of a whole chunk would otherwise
+block it for as long as the chunk takes).
 """
 
 from __future__ import annotations
@@ -41,12 +46,12 @@ from numba import njit
 # ---------------------------------------------------------------- small algebra
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def frames(y, n, A):
     """Rotation matrices ``A(p / |p|)`` (Eq. 8.48) of the Euler parameters in ``y[3n:7n]`` into ``A`` (n, 3, 3)."""
     for b in range(n):
@@ -66,7 +71,7 @@ def frames(y, n, A):
         A[b, 2, 1] = 2.0 * (e2 * e3 + e0 * e1) * s
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def parameter_rates(y, n, out, offset):
     """``p_dot = G_bar(p)^T omega_body / 2`` (Eq. 8.54) of every body into ``out[offset:offset + 4n]``."""
     for b in range(n):
@@ -84,7 +89,7 @@ def parameter_rates(y, n, out, offset):
         out[k + 3] = 0.5 * (-e2 * w0 + e1 * w1 + e0 * w2)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _body_vector(A, y, n, b, u0, u1, u2, h, level, out):
     """Position, velocity and quadratic acceleration of the body vector ``(u, h)`` of body ``b`` (-1: ground).
 
@@ -111,7 +116,7 @@ def _body_vector(A, y, n, b, u0, u1, u2, h, level, out):
         out[6 + i] = A[b, i, 0] * q0 + A[b, i, 1] * q1 + A[b, i, 2] * q2
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def rows_eval(y, n, A, level, ra_b, ra_u, r1_b, r1_u, r1_h, r2_b, r2_u, r2_h, slot_a, slot_1, slot_2,
               Phi, J, gam, rate):
     """Value, Jacobian (level >= 1), gamma and rate (level 2) of every table row.
@@ -190,7 +195,7 @@ def rows_eval(y, n, A, level, ra_b, ra_u, r1_b, r1_u, r1_h, r2_b, r2_u, r2_h, sl
             rate[r] = (va[3] * b0 + va[4] * b1 + va[5] * b2) + (a0 * bd0 + a1 * bd1 + a2 * bd2)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def constraint_rows(level, m_joint, m_dir, Phi, J, gam, rate, motor_f, aux_motor,
                     C, Jc, Ct, gamma):
     """Constraint rows of the joints and motors (``m_dir + k_angle`` rows) from the table rows.
@@ -242,7 +247,7 @@ def constraint_rows(level, m_joint, m_dir, Phi, J, gam, rate, motor_f, aux_motor
                         + fdd * cosd + fd * fd * c)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def applied_forces(y, n, A, mass, inertia, gravity, has_gyro,
                    sp_bi, sp_ui, sp_bj, sp_uj, sp_k, sp_c, sp_L0,
                    rs_p1, rs_p2, rs_k, rs_c, rs_0, rs_bi, rs_hi, rs_bj, rs_hj, Phi, rate,
@@ -376,7 +381,7 @@ def applied_forces(y, n, A, mass, inertia, gravity, has_gyro,
 # ---------------------------------------------------------------- tree solve (Baraff 1996)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _chol(P, s, L):
     """Cholesky ``P = L L^T`` of the leading s x s block of ``P`` into ``L``, the diagonal stored as its
     reciprocals (the solves multiply); False if not positive definite."""
@@ -398,7 +403,7 @@ def _chol(P, s, L):
     return True
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _chol_solve(L, s, sign, x):
     """x <- (sign L L^T)^-1 x in place (leading s entries)."""
     for i in range(s):
@@ -416,7 +421,7 @@ def _chol_solve(L, s, sign, x):
             x[i] = -x[i]
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _forward(L, s, x):
     """x <- L^-1 x (leading s entries), L lower triangular (reciprocal diagonal, see _chol)."""
     for i in range(s):
@@ -426,7 +431,7 @@ def _forward(L, s, x):
         x[i] = v * L[i, i]
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _backward(L, s, x):
     """x <- L^-T x (leading s entries)."""
     for i in range(s - 1, -1, -1):
@@ -436,7 +441,7 @@ def _backward(L, s, x):
         x[i] = v * L[i, i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def tree_factor(order_size, order_parent, node_kind, node_ref, Mblocks, Jc, group_rows, group_slot_of,
                 Xp, Lfac, sign, work):
     """Block LDL^T of ``H = [[W, D^T], [D, 0]]`` over the tree, children before parents (Baraff 1996).
@@ -518,7 +523,7 @@ def tree_factor(order_size, order_parent, node_kind, node_ref, Mblocks, Jc, grou
     return -1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def tree_solve(order_size, order_parent, Xp, Lfac, sign, x):
     """Solve ``H z = x`` in place, ``x`` (N, 6) by node (leading size entries), with the factor of :func:`tree_factor`."""
     N = order_size.shape[0]
@@ -556,7 +561,7 @@ def tree_solve(order_size, order_parent, Xp, Lfac, sign, x):
                 xi[a] = -xi[a]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def augmented_solve(n, order_size, order_parent, node_kind, node_ref, body_node, group_rows, group_slot_of,
                     sec_rows, jc_body, Wblocks, Jc, rhs_v, rhs_c, x_v, lam, Hp, Lfac, sign, work, X, Z):
     """Solve ``[[W, D^T], [D, 0]] [x; lam] = [rhs_v; rhs_c]`` (Eq. 8.109 with ``W = M``) in O(N + k^2 N).
@@ -638,7 +643,7 @@ def augmented_solve(n, order_size, order_parent, node_kind, node_ref, body_node,
     return 0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def jacobian_apply(n, Jc, jc_body, v, Ct, out):
     """``out = D v + C_t`` (m,) from the constraint rows' slots: the constraint velocities (Eq. 8.109's ``C_dot``)."""
     for r in range(Jc.shape[0]):
@@ -651,7 +656,7 @@ def jacobian_apply(n, Jc, jc_body, v, Ct, out):
         out[r] = acc
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def retract(y, n, dq):
     """``R -= dR``, ``p <- (p - G_bar^T dpi_body / 2) / |.|`` (first-order retraction of a projection step)."""
     for b in range(n):
@@ -700,13 +705,13 @@ TH = 0
 WH = 4 * len(T_FIELDS)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _v1(P, H, base, k):
     o = H[base + 4 * k]
     return P[o : o + H[base + 4 * k + 1]]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _v2(P, H, base, k):
     o = H[base + 4 * k]
     d0 = H[base + 4 * k + 1]
@@ -714,7 +719,7 @@ def _v2(P, H, base, k):
     return P[o : o + d0 * d1].reshape((d0, d1))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _v3(P, H, base, k):
     o = H[base + 4 * k]
     d0 = H[base + 4 * k + 1]
@@ -723,7 +728,7 @@ def _v3(P, H, base, k):
     return P[o : o + d0 * d1 * d2].reshape((d0, d1, d2))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def evaluate_packed(I, F, TI, W, y, level):
     """Frames, table rows and constraint rows (joints and motors) at ``y`` into ``W`` (motor values read
     from ``W``'s ``motor_f``, filled by the caller)."""
@@ -741,7 +746,7 @@ def evaluate_packed(I, F, TI, W, y, level):
                     _v1(W, TI, WH, 5), _v3(W, TI, WH, 6), _v1(W, TI, WH, 7), _v1(W, TI, WH, 8))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def applied_packed(I, F, TI, W, y):
     """``Q_e + Q_v`` into ``W``'s ``Q`` (after a level-2 :func:`evaluate_packed`); a coincident spring or -1."""
     n = I[0]
@@ -755,7 +760,7 @@ def applied_packed(I, F, TI, W, y):
                           _v1(W, TI, WH, 9))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def solve_packed(I, F, TI, W, metric, rhs_v, rhs_c, x_v):
     """:func:`augmented_solve` with the mass blocks (``metric`` 0) or the projection metric (1); the
     multipliers into ``W``'s ``lam``."""
@@ -768,7 +773,7 @@ def solve_packed(I, F, TI, W, metric, rhs_v, rhs_c, x_v):
                            _v2(W, TI, WH, 17), _v3(W, TI, WH, 18))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def rhs_packed(I, F, TI, W, y, ydot, alpha):
     """``y_dot = [R_dot, p_dot, a]`` (Eqs. 8.51-8.54, 8.109) in one call; the user's loads and the motor
     values are in ``W`` already. Returns 0, 1 or 2 (see :func:`augmented_solve`) or ``3 + k`` for spring
@@ -797,7 +802,7 @@ def rhs_packed(I, F, TI, W, y, ydot, alpha):
     return 0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _max_abs_kept(x, TI):
     """max |x_r| over the rows the tree solves (its groups' and the secondary rows)."""
     group_rows = _v2(TI, TI, TH, 5)
@@ -820,7 +825,7 @@ def _max_abs_kept(x, TI):
     return res
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def project_packed(I, F, TI, W, y, tol):
     """Newton projection of positions onto ``C = 0``, then of velocities onto ``D v + C_t = 0`` (in place).
 
@@ -914,7 +919,7 @@ _MAX_FACTOR = 10.0
 _STALE_DERIVATIVE_TOL = 1e-3
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _rms(x, scale):
     s = 0.0
     for i in range(x.shape[0]):
@@ -923,7 +928,7 @@ def _rms(x, scale):
     return np.sqrt(s) / np.sqrt(x.shape[0])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _stage_sum(K, a, s, h, y, out):
     """``out = y + (K[:s].T @ a[:s]) * h``."""
     for i in range(y.shape[0]):
@@ -933,7 +938,7 @@ def _stage_sum(K, a, s, h, y, out):
         out[i] = y[i] + acc * h
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def dop853_projected(I, F, TI, W, y, f, carry, t1, t_out, k_out, rtol, atol, position_tol, n_rhs, max_rhs, stalled,
                      A, B, C, E3, E5, D, out_y, out_res):
     """Run DOP853 with projection from ``(carry[0], y)`` towards ``t1``; the states at ``t_out[k_out:]``
