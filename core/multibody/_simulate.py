@@ -97,6 +97,9 @@ SEPARATION_TOL = 1e-9
 
 
 # ------------------------------------------------------------------ model
+_NO_SELECTION = object()  # (see _Dynamics._kc_refused)
+
+
 class _Dynamics:
     """The first-order model ``y' = f(t, y)`` of a compiled System, for core.integrators."""
 
@@ -144,6 +147,9 @@ class _Dynamics:
         # the compiled kernels (None: the numpy evaluation): see _compiled and _kernel
         self.kc = eng.compiled
         self._has_loads = self.kc is not None and bool(self.kc.user_forces or self.kc.user_torques)
+        # the row selection (eng.keep, by identity) whose tree met a pivot that is not definite: the numpy path
+        # takes over until the rank analysis picks other rows
+        self._kc_refused: Any = _NO_SELECTION
 
     def failure(self, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
         """The error of a run that failed after its last accepted state ``(t, y)``, or (``exc`` None) whose
@@ -225,6 +231,8 @@ class _Dynamics:
         takes the numpy path, which checks the rank).
         """
         kc = self.kc
+        if self._kc_refused is self.eng.keep:
+            return None
         kc.select(self.eng.keep)
         if kc.motors:
             kc.motor_values(t)
@@ -235,6 +243,7 @@ class _Dynamics:
         if st:
             if st >= 3:
                 raise self._spring_error(st - 3, t)
+            self._kc_refused = self.eng.keep
             return None
         return ydot
 
@@ -417,6 +426,8 @@ class _Dynamics:
         velocity correction is one O(N) solve of ``[[W, D^T], [D, 0]]`` (Eq. 8.109's matrix with the metric
         W). None when a pivot is not definite (the caller then takes the numpy path, which checks the rank)."""
         kc = self.kc
+        if self._kc_refused is self.eng.keep:
+            return None
         kc.select(self.eng.keep)
         if kc.motors:
             kc.motor_values(t)
@@ -427,6 +438,7 @@ class _Dynamics:
                 f"projection onto the constraints did not converge at t={t:.6g} (residual {res:.3e}); "
                 "tighten the tolerances or reduce the step", t=t)
         if st:
+            self._kc_refused = self.eng.keep
             return None
         if t in self.output_times:
             self.residuals[t] = (y.copy(), res, rv)
@@ -1748,7 +1760,7 @@ def _run_compiled(model: _Dynamics, method: str, y0: np.ndarray, t0: float, t_ou
     hundred of interpreter overhead.
     """
     kc = model.kc
-    if (method != "DOP853" or kc is None or kc.motors or model._has_loads or model.project is None
+    if (method != "DOP853" or kc is None or model._kc_refused is model.eng.keep or kc.motors or model._has_loads or model.project is None
             or model.alpha or getattr(model, "stop_time", None) is not None
             or rtol < 100 * np.finfo(float).eps or not t_out.size or not t_out[-1] > t0):
         return None
