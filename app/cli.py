@@ -228,10 +228,12 @@ def _serve(args: argparse.Namespace) -> int:
 def _warm_kernels() -> subprocess.Popen | None:
     """Start ``python -m core._warm`` at low priority (see core/_warm.py); None if it cannot start."""
     try:
-        return subprocess.Popen([sys.executable, "-m", "core._warm"], stdout=subprocess.DEVNULL,
+        proc = subprocess.Popen([sys.executable, "-m", "core._warm"], stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL, preexec_fn=lambda: os.nice(10))
     except OSError:
         return None
+    threading.Thread(target=proc.wait, name="rigidlab-warm-wait", daemon=True).start()  # (reaped when it ends)
+    return proc
 
 
 def _stop_signals_as_interrupt() -> dict:
