@@ -38,7 +38,7 @@ from ._cam import (
     CamSystem,
 )
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
-from ._pendulum import ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
+from ._pendulum import MAX_LINKS, ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
 from ._rolling_disk import (
     FLAT_LEAN,
     RollingDiskMotion,
@@ -90,6 +90,7 @@ __all__ = [
     "CAM_LAWS",
     "FLAT_LEAN",
     "FOLLOWER_KINDS",
+    "MAX_LINKS",
     "ROD_RADIUS_RATIO",
     "CamCurve",
     "CamFollower",

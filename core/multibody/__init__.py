@@ -42,13 +42,14 @@ from ._simulate import (
     STABILIZATIONS,
     MultibodyTrajectory,
 )
-from ._system import INERTIA_TRIANGLE_TOL, PERPENDICULAR_TOL, State, System
+from ._system import INERTIA_TRIANGLE_TOL, MAX_BAUMGARTE, PERPENDICULAR_TOL, State, System
 
 __all__ = [
     "ADAPTIVE_METHODS",
     "FIXED_STEP_METHODS",
     "KINEMATIC_METHOD",
     "INERTIA_TRIANGLE_TOL",
+    "MAX_BAUMGARTE",
     "JOINT_KINDS",
     "PERPENDICULAR_TOL",
     "RANK_TOL",
