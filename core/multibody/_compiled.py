@@ -116,8 +116,8 @@ class Compiled:
         self.Wblocks = Wb
         # spring-dampers
         sp = eng.springs
-        self.sp_bi = np.array([body(_ext(s.body_i, g)) for s in sp], dtype=_I64)
-        self.sp_bj = np.array([body(_ext(s.body_j, g)) for s in sp], dtype=_I64)
+        self.sp_bi = np.array([_index(s.body_i) for s in sp], dtype=_I64)
+        self.sp_bj = np.array([_index(s.body_j) for s in sp], dtype=_I64)
         self.sp_ui = np.array([s._local["u_i"] for s in sp], dtype=float).reshape(-1, 3)
         self.sp_uj = np.array([s._local["u_j"] for s in sp], dtype=float).reshape(-1, 3)
         self.sp_k = np.array([s.stiffness for s in sp], dtype=float)
@@ -131,8 +131,8 @@ class Compiled:
         self.rs_k = np.array([s.stiffness for s in rs], dtype=float)
         self.rs_c = np.array([s.damping for s in rs], dtype=float)
         self.rs_0 = np.array([s.angle0 for s in rs], dtype=float)
-        self.rs_bi = np.array([body(_ext(s.joint.body_i, g)) for s in rs], dtype=_I64)
-        self.rs_bj = np.array([body(_ext(s.joint.body_j, g)) for s in rs], dtype=_I64)
+        self.rs_bi = np.array([_index(s.joint.body_i) for s in rs], dtype=_I64)
+        self.rs_bj = np.array([_index(s.joint.body_j) for s in rs], dtype=_I64)
         self.rs_hi = np.array([s.joint._local["h_i"] for s in rs], dtype=float).reshape(-1, 3)
         self.rs_hj = np.array([s.joint._local["h_j"] for s in rs], dtype=float).reshape(-1, 3)
         # user loads (their values come per right-hand side)
@@ -277,8 +277,9 @@ def _dims(a: np.ndarray) -> tuple[int, int, int]:
     return shp[0], shp[1], shp[2]
 
 
-def _ext(body: Any, ground: int) -> int:
-    return ground if body.index < 0 else body.index
+def _index(body: Any) -> int:
+    """A body's index in the kernels' tables: ``-1`` for the ground."""
+    return -1 if body.index < 0 else int(body.index)
 
 
 def build_tree(n: int, jc_body: np.ndarray, rows) -> Tree:

@@ -71,6 +71,13 @@ def frames(y, n, A):
         A[b, 2, 1] = 2.0 * (e2 * e3 + e0 * e1) * s
 
 
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _half_g_bar_t(e0, e1, e2, e3, w0, w1, w2):
+    """``G_bar(p)^T w / 2`` (Eq. 8.54) of the Euler parameters ``(e0, e1, e2, e3)`` and a body-frame ``w``."""
+    return (0.5 * (-e1 * w0 - e2 * w1 - e3 * w2), 0.5 * (e0 * w0 - e3 * w1 + e2 * w2),
+            0.5 * (e3 * w0 + e0 * w1 - e1 * w2), 0.5 * (-e2 * w0 + e1 * w1 + e0 * w2))
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def parameter_rates(y, n, out, offset):
     """``p_dot = G_bar(p)^T omega_body / 2`` (Eq. 8.54) of every body into ``out[offset:offset + 4n]``."""
@@ -83,10 +90,7 @@ def parameter_rates(y, n, out, offset):
         w1 = y[10 * n + 3 * b + 1]
         w2 = y[10 * n + 3 * b + 2]
         k = offset + 4 * b
-        out[k] = 0.5 * (-e1 * w0 - e2 * w1 - e3 * w2)
-        out[k + 1] = 0.5 * (e0 * w0 - e3 * w1 + e2 * w2)
-        out[k + 2] = 0.5 * (e3 * w0 + e0 * w1 - e1 * w2)
-        out[k + 3] = 0.5 * (-e2 * w0 + e1 * w1 + e0 * w2)
+        out[k], out[k + 1], out[k + 2], out[k + 3] = _half_g_bar_t(e0, e1, e2, e3, w0, w1, w2)
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
@@ -404,24 +408,6 @@ def _chol(P, s, L):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _chol_solve(L, s, sign, x):
-    """x <- (sign L L^T)^-1 x in place (leading s entries)."""
-    for i in range(s):
-        v = x[i]
-        for k in range(i):
-            v -= L[i, k] * x[k]
-        x[i] = v * L[i, i]
-    for i in range(s - 1, -1, -1):
-        v = x[i]
-        for k in range(i + 1, s):
-            v -= L[k, i] * x[k]
-        x[i] = v * L[i, i]
-    if sign < 0.0:
-        for i in range(s):
-            x[i] = -x[i]
-
-
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _forward(L, s, x):
     """x <- L^-1 x (leading s entries), L lower triangular (reciprocal diagonal, see _chol)."""
     for i in range(s):
@@ -623,7 +609,8 @@ def augmented_solve(n, order_size, order_parent, node_kind, node_ref, body_node,
         Ls = np.zeros((ns, ns))
         if not _chol(S, ns, Ls):
             return 2
-        _chol_solve(Ls, ns, 1.0, rs)
+        _forward(Ls, ns, rs)
+        _backward(Ls, ns, rs)
         for j in range(ns):
             mu = rs[j]
             lam[sec_rows[j]] = mu
@@ -669,10 +656,11 @@ def retract(y, n, dq):
         w0 = dq[3 * n + 3 * b]
         w1 = dq[3 * n + 3 * b + 1]
         w2 = dq[3 * n + 3 * b + 2]
-        f0 = e0 - 0.5 * (-e1 * w0 - e2 * w1 - e3 * w2)
-        f1 = e1 - 0.5 * (e0 * w0 - e3 * w1 + e2 * w2)
-        f2 = e2 - 0.5 * (e3 * w0 + e0 * w1 - e1 * w2)
-        f3 = e3 - 0.5 * (-e2 * w0 + e1 * w1 + e0 * w2)
+        d0, d1, d2, d3 = _half_g_bar_t(e0, e1, e2, e3, w0, w1, w2)
+        f0 = e0 - d0
+        f1 = e1 - d1
+        f2 = e2 - d2
+        f3 = e3 - d3
         s = 1.0 / np.sqrt(f0 * f0 + f1 * f1 + f2 * f2 + f3 * f3)
         y[3 * n + 4 * b] = f0 * s
         y[3 * n + 4 * b + 1] = f1 * s
@@ -698,7 +686,7 @@ T_FIELDS = ("order_size", "order_parent", "node_kind", "node_ref", "body_node", 
             "sec_rows")
 W_FIELDS = ("A", "Phi", "J", "gam", "rate", "C", "Jc", "Ct", "gamma", "Q", "motor_f", "uf_F", "ut_T", "Xp", "Lfac",
             "sign", "work", "X", "Z", "cv", "dq", "lam", "rhs_c", "zero6", "res")
-N_SCALARS = 8  # I[0:8] = n, m_tab, m, m_joint, m_dir, has_gyro, keep_all (unused), 0
+N_SCALARS = 8  # I[0:6] = n, m_tab, m, m_joint, m_dir, has_gyro; I[6:8] spare
 IH = N_SCALARS
 FH = IH + 4 * len(I_FIELDS)
 TH = 0
@@ -940,7 +928,7 @@ def _stage_sum(K, a, s, h, y, out):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def dop853_projected(I, F, TI, W, y, f, carry, t1, t_out, k_out, rtol, atol, position_tol, n_rhs, max_rhs, stalled,
-                     A, B, C, E3, E5, D, out_y, out_res):
+                     A, B, E3, E5, D, out_y, out_res):
     """Run DOP853 with projection from ``(carry[0], y)`` towards ``t1``; the states at ``t_out[k_out:]``
     (ascending, after the start) into ``out_y`` and their position and velocity residuals into ``out_res``.
 

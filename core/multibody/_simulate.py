@@ -222,6 +222,17 @@ class _Dynamics:
             f"spring_damper '{self.eng.springs[k].name}': its two points coincide at t={t:.6g}, "
             "the direction of its force is undefined (free_length > 0)", t=t)
 
+    def _compiled_at(self, t: float) -> bool:
+        """Whether the compiled kernels take this evaluation (not for a row selection they refused); if so,
+        their work arrays are this selection's and the motors' values at ``t`` are written."""
+        if self._kc_refused is self.eng.keep:
+            return False
+        kc = self.kc
+        kc.select(self.eng.keep)
+        if kc.motors:
+            kc.motor_values(t)
+        return True
+
     def _rhs_compiled(self, t: float, y: np.ndarray) -> np.ndarray | None:
         """The right-hand side on the compiled kernels: rows, forces and Baraff's O(N) solve of Eq. 8.109.
 
@@ -230,12 +241,9 @@ class _Dynamics:
         factorization meets a pivot that is not definite (the caller then
         takes the numpy path, which checks the rank).
         """
-        kc = self.kc
-        if self._kc_refused is self.eng.keep:
+        if not self._compiled_at(t):
             return None
-        kc.select(self.eng.keep)
-        if kc.motors:
-            kc.motor_values(t)
+        kc = self.kc
         if self._has_loads:
             self._loads(t, y, kc.uf_F, kc.ut_T)
         ydot = np.empty(self.state_size)
@@ -425,12 +433,9 @@ class _Dynamics:
         """:meth:`project` on the compiled kernels (``_kernel.project_packed``): each Newton step and each
         velocity correction is one O(N) solve of ``[[W, D^T], [D, 0]]`` (Eq. 8.109's matrix with the metric
         W). None when a pivot is not definite (the caller then takes the numpy path, which checks the rank)."""
-        kc = self.kc
-        if self._kc_refused is self.eng.keep:
+        if not self._compiled_at(t):
             return None
-        kc.select(self.eng.keep)
-        if kc.motors:
-            kc.motor_values(t)
+        kc = self.kc
         y = np.array(y_in, dtype=float)
         st, res, rv = _kernel.project_packed(kc.I, kc.F, kc.TI, kc.W, y, self.position_tol)
         if st in (4, 5):
@@ -1798,10 +1803,7 @@ def _run_compiled(model: _Dynamics, method: str, y0: np.ndarray, t0: float, t_ou
             if n_rhs + 16 > pace_at:
                 counter._check_pace(t_now, n_rhs)
                 pace_at *= 2
-        except _BudgetExceeded as exc:
-            stopped = exc
-            break
-        except IntegrationError as exc:
+        except IntegrationError as exc:  # (_BudgetExceeded of the pace check, or the long-run check's own)
             stopped = exc
             break
     times = np.concatenate([t_out[:first], pending[:k]])
@@ -1821,10 +1823,11 @@ def _run_compiled(model: _Dynamics, method: str, y0: np.ndarray, t0: float, t_ou
 
 @functools.cache
 def _dop853_tables() -> tuple:
-    """scipy's DOP853 coefficients ``(A, B, C, E3, E5, D)`` as contiguous float arrays (read once)."""
+    """scipy's DOP853 coefficients ``(A, B, E3, E5, D)`` as contiguous float arrays (read once; the nodes C
+    are not needed: the compiled runs have no time-dependent force)."""
     from scipy.integrate._ivp import dop853_coefficients as dc
 
-    return tuple(np.ascontiguousarray(a, dtype=float) for a in (dc.A, dc.B, dc.C, dc.E3, dc.E5, dc.D))
+    return tuple(np.ascontiguousarray(a, dtype=float) for a in (dc.A, dc.B, dc.E3, dc.E5, dc.D))
 
 
 def _finish(system, eng, model, method, stabilization, out_t, out_y, out_mode, kc, n, n_steps, n_rhs,
