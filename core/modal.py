@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 from scipy.optimize import brentq, linear_sum_assignment
 
 from core._validation import float_array, real_number, short_repr
@@ -343,21 +344,13 @@ class LinearModel:
             Ks = 0.5 * (self.K + self.K.T)
             lam, phi = scipy.linalg.eigh(Ks, 0.5 * (self.M + self.M.T))
             big = max(float(np.max(np.abs(lam))), 1e-300)
-            s_list: list[complex] = []
-            shapes: list[np.ndarray] = []
-            for k in range(f):
-                v = phi[:, k].astype(complex)
-                if lam[k] > RIGID_TOL**2 * big:
-                    w = math.sqrt(lam[k])
-                    s_list += [1j * w, -1j * w]
-                elif lam[k] < -(RIGID_TOL**2) * big:
-                    sg = math.sqrt(-lam[k])
-                    s_list += [-sg + 0j, sg + 0j]
-                else:
-                    s_list += [0j, 0j]
-                shapes += [v, v]
-            s = np.array(s_list)
-            X = np.array(shapes)
+            root = np.sqrt(np.abs(lam))
+            s = np.zeros((f, 2), dtype=complex)  # per eigenvalue omega^2: the pair of roots
+            up, down = lam > RIGID_TOL**2 * big, lam < -(RIGID_TOL**2) * big
+            s[up, 0], s[up, 1] = 1j * root[up], -1j * root[up]
+            s[down, 0], s[down, 1] = -root[down], root[down]
+            s = s.ravel()
+            X = np.repeat(phi.T.astype(complex), 2, axis=0)
             method = "symmetric"
         else:
             A = self.state_matrix()
@@ -702,18 +695,20 @@ def _unit_largest(Z: np.ndarray) -> np.ndarray:
     return out
 
 
-def _real_shape(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(complex shape, real shape)``: phase turned to the largest real part, largest real entry +1."""
-    ss = complex(np.sum(v * v))
-    alpha = -0.5 * math.atan2(ss.imag, ss.real) if abs(ss) > 0 else 0.0
-    w = v * complex(math.cos(alpha), math.sin(alpha))
-    r = np.real(w)
-    if not np.any(r):
-        w = w * -1j
-        r = np.real(w)
-    c = _largest_entry(r)
+def _real_shapes(V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(complex shapes, real shapes)`` of the rows of ``V`` (k, f): each turned by the phase that makes its
+    real part largest (Eqs. 8.125-8.129), largest real entry +1."""
+    ss = np.sum(V * V, axis=1)
+    alpha = np.where(np.abs(ss) > 0, -0.5 * np.arctan2(ss.imag, ss.real), 0.0)
+    W = V * (np.cos(alpha) + 1j * np.sin(alpha))[:, None]
+    flat = ~np.any(W.real, axis=1)
+    if np.any(flat):
+        W[flat] = W[flat] * -1j
+    R = W.real
+    c = R[np.arange(R.shape[0]), np.argmax(np.abs(R), axis=1)] if R.shape[1] else np.ones(R.shape[0])
+    c = np.where(c != 0.0, c, 1.0)[:, None]
     with np.errstate(invalid="ignore", divide="ignore"):  # (a shape out of range: refused by _modes)
-        return w / c, r / c
+        return W / c, R / c
 
 
 def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | None,
@@ -743,26 +738,24 @@ def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | 
     groups += [[i] for i in range(k) if i not in paired]
     groups.sort(key=lambda g: (abs(s[g[0]].imag) if len(g) == 2 else 0.0, s[g[0]].real))
     order = [i for g in groups for i in g]
+    assert len(order) == k
+    first = np.array([g[0] for g in groups], dtype=np.intp)
+    pair = np.array([len(g) == 2 for g in groups], dtype=bool)
+    pos = np.concatenate([[0], np.cumsum(np.where(pair, 2, 1))[:-1]]).astype(np.intp)
+    s1 = s[first]
+    V = X[first]
+    flip = pair & (s1.imag < 0)  # (a pair's upper root is its first member: never taken)
+    V[flip] = np.conj(V[flip])
+    W, R = _real_shapes(V)
     ev = np.empty(k, dtype=complex)
     cs = np.empty_like(X, dtype=complex)
     rs = np.empty(X.shape, dtype=float)
-    pos = 0
-    for g in groups:
-        if len(g) == 2:
-            i, j = g
-            sp = complex(s[i].real, abs(s[i].imag))
-            w, r = _real_shape(X[i] if s[i].imag > 0 else np.conj(X[i]))
-            ev[pos], ev[pos + 1] = sp, sp.conjugate()
-            cs[pos], cs[pos + 1] = w, np.conj(w)
-            rs[pos], rs[pos + 1] = r, r
-            pos += 2
-        else:
-            i = g[0]
-            ev[pos] = complex(s[i].real, 0.0) if abs(s[i].imag) <= tiny else s[i]
-            w, r = _real_shape(X[i])
-            cs[pos], rs[pos] = w, r
-            pos += 1
-    assert pos == k == len(order)
+    # a pair: s = (Re, |Im|) and its conjugate; a single root: real when |Im| <= tiny
+    ev[pos] = np.where(pair, s1.real + 1j * np.abs(s1.imag), np.where(np.abs(s1.imag) <= tiny, s1.real + 0j, s1))
+    cs[pos], rs[pos] = W, R
+    p2 = pos[pair] + 1
+    ev[p2] = np.conj(ev[pos[pair]])
+    cs[p2], rs[p2] = np.conj(W[pair]), R[pair]
     mag = np.abs(ev)
     rigid = mag <= RIGID_TOL * scale
     if structural is not None:
@@ -888,41 +881,44 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
     _warn_if_time_varying(eng, ref, system)
 
     # embedding: null spaces of the position rows and of all rows (Eq. 8.111)
-    Dk = ref.D[ref.keep]
-    Dz = np.empty_like(Dk)
-    Dz[:, : 3 * n] = Dk[:, : 3 * n]
-    # rotation columns: body-frame small rotations dpi = A^T dtheta
-    Dz[:, 3 * n :] = np.matmul(Dk[:, 3 * n :].reshape(-1, n, 1, 3), np.transpose(ref.A, (0, 2, 1))[None]).reshape(
-        -1, 3 * n)
     velocity_only = np.isin(ref.keep, lin.nonholonomic_rows(eng))
-    N_v = _null_space(Dz)
-    N = _null_space(Dz[~velocity_only]) if np.any(velocity_only) else N_v
+    B = None if np.any(velocity_only) else lin.tree_null_space(eng, ref)
+    if B is not None:  # the spanning tree's motions, orthonormalized
+        N_v = N = _orthonormal_columns(B)
+    else:
+        Dk = ref.D[ref.keep]
+        Dz = np.empty_like(Dk)
+        Dz[:, : 3 * n] = Dk[:, : 3 * n]
+        # rotation columns: body-frame small rotations dpi = A^T dtheta
+        Dz[:, 3 * n :] = np.matmul(Dk[:, 3 * n :].reshape(-1, n, 1, 3),
+                                   np.transpose(ref.A, (0, 2, 1))[None]).reshape(-1, 3 * n)
+        N_v = _null_space(Dz)
+        N = _null_space(Dz[~velocity_only]) if np.any(velocity_only) else N_v
     if N_v.shape[1] == 0:
         raise ValueError("system: the constraints leave no degree of freedom to linearize")
 
     def state_factory(tt: float, yy: np.ndarray):
         return _make_state(system, tt, yy)
 
-    M_full = lin.mass_matrix(eng, ref)
+    M_blocks = lin.mass_blocks(eng, ref)
     moving = bool(np.any(ref.y[7 * n :])) or bool(np.any(W))
     users = bool(eng.user_forces or eng.user_torques)
     if constraint_stiffness == "analytic":
-        K_full = lin.constraint_stiffness(eng, ref)
-        coupling = lin.body_coupling(eng, table_rows=False)
+        K_full = lin.constraint_stiffness_sparse(eng, ref)  # (block-sparse: the bodies that share a row)
         with_rows = False
         needs_position = (moving or users or bool(eng.springs) or bool(eng.rot_springs)
                           or lin.has_extra_rows(eng))
     else:
         K_full = np.zeros((6 * n, 6 * n))
-        coupling = lin.body_coupling(eng)
         with_rows = True
         needs_position = True
-    groups = lin.distance2_colors(coupling)
     err_k = 0.0
     if needs_position:
+        coupling = lin.body_coupling(eng, table_rows=with_rows)
+        groups = lin.distance2_colors(coupling)
         K_diff, err_k = _jacobian(eng, ref, coupling, groups, ell, state_factory, "z", richardson=True,
                                   table_rows=with_rows)
-        K_full = K_full + K_diff
+        K_full = K_full.toarray() + K_diff if scipy.sparse.issparse(K_full) else K_full + K_diff
     needs_velocity = (moving or users or any(sp.damping > 0 for sp in eng.springs)
                       or any(rs.damping > 0 for rs in eng.rot_springs))
     if needs_velocity:
@@ -933,9 +929,9 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
                                   richardson=users, rot_step=rate, table_rows=False)
     else:
         V_full, err_c = None, 0.0
-    M = N_v.T @ _block_diagonal_apply(M_full, N_v, n)
+    M = N_v.T @ _blocks_apply(M_blocks, N_v, n)
     M = 0.5 * (M + M.T)
-    K = N_v.T @ K_full @ N
+    K = N_v.T @ (K_full @ N)
     T = None if N_v.shape[1] == N.shape[1] else N.T @ N_v
     Y = None
     err_e = 0.0
@@ -948,7 +944,7 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
         Z = scipy.linalg.lstsq(Dz, rhs)[0]
         T = N.T @ N_v
         Y = N.T @ Z
-        MZ = _block_diagonal_apply(M_full, Z, n)
+        MZ = _blocks_apply(M_blocks, Z, n)
         K = K + N_v.T @ MZ @ Y
         if V_full is not None:
             K = K + N_v.T @ V_full @ Z
@@ -969,8 +965,10 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
         if vs <= 1e-13 * cs:
             C = G = None
     rate = max(1.0, float(np.max(np.abs(ref.omega))), float(np.linalg.norm(W)))
-    m_scale = float(np.max(np.abs(M_full)))
-    err = max(err_k / max(float(np.max(np.abs(K_full))), m_scale * rate**2, 1e-300),
+    m_scale = float(np.max(np.abs(M_blocks)))
+    k_scale = float(np.max(np.abs(K_full.data), initial=0.0)) if scipy.sparse.issparse(K_full) else float(
+        np.max(np.abs(K_full)))
+    err = max(err_k / max(k_scale, m_scale * rate**2, 1e-300),
               err_c / max(float(np.max(np.abs(V_full))) if V_full is not None else 0.0, m_scale * rate, 1e-300),
               err_e / rate)
     if err > 1e-3:
@@ -1020,9 +1018,8 @@ def _rolling_rate_jacobian(eng: Any, ref: Any, ell: np.ndarray, rows: np.ndarray
     return (4.0 * E - E2) / 3.0, float(np.max(np.abs(E - E2), initial=0.0)) / 3.0
 
 
-def _block_diagonal_apply(M: np.ndarray, X: np.ndarray, n: int) -> np.ndarray:
-    """``M @ X`` for M (6n, 6n) block diagonal in 3 x 3 blocks."""
-    blocks = np.stack([M[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] for b in range(2 * n)])
+def _blocks_apply(blocks: np.ndarray, X: np.ndarray, n: int) -> np.ndarray:
+    """``M @ X`` for M (6n, 6n) block diagonal with the 3 x 3 ``blocks`` (2n, 3, 3)."""
     return np.matmul(blocks, X.reshape(2 * n, 3, -1)).reshape(6 * n, -1)
 
 
@@ -1034,6 +1031,41 @@ def _null_space(D: np.ndarray) -> np.ndarray:
         return np.eye(size)
     Q, _ = scipy.linalg.qr(D.T, mode="full")
     return np.ascontiguousarray(Q[:, r:])
+
+
+#: Largest condition number of the (column-scaled) tree basis for Cholesky QR (:func:`_orthonormal_columns`).
+_CHOLESKY_QR_COND = 1e6
+
+
+def _orthonormal_columns(B: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (6n, f) of the span of the f independent columns of ``B``.
+
+    Cholesky QR twice (``G = X^T X = R^T R``, ``X <- X R^-1``, repeated;
+    Fukaya et al. 2014): one pass leaves an orthogonality error of about
+    ``eps cond(B)^2``, the second pass removes it when ``cond(B)`` is below
+    about ``eps^-1/2``. The columns are scaled to unit length first; a
+    condition number above ``_CHOLESKY_QR_COND`` (estimated from ``R``)
+    takes Householder QR instead.
+    """
+    f = B.shape[1]
+    if f == 0:
+        return np.zeros(B.shape)
+    norms = np.sqrt(np.sum(B * B, axis=0))
+    if np.all(norms > 0.0):
+        X = B / norms
+        for npass in range(2):
+            R, info = scipy.linalg.lapack.dpotrf(X.T @ X)
+            if info != 0:
+                break
+            if npass == 0:
+                rcond, info = scipy.linalg.lapack.dtrcon(R)
+                if info != 0 or not rcond * _CHOLESKY_QR_COND > 1.0:
+                    break
+            X = scipy.linalg.blas.dtrsm(1.0, R, X, side=1)  # X R^-1
+        else:
+            return np.ascontiguousarray(X)
+    Q, _ = scipy.linalg.qr(B, mode="economic")
+    return np.ascontiguousarray(Q)
 
 
 #: Relative tolerance of :func:`_warn_if_time_varying` (a symmetric inertia, a point on an axis, parallel axes).
@@ -1050,7 +1082,10 @@ def _warn_if_time_varying(eng: Any, ref: Any, system: Any) -> None:
     """
     n = eng.n
     W = ref.frame_omega
-    for b in range(n):
+    # (a first pass over all bodies with half the threshold; the test itself is the loop's)
+    rates = np.sqrt(np.sum((ref.omega - W[None, :]) ** 2, axis=1))
+    sizes = np.maximum(np.maximum(1.0, float(np.linalg.norm(W))), np.sqrt(np.sum(ref.omega**2, axis=1)))
+    for b in np.flatnonzero(rates > 0.5 * _SYMMETRY_REL * sizes).tolist():
         w_rel = ref.omega[b] - W
         rate = float(np.linalg.norm(w_rel))
         if not rate > _SYMMETRY_REL * max(1.0, float(np.linalg.norm(W)), float(np.linalg.norm(ref.omega[b]))):

@@ -52,9 +52,13 @@ __all__ = [
     "body_coupling",
     "body_length_scales",
     "constraint_force",
+    "compiled_rows",
     "constraint_stiffness",
+    "constraint_stiffness_sparse",
     "distance2_colors",
     "has_extra_rows",
+    "jacobian_from_slots",
+    "mass_blocks",
     "mass_matrix",
     "nonholonomic_rows",
     "project_positions",
@@ -63,6 +67,7 @@ __all__ = [
     "row_multipliers",
     "selected_vectors",
     "table_row_count",
+    "tree_null_space",
 ]
 
 
@@ -110,6 +115,8 @@ def reference(system: Any, t: float, frame_omega: np.ndarray) -> tuple[_Engine, 
     _row_tables(shared)
     if getattr(shared, "_linearization_U", None) is None:
         shared._linearization_U = scipy.sparse.csr_matrix(shared.U)
+    if getattr(shared, "_linearization_ell", None) is None:
+        shared._linearization_ell = body_length_scales(shared)
     eng = shared.workspace()
     n = eng.n
     y = np.array(system._y, dtype=float)
@@ -118,8 +125,12 @@ def reference(system: Any, t: float, frame_omega: np.ndarray) -> tuple[_Engine, 
         shared.adopt(eng)
     check_constrained_mass(eng, t, y)
     model = _Dynamics(system, eng, stabilization="none", baumgarte=1.0, position_tol=1e-12)
-    a, lam, _, D, _ = model.accelerations(t, y)
-    D = np.array(D) if eng.m else np.zeros((0, 6 * n))
+    compiled = _compiled_accelerations(model, t, y)
+    if compiled is None:
+        a, lam, _, D, _ = model.accelerations(t, y)
+        D = np.array(D) if eng.m else np.zeros((0, 6 * n))
+    else:
+        a, lam, D = compiled
     keep = np.arange(eng.m) if eng.keep is None else np.array(eng.keep)
     At = np.array(eng.frames(y, velocities=False))
     A = np.transpose(At, (0, 2, 1)).copy()
@@ -129,6 +140,142 @@ def reference(system: Any, t: float, frame_omega: np.ndarray) -> tuple[_Engine, 
     ref = Reference(float(t), y, A, omega, a[: 3 * n].reshape(n, 3).copy(), alpha, np.array(lam), D, keep,
                     np.array(frame_omega, dtype=float))
     return eng, ref
+
+
+def compiled_rows(eng: _Engine) -> bool:
+    """True when the compiled kernels hold every constraint row of ``eng`` (no contacts, no rolling rows)."""
+    return eng.compiled is not None and not has_extra_rows(eng) and not nonholonomic_rows(eng).size
+
+
+def _compiled_accelerations(model: Any, t: float, y: np.ndarray):
+    """``(a (6n,), lambda (m,), D (m, 6n))`` at ``(t, y)`` on the compiled kernels (Baraff's O(N) solve of
+    Eq. 8.109), or None where they do not apply (then the numpy evaluation, which diagnoses what they
+    refused: a pivot that is not definite, a singular system)."""
+    eng = model.eng
+    if not compiled_rows(eng):
+        return None
+    ydot = model._rhs_compiled(t, y)
+    if ydot is None:
+        return None
+    kc = model.kc
+    lam = np.array(kc.lam)  # (rows the tree does not solve, the redundant ones, stay 0)
+    return ydot[7 * eng.n :].copy(), lam, jacobian_from_slots(eng.n, kc.Jc, kc.jc_body)
+
+
+def jacobian_from_slots(n: int, Jc: np.ndarray, jc_body: np.ndarray) -> np.ndarray:
+    """The dense constraint Jacobian D (m, 6n) in ``[R_dot, omega_body]`` from the rows' slots (``_compiled``):
+    ``Jc`` (m, 3, 6) per row and slot the derivative by that body's ``(R_dot, omega_body)``, ``jc_body``
+    (m, 3) the slots' bodies (-1: none). A row's slots are distinct bodies."""
+    m = Jc.shape[0]
+    D = np.zeros((m, 6 * n))
+    r, s = np.nonzero(jc_body >= 0)
+    b = jc_body[r, s]
+    k = np.arange(3)[None, :]
+    D[r[:, None], 3 * b[:, None] + k] = Jc[r, s, :3]
+    D[r[:, None], 3 * n + 3 * b[:, None] + k] = Jc[r, s, 3:]
+    return D
+
+
+#: Smallest singular value, relative to the largest, of a tree joint's rows over its child body for
+#: :func:`tree_null_space` (below it the dense null space is taken).
+TREE_RANK_TOL = 1e-9
+
+
+def tree_null_space(eng: _Engine, ref: Reference) -> np.ndarray | None:
+    """(6n, f) basis of the tangent motions ``z = [dR, dtheta]`` that the kept rows allow (Eq. 8.111), from
+    the spanning tree of the compiled kernels; None where it does not apply.
+
+    The kept rows of a System on the compiled kernels are grouped by joint
+    over a spanning tree of the bodies (``_compiled.build_tree``, Baraff's
+    elimination order). A tree joint ``g`` between parent ``p`` (or the
+    ground) and child ``c`` has rows ``D_gp z_p + D_gc z_c = 0``, ``D_gc``
+    (s x 6) of full row rank, so the child moves as ``z_c = T_g z_p + N_g
+    w_g`` with ``T_g = -D_gc^+ D_gp`` and ``N_g`` (6 x (6 - s)) the joint's
+    free directions (the null space of ``D_gc``, by SVD). From the roots
+    (a body without a parent joint is free: six columns) down the tree,
+    every joint adds its free directions and carries its parent's columns:
+    O(n f). The k secondary rows (loops) then restrict the tree's motions
+    to the null space of the small ``E = D_sec B`` (k x f). The columns are
+    not orthonormal (see ``core.modal``).
+
+    None (the caller takes the dense null space) without the compiled
+    kernels, with contacts or rolling rows, or when a tree joint's rows are
+    not of full rank over its child body (``TREE_RANK_TOL``) or the loop
+    rows not over the tree's motions.
+    """
+    if not compiled_rows(eng):
+        return None
+    n = eng.n
+    kc = eng.compiled
+    kc.select(eng.keep)
+    kc.evaluate(ref.t, ref.y, 1)
+    tr = kc.tree_now
+    jb = kc.jc_body
+    bs = np.where(jb >= 0, jb, 0)
+    Jz = np.array(kc.Jc)  # (m, 3, 6): rotation columns turned to global small rotations, J_w A^T = (A J_w)^T
+    Jz[..., 3:] = np.einsum("rsji,rsi->rsj", ref.A[bs], Jz[..., 3:])
+    kind, parent, ref_of = tr.node_kind, tr.order_parent, tr.node_ref
+    groups = ref_of[kind == 1]
+    G = groups.size
+    rows = tr.group_rows[groups] if G else np.zeros((0, 6), dtype=np.int64)
+    live = rows >= 0
+    size = live.sum(axis=1)
+    rr = np.where(live, rows, 0)
+    sc = tr.group_slot_of[groups, 0] if G else np.zeros(0, dtype=np.int64)
+    sp = tr.group_slot_of[groups, 1] if G else np.zeros(0, dtype=np.int64)
+    Dc = Jz[rr, sc[:, None]] * live[..., None]  # (G, 6, 6), rows past the group's size zero
+    Dp = Jz[rr, np.maximum(sp, 0)[:, None]] * (live & (sp >= 0)[:, None])[..., None]
+    U, S, Vt = np.linalg.svd(Dc)
+    idx = np.arange(6)[None, :]
+    if G:
+        smin = S[np.arange(G), np.maximum(size - 1, 0)]
+        if np.any((size > 0) & ~(smin > TREE_RANK_TOL * S[:, 0])):
+            return None
+    Sinv = np.where(idx < size[:, None], 1.0 / np.where(S > 0.0, S, 1.0), 0.0)
+    T = -np.matmul(np.transpose(Vt, (0, 2, 1)) * Sinv[:, None, :], np.matmul(np.transpose(U, (0, 2, 1)), Dp))
+    # per body, parents first: its tree joint (index into the groups, -1 at a root), parent body (-1: none)
+    # and its first free column
+    q_of = np.full(max(int(groups.max(initial=-1)) + 1, 1), -1, dtype=np.int64)
+    q_of[groups] = np.arange(G)
+    nodes = np.flatnonzero(kind == 0)[::-1]
+    bodies = ref_of[nodes]
+    pg = parent[nodes]
+    child = pg >= 0
+    joint = np.full(nodes.size, -1, dtype=np.int64)
+    joint[child] = q_of[ref_of[pg[child]]]
+    pp = np.full(nodes.size, -1, dtype=np.int64)
+    pp[child] = parent[pg[child]]
+    up = np.full(nodes.size, -1, dtype=np.int64)
+    up[pp >= 0] = ref_of[pp[pp >= 0]]
+    free = 6 - np.concatenate([size, [0]])[joint]  # (a root: joint -1, six free columns)
+    start = np.concatenate([[0], np.cumsum(free)])
+    f = int(start[-1])
+    B3 = np.zeros((n, 6, f))  # per body its rows [dR | dtheta]
+    NV = np.transpose(Vt, (0, 2, 1))  # (G, 6, 6): columns s_g.. span the joint's free directions
+    eye = np.eye(6)
+    for c, q, p, c0, k in zip(bodies.tolist(), joint.tolist(), up.tolist(), start[:-1].tolist(), free.tolist()):
+        if p >= 0:  # (the parent's columns so far: the later ones are zero on it)
+            np.matmul(T[q], B3[p, :, :c0], out=B3[c, :, :c0])
+        B3[c, :, c0 : c0 + k] = eye if q < 0 else NV[q, :, 6 - k :]
+    sec = tr.sec_rows
+    if sec.size > f:
+        return None
+    if sec.size:
+        E = np.einsum("lsk,lskf->lf", Jz[sec] * (jb[sec] >= 0)[..., None], B3[bs[sec]])
+        _, Se, Ve = np.linalg.svd(E)
+        if not Se[-1] > TREE_RANK_TOL * Se[0]:
+            return None
+        B3 = np.matmul(B3, Ve[sec.size :].T)
+    return np.concatenate([B3[:, :3].reshape(3 * n, -1), B3[:, 3:].reshape(3 * n, -1)])
+
+
+def mass_blocks(eng: _Engine, ref: Reference) -> np.ndarray:
+    """(2n, 3, 3) the diagonal blocks of :func:`mass_matrix`: ``m_b I`` (translations), then ``A I_body A^T``."""
+    n = eng.n
+    out = np.empty((2 * n, 3, 3))
+    out[:n] = eng.mass[:, None, None] * np.eye(3)
+    out[n:] = np.matmul(np.matmul(ref.A, eng.inertia), np.transpose(ref.A, (0, 2, 1)))
+    return out
 
 
 def mass_matrix(eng: _Engine, ref: Reference) -> np.ndarray:
@@ -389,7 +536,11 @@ def project_positions(system: Any, t: float, y: np.ndarray, *, tol: float = 1e-1
 
 
 def body_length_scales(eng: _Engine) -> np.ndarray:
-    """(n,) per body the largest distance from its centre of mass to a joint or spring point (m), 1 if none."""
+    """(n,) per body the largest distance from its centre of mass to a joint or spring point (m), 1 if none
+    (cached on the engine: :func:`reference` keeps it on the System's)."""
+    cached = getattr(eng, "_linearization_ell", None)
+    if cached is not None:
+        return cached.copy()
     n = eng.n
     arm = np.zeros(n)
     for jt in eng.joints:
@@ -462,23 +613,28 @@ def constraint_stiffness(eng: _Engine, ref: Reference) -> np.ndarray:
 
     (``[v]x`` the skew matrix of ``v``); blocks of the ground are dropped.
     """
+    return constraint_stiffness_sparse(eng, ref).toarray()
+
+
+def constraint_stiffness_sparse(eng: _Engine, ref: Reference) -> scipy.sparse.csr_matrix:
+    """:func:`constraint_stiffness` as a sparse (6n, 6n) matrix: 3 x 3 blocks of the bodies that share a row."""
     n = eng.n
-    K = np.zeros((6 * n, 6 * n))
+    blocks: list[tuple] = []
     if not eng.m:
-        return K
+        return scipy.sparse.csr_matrix((6 * n, 6 * n))
     tb = _slot_tables(eng)
     mu = row_multipliers(eng, ref.t, ref.multipliers)
     At = np.array(eng.frames(ref.y, velocities=False))
-    Y = eng.U @ eng.B[:, 0:3]
+    U = getattr(eng, "_linearization_U", None)
+    Y = (eng.U if U is None else U) @ eng.B[:, 0:3]
     m = eng.m_tab
     a = Y[:m]
     b = Y[m : 2 * m]
     Sa = _skew(a) * mu[:, None, None]
     Sb = _skew(b)
-    K4 = K.reshape(2, n, 3, 2, n, 3)  # (part, body, i, part, body, j); part 0: R, 1: theta
 
-    def add(part_i, bi, part_j, bj, blocks):
-        np.add.at(K4, (part_i, bi, slice(None), part_j, bj, slice(None)), blocks)
+    def add(part_i, bi, part_j, bj, values):  # part 0: R, 1: theta
+        blocks.append((part_i * n + bi, part_j * n + bj, values))
 
     ra = np.flatnonzero((tb["a_body"] >= 0) & (mu != 0.0))
     if ra.size:
@@ -502,4 +658,12 @@ def constraint_stiffness(eng: _Engine, ref: Reference) -> np.ndarray:
             add(1, al, 0, bo, hm[:, None, None] * Sam)
             add(1, al, 1, bo, -np.matmul(Sam, Ssm))
             add(1, bo, 1, al, -np.matmul(Ssm, Sam))
-    return K
+    if not blocks:
+        return scipy.sparse.csr_matrix((6 * n, 6 * n))
+    bi = np.concatenate([blk[0] for blk in blocks])
+    bj = np.concatenate([blk[1] for blk in blocks])
+    vals = np.concatenate([blk[2] for blk in blocks])  # (k, 3, 3)
+    k3 = np.arange(3)
+    rows = np.broadcast_to((3 * bi[:, None, None] + k3[None, :, None]), vals.shape).ravel()
+    cols = np.broadcast_to((3 * bj[:, None, None] + k3[None, None, :]), vals.shape).ravel()
+    return scipy.sparse.coo_matrix((vals.ravel(), (rows, cols)), shape=(6 * n, 6 * n)).tocsr()

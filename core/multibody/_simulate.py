@@ -1127,6 +1127,8 @@ def check_assembled(eng: _Engine, t: float, y: np.ndarray, what: str, *, limit: 
         Naming ``what`` (the caller), both residuals and the row of the largest one.
     """
     n = eng.n
+    if _assembled_compiled(eng, t, y, limit):
+        return
     C, D, Ct, _ = constraints_at(eng, t, y, 1)
     res_p = float(np.max(np.abs(C)))
     rv = np.array(D) @ y[7 * n :] + Ct
@@ -1144,6 +1146,24 @@ def check_assembled(eng: _Engine, t: float, y: np.ndarray, what: str, *, limit: 
             f"{what}: motor {flipped[0].name!r} holds its joint half a turn from its angle f(t) at "
             f"t={t:g} (sin(theta - f) = 0 with cos(theta - f) < 0); call system.assemble(t={t:g}) first"
         )
+
+
+def _assembled_compiled(eng: _Engine, t: float, y: np.ndarray, limit: float) -> bool:
+    """True when the compiled kernels hold every row and find ``y`` on the constraints at ``t`` (the check of
+    :func:`check_assembled` without its motor test); False leaves the verdict (and its message) to the numpy
+    evaluation."""
+    kc = eng.compiled
+    if kc is None or eng.m != kc.m or eng.nonholonomic_rows.size or eng.angle_motors:
+        return False
+    n = eng.n
+    kc.select(eng.keep)
+    kc.evaluate(t, y, 1)
+    v = y[7 * n :]
+    rv = np.empty(kc.m)
+    _kernel.jacobian_apply(n, kc.Jc, kc.jc_body, v, kc.Ct, rv)
+    res_p = float(np.max(np.abs(kc.C), initial=0.0))
+    res_v = float(np.max(np.abs(rv), initial=0.0))
+    return res_p <= limit and res_v <= limit * (1.0 + float(np.max(np.abs(v), initial=0.0)))
 
 
 #: A run that fails (its steps cannot pass a time) at a state where the Jacobian of the independent position
