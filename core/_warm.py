@@ -36,6 +36,7 @@ def warm() -> float:
     kc.evaluate(0.0, y, 2)
     kc.applied(0.0, y, model._loads)
     kc.solve(0, kc.Q, kc.gamma, np.zeros(6 * eng.n))
+    _warm_contacts()
     rng = np.random.default_rng(0)
     p = rng.normal(size=(128, 4))
     A = matrix_from_euler_parameters(p / np.linalg.norm(p, axis=1, keepdims=True))
@@ -43,6 +44,23 @@ def warm() -> float:
     axis = rng.normal(size=(128, 3))
     matrix_from_axis_angle(axis / np.linalg.norm(axis, axis=1, keepdims=True), rng.normal(size=128))
     return time.process_time() - t0
+
+
+def _warm_contacts() -> None:
+    """The compiled contact kernel (``core.contact._compiled``): a ball on the ground, every evaluation level."""
+    from core.contact import Plane, Sphere
+    from core.multibody import System
+    from core.multibody._engine import matrices
+
+    system = System(gravity=(0.0, 0.0, -9.81))
+    ball = system.add_body("ball", mass=1.0, inertia=(0.004,) * 3, position=(0.0, 0.0, 0.1), omega_body=(1.0, 0, 0))
+    system.add_contact(system.ground, Plane(), ball, Sphere(0.1), rolling=True)
+    eng = system._engine().workspace()
+    ker = eng.contact_kernel
+    y = np.array(system._y)
+    A = matrices(y[3:7].reshape(1, 4))
+    for level in (0, 1, 2):
+        ker.evaluate(y, A, level, ker.copy_state(eng.contact_state), t=0.0)
 
 
 if __name__ == "__main__":

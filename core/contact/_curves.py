@@ -231,6 +231,7 @@ class PlanarCurve(Surface):
         curve._derivs_2d = derivs_float
         curve.radius = rho
         curve._centre2 = c0
+        curve._builtin = ("circle", cx, cy, rho)  # (the compiled contact kernel's closed form)
         return curve
 
     @classmethod
@@ -276,6 +277,7 @@ class PlanarCurve(Surface):
         curve.unbounded = True
         curve.origin2 = p0
         curve.direction2 = d
+        curve._builtin = ("line", px, py, dx, dy)  # (the compiled contact kernel's closed form)
         return curve
 
     # ------------------------------------------------------------ internals

@@ -463,6 +463,11 @@ def contact_rows(group: _Group, fr: _Frames, gi: _Geo, gj: _Geo, level: int, rol
     return out
 
 
+#: Contacts whose two surfaces are built in (plane, sphere, ellipsoid, torus, a circle or a line of a planar
+#: curve) evaluate on the float path through the compiled kernel (``_compiled.contact_packed``); False: on Python
+#: floats as contacts of user surfaces do (the kernel's oracle in the tests).
+COMPILED = True
+
 #: Systems with at most this many contacts evaluate them on Python floats (``_scalar``). The batched path
 #: forms each contact's surface geometry by its own numpy calls on one-row arrays (the surfaces differ), so it
 #: costs more per contact at any count: 11 balls on inclines took 21 s batched, 5 s on floats (it was 8).
@@ -489,6 +494,11 @@ class _Static:
         self.charted = bool(contact.surface_i.charted or contact.surface_j.charted)
         self.bi = n if contact.body_i.index < 0 else contact.body_i.index
         self.bj = n if contact.body_j.index < 0 else contact.body_j.index
+        # built-in surfaces on both sides: the compiled kernel's description of the contact (else None: the
+        # float path, for surfaces of user callables)
+        from ._compiled import description
+
+        self.packed = description(contact)
 
 
 class _Entry:
@@ -564,6 +574,7 @@ class ContactKernel:
         self.exponent = np.array([c.exponent for c in self.contacts])
         self.static = [_Static(c, n) for c in self.contacts]
         self._L = np.array([cs.L for cs in self.static], dtype=float)  # (a compliant contact's deepest press)
+        self._all_packed = all(cs.packed is not None for cs in self.static)
 
     # ------------------------------------------------------------ state
     def initial_state(self, starts: list) -> dict:
@@ -801,12 +812,19 @@ class ContactKernel:
         if not self.static:
             return self._empty(level)
         res = self._empty(level, floats=True)
+        compiled = COMPILED
+        if compiled:
+            A = np.ascontiguousarray(A, dtype=float)
+            y = np.ascontiguousarray(y, dtype=float)
         # per body (ground last): rotation matrix, position and (level 2) velocity and global omega as tuples
+        # (for the contacts of user surfaces; the kernel reads y and A)
         zero = (0.0, 0.0, 0.0)
-        A_rows = [tuple(map(tuple, Am)) for Am in A.tolist()] + [ground_A]
-        Rl = y[: 3 * n].tolist()
-        R_b = [tuple(Rl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
-        if level >= 2:
+        floats = not (compiled and self._all_packed)
+        if floats:
+            A_rows = [tuple(map(tuple, Am)) for Am in A.tolist()] + [ground_A]
+            Rl = y[: 3 * n].tolist()
+            R_b = [tuple(Rl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
+        if floats and level >= 2:
             Vl = y[7 * n : 10 * n].tolist()
             Wl = y[10 * n :].tolist()  # omega_body; its global components A omega_body
             V_b = [tuple(Vl[3 * b : 3 * b + 3]) for b in range(n)] + [zero]
@@ -827,6 +845,38 @@ class ContactKernel:
         body_points = [None] * self.k
         _rotT = _scalar._rotT
         for cs in self.static:
+            if compiled and cs.packed is not None:  # built-in surfaces: the compiled kernel
+                q = cs.contact.index
+                light = level >= 2 and modes is not None and modes[q] == COMPLIANT
+                s, charts, o, restarted = self._compiled_one(
+                    cs, y, A, level, 2 if light else order_all, light, state, t, qkey, geom,
+                    res_D[q] if level >= 1 else _NO_ROW, res_Dr[q] if level >= 1 else _NO_ROWS)
+                C = _compiled
+                p = cs.p
+                r = 2 * p + 1
+                last_all[q] = (np.array(s), charts, restarted, o[C.O_SIGN])
+                t_last_all[q] = t
+                body_points[q] = (o[C.O_UI : C.O_UI + 3], o[C.O_UJ : C.O_UJ + 3])
+                if rate_all is not None:
+                    sd = o[C.O_SDOT : C.O_SDOT + 2 * p]
+                    rate_all[q] = (t, sd, charts[0], charts[1], max(abs(x) for x in sd))
+                vals.append(o[C.O_VALUE])
+                gaps.append(o[C.O_GAP])
+                normals.append(o[C.O_NORMAL : C.O_NORMAL + 3])
+                pis.append(o[C.O_PI : C.O_PI + 3])
+                pjs.append(o[C.O_PJ : C.O_PJ + 3])
+                ranks.append(o[C.O_RANK])
+                res_N[q, :r] = o[C.O_N : C.O_N + r]
+                res_s[q, 0:p] = s[:p]
+                res_s[q, 2 : 2 + p] = s[p:]
+                if level >= 2:
+                    res_rate[q] = o[C.O_RATE]
+                    if not light:
+                        res_gamma[q] = o[C.O_GAMMA]
+                        res_gamma_c[q, :r] = o[C.O_GAMMA_C : C.O_GAMMA_C + r]
+                        if cs.rolling:
+                            res_gamma_r[q, :p] = o[C.O_GAMMA_R : C.O_GAMMA_R + p]
+                continue
             fr = Frames1()
             bi, bj = cs.bi, cs.bj
             fr.Ai, fr.Aj = A_rows[bi], A_rows[bj]
@@ -845,7 +895,7 @@ class ContactKernel:
             light = level >= 2 and modes is not None and modes[q] == COMPLIANT
             order = 2 if light else order_all
             hit = geom.get(q)
-            if hit is not None and hit[0] == qkey:
+            if hit is not None and hit[0] == qkey and len(hit) == 8:
                 # the same configuration as an evaluation before (a projection's last iterate, then its
                 # velocities projected): the surface parameters depend on q only, Newton has nothing to do
                 _, s, charts, gi, gj, Es, done, restarted = hit
@@ -912,6 +962,100 @@ class ContactKernel:
         res["rank"] = np.array(ranks, dtype=float)
         res["body_points"] = body_points
         return res
+
+    def _compiled_one(self, cs, y, A, level, order, light, state, t, qkey, geom, D_row, Dr_rows):
+        """One contact of built-in surfaces through the compiled kernel: ``(s, charts, out, restarted)``.
+
+        The same steps as the float path's loop body (warm start, Newton,
+        the tracked branch, continuation, search afresh; the cache of the
+        last configuration) with Newton and the rows compiled
+        (``_compiled.contact_packed``); ``out`` is the kernel's result list.
+        """
+        C = _compiled
+        q = cs.contact.index
+        ctl = np.zeros(16, dtype=np.int64)
+        ctl[C.C_ORDER] = order
+        ctl[C.C_LEVEL] = level
+        ctl[C.C_RANK] = level < 2  # (rank: at projections)
+        ctl[C.C_GAMMA] = not light
+        ctl[C.C_N], ctl[C.C_BI], ctl[C.C_BJ] = self.n, cs.bi, cs.bj
+        out = np.empty(C.OUT_SIZE)
+        hit = geom.get(q)
+        if hit is not None and hit[0] == qkey and len(hit) == 9:  # (the float path's entries have 8 items)
+            # the same configuration as an evaluation before: no Newton (see the float path)
+            _, s, charts, G, Es, done, restarted, _, _ = hit
+            if done < order:  # the third derivatives for gamma, and E_s, at the converged parameters
+                G, Es = np.empty((2, 22, 3)), np.empty((4, 4))
+                ctl[C.C_MODE] = 1
+            else:
+                ctl[C.C_MODE] = 2
+            C.contact_packed(cs.packed, y, A, _chart_buffer(charts), s, ctl, G, Es, out, D_row, Dr_rows)
+        else:
+            G, Es = np.empty((2, 22, 3)), np.empty((4, 4))
+            s0, charts = self._start(state, q, t)
+            restarted = False
+            try:
+                s = self._newton_compiled(cs, y, A, s0, charts, ctl, G, Es, out, D_row, Dr_rows, t)
+                known = self._tracked_sign(state, q, t)
+                if known is not None and out[C.O_SIGN] != known:  # another branch: continue the tracked one
+                    raise ContactError("another branch of the extremal conditions", t=t)
+            except ContactError:
+                found = self._continue_one(cs, state, y, t)
+                if found is None:
+                    found = self._search_one(cs, y, A, t)
+                    restarted = True
+                s0, charts = found
+                s = self._newton_compiled(cs, y, A, s0, charts, ctl, G, Es, out, D_row, Dr_rows, t)
+            geom[q] = (qkey, s, charts, G, Es, order, restarted, None, "compiled")
+        if ctl[C.C_STATUS] == C.SINGULAR_RATE:
+            raise ContactError(_lost(cs.contact, None, "the extremal conditions are singular"))
+        return s, charts, out.tolist(), restarted
+
+    @staticmethod
+    def _newton_compiled(cs, y, A, s0, charts: list, ctl, G, Es, out, D_row, Dr_rows, t):
+        """Newton (``_scalar.newton_one``) and the rows in the compiled kernel; re-charts in place in ``charts``
+        when the kernel hands the point back beyond its chart. Returns ``s``; raises ContactError."""
+        C = _compiled
+        s = np.array(s0, dtype=float)
+        order = int(ctl[C.C_ORDER])
+        ctl[C.C_MODE] = 0
+        ctl[C.C_MAXIT] = _MAX_ITER
+        ctl[C.C_IT] = 0
+        ctl[C.C_CUR] = min(order, 2)
+        while True:
+            C.contact_packed(cs.packed, y, A, _chart_buffer(charts), s, ctl, G, Es, out, D_row, Dr_rows)
+            status = ctl[C.C_STATUS]
+            if status != C.RECHART:
+                break
+            _scalar._rechart(cs, s, charts)
+        if status in (C.OK, C.SINGULAR_RATE):
+            return s
+        if status == C.SINGULAR:
+            why = ("the extremal conditions are singular (E_s, rank of C_s < 2p, Eq. 8.109): a line or surface "
+                   "contact, or a singular point of a parametrization")
+        elif status == C.NOT_FINITE:
+            why = "the contact geometry is not finite"
+        elif status == C.NOT_FACING:
+            why = ("Newton reached a pair of points whose normals are not opposed (the far sides of the surfaces, "
+                   "or a rim's normal pointing into the disk)")
+        else:
+            why = (f"Newton on the contact point did not converge in {_MAX_ITER} iterations (last step "
+                   f"{out[C.O_STEP]:.2e} of the length scale): the contact point jumped")
+        raise ContactError(_lost(cs.contact, t, why), t=t)
+
+    def _search_one(self, cs, y, A, t):
+        """The warm start and the continuation failed: search the contact point afresh, ``(s, charts)``."""
+        from ._search import find_contact
+
+        n = self.n
+        frames = []
+        for b in (cs.bi, cs.bj):
+            frames += [np.array(y[3 * b : 3 * b + 3]), A[b]] if b < n else [np.zeros(3), np.eye(3)]
+        try:
+            info = find_contact(cs.contact.name, cs.surf_i, frames[0], frames[1], cs.surf_j, frames[2], frames[3])
+        except ContactError as exc:
+            raise ContactError(f"{exc}{'' if t is None else f' (t={t:.6g})'}", t=t) from None
+        return list(info["s"]), [info["charts"][0], info["charts"][1]]
 
     def _pose_frames(self, cs, y: np.ndarray):
         """Rotation matrices and positions of the bodies of contact ``cs`` at state ``y`` (floats)."""
@@ -1159,6 +1303,19 @@ class ContactKernel:
         return F, Q
 
 
+_IDENTITY3 = np.eye(3)
+_NO_ROW = np.zeros(0)  # (the rows of an evaluation below level 1)
+_NO_ROWS = np.zeros((2, 0))
+
+
+def _chart_buffer(charts: list) -> np.ndarray:
+    """(2, 3, 3) the chart rotations of a contact's two sides for the compiled kernel (None: the identity)."""
+    out = np.empty((2, 3, 3))
+    out[0] = _IDENTITY3 if charts[0] is None else charts[0]
+    out[1] = _IDENTITY3 if charts[1] is None else charts[1]
+    return out
+
+
 def _nan(shape: tuple) -> np.ndarray:
     """``np.full(shape, nan)`` without its Python-level overhead (small arrays, built per evaluation)."""
     a = np.empty(shape)
@@ -1167,4 +1324,4 @@ def _nan(shape: tuple) -> np.ndarray:
 
 
 # The float path (one contact at a time) uses this module's constants, so it is imported last, once.
-from . import _scalar  # noqa: E402
+from . import _compiled, _scalar  # noqa: E402
