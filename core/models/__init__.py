@@ -17,6 +17,7 @@ from ._bicycle import (
     WhippleParameters,
     WhippleReference,
     WhippleRide,
+    WhippleSpeedModel,
     whipple_angles,
     whipple_bicycle,
     whipple_bicycle_reference,
@@ -25,6 +26,7 @@ from ._bicycle import (
     whipple_modes,
     whipple_push,
     whipple_ride,
+    whipple_speed_model,
 )
 from ._cam import (
     CAM_CONTACT_MODELS,
@@ -78,6 +80,7 @@ __all__ = [
     "WhippleParameters",
     "WhippleReference",
     "WhippleRide",
+    "WhippleSpeedModel",
     "whipple_angles",
     "whipple_bicycle",
     "whipple_bicycle_reference",
@@ -86,6 +89,7 @@ __all__ = [
     "whipple_modes",
     "whipple_push",
     "whipple_ride",
+    "whipple_speed_model",
     "CAM_CONTACT_MODELS",
     "CAM_LAWS",
     "FLAT_LEAN",

@@ -32,6 +32,9 @@ paper's ``y`` (right) axis.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+import functools
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -55,6 +58,7 @@ __all__ = [
     "WhippleParameters",
     "WhippleReference",
     "WhippleRide",
+    "WhippleSpeedModel",
     "whipple_angles",
     "whipple_bicycle",
     "whipple_bicycle_reference",
@@ -63,6 +67,7 @@ __all__ = [
     "whipple_modes",
     "whipple_push",
     "whipple_ride",
+    "whipple_speed_model",
 ]
 
 #: Names of the modes of the upright bicycle, in the order :func:`whipple_modes` returns them.
@@ -290,13 +295,30 @@ def whipple_bicycle(speed: float = 5.0, parameters: Any = "meijaard2007"):
     ------
     ValueError
         For a non-finite speed or unknown parameters.
+
+    Notes
+    -----
+    The configuration does not depend on the speed, and the velocities of
+    the steady run are proportional to it: the System is built and
+    assembled (the two contact points found, Eqs. 8.84-8.94) once per
+    parameter set, at 1 m/s, and each call returns a copy of it with the
+    velocities scaled by ``speed`` (the copies share nothing).
     """
+    v = real_number(speed, "speed", expected="a finite forward speed (m/s)")
+    system = copy.deepcopy(_upright(_parameters(parameters)))
+    state = system.state
+    system.set_state(dataclasses.replace(state, v=v * state.v))
+    return system
+
+
+@functools.lru_cache(maxsize=8)
+def _upright(p: WhippleParameters):
+    """The assembled System of :func:`whipple_bicycle` at 1 m/s (one per parameter set; never handed out)."""
     from core.contact import Plane, Torus
     from core.multibody import System
 
-    v = real_number(speed, "speed", expected="a finite forward speed (m/s)")
-    p = _parameters(parameters)
     w, c, rR, rF = p.wheelbase, p.trail, p.rear_radius, p.front_radius
+    v = 1.0
     forward = (v, 0.0, 0.0)
     system = System(gravity=(0.0, 0.0, -p.gravity))
     rear = system.add_body(_BODIES[0], mass=p.rear_mass, inertia=(p.rear_inertia[0], p.rear_inertia[1],
@@ -613,6 +635,146 @@ def whipple_mode_names(eigenvalues: Any) -> tuple[str, ...]:
     else:
         raise ValueError(f"expected 2 or 4 real modes besides the weave pair, got {real.size}")
     return tuple(str(x) for x in names)
+
+
+# ------------------------------------------------------------------ the linear model at every speed
+@dataclass(frozen=True)
+class WhippleSpeedModel:
+    r"""The linearized :func:`whipple_bicycle` at every forward speed, from two linearizations of the System.
+
+    The upright straight run has the same configuration at every speed
+    ``v``, its velocities are proportional to ``v``, nothing accelerates,
+    and its multipliers (the weight on the wheels) do not depend on ``v``.
+    The dynamic residual of the perturbed motion (Eqs. 8.110-8.112) is then
+    a polynomial in the reference velocities: the gyroscopic torques
+    ``omega x I omega`` and the inertial terms the reference velocities
+    carry are quadratic in ``v``, the coupling of the perturbation rates
+    with them linear, and so is ``E = d(D_r v)/dz`` of the rolling rows.
+    In the embedding of :func:`core.modal.linearize`, the same at every
+    speed (it depends on the configuration only), the linear model is
+
+    .. math::
+
+        M \dot s + v (C_1 + G_1) s + (K_0 + v^2 K_2) u = 0, \qquad
+        \dot u = T s + v Y_1 u,
+
+    the form of the paper's linearized equations (``M q'' + v C1 q' + (g K0
+    + v^2 K2) q = 0``, :class:`WhippleReference`) in the engine's
+    coordinates. :func:`whipple_speed_model` linearizes the
+    System at rest and at ``reference_speed`` and keeps the coefficients;
+    :meth:`linear_model` assembles the model of any speed from them,
+    equal to ``linearize(whipple_bicycle(v))`` to round-off (the
+    differenced derivatives are linear in the residual, so the same
+    differences enter both).
+
+    Attributes
+    ----------
+    M : (f_v, f_v) ndarray
+        Mass matrix (kg, kg m, kg m^2 in the basis).
+    K0, K2 : (f_v, f) ndarray
+        Stiffness at rest and its part per (m/s)^2.
+    C1, G1 : (f_v, f_v) ndarray
+        Damping and gyroscopic matrices per m/s.
+    velocity_map : (f, f_v) ndarray
+        ``T``: position rates of the independent velocities.
+    position_rate_map : (f, f) ndarray
+        ``Y_1``: position rates of the positions per m/s (rolling at speed).
+    embedding : core.modal.Embedding
+        Of the System at 1 m/s (``v0`` the velocities at 1 m/s).
+    derivative_error : float
+        The larger estimated relative error of the two linearizations.
+    reference_speed : float
+        The second speed linearized (m/s).
+    """
+
+    M: np.ndarray = field(repr=False)
+    K0: np.ndarray = field(repr=False)
+    K2: np.ndarray = field(repr=False)
+    C1: np.ndarray = field(repr=False)
+    G1: np.ndarray = field(repr=False)
+    velocity_map: np.ndarray = field(repr=False)
+    position_rate_map: np.ndarray = field(repr=False)
+    embedding: Any = field(repr=False)
+    derivative_error: float
+    reference_speed: float
+
+    def linear_model(self, speed: float):
+        """``LinearModel`` of the bicycle at forward speed ``speed`` (m/s), as ``linearize(whipple_bicycle(speed))``.
+
+        Raises
+        ------
+        ValueError
+            For a non-finite speed.
+        """
+        from core.modal import LinearModel
+
+        v = real_number(speed, "speed", expected="a finite forward speed (m/s)")
+        emb = dataclasses.replace(self.embedding, v0=_read_only(v * self.embedding.v0))
+        moving = v != 0.0
+        return LinearModel(self.M, self.K0 + (v * v) * self.K2, v * self.C1 if moving else None,
+                           v * self.G1 if moving else None, velocity_map=self.velocity_map,
+                           position_rate_map=v * self.position_rate_map if moving else None, embedding=emb,
+                           derivative_error=self.derivative_error)
+
+
+def whipple_speed_model(parameters: Any = "meijaard2007", *, reference_speed: float = 10.0) -> WhippleSpeedModel:
+    """The coefficients of the linearized bicycle in the speed (see :class:`WhippleSpeedModel`); cached.
+
+    Two calls of :func:`core.modal.linearize`, on :func:`whipple_bicycle`
+    at rest and at ``reference_speed``; the result is kept per parameter
+    set and reference speed (eight of them), so a sweep over the speed, a
+    root search for the weave and capsize speeds or a scene's modes cost
+    one eigenvalue problem a speed.
+
+    Parameters
+    ----------
+    parameters : str or WhippleParameters
+    reference_speed : float, keyword-only
+        The second speed linearized (m/s, finite and > 0); 10 m/s, the top of
+        the paper's table.
+
+    Returns
+    -------
+    WhippleSpeedModel
+        Shared between calls: read-only arrays.
+
+    Raises
+    ------
+    ValueError
+        For unknown parameters or a reference speed that is not finite and > 0.
+    """
+    p = _parameters(parameters)
+    vr = real_number(reference_speed, "reference_speed", expected="a finite speed > 0 (m/s)")
+    if not vr > 0.0:
+        raise ValueError(f"reference_speed: expected a finite speed > 0 (m/s), got {vr!r}")
+    return _speed_model(p, vr)
+
+
+@functools.lru_cache(maxsize=8)
+def _speed_model(p: WhippleParameters, vr: float) -> WhippleSpeedModel:
+    from core.modal import linearize
+
+    rest = linearize(whipple_bicycle(0.0, p))
+    ride = linearize(whipple_bicycle(vr, p))
+    for name in ("basis", "velocity_basis", "q0"):
+        if not np.array_equal(getattr(rest.embedding, name), getattr(ride.embedding, name)):  # one configuration
+            raise RuntimeError(f"the bicycle's embedding ({name}) differs between 0 and {vr} m/s")
+    if not (np.array_equal(rest.M, ride.M) and np.array_equal(rest.velocity_map, ride.velocity_map)):
+        raise RuntimeError(f"the bicycle's mass matrix or velocity map differs between 0 and {vr} m/s")
+    zero = np.zeros_like(ride.M)
+    C = ride.C if ride.C is not None else zero
+    G = ride.G if ride.G is not None else zero
+    Y = ride.position_rate_map if ride.position_rate_map is not None else np.zeros((ride.n_dof, ride.n_dof))
+    emb = dataclasses.replace(ride.embedding, v0=_read_only(ride.embedding.v0 / vr))
+    arrays = [_read_only(a) for a in (rest.M, rest.K, (ride.K - rest.K) / (vr * vr), C / vr, G / vr,
+                                      rest.velocity_map, Y / vr)]
+    return WhippleSpeedModel(*arrays, emb, max(rest.derivative_error, ride.derivative_error), vr)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    out = np.array(a, dtype=float)
+    out.setflags(write=False)
+    return out
 
 
 # ------------------------------------------------------------------ a push and the response

@@ -29,6 +29,7 @@ from core.models import (
     whipple_modes,
     whipple_push,
     whipple_ride,
+    whipple_speed_model,
 )
 from core.rotations import matrix_from_axis_angle
 from core.rotations import euler_parameters_from_matrix
@@ -146,6 +147,119 @@ def test_modes_named_and_shaped_as_the_reference(speed):
     if speed == 5.0:
         assert all(m.stable for m in modes)
         assert abs(modes[2].lean) == pytest.approx(1.0)  # capsize: mostly lean
+
+
+# ------------------------------------------------------------------ built once, copied per speed
+def _built_afresh(speed, p=MEIJAARD_2007):
+    """The System of ``whipple_bicycle`` built and assembled at ``speed`` step by step (no cache): the oracle."""
+    from core.contact import Plane, Torus
+    from core.multibody import System
+
+    T = np.diag([1.0, -1.0, -1.0])
+
+    def tensor(i):
+        return T @ np.array([[i[0], 0.0, i[3]], [0.0, i[1], 0.0], [i[3], 0.0, i[2]]]) @ T
+
+    w, c, rR, rF = p.wheelbase, p.trail, p.rear_radius, p.front_radius
+    fwd = (speed, 0.0, 0.0)
+    s = System(gravity=(0.0, 0.0, -p.gravity))
+    rear = s.add_body("rear_wheel", mass=p.rear_mass, inertia=(p.rear_inertia[0], p.rear_inertia[1], p.rear_inertia[0]),
+                      position=(0.0, 0.0, rR), velocity=fwd, omega=(0.0, speed / rR, 0.0))
+    frame = s.add_body("frame", mass=p.frame_mass, inertia=tensor(p.frame_inertia),
+                       position=(p.frame_position[0], 0.0, -p.frame_position[1]), velocity=fwd)
+    fork = s.add_body("fork", mass=p.fork_mass, inertia=tensor(p.fork_inertia),
+                      position=(p.fork_position[0], 0.0, -p.fork_position[1]), velocity=fwd)
+    front = s.add_body("front_wheel", mass=p.front_mass, inertia=(p.front_inertia[0], p.front_inertia[1],
+                                                                  p.front_inertia[0]),
+                       position=(w, 0.0, rF), velocity=fwd, omega=(0.0, speed / rF, 0.0))
+    a = p.steer_axis
+    hub, foot = np.array([w, 0.0, rF]), np.array([w + c, 0.0, 0.0])
+    s.add_joint("revolute", frame, rear, point=(0.0, 0.0, rR), axis=(0.0, 1.0, 0.0), name="rear_hub")
+    s.add_joint("revolute", frame, fork, point=foot + ((hub - foot) @ a) * a, axis=a, name="steer")
+    s.add_joint("revolute", fork, front, point=hub, axis=(0.0, 1.0, 0.0), name="front_hub")
+    s.add_contact(s.ground, Plane(), rear, Torus(rR, 0.0), rolling=True, name="rear_contact")
+    s.add_contact(s.ground, Plane(), front, Torus(rF, 0.0), rolling=True, name="front_contact")
+    s.assemble()
+    return s
+
+
+@pytest.mark.parametrize("speed", [0.0, 2.5, -3.0])
+def test_each_call_is_the_system_built_afresh_and_its_own(speed):
+    """``whipple_bicycle`` copies one assembled System per parameter set and scales its velocities: the state is
+    that of the System built and assembled at the speed (positions to 1e-15 m, velocities to 1e-15 of the speed:
+    the assembly's least-change projection of velocities that already satisfy the rows moves them by round-off
+    only), and a copy changed does not change the next one."""
+    got = whipple_bicycle(speed)
+    want = _built_afresh(speed)
+    np.testing.assert_allclose(got.state.q, want.state.q, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(got.state.v, want.state.v, rtol=0, atol=1e-15 * max(abs(speed), 1.0))
+    assert [b.name for b in got.bodies] == [b.name for b in want.bodies]
+    assert [c.name for c in got.contacts] == ["rear_contact", "front_contact"]
+    assert got.evaluate().D.shape == want.evaluate().D.shape
+    got.set_state(whipple_push(got, 30.0))
+    again = whipple_bicycle(speed)
+    np.testing.assert_allclose(again.state.v, want.state.v, rtol=0, atol=1e-15 * max(abs(speed), 1.0))
+    assert again.bodies[0] is not got.bodies[0]
+
+
+# ------------------------------------------------------------------ the linear model at every speed
+@pytest.mark.parametrize("speed", [0.0, 0.5, 3.0, 6.0, 10.0, 12.0])
+def test_speed_model_is_the_linearization_at_that_speed(speed):
+    """``whipple_speed_model().linear_model(v)`` against ``linearize(whipple_bicycle(v))``: the same embedding, and
+    matrices equal to 1e-12 of their largest entry (the differenced derivatives are linear in the residual,
+    which is a polynomial of degree 2 in the speed, so only the round-off of the scaling separates them; 12 m/s
+    lies beyond the reference speed)."""
+    model = whipple_speed_model().linear_model(speed)
+    direct = linearize(whipple_bicycle(speed))
+    np.testing.assert_array_equal(model.embedding.basis, direct.embedding.basis)
+    np.testing.assert_array_equal(model.embedding.velocity_basis, direct.embedding.velocity_basis)
+    np.testing.assert_allclose(model.embedding.v0, direct.embedding.v0, rtol=0, atol=1e-15 * max(speed, 1.0))
+    for got, want in ((model.M, direct.M), (model.K, direct.K), (model.velocity_matrix, direct.velocity_matrix),
+                      (model.velocity_map, direct.velocity_map), (model.state_matrix(), direct.state_matrix())):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * max(np.max(np.abs(want)), 1.0))
+    assert (model.position_rate_map is None) == (direct.position_rate_map is None)
+    assert (model.C is None) == (direct.C is None)
+
+
+@pytest.mark.parametrize("speed", MEIJAARD_2007_SPEEDS)
+def test_speed_model_eigenvalues_to_ten_digits(speed):
+    modes = whipple_speed_model().linear_model(speed).modes()
+    assert np.sum(modes.rigid) == 6
+    live = modes.eigenvalues[~modes.rigid]
+    assert np.max(_matched_error(live, np.array(PUBLISHED[speed]))) < 1e-10
+    assert np.max(_matched_error(live, whipple_bicycle_reference().eigenvalues(speed))) < 1e-10
+    assert [m.name for m in whipple_modes(whipple_speed_model().linear_model(speed))][-2:] == ["capsize", "castering"]
+
+
+def test_weave_and_capsize_speeds_from_the_speed_model():
+    """The sweep and Brent's method on the speed model (one eigenvalue problem a speed) find the published
+    weave and capsize speeds to 1e-11 relative, as on the engine linearized at every speed (the slow test above)."""
+    model = whipple_speed_model()
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        result = sweep(model.linear_model, np.linspace(0.0, 10.0, 11), executor=pool)
+    np.testing.assert_allclose(result.boundaries(xtol=1e-13), [WEAVE_SPEED, CAPSIZE_SPEED], rtol=1e-11)
+    assert whipple_speed_model() is model  # kept per parameter set
+
+
+def test_speed_model_of_other_parameters_and_errors():
+    p = dataclasses.replace(MEIJAARD_2007, trail=0.11, steer_axis_tilt=0.35, fork_mass=6.0,
+                            fork_inertia=(0.09, 0.1, 0.012, -0.01), front_radius=0.33)
+    model = whipple_speed_model(p, reference_speed=7.0)
+    assert model.reference_speed == 7.0
+    for speed in (1.5, 5.0):
+        modes = model.linear_model(speed).modes()
+        live = modes.eigenvalues[~modes.rigid]
+        assert np.max(_matched_error(live, whipple_bicycle_reference(p).eigenvalues(speed))) < 1e-10
+    with pytest.raises(ValueError, match="reference_speed: expected a finite speed > 0"):
+        whipple_speed_model(reference_speed=0.0)
+    with pytest.raises(ValueError, match="reference_speed: expected a finite speed"):
+        whipple_speed_model(reference_speed=math.nan)
+    with pytest.raises(ValueError, match="parameters: expected a WhippleParameters"):
+        whipple_speed_model("penny-farthing")
+    with pytest.raises(ValueError, match="speed: expected a finite forward speed"):
+        whipple_speed_model().linear_model(math.inf)
+    with pytest.raises(ValueError):
+        model.K0[0, 0] = 1.0  # shared between calls: read-only
 
 
 # ------------------------------------------------------------------ angles, push
