@@ -68,6 +68,7 @@ from core.models import (
     whipple_modes,
     whipple_push,
     whipple_ride,
+    whipple_speed_model,
 )
 
 __all__ = [
@@ -89,6 +90,7 @@ _PARAMETERS = MEIJAARD_2007
 _CHUNK_SIM_TIME = 0.5  # s of simulated time per chunk
 _SAMPLE_RATE = 40  # samples per simulated second (the frames interpolate between them)
 _CHUNKS_KEPT = 8
+_JOBS_AFTER = 1.0  # s of ride shown after which the curves and modes go to the workers even if the ride is not ahead
 _RTOL, _ATOL = 1e-5, 1e-7  # the ride's DOP853 tolerances (a display: lean to about 1e-5 rad)
 _WINDOW = 10.0  # s of lean and steer in the plot
 _REFRESH_PERIOD = 0.2  # s of wall time between plot / readout refreshes
@@ -283,10 +285,15 @@ class ModeRow:
 
 
 def _modes_job(speed: float) -> tuple[float, tuple[ModeRow, ...]]:
-    """``(speed, modes)``: linearize the bicycle at ``speed`` and name its four modes (on the executor)."""
-    from core.modal import linearize
+    """``(speed, modes)``: the bicycle linearized at ``speed`` and its four modes named (on the executor).
 
-    modes = whipple_modes(linearize(whipple_bicycle(speed, _PARAMETERS)), _PARAMETERS)
+    The linear model comes from :func:`core.models.whipple_speed_model`,
+    equal to ``linearize(whipple_bicycle(speed))`` to round-off: a worker
+    linearizes the System twice (at rest and at 10 m/s) for its first job,
+    then every speed costs one eigenvalue problem (a few ms).
+    """
+    model = whipple_speed_model(_PARAMETERS).linear_model(speed)
+    modes = whipple_modes(model, _PARAMETERS)
     return speed, tuple(ModeRow(m.name, m.eigenvalue, m.lean, m.steer) for m in modes)
 
 
@@ -933,18 +940,26 @@ class BicycleScene(PlaybackRequests, Scene):
                 self._svg_due = True
 
     def _background_jobs(self) -> None:
-        """The paper's curves, then the modes at the current speed; a sweep speed only while the ride has
-        its chunk in hand."""
+        """The paper's curves, then the modes at the current speed, then a sweep speed.
+
+        Each waits until the ride has its next chunk in hand (or is not
+        riding), so that a (re)started ride's first chunks come first on the
+        workers and the ride moves at once; the curves and the modes wait
+        at most until the ride has shown :data:`_JOBS_AFTER` (a worker that
+        never gets ahead of the clock still computes them), the sweep always.
+        """
+        ahead = not self.timeline.busy and (
+            self.timeline.ready(self.timeline.index(self.local_time) + 1) or self.fallen or not self.playing
+            or self.timeline.error is not None)
+        if not ahead and self.sim_time < _JOBS_AFTER:
+            return
         if self._reference_job is None:
             self._reference_job = self.executor.submit(_reference_job)
         if self._modes_job is None and self._modes_pending is not None:
             speed, self._modes_pending = self._modes_pending, None
             self._modes_job = self.executor.submit(_modes_job, speed)
             return
-        if self._modes_job is not None or self._sweep_job is not None or self.timeline.busy:
-            return
-        ahead = self.timeline.ready(self.timeline.index(self.local_time) + 1) or self.fallen or not self.playing
-        if not ahead:
+        if self._modes_job is not None or self._sweep_job is not None or not ahead:
             return
         while self._sweep_next < len(_SWEEP_ORDER):
             speed = SWEEP_SPEEDS[_SWEEP_ORDER[self._sweep_next]]
