@@ -37,6 +37,9 @@ def warm() -> float:
     kc.applied(0.0, y, model._loads)
     kc.solve(0, kc.Q, kc.gamma, np.zeros(6 * eng.n))
     _warm_contacts()
+    from core.modal import linearize
+
+    linearize(pendulum_chain(2))  # the tree's null-space basis (_tree_basis)
     rng = np.random.default_rng(0)
     p = rng.normal(size=(128, 4))
     A = matrix_from_euler_parameters(p / np.linalg.norm(p, axis=1, keepdims=True))

@@ -698,9 +698,12 @@ def _unit_largest(Z: np.ndarray) -> np.ndarray:
 def _real_shapes(V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(complex shapes, real shapes)`` of the rows of ``V`` (k, f): each turned by the phase that makes its
     real part largest (Eqs. 8.125-8.129), largest real entry +1."""
-    ss = np.sum(V * V, axis=1)
-    alpha = np.where(np.abs(ss) > 0, -0.5 * np.arctan2(ss.imag, ss.real), 0.0)
-    W = V * (np.cos(alpha) + 1j * np.sin(alpha))[:, None]
+    if not np.any(V.imag):  # real shapes (the symmetric problem): no phase to turn (alpha = 0)
+        W = V
+    else:
+        ss = np.sum(V * V, axis=1)
+        alpha = np.where(np.abs(ss) > 0, -0.5 * np.arctan2(ss.imag, ss.real), 0.0)
+        W = V * (np.cos(alpha) + 1j * np.sin(alpha))[:, None]
     flat = ~np.any(W.real, axis=1)
     if np.any(flat):
         W[flat] = W[flat] * -1j
@@ -726,21 +729,24 @@ def _modes(s: np.ndarray, X: np.ndarray, *, method: str, embedding: Embedding | 
     # groups: a conjugate pair (Im > tiny) or a single real eigenvalue
     upper = np.flatnonzero(s.imag > tiny)
     lower = np.flatnonzero(s.imag < -tiny)
-    groups: list[list[int]] = []
-    paired: set[int] = set()
+    first = second = np.zeros(0, dtype=np.intp)
     if upper.size and lower.size:
         cost = np.abs(s[upper][:, None] - np.conj(s[lower])[None, :])
         ri, ci = linear_sum_assignment(cost)
-        for i, j in zip(ri, ci):
-            if cost[i, j] <= 1e-6 * scale:
-                groups.append([int(upper[i]), int(lower[j])])
-                paired.update((int(upper[i]), int(lower[j])))
-    groups += [[i] for i in range(k) if i not in paired]
-    groups.sort(key=lambda g: (abs(s[g[0]].imag) if len(g) == 2 else 0.0, s[g[0]].real))
-    order = [i for g in groups for i in g]
-    assert len(order) == k
-    first = np.array([g[0] for g in groups], dtype=np.intp)
-    pair = np.array([len(g) == 2 for g in groups], dtype=bool)
+        ok = cost[ri, ci] <= 1e-6 * scale
+        first, second = upper[ri[ok]], lower[ci[ok]]
+    single = np.ones(k, dtype=bool)
+    single[first] = single[second] = False
+    # the groups, pairs (in the assignment's order) then single roots, sorted stably by (|Im s| of a pair, else
+    # 0; Re s)
+    pair = np.concatenate([np.ones(first.size, dtype=bool), np.zeros(int(single.sum()), dtype=bool)])
+    first = np.concatenate([first, np.flatnonzero(single)])
+    second = np.concatenate([second, -np.ones(first.size - second.size, dtype=np.intp)])
+    rank = np.lexsort((s[first].real, np.where(pair, np.abs(s[first].imag), 0.0)))
+    first, second, pair = first[rank], second[rank], pair[rank]
+    order = np.stack([first, second], axis=1).ravel()
+    order = order[order >= 0]
+    assert order.size == k
     pos = np.concatenate([[0], np.cumsum(np.where(pair, 2, 1))[:-1]]).astype(np.intp)
     s1 = s[first]
     V = X[first]
@@ -1035,17 +1041,20 @@ def _null_space(D: np.ndarray) -> np.ndarray:
 
 #: Largest condition number of the (column-scaled) tree basis for Cholesky QR (:func:`_orthonormal_columns`).
 _CHOLESKY_QR_COND = 1e6
+#: Orthogonality error ``max |X^T X - I|`` accepted after one Cholesky QR pass (the error of Householder QR).
+_ORTHONORMAL_TOL = 2e-15
 
 
 def _orthonormal_columns(B: np.ndarray) -> np.ndarray:
     """Orthonormal basis (6n, f) of the span of the f independent columns of ``B``.
 
-    Cholesky QR twice (``G = X^T X = R^T R``, ``X <- X R^-1``, repeated;
-    Fukaya et al. 2014): one pass leaves an orthogonality error of about
-    ``eps cond(B)^2``, the second pass removes it when ``cond(B)`` is below
-    about ``eps^-1/2``. The columns are scaled to unit length first; a
-    condition number above ``_CHOLESKY_QR_COND`` (estimated from ``R``)
-    takes Householder QR instead.
+    Cholesky QR (``G = X^T X = R^T R``, ``X <- X R^-1``), repeated once
+    when the result's orthogonality error ``max |X^T X - I|`` exceeds
+    ``_ORTHONORMAL_TOL`` (CholeskyQR2, Fukaya et al. 2014): a pass leaves an
+    error of about ``eps cond(X)^2``, so the second pass brings any ``cond(B)``
+    below about ``eps^-1/2`` to round-off. The columns are scaled to unit
+    length first; a condition number above ``_CHOLESKY_QR_COND`` (estimated
+    from ``R``) takes Householder QR instead.
     """
     f = B.shape[1]
     if f == 0:
@@ -1053,17 +1062,18 @@ def _orthonormal_columns(B: np.ndarray) -> np.ndarray:
     norms = np.sqrt(np.sum(B * B, axis=0))
     if np.all(norms > 0.0):
         X = B / norms
-        for npass in range(2):
-            R, info = scipy.linalg.lapack.dpotrf(X.T @ X)
-            if info != 0:
-                break
-            if npass == 0:
-                rcond, info = scipy.linalg.lapack.dtrcon(R)
-                if info != 0 or not rcond * _CHOLESKY_QR_COND > 1.0:
-                    break
+        G = X.T @ X
+        R, info = scipy.linalg.lapack.dpotrf(G)
+        if info == 0:
+            rcond, info = scipy.linalg.lapack.dtrcon(R)
+        if info == 0 and rcond * _CHOLESKY_QR_COND > 1.0:
             X = scipy.linalg.blas.dtrsm(1.0, R, X, side=1)  # X R^-1
-        else:
-            return np.ascontiguousarray(X)
+            G = X.T @ X
+            if np.max(np.abs(G - np.eye(f))) <= _ORTHONORMAL_TOL:
+                return np.ascontiguousarray(X)
+            R, info = scipy.linalg.lapack.dpotrf(G)
+            if info == 0:
+                return np.ascontiguousarray(scipy.linalg.blas.dtrsm(1.0, R, X, side=1))
     Q, _ = scipy.linalg.qr(B, mode="economic")
     return np.ascontiguousarray(Q)
 
@@ -1140,17 +1150,27 @@ def _step_lengths(eng: Any, ref: Any, ell: np.ndarray) -> np.ndarray:
     return out
 
 
+def _frame_cross(W: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(n, 3) ``W x v`` per row of ``v`` (the formula of ``np.cross``, without its overhead)."""
+    out = np.empty_like(v)
+    out[:, 0] = W[1] * v[:, 2] - W[2] * v[:, 1]
+    out[:, 1] = W[2] * v[:, 0] - W[0] * v[:, 2]
+    out[:, 2] = W[0] * v[:, 1] - W[1] * v[:, 0]
+    return out
+
+
 def _check_steady(eng: Any, ref: Any, system: Any, ell: np.ndarray, tol: float) -> None:
     n = eng.n
     W = ref.frame_omega
     Rd = ref.y[7 * n : 10 * n].reshape(n, 3)
-    acc_R = ref.R_ddot - np.cross(W[None, :], Rd)
-    acc_w = ref.alpha - np.cross(W[None, :], ref.omega)
+    W_Rd = _frame_cross(W, Rd)
+    acc_R = ref.R_ddot - W_Rd
+    acc_w = ref.alpha - _frame_cross(W, ref.omega)
     w2 = float(np.max(np.sum(ref.omega**2, axis=1)))
     # the springs' accelerations over the bodies' lengths (k ell / m): the scale of a reference held by springs
     # alone, without gravity or motion, whose forces balance to round-off
     springs = max((sp.stiffness for sp in eng.springs), default=0.0) * float(np.max(ell)) / float(np.min(eng.mass))
-    scale_R = max(float(np.linalg.norm(system.gravity)), float(np.max(np.abs(np.cross(W[None, :], Rd)))),
+    scale_R = max(float(np.linalg.norm(system.gravity)), float(np.max(np.abs(W_Rd))),
                   w2 * float(np.max(ell)), float(W @ W) * float(np.max(ell)), springs, 1e-12)
     scale_w = max(scale_R / float(np.min(ell)), w2, float(W @ W), 1e-12)
     eR = np.linalg.norm(acc_R, axis=1) / scale_R

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 
+from . import _tree_basis
 from ._engine import _Engine, cross
 from ._system import exp_parameters, quaternion_products
 
@@ -117,6 +118,8 @@ def reference(system: Any, t: float, frame_omega: np.ndarray) -> tuple[_Engine, 
         shared._linearization_U = scipy.sparse.csr_matrix(shared.U)
     if getattr(shared, "_linearization_ell", None) is None:
         shared._linearization_ell = body_length_scales(shared)
+    if getattr(shared, "_linearization_trees", None) is None:
+        shared._linearization_trees = {}  # (shared with the workspaces: see _tree_order)
     eng = shared.workspace()
     n = eng.n
     y = np.array(system._y, dtype=float)
@@ -169,10 +172,10 @@ def jacobian_from_slots(n: int, Jc: np.ndarray, jc_body: np.ndarray) -> np.ndarr
     m = Jc.shape[0]
     D = np.zeros((m, 6 * n))
     r, s = np.nonzero(jc_body >= 0)
-    b = jc_body[r, s]
-    k = np.arange(3)[None, :]
-    D[r[:, None], 3 * b[:, None] + k] = Jc[r, s, :3]
-    D[r[:, None], 3 * n + 3 * b[:, None] + k] = Jc[r, s, 3:]
+    at = (r * (6 * n) + 3 * jc_body[r, s])[:, None] + np.arange(3)[None, :]  # (flat index of the R_dot columns)
+    flat = D.reshape(-1)
+    flat[at] = Jc[r, s, :3]
+    flat[at + 3 * n] = Jc[r, s, 3:]
     return D
 
 
@@ -191,7 +194,7 @@ def tree_null_space(eng: _Engine, ref: Reference) -> np.ndarray | None:
     ground) and child ``c`` has rows ``D_gp z_p + D_gc z_c = 0``, ``D_gc``
     (s x 6) of full row rank, so the child moves as ``z_c = T_g z_p + N_g
     w_g`` with ``T_g = -D_gc^+ D_gp`` and ``N_g`` (6 x (6 - s)) the joint's
-    free directions (the null space of ``D_gc``, by SVD). From the roots
+    free directions (the null space of ``D_gc``, by QR of ``D_gc^T``). From the roots
     (a body without a parent joint is free: six columns) down the tree,
     every joint adds its free directions and carries its parent's columns:
     O(n f). The k secondary rows (loops) then restrict the tree's motions
@@ -210,63 +213,54 @@ def tree_null_space(eng: _Engine, ref: Reference) -> np.ndarray | None:
     kc.select(eng.keep)
     kc.evaluate(ref.t, ref.y, 1)
     tr = kc.tree_now
-    jb = kc.jc_body
-    bs = np.where(jb >= 0, jb, 0)
-    Jz = np.array(kc.Jc)  # (m, 3, 6): rotation columns turned to global small rotations, J_w A^T = (A J_w)^T
-    Jz[..., 3:] = np.einsum("rsji,rsi->rsj", ref.A[bs], Jz[..., 3:])
-    kind, parent, ref_of = tr.node_kind, tr.order_parent, tr.node_ref
-    groups = ref_of[kind == 1]
-    G = groups.size
-    rows = tr.group_rows[groups] if G else np.zeros((0, 6), dtype=np.int64)
-    live = rows >= 0
-    size = live.sum(axis=1)
-    rr = np.where(live, rows, 0)
-    sc = tr.group_slot_of[groups, 0] if G else np.zeros(0, dtype=np.int64)
-    sp = tr.group_slot_of[groups, 1] if G else np.zeros(0, dtype=np.int64)
-    Dc = Jz[rr, sc[:, None]] * live[..., None]  # (G, 6, 6), rows past the group's size zero
-    Dp = Jz[rr, np.maximum(sp, 0)[:, None]] * (live & (sp >= 0)[:, None])[..., None]
-    U, S, Vt = np.linalg.svd(Dc)
-    idx = np.arange(6)[None, :]
-    if G:
-        smin = S[np.arange(G), np.maximum(size - 1, 0)]
-        if np.any((size > 0) & ~(smin > TREE_RANK_TOL * S[:, 0])):
-            return None
-    Sinv = np.where(idx < size[:, None], 1.0 / np.where(S > 0.0, S, 1.0), 0.0)
-    T = -np.matmul(np.transpose(Vt, (0, 2, 1)) * Sinv[:, None, :], np.matmul(np.transpose(U, (0, 2, 1)), Dp))
-    # per body, parents first: its tree joint (index into the groups, -1 at a root), parent body (-1: none)
-    # and its first free column
-    q_of = np.full(max(int(groups.max(initial=-1)) + 1, 1), -1, dtype=np.int64)
-    q_of[groups] = np.arange(G)
-    nodes = np.flatnonzero(kind == 0)[::-1]
-    bodies = ref_of[nodes]
-    pg = parent[nodes]
-    child = pg >= 0
-    joint = np.full(nodes.size, -1, dtype=np.int64)
-    joint[child] = q_of[ref_of[pg[child]]]
-    pp = np.full(nodes.size, -1, dtype=np.int64)
-    pp[child] = parent[pg[child]]
-    up = np.full(nodes.size, -1, dtype=np.int64)
-    up[pp >= 0] = ref_of[pp[pp >= 0]]
-    free = 6 - np.concatenate([size, [0]])[joint]  # (a root: joint -1, six free columns)
-    start = np.concatenate([[0], np.cumsum(free)])
-    f = int(start[-1])
+    bodies, joint, up, start, free = _tree_order(eng, tr)
+    f = int(start[-1] + free[-1]) if n else 0
     B3 = np.zeros((n, 6, f))  # per body its rows [dR | dtheta]
-    NV = np.transpose(Vt, (0, 2, 1))  # (G, 6, 6): columns s_g.. span the joint's free directions
-    eye = np.eye(6)
-    for c, q, p, c0, k in zip(bodies.tolist(), joint.tolist(), up.tolist(), start[:-1].tolist(), free.tolist()):
-        if p >= 0:  # (the parent's columns so far: the later ones are zero on it)
-            np.matmul(T[q], B3[p, :, :c0], out=B3[c, :, :c0])
-        B3[c, :, c0 : c0 + k] = eye if q < 0 else NV[q, :, 6 - k :]
+    if _tree_basis.tree_basis(kc.Jc, kc.jc_body, ref.A, tr.group_rows, tr.group_slot_of, bodies, joint, up, start,
+                              free, TREE_RANK_TOL, B3):
+        return None
     sec = tr.sec_rows
     if sec.size > f:
         return None
     if sec.size:
-        E = np.einsum("lsk,lskf->lf", Jz[sec] * (jb[sec] >= 0)[..., None], B3[bs[sec]])
+        jb = kc.jc_body[sec]
+        bs = np.where(jb >= 0, jb, 0)
+        Jz = np.array(kc.Jc[sec])  # (k, 3, 6): rotation columns turned to global small rotations, (A J_w)^T
+        Jz[..., 3:] = np.einsum("lsji,lsi->lsj", ref.A[bs], Jz[..., 3:])
+        E = np.einsum("lsk,lskf->lf", Jz * (jb >= 0)[..., None], B3[bs])
         _, Se, Ve = np.linalg.svd(E)
         if not Se[-1] > TREE_RANK_TOL * Se[0]:
             return None
         B3 = np.matmul(B3, Ve[sec.size :].T)
     return np.concatenate([B3[:, :3].reshape(3 * n, -1), B3[:, 3:].reshape(3 * n, -1)])
+
+
+def _tree_order(eng: _Engine, tr: Any) -> tuple:
+    """Per body, parents first (``_tree_basis.tree_basis``'s order): ``(bodies, joint, up, start, free)``, the
+    body, its tree joint (-1: a root), its parent body (-1: none), its first free column and its number of
+    free directions. Cached per tree on the System's engine (see :func:`reference`)."""
+    cache = getattr(eng, "_linearization_trees", None)
+    key = id(tr)
+    if cache is not None and key in cache and cache[key][0] is tr:
+        return cache[key][1]
+    kind, parent, ref_of = tr.node_kind, tr.order_parent, tr.node_ref
+    nodes = np.flatnonzero(kind == 0)[::-1]
+    bodies = ref_of[nodes]
+    pg = parent[nodes]
+    child = pg >= 0
+    joint = np.full(nodes.size, -1, dtype=np.int64)
+    joint[child] = ref_of[pg[child]]
+    pp = np.full(nodes.size, -1, dtype=np.int64)
+    pp[child] = parent[pg[child]]
+    up = np.full(nodes.size, -1, dtype=np.int64)
+    up[pp >= 0] = ref_of[pp[pp >= 0]]
+    size = np.concatenate([np.sum(tr.group_rows >= 0, axis=1), [0]])
+    free = (6 - size[joint]).astype(np.int64)  # (a root: joint -1, six free columns)
+    start = np.concatenate([[0], np.cumsum(free)[:-1]]).astype(np.int64)
+    out = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in (bodies, joint, up, start, free))
+    if cache is not None:
+        cache[key] = (tr, out)
+    return out
 
 
 def mass_blocks(eng: _Engine, ref: Reference) -> np.ndarray:
