@@ -119,9 +119,29 @@ def gyro_pendulum() -> System:
     return system
 
 
+def held_chain() -> System:
+    """A chain of four rods whose second joint an angle motor holds at zero and whose third a displacement
+    motor holds on a cylindrical joint: tree joints of six rows (no free direction) and motor rows."""
+    system = System(gravity=(0.0, 0.0, -9.81))
+    x = (1.0, 0.0, 0.0)
+    prev = system.ground
+    joints = []
+    for k in range(4):
+        body = _rod(system, f"rod{k}", 1.0 + 0.2 * k, 1.0, (0.0, 0.0, -(k + 0.5)))
+        kind = "cylindrical" if k == 2 else "revolute"
+        joints.append(system.add_joint(kind, prev, body, point=(0.0, 0.0, -float(k)), axis=x if k != 2 else
+                                       (0.0, 0.0, 1.0)))
+        prev = body
+    system.add_motor(joints[1], angle=lambda t: 0.0 * t)
+    system.add_motor(joints[2], displacement=lambda t: 0.0 * t)
+    system.assemble()
+    return system
+
+
 CASES = {
     "chain of 30 rods": lambda: pendulum_chain(30, kind="rod"),
     "four-bar loop with a pendulum": hanging_four_bar,
+    "chain held by motors": held_chain,
     "branched tree with springs": branched_tree,
     "free base with an arm": free_base,
     "spinning rotor on springs": lambda: disk_rotor(300.0).system,
