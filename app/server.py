@@ -52,6 +52,7 @@ from app.panel import ControlPanel
 from app.scenes import discover_scenes, discovery_errors
 from app.scenes.base import Scene, SceneContext, aim_camera, plot_text_css
 from app.worker import make_executor
+from core._warm import running_for as warm_up_running_for
 
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
 
@@ -67,10 +68,20 @@ warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection"
 MODES = ("shared", "per-client")
 Mode = Literal["shared", "per-client"]
 
-#: Notice colours by level (Mantine colour names understood by viser).
-_LEVEL_COLORS = {"info": "blue", "warning": "yellow", "error": "red"}
+#: While the compiled kernels' warm-up (core/_warm.py, started by ``rigidlab serve``) has run this long (s)
+#: and a scene waits for a job, its audience gets this notice, again every _WARM_NOTICE_EVERY s until the
+#: warm-up ends (its jobs wait for it: app.worker): a first start on a new install compiles for a minute or two.
+_WARM_NOTICE_AFTER = 2.0
+_WARM_NOTICE_EVERY = 20.0
+_WARM_NOTICE = ("Compiling the kernels (first start only)…",
+                "The compiled simulation kernels are being built for this installation (a minute or two, once). "
+                "The motion starts as soon as they are ready; later starts load them in a moment.")
+_WARM_CHECK_TICKS = 30  # the loop looks at the warm-up every this many ticks (0.5 s)
+
+#: Notice colours by level (Mantine colour names understood by viser); "progress": a wait that goes on.
+_LEVEL_COLORS = {"info": "blue", "warning": "yellow", "error": "red", "progress": "blue"}
 #: Seconds before a notice closes on its own, by level.
-_LEVEL_SECONDS = {"info": 6.0, "warning": 10.0, "error": 15.0}
+_LEVEL_SECONDS = {"info": 6.0, "warning": 10.0, "error": 15.0, "progress": _WARM_NOTICE_EVERY}
 #: The same notice is not repeated more often than this (seconds).
 _NOTICE_REPEAT_SECONDS = 5.0
 #: Loop period (about 60 Hz) and the largest dt handed to a scene (s).
@@ -568,6 +579,7 @@ class RigidlabApp:
     _stop: threading.Event = dataclasses.field(default_factory=threading.Event)
     _thread: threading.Thread | None = None
     _ticks: int = 0
+    _warm_notices: dict[int, float] = dataclasses.field(default_factory=dict)  # id(session): last notice time
     _switch_interval: float | None = None
 
     # -- sessions -------------------------------------------------------
@@ -668,6 +680,8 @@ class RigidlabApp:
                 except Exception:  # step guards scenes; this is a last resort
                     _log.error("session step failed:\n%s", traceback.format_exc())
             self._ticks += 1
+            if self._ticks % _WARM_CHECK_TICKS == 0:
+                self._notice_warm_up(sessions)
             flush = getattr(self.executor, "flush", None)
             if flush is not None:
                 flush()  # jobs the frames asked for go to the workers while the loop sleeps
@@ -677,6 +691,30 @@ class RigidlabApp:
                 next_tick = time.perf_counter()
                 delay = 0.0
             self._stop.wait(max(delay, 0.0))
+
+    def _notice_warm_up(self, sessions: list[Session]) -> None:
+        """Tell the audiences whose scene's clock holds for a job that the kernels are being compiled (see
+        :data:`_WARM_NOTICE`), while the warm-up runs (loop thread)."""
+        try:
+            running = warm_up_running_for()
+        except Exception:  # a notice must never stop the loop
+            running = None
+        if running is None or running < _WARM_NOTICE_AFTER:
+            self._warm_notices.clear()
+            return
+        now = time.monotonic()
+        for session in sessions:
+            try:
+                scene = session.active_scene()
+            except Exception:  # (a session closing meanwhile)
+                continue
+            timeline = getattr(scene, "timeline", None)
+            if not (getattr(scene, "waiting", False) and getattr(timeline, "busy", False)):
+                continue  # (a scene whose jobs need no kernel goes on during a warm-up: its clock does not hold)
+            last = self._warm_notices.get(id(session))
+            if last is None or now - last >= _WARM_NOTICE_EVERY:
+                self._warm_notices[id(session)] = now
+                session.notify(*_WARM_NOTICE, "progress")
 
     def _link_state(self, client_id: int) -> dict[str, Any] | None:
         string = state_codec.state_from_path(client_request_path(self.server, client_id))

@@ -51,6 +51,15 @@ def _worker_ready() -> int:
     return os.getpid()
 
 
+def _worker_start() -> None:
+    """Each worker process, at its start: a compiled kernel it needs while ``rigidlab serve``'s warm-up child
+    compiles them waits for the warm-up and loads its result (see :mod:`core._warm`), instead of compiling
+    the same kernels beside it."""
+    from core._warm import defer_compiles_to_warm_up
+
+    defer_compiles_to_warm_up()
+
+
 def make_executor(
     *, processes: bool = False, preload: Iterable[str] = (), name: str = "rigidlab-worker"
 ) -> concurrent.futures.Executor:
@@ -62,7 +71,8 @@ def make_executor(
         A pool of worker processes (one per core beyond the first, at least
         one), started by a fork server that has imported ``preload`` (module
         names: the scenes' modules, whose job functions the workers run), and
-        warmed up at once. Otherwise one thread.
+        warmed up at once; a worker's kernels wait for a running warm-up of
+        the compiled kernels (:mod:`core._warm`). Otherwise one thread.
     preload : iterable of str, keyword-only
         Modules the fork server imports before it forks workers.
     name : str, keyword-only
@@ -82,7 +92,8 @@ def make_executor(
     workers = max(1, (os.cpu_count() or 2) - 1)
 
     def pool() -> concurrent.futures.ProcessPoolExecutor:
-        executor = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context)
+        executor = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                                                          initializer=_worker_start)
         executor.submit(_worker_ready)  # start the workers now, not at the first chunk
         return executor
 
