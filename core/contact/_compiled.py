@@ -6,9 +6,11 @@ the same order, on the closed forms of :class:`~core.contact.Plane`,
 :class:`~core.contact.Sphere`, :class:`~core.contact.Ellipsoid`,
 :class:`~core.contact.Torus` and the built-in planar curves
 (:meth:`~core.contact.PlanarCurve.circle`,
-:meth:`~core.contact.PlanarCurve.line`). A contact with a surface given by
-user callables (:class:`~core.contact.ParametricSurface`, a general
-:class:`~core.contact.PlanarCurve`) keeps the float path.
+:meth:`~core.contact.PlanarCurve.line`). A planar curve of user callables
+(a cam profile) takes the kernel too: Python evaluates its derivatives at
+each Newton iterate and hands them in (status ``DERIVATIVES``, arrays ``X``
+and ``xs``). A contact with a :class:`~core.contact.ParametricSurface` keeps
+the float path.
 
 One entry point, :func:`contact_packed`, does for one contact what the float
 path does: Newton's method on the extremal conditions ``E(q, s) = 0`` for
@@ -37,7 +39,11 @@ Data (all float64 unless said):
   ``Es`` (4, 4): written by Newton (mode 0) and by a geometry at fixed
   ``s`` (mode 1), read by the rows (mode 2: from the given ones).
 * ``out`` (48,): the results at the offsets named ``O_*``; ``D_row`` (6n,)
-  and ``Dr_rows`` (2, 6n): the contact's and the rolling rows (added to).
+  and ``Dr_rows`` (2, 6n): the contact's and the rolling rows (their blocks
+  of the contact's bodies are written).
+* ``X`` (2, 2, 4, 3) and ``xs`` (2, 2): per side, a user curve's derivatives
+  ``c^(k)`` and its normal field's (``c^(k+1) x e_z``), lifted to 3-vectors,
+  and the parameter and order they are of.
 
 Every kernel runs without the GIL (``nogil=True``).
 """
@@ -50,9 +56,9 @@ import numpy as np
 from numba import njit
 
 # statuses
-OK, SINGULAR, NOT_FINITE, NOT_FACING, NO_CONVERGENCE, RECHART, SINGULAR_RATE = 0, 1, 2, 3, 4, 5, 6
-# surface kinds
-PLANE, QUADRIC, TORUS, CIRCLE, LINE = 0, 1, 2, 3, 4
+OK, SINGULAR, NOT_FINITE, NOT_FACING, NO_CONVERGENCE, RECHART, SINGULAR_RATE, DERIVATIVES = 0, 1, 2, 3, 4, 5, 6, 7
+# surface kinds (CURVE: a planar curve of user callables, whose derivatives Python hands in)
+PLANE, QUADRIC, TORUS, CIRCLE, LINE, CURVE = 0, 1, 2, 3, 4, 5
 # rows of G
 RHO, T, T2, T3, NN, N1, N2 = 0, 1, 3, 7, 15, 16, 18
 # ctl
@@ -69,7 +75,8 @@ _CHART_LIMIT = 1.0  # (= _kernel._CHART_LIMIT)
 
 
 def describe(surface):
-    """(16,) description of a built-in surface for the kernel, or None (a surface of user callables)."""
+    """(16,) description of a surface for the kernel (a planar curve of user callables: the kind ``CURVE``,
+    its derivatives handed in), or None (a :class:`~core.contact.ParametricSurface`: the float path)."""
     from ._curves import PlanarCurve
     from ._surfaces import Ellipsoid, Plane, Sphere, Torus
 
@@ -93,13 +100,15 @@ def describe(surface):
         b = surface._builtin
         d[0] = CIRCLE if b[0] == "circle" else LINE
         d[1 : 1 + len(b) - 1] = b[1:]
+    elif isinstance(surface, PlanarCurve):  # its point and derivatives from Python, per Newton iterate
+        d[0] = CURVE
     else:
         return None
     return d
 
 
 def description(contact):
-    """(42,) description of a contact whose two surfaces are built in, or None."""
+    """(42,) description of a contact for the kernel, or None when a side is a ParametricSurface."""
     di, dj = describe(contact.surface_i), describe(contact.surface_j)
     if di is None or dj is None:
         return None
@@ -195,10 +204,18 @@ def _trig(x, k):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _derivs(sd, x0, x1, Q, order, Db, Dn):
+def _derivs(sd, x0, x1, Q, order, Db, Dn, X):
     """Body-frame derivatives ``Db[a, b] = d^(a+b) u / ds1^a ds2^b`` (curves: ``Db[k, 0]``) up to ``order``;
-    the normal field's ``Dn`` up to ``order - 1`` where the surface gives it. Returns whether it does."""
+    the normal field's ``Dn`` up to ``order - 1`` where the surface gives it. Returns whether it does.
+    ``X`` (2, 4, 3): a user curve's derivatives and its normal field's, handed in by Python."""
     kind = int(sd[0])
+    if kind == 5:
+        for k in range(order + 1):
+            for c in range(3):
+                Db[k, 0, c] = X[0, k, c]
+                if k < order:
+                    Dn[k, 0, c] = X[1, k, c]
+        return True
     if kind == 0:  # plane: u = o + s1 e1 + s2 e2; nu = e1 x e2 from the rotated tangents
         for a in range(order + 1):
             for b in range(order + 1 - a):
@@ -301,10 +318,10 @@ def _dv(D, ab):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _glob(sd, x0, x1, Q, A, p, order, G, side, Db, Dn):
+def _glob(sd, x0, x1, Q, A, p, order, G, side, Db, Dn, X):
     """Global geometry of one side into ``G[side]`` (as ``_scalar._glob``): ``rho``, tangents and their
     derivatives up to ``order``, the normal field and its derivatives up to ``order - 1`` (Eqs. 8.84-8.89)."""
-    has_dn = _derivs(sd, x0, x1, Q, order, Db, Dn)
+    has_dn = _derivs(sd, x0, x1, Q, order, Db, Dn, X)
     _put(G, side, RHO, _rot(A, _dv(Db, (0, 0))))
     for l in range(p):
         _put(G, side, T + l, _rot(A, _dv(Db, _k1(p, l))))
@@ -453,7 +470,19 @@ def _body(y, A, n, b, level):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _newton(desc, Ai, Aj, Ri, Rj, charts, s, ctl, G, Es, out):
+def _handed_in(desc, p, s, order, xs, ctl, it, cur):
+    """False (status DERIVATIVES) when a user curve's derivatives are not those at ``s`` up to ``order``."""
+    for side in range(2):
+        if desc[10 + 16 * side] == 5.0 and not (xs[side, 0] == s[side * p] and xs[side, 1] >= order):
+            ctl[C_IT] = it
+            ctl[C_CUR] = cur
+            ctl[C_STATUS] = DERIVATIVES
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _newton(desc, Ai, Aj, Ri, Rj, charts, s, ctl, G, Es, out, X, xs):
     """Newton on the extremal conditions (as ``_scalar.newton_one``); the status into ``ctl``."""
     p = int(desc[0])
     swap = desc[1] != 0.0
@@ -480,8 +509,10 @@ def _newton(desc, Ai, Aj, Ri, Rj, charts, s, ctl, G, Es, out):
                     ctl[C_CUR] = cur
                     ctl[C_STATUS] = RECHART
                     return
-        _glob(sdi, s[0], s[1] if p == 2 else 0.0, charts[0], Ai, p, cur, G, 0, Db, Dn)
-        _glob(sdj, s[p], s[p + 1] if p == 2 else 0.0, charts[1], Aj, p, cur, G, 1, Db, Dn)
+        if not _handed_in(desc, p, s, cur, xs, ctl, it, cur):
+            return
+        _glob(sdi, s[0], s[1] if p == 2 else 0.0, charts[0], Ai, p, cur, G, 0, Db, Dn, X[0])
+        _glob(sdj, s[p], s[p + 1] if p == 2 else 0.0, charts[1], Aj, p, cur, G, 1, Db, Dn, X[1])
         _extremal(p, swap, Ri, Rj, G, E, Es)
         if not _solve(Es, E, 2 * p, ds):
             ctl[C_STATUS] = SINGULAR
@@ -738,21 +769,21 @@ def _rows(desc, Ai, Aj, Ri, Rj, Vi, Vj, Wi, Wj, G, Es, level, want_rank, want_ga
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _scatter(row, n, bi, bj, Ai, Aj, J0, J1, J2, J3):
-    """Add a row's coefficients (global omegas) to a Newton-Euler row (body-frame omegas: ``A^T c``)."""
-    if bi < n:
+    """A row's coefficients (global omegas) into a Newton-Euler row (body-frame omegas: ``A^T c``)."""
+    if bi < n:  # (written, not added: a call again after another branch was refused writes the same blocks)
         x = _rotT(Ai, J1)
         for k in range(3):
-            row[3 * bi + k] += J0[k]
-            row[3 * n + 3 * bi + k] += x[k]
+            row[3 * bi + k] = J0[k]
+            row[3 * n + 3 * bi + k] = x[k]
     if bj < n:
         x = _rotT(Aj, J3)
         for k in range(3):
-            row[3 * bj + k] += J2[k]
-            row[3 * n + 3 * bj + k] += x[k]
+            row[3 * bj + k] = J2[k]
+            row[3 * n + 3 * bj + k] = x[k]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def contact_packed(desc, y, A, charts, s, ctl, G, Es, out, D_row, Dr_rows):
+def contact_packed(desc, y, A, charts, s, ctl, G, Es, out, D_row, Dr_rows, X, xs):
     """One contact: Newton (mode 0), the geometry at ``s`` (mode 1) or neither (mode 2), then the rows.
 
     ``ctl[C_LEVEL] < 0``: no rows. The status (``OK``, a Newton failure,
@@ -767,15 +798,17 @@ def contact_packed(desc, y, A, charts, s, ctl, G, Es, out, D_row, Dr_rows):
     Aj, Rj, Vj, Wj = _body(y, A, n, bj, level)
     ctl[C_STATUS] = OK
     if mode == 0:
-        _newton(desc, Ai, Aj, Ri, Rj, charts, s, ctl, G, Es, out)
+        _newton(desc, Ai, Aj, Ri, Rj, charts, s, ctl, G, Es, out, X, xs)
         if ctl[C_STATUS] != OK:
             return
     elif mode == 1:
         Db = np.zeros((4, 4, 3))
         Dn = np.zeros((4, 4, 3))
         order = ctl[C_ORDER]
-        _glob(desc[10:26], s[0], s[1] if p == 2 else 0.0, charts[0], Ai, p, order, G, 0, Db, Dn)
-        _glob(desc[26:42], s[p], s[p + 1] if p == 2 else 0.0, charts[1], Aj, p, order, G, 1, Db, Dn)
+        if not _handed_in(desc, p, s, order, xs, ctl, 0, order):
+            return
+        _glob(desc[10:26], s[0], s[1] if p == 2 else 0.0, charts[0], Ai, p, order, G, 0, Db, Dn, X[0])
+        _glob(desc[26:42], s[p], s[p + 1] if p == 2 else 0.0, charts[1], Aj, p, order, G, 1, Db, Dn, X[1])
         E = np.empty(4)
         _extremal(p, desc[1] != 0.0, Ri, Rj, G, E, Es)
     if p == 1:

@@ -499,6 +499,9 @@ class _Static:
         from ._compiled import description
 
         self.packed = description(contact)
+        # the sides whose derivatives Python hands to the kernel (planar curves of user callables)
+        self.curves = [] if self.packed is None else [
+            (side, surf) for side, surf in ((0, self.surf_i), (1, self.surf_j)) if self.packed[10 + 16 * side] == 5.0]
 
 
 class _Entry:
@@ -989,7 +992,7 @@ class ContactKernel:
                 ctl[C.C_MODE] = 1
             else:
                 ctl[C.C_MODE] = 2
-            C.contact_packed(cs.packed, y, A, _chart_buffer(charts), s, ctl, G, Es, out, D_row, Dr_rows)
+            _run(cs, y, A, charts, s, ctl, G, Es, out, D_row, Dr_rows)
         else:
             G, Es = np.empty((2, 22, 3)), np.empty((4, 4))
             s0, charts = self._start(state, q, t)
@@ -1022,12 +1025,7 @@ class ContactKernel:
         ctl[C.C_MAXIT] = _MAX_ITER
         ctl[C.C_IT] = 0
         ctl[C.C_CUR] = min(order, 2)
-        while True:
-            C.contact_packed(cs.packed, y, A, _chart_buffer(charts), s, ctl, G, Es, out, D_row, Dr_rows)
-            status = ctl[C.C_STATUS]
-            if status != C.RECHART:
-                break
-            _scalar._rechart(cs, s, charts)
+        status = _run(cs, y, A, charts, s, ctl, G, Es, out, D_row, Dr_rows)
         if status in (C.OK, C.SINGULAR_RATE):
             return s
         if status == C.SINGULAR:
@@ -1306,6 +1304,36 @@ class ContactKernel:
 _IDENTITY3 = np.eye(3)
 _NO_ROW = np.zeros(0)  # (the rows of an evaluation below level 1)
 _NO_ROWS = np.zeros((2, 0))
+
+
+_NO_CURVE = (np.zeros((2, 2, 4, 3)), np.zeros((2, 2)))
+
+
+def _run(cs, y, A, charts: list, s, ctl, G, Es, out, D_row, Dr_rows) -> int:
+    """``_compiled.contact_packed`` until it is done: a point beyond its chart is re-charted (in place in
+    ``s`` and ``charts``) and a user curve's derivatives at the kernel's iterate are handed in, then the kernel
+    resumes. Returns the status."""
+    C = _compiled
+    desc = cs.packed
+    curves = cs.curves
+    X, xs = (np.zeros((2, 2, 4, 3)), np.full((2, 2), math.nan)) if curves else _NO_CURVE
+    while True:
+        C.contact_packed(desc, y, A, _chart_buffer(charts), s, ctl, G, Es, out, D_row, Dr_rows, X, xs)
+        status = ctl[C.C_STATUS]
+        if status == C.RECHART:
+            _scalar._rechart(cs, s, charts)
+        elif status == C.DERIVATIVES:  # (a planar curve of user callables: p = 1)
+            order = int(ctl[C.C_CUR] if ctl[C.C_MODE] == 0 else ctl[C.C_ORDER])
+            for side, surf in curves:
+                x = float(s[side])
+                D, Dn = surf._derivs_float((x,), order, charts[side])
+                for k in range(order + 1):
+                    X[side, 0, k] = D[(k,)]
+                    if k < order:
+                        X[side, 1, k] = Dn[(k,)]
+                xs[side] = (x, order)
+        else:
+            return status
 
 
 def _chart_buffer(charts: list) -> np.ndarray:

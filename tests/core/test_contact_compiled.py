@@ -46,7 +46,16 @@ CURVES = {
     "circle": lambda: PlanarCurve.circle(0.04, center=(0.01, -0.005)),
     "line": lambda: PlanarCurve.line(point=(0.0, 0.01), normal=(0.3, 1.0)),
 }
-CURVE_PAIRS = [("circle", "circle"), ("circle", "line"), ("line", "circle")]
+CURVES.update({  # curves of user callables: Python hands their derivatives to the kernel at each Newton iterate
+    "polar": lambda: PlanarCurve.polar(lambda p: 0.05 + 0.01 * np.cos(p) + 0.004 * np.sin(2 * p)),
+    "ellipse": lambda: PlanarCurve(lambda s: np.stack([0.06 * np.cos(s), 0.04 * np.sin(s)], axis=-1),
+                                   first=lambda s: np.stack([-0.06 * np.sin(s), 0.04 * np.cos(s)], axis=-1),
+                                   second=lambda s: np.stack([-0.06 * np.cos(s), -0.04 * np.sin(s)], axis=-1),
+                                   third=lambda s: np.stack([0.06 * np.sin(s), -0.04 * np.cos(s)], axis=-1),
+                                   bounds=(-math.pi, math.pi)),
+})
+CURVE_PAIRS = [("circle", "circle"), ("circle", "line"), ("line", "circle"), ("polar", "circle"), ("line", "polar"),
+               ("ellipse", "circle"), ("ellipse", "polar")]
 
 
 def _quat(rng):
@@ -188,8 +197,9 @@ def test_a_sphere_rolled_beyond_its_chart_is_recharted_alike(monkeypatch):
     np.testing.assert_array_equal(st_a["charts"][c.index][1], st_b["charts"][c.index][1])
 
 
-def test_only_built_in_surfaces_take_the_kernel():
-    """A surface of user callables keeps the float path (``packed`` is None); the built-in ones take the kernel."""
+def test_parametric_surfaces_keep_the_float_path():
+    """A surface of user callables keeps the float path (``packed`` is None); the built-in ones take the kernel,
+    and so does a planar curve of user callables, whose derivatives Python hands in at each Newton iterate."""
     system = System(gravity=(0.0, 0.0, -9.81))
     a = system.add_body("a", mass=1.0, inertia=(0.1,) * 3, position=(0.0, 0.0, 0.29))
     b = system.add_body("b", mass=1.0, inertia=(0.1,) * 3, position=(1.0, 0.0, 0.3))
@@ -202,4 +212,5 @@ def test_only_built_in_surfaces_take_the_kernel():
     cam = PlanarCurve.polar(lambda phi: 0.02 + 0.0 * phi)
     system.add_contact(d, cam, e, PlanarCurve.circle(0.04), model="compliant", stiffness=1e5)
     ker = system._engine().workspace().contact_kernel
-    assert [cs.packed is not None for cs in ker.static] == [True, False, False]
+    assert [cs.packed is not None for cs in ker.static] == [True, False, True]
+    assert [len(cs.curves) for cs in ker.static] == [0, 0, 1]  # (the polar curve's derivatives handed in)
