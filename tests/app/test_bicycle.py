@@ -11,9 +11,12 @@ functions are also checked on their own.
 
 from __future__ import annotations
 
+import concurrent.futures
 import csv
+import functools
 import io
 import math
+import threading
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -201,6 +204,49 @@ def test_csv_export_and_state(bicycle):
     send_value(scene, "speed", 3.0)
     assert scene.load_state(state) == []
     wait_until(lambda: scene.segment.speed == 6.5, timeout=10.0)
+
+
+class _RecordingExecutor(concurrent.futures.Executor):
+    """One worker thread that records what is submitted, in order (the name of the job's function)."""
+
+    def __init__(self) -> None:
+        self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=1)
+        self._lock = threading.Lock()
+        self.names: list[str] = []
+
+    def submit(self, fn, /, *args, **kwargs):  # type: ignore[no-untyped-def]
+        inner = fn.func if isinstance(fn, functools.partial) else fn
+        name = getattr(inner, "__name__", repr(inner))
+        if name == "_compute_chunk":
+            name = "chunk"
+        with self._lock:
+            self.names.append(name)
+        return self._pool.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
+def test_the_first_ride_goes_to_the_worker_before_the_curves_and_the_modes(make_bare_scene):
+    """The first two chunks of the ride are the first jobs: the paper's curves and the modes wait until the ride
+    has its next chunk in hand, and the eigenvalue dots after them; the modes still arrive (from the speed
+    model) and agree with the paper's equations."""
+    executor = _RecordingExecutor()
+    scene, _ = make_bare_scene(BicycleScene, executor)
+
+    def frames_until(condition, timeout=120.0):
+        def step():
+            scene.frame(1 / 60)
+            return condition()
+        wait_until(step, timeout=timeout, interval=1 / 60)
+
+    frames_until(lambda: scene.modes is not None and len(scene.sweep_points) >= 2)
+    names = list(executor.names)
+    assert names[:2] == ["chunk", "chunk"], names
+    assert names.index("_reference_job") < names.index("_modes_job")
+    assert scene.sim_time > 0.0
+    got = np.array(sorted((m.eigenvalue for m in scene.modes[1]), key=lambda s: (s.real, s.imag)))
+    np.testing.assert_allclose(got, whipple_bicycle_reference().eigenvalues(5.0), rtol=1e-9)  # as the test above
 
 
 # ------------------------------------------------------------------ jobs and plot, on their own
