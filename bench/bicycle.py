@@ -152,9 +152,11 @@ def sweeps(points: int, direct_points: int) -> None:
     print(f"\nsweep 0-10 m/s, {direct_points} speeds, serial, linearize(whipple_bicycle(v)) at every speed: CPU "
           f"{c1 - c0:.2f} s ({(c1 - c0) / direct_points * 1e3:.0f} ms a speed), wall {w1 - w0:.2f} s")
     if direct_points == points:
-        agree = float(np.max(np.abs(np.sort_complex(direct.eigenvalues.ravel())
-                                    - np.sort_complex(result.eigenvalues.ravel()))))
-        print(f"  largest difference to the speed model's sweep {agree:.1e} (1/s)")
+        live = max(float(np.max(np.abs(np.sort_complex(d[~dr]) - np.sort_complex(m[~mr]))))
+                   for d, dr, m, mr in zip(direct.eigenvalues, direct.rigid, result.eigenvalues, result.rigid))
+        zeros = float(np.max(np.abs(direct.eigenvalues[direct.rigid])))
+        print(f"  largest difference of the four live eigenvalues to the speed model's sweep {live:.1e} (1/s); "
+              f"the six structural zeros are split by round-off up to {zeros:.1e}")
     w0 = time.perf_counter()
     pooled = sweep(bicycle_model, speeds)
     w1 = time.perf_counter()
