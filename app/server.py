@@ -69,19 +69,19 @@ MODES = ("shared", "per-client")
 Mode = Literal["shared", "per-client"]
 
 #: While the compiled kernels' warm-up (core/_warm.py, started by ``rigidlab serve``) has run this long (s)
-#: and a scene waits for a job, its audience gets this notice, again every _WARM_NOTICE_EVERY s until the
-#: warm-up ends (its jobs wait for it: app.worker): a first start on a new install compiles for a minute or two.
+#: and a scene's clock holds for a job (whose kernels wait for the warm-up: app.worker), its audience sees
+#: this notice, with a spinner, until the warm-up ends or the clock moves: a first start on a new install
+#: compiles for a minute or two.
 _WARM_NOTICE_AFTER = 2.0
-_WARM_NOTICE_EVERY = 20.0
 _WARM_NOTICE = ("Compiling the kernels (first start only)…",
                 "The compiled simulation kernels are being built for this installation (a minute or two, once). "
                 "The motion starts as soon as they are ready; later starts load them in a moment.")
 _WARM_CHECK_TICKS = 30  # the loop looks at the warm-up every this many ticks (0.5 s)
 
-#: Notice colours by level (Mantine colour names understood by viser); "progress": a wait that goes on.
-_LEVEL_COLORS = {"info": "blue", "warning": "yellow", "error": "red", "progress": "blue"}
+#: Notice colours by level (Mantine colour names understood by viser).
+_LEVEL_COLORS = {"info": "blue", "warning": "yellow", "error": "red"}
 #: Seconds before a notice closes on its own, by level.
-_LEVEL_SECONDS = {"info": 6.0, "warning": 10.0, "error": 15.0, "progress": _WARM_NOTICE_EVERY}
+_LEVEL_SECONDS = {"info": 6.0, "warning": 10.0, "error": 15.0}
 #: The same notice is not repeated more often than this (seconds).
 _NOTICE_REPEAT_SECONDS = 5.0
 #: Loop period (about 60 Hz) and the largest dt handed to a scene (s).
@@ -200,6 +200,7 @@ class Session:
         self.update_counts: dict[str, int] = {name: 0 for name in self.scene_classes}
         #: The latest notices shown to this audience: ``(title, body, level)``.
         self.notices: collections.deque[tuple[str, str, str]] = collections.deque(maxlen=100)
+        self._progress: dict[int, Any] | None = None  # client id: show_progress's notice in that browser
         self.gate = Gate.for_gui(target.gui, on_refused=self._on_refused)
         self.controls = ControlPanel(target.gui, self.gate, self.notify_client)
         self._chooser: Any = None
@@ -222,6 +223,39 @@ class Session:
             self._send_notice(title, body, level)
         except Exception:  # a vanished client must not break the caller
             _log.debug("could not deliver notice", exc_info=True)
+
+    def show_progress(self, title: str, body: str) -> None:
+        """Show a notice with a spinner that stays until :meth:`end_progress` (loop thread); browsers that join
+        meanwhile get it at the next call. Recorded in :attr:`notices` once."""
+        clients = (self.target.get_clients() if isinstance(self.target, viser.ViserServer)
+                   else {self.target.client_id: self.target})
+        if self._progress is None:
+            self._progress = {}
+            with self._notice_lock:
+                self.notices.append((title, body, "info"))
+            _log.info("notice [progress] %s: %s", title, body)
+        for client_id, client in clients.items():
+            if client_id in self._progress:
+                continue
+            try:
+                self._progress[client_id] = client.add_notification(title, body, loading=True, color="blue",
+                                                                    with_close_button=True)
+            except Exception:  # a vanished client must not break the loop
+                _log.debug("could not deliver notice", exc_info=True)
+
+    def end_progress(self) -> None:
+        """Remove the notice of :meth:`show_progress` (loop thread)."""
+        handles, self._progress = self._progress or {}, None
+        for handle in handles.values():
+            try:
+                handle.remove()
+            except Exception:
+                _log.debug("could not remove notice", exc_info=True)
+
+    @property
+    def progress_shown(self) -> bool:
+        """Whether a notice of :meth:`show_progress` is up."""
+        return self._progress is not None
 
     def notify_client(self, client: Any, title: str, body: str, level: str = "info") -> None:
         """A notice to the browser ``client`` only (the audience when None)."""
@@ -579,7 +613,6 @@ class RigidlabApp:
     _stop: threading.Event = dataclasses.field(default_factory=threading.Event)
     _thread: threading.Thread | None = None
     _ticks: int = 0
-    _warm_notices: dict[int, float] = dataclasses.field(default_factory=dict)  # id(session): last notice time
     _switch_interval: float | None = None
 
     # -- sessions -------------------------------------------------------
@@ -693,28 +726,24 @@ class RigidlabApp:
             self._stop.wait(max(delay, 0.0))
 
     def _notice_warm_up(self, sessions: list[Session]) -> None:
-        """Tell the audiences whose scene's clock holds for a job that the kernels are being compiled (see
-        :data:`_WARM_NOTICE`), while the warm-up runs (loop thread)."""
+        """Show :data:`_WARM_NOTICE` to the audiences whose scene's clock holds for a job while the kernels'
+        warm-up runs, and take it down when the clock moves or the warm-up ends (loop thread)."""
         try:
             running = warm_up_running_for()
         except Exception:  # a notice must never stop the loop
             running = None
-        if running is None or running < _WARM_NOTICE_AFTER:
-            self._warm_notices.clear()
-            return
-        now = time.monotonic()
         for session in sessions:
             try:
                 scene = session.active_scene()
+                timeline = getattr(scene, "timeline", None)
+                # (a scene whose jobs need no kernel goes on during a warm-up: its clock does not hold)
+                holds = bool(getattr(scene, "waiting", False) and getattr(timeline, "busy", False))
+                if running is not None and running >= _WARM_NOTICE_AFTER and holds:
+                    session.show_progress(*_WARM_NOTICE)
+                elif session.progress_shown:
+                    session.end_progress()
             except Exception:  # (a session closing meanwhile)
-                continue
-            timeline = getattr(scene, "timeline", None)
-            if not (getattr(scene, "waiting", False) and getattr(timeline, "busy", False)):
-                continue  # (a scene whose jobs need no kernel goes on during a warm-up: its clock does not hold)
-            last = self._warm_notices.get(id(session))
-            if last is None or now - last >= _WARM_NOTICE_EVERY:
-                self._warm_notices[id(session)] = now
-                session.notify(*_WARM_NOTICE, "progress")
+                _log.debug("warm-up notice", exc_info=True)
 
     def _link_state(self, client_id: int) -> dict[str, Any] | None:
         string = state_codec.state_from_path(client_request_path(self.server, client_id))

@@ -37,7 +37,11 @@ _POLL = 0.1  # s between looks at the lock while waiting
 
 def lock_path() -> Path:
     """The warm-up's lock file: one per copy of ``core`` and numba cache directory (numba's cache lives
-    beside the modules, or under ``NUMBA_CACHE_DIR``)."""
+    beside the modules, or under ``NUMBA_CACHE_DIR``); the environment variable ``RIGIDLAB_WARM_LOCK``
+    names another file (tests that must not meet each other's warm-ups)."""
+    named = os.environ.get("RIGIDLAB_WARM_LOCK")
+    if named:
+        return Path(named)
     here = os.path.realpath(os.path.dirname(os.path.abspath(__file__)))
     key = f"{here}\0{os.environ.get('NUMBA_CACHE_DIR', '')}"
     digest = hashlib.blake2b(key.encode(), digest_size=8).hexdigest()

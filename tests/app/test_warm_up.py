@@ -49,12 +49,15 @@ def test_a_multibody_scene_waits_for_the_warm_up_and_says_so(running_app) -> Non
         scene = app.scene_for()
         # the first chunk's kernels wait for the warm-up: the clock holds, and the audience is told why
         wait_until(lambda: any(title == COMPILING for title, _, _ in app.session_for().notices), timeout=60.0)
+        assert app.session_for().progress_shown  # (it stays up, with a spinner, while the clock holds)
         assert scene.sim_time == 0.0 and scene.waiting
         assert warm.running_for() is not None
     finally:
         _release(holder)
     wait_until(lambda: scene.sim_time > 0.1, timeout=120.0)  # the warm-up ended: the kernels load, it moves
     assert scene.timeline.error is None and scene.paused_error is None
+    wait_until(lambda: not app.session_for().progress_shown)  # the notice is taken down
+    assert [title for title, _, _ in app.session_for().notices].count(COMPILING) == 1
 
 
 def test_a_scene_without_kernels_moves_during_the_warm_up(running_app) -> None:
@@ -65,5 +68,6 @@ def test_a_scene_without_kernels_moves_during_the_warm_up(running_app) -> None:
         wait_until(lambda: scene.sim_time > 0.1, timeout=60.0)
         assert warm.running_for() is not None  # still warming up
         assert not any(title == COMPILING for title, _, _ in app.session_for().notices)
+        assert not app.session_for().progress_shown
     finally:
         _release(holder)

@@ -2,7 +2,8 @@
 
 A child process stands in for the warm-up: it takes the lock as ``python -m
 core._warm`` does and holds it until its stdin closes, so the tests decide
-when the warm-up ends (no sleeps, no timings).
+when the warm-up ends (no sleeps, no timings). Each test has a lock file of
+its own (``RIGIDLAB_WARM_LOCK``).
 """
 
 from __future__ import annotations
@@ -29,9 +30,15 @@ _HOLDER = textwrap.dedent("""
 """)
 
 
+@pytest.fixture(autouse=True)
+def own_lock(tmp_path, monkeypatch):
+    """A lock file of this test's own (a warm-up elsewhere, or another test's holder, is not seen)."""
+    monkeypatch.setenv("RIGIDLAB_WARM_LOCK", str(tmp_path / "warm.lock"))
+
+
 @pytest.fixture
-def holder():
-    """A process holding the warm-up lock of this copy of core until ``holder.stdin.close()``."""
+def holder(own_lock):
+    """A process holding the test's warm-up lock until ``holder.stdin.close()``."""
     proc = subprocess.Popen([sys.executable, "-c", _HOLDER], cwd=ROOT, stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, text=True)
     try:
