@@ -994,7 +994,8 @@ def _rolling_rate_jacobian(eng: Any, ref: Any, ell: np.ndarray, rows: np.ndarray
     moves (a wheel turned by ``dtheta`` while rolling at speed ``v``
     slides sideways at ``v dtheta``). Central differences with the steps of
     :func:`_jacobian`, Richardson-extrapolated; only the bodies that appear
-    in the rows are perturbed. ``error`` is the absolute error estimate of
+    in the rows are perturbed, those that share no row together (the two
+    wheels of a bicycle in one pair of evaluations). ``error`` is the absolute error estimate of
     the plain difference.
     """
     from core.multibody import _linearization as lin
@@ -1011,16 +1012,32 @@ def _rolling_rate_jacobian(eng: Any, ref: Any, ell: np.ndarray, rows: np.ndarray
 
     Dr = ref.D[rows]
     bodies = [b for b in range(n) if np.any(Dr[:, 3 * b : 3 * b + 3]) or np.any(Dr[:, 3 * (n + b) : 3 * (n + b) + 3])]
+    # bodies that share no row are perturbed together (a wheel's rolling rows see only that wheel)
+    in_row = [{b for b in bodies if np.any(Dr[r, 3 * b : 3 * b + 3]) or np.any(Dr[r, 3 * (n + b) : 3 * (n + b) + 3])}
+              for r in range(rows.size)]
+    colors: list[list[int]] = []
+    for b in bodies:
+        for group in colors:
+            if not any(b in members and members & set(group) for members in in_row):
+                group.append(b)
+                break
+        else:
+            colors.append([b])
     E = np.zeros((rows.size, size))
     E2 = np.zeros((rows.size, size))
-    for b in bodies:
+    for group in colors:
         for c in range(6):
-            col = 3 * b + c if c < 3 else 3 * n + 3 * b + c - 3
-            h = STEP * (ell[b] if c < 3 else 1.0)
+            cols = [3 * b + c if c < 3 else 3 * n + 3 * b + c - 3 for b in group]
             d = np.zeros(size)
-            d[col] = h
-            E[:, col] = (g(d) - g(-d)) / (2.0 * h)
-            E2[:, col] = (g(2.0 * d) - g(-2.0 * d)) / (4.0 * h)
+            for b, col in zip(group, cols):
+                d[col] = STEP * (ell[b] if c < 3 else 1.0)
+            g1 = g(d) - g(-d)
+            g2 = g(2.0 * d) - g(-2.0 * d)
+            for b, col in zip(group, cols):
+                # the rows of body b see only b's step (no row holds two bodies of one group)
+                mask = np.array([b in members for members in in_row])
+                E[mask, col] = g1[mask] / (2.0 * d[col])
+                E2[mask, col] = g2[mask] / (4.0 * d[col])
     return (4.0 * E - E2) / 3.0, float(np.max(np.abs(E - E2), initial=0.0)) / 3.0
 
 

@@ -456,16 +456,19 @@ def body_coupling(eng: _Engine, *, table_rows: bool = True) -> list[set[int]]:
     """Per body, the bodies whose coordinates its residual depends on (itself included).
 
     Two bodies are coupled when they appear in one constraint row of the
-    table (joints and motors; only with ``table_rows``), one spring-damper
-    or one torsion spring. User forces and torques may read any state, and
-    rows outside the table (contacts) are not analysed: with any of them
-    every body is coupled to every other.
+    table (joints and motors; only with ``table_rows``), one spring-damper,
+    one torsion spring or one contact (its rows, or its compliant force,
+    and its surface parameters depend on the poses and velocities of its
+    two bodies only, Eqs. 8.84-8.86). User forces and torques may read any
+    state: with any of them every body is coupled to every other.
     """
     n = eng.n
     full = set(range(n))
-    if eng.user_forces or eng.user_torques or has_extra_rows(eng):
+    if eng.user_forces or eng.user_torques:
         return [set(full) for _ in range(n)]
     groups: list[set[int]] = []
+    for c in getattr(eng, "contacts", ()):
+        groups.append({b.index for b in (c.body_i, c.body_j) if b.index >= 0})
     if table_rows and eng.m_tab:
         tb = _slot_tables(eng)
         rows: list[set[int]] = [set() for _ in range(eng.m_tab)]
