@@ -29,10 +29,16 @@ System's ``assemble``: the compile or cache-loading time of the compiled
 kernels, wall clock; the first subprocess compiles when numba's cache of
 the kernels is stale, after an edit of core/, the later ones load it).
 
-Run from the project root (about a minute)::
+With ``--baseline DIR`` (another checkout of rigidlab, e.g. ``git worktree
+add /tmp/old <commit>``), the same right-hand sides of that checkout are
+timed in a subprocess between the chains of this run, giving before/after
+rows and their ratio measured together (the machine's load varies).
+
+Run from the project root (about a minute; twice that with a baseline)::
 
     .venv/bin/python bench/rhs.py
     .venv/bin/python bench/rhs.py --links 2 10 30   # fewer chains
+    .venv/bin/python bench/rhs.py --baseline /tmp/old   # before/after
 
 Writes ``bench/out/rhs.json`` (bench/out/ is git-ignored). BLAS runs on one
 thread (``OPENBLAS_NUM_THREADS=1``).
@@ -94,6 +100,17 @@ y = np.array(s._y, dtype=float); y[10 * N:] = {omega}
 t0 = time.perf_counter(); model.rhs(0.0, y); first = time.perf_counter() - t0
 t0 = time.perf_counter(); model.rhs(0.0, y); second = time.perf_counter() - t0
 print(first, second)
+"""
+
+
+#: The baseline's timing: the script a subprocess runs in the other checkout (prints the seconds per call).
+BASELINE = """
+import sys
+sys.path.insert(0, {root!r})
+sys.path.insert(0, {bench!r})
+from core.models import pendulum_chain
+from rhs import best_per_call, rigidlab_rhs
+print(best_per_call(rigidlab_rhs({n}, pendulum_chain({n}, tilt={tilt}))))
 """
 
 
@@ -166,6 +183,19 @@ def first_call(n: int) -> tuple[float, float] | None:
     return first, second
 
 
+def baseline_rhs(root: Path, n: int) -> float | None:
+    """Seconds per rigidlab right-hand side of the checkout at ``root`` (this script's timing, run there in a
+    subprocess; None when it fails)."""
+    code = BASELINE.format(root=str(root), bench=str(Path(__file__).resolve().parent), n=n, tilt=TILT)
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(root))
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=900,
+                         cwd=str(root))
+    if res.returncode:
+        print(f"  baseline, {n} links: failed: {res.stderr.strip().splitlines()[-1:]}")
+        return None
+    return float(res.stdout.split()[-1])
+
+
 def growth(links, times) -> float | None:
     """Least-squares slope of log time vs log N over N >= FIT_FROM (None with fewer than two points)."""
     pts = [(n, t) for n, t in zip(links, times, strict=True) if n >= FIT_FROM and t]
@@ -173,6 +203,12 @@ def growth(links, times) -> float | None:
         return None
     x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
     return float(np.polyfit(x, y, 1)[0])
+
+
+def _revision(root: Path) -> str:
+    """The short commit of the checkout at ``root``."""
+    res = subprocess.run(["git", "log", "-1", "--format=%h"], cwd=root, capture_output=True, text=True)
+    return res.stdout.strip() or str(root)
 
 
 def _us(t) -> str:
@@ -183,8 +219,13 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--links", nargs="+", type=int, default=list(LINKS), metavar="N",
                         help=f"chain lengths (default {' '.join(map(str, LINKS))})")
+    parser.add_argument("--baseline", type=Path, default=None, metavar="DIR",
+                        help="another rigidlab checkout whose right-hand side is timed in the same run")
     args = parser.parse_args(argv)
     links = args.links
+    base_root = None if args.baseline is None else args.baseline.resolve()
+    if base_root is not None and not (base_root / "core" / "multibody").is_dir():
+        raise ValueError(f"--baseline: expected a rigidlab checkout (with core/multibody), got {args.baseline}")
     started = time.perf_counter()
     machine, versions = _machine(), _versions()
     print(f"# rigidlab right-hand-side benchmark, {datetime.date.today().isoformat()}, rigidlab {git_revision()}")
@@ -192,11 +233,16 @@ def main(argv=None) -> None:
     print(f"CPU (process time) of one evaluation, best of {REPEATS} loops of ~{LOOP_SECONDS * 1e3:.0f} ms\n")
     engines = {"rigidlab rhs": rigidlab_rhs, "MuJoCo mj_forward": mujoco_forward, "Pinocchio aba": pinocchio_aba}
     times: dict[str, list] = {name: [] for name in engines}
+    base_name = None if base_root is None else f"rigidlab rhs at {_revision(base_root)}"
+    if base_name is not None:
+        times[base_name] = []
     for n in links:
         system = pendulum_chain(n, tilt=TILT)  # one System per chain (building 300 links takes seconds)
         for name, make in engines.items():
             call = make(n, system)
             times[name].append(None if call is None else best_per_call(call))
+        if base_name is not None:
+            times[base_name].append(baseline_rhs(base_root, n))
         print(f"  {n} links: " + ", ".join(f"{k} {_us(v[-1])} us" for k, v in times.items()), flush=True)
     firsts = []
     for n in links:
@@ -216,7 +262,7 @@ def main(argv=None) -> None:
     for name, ts in times.items():
         if name == "rigidlab rhs":
             continue
-        table.append([f"{name} / rigidlab"] + [("-" if (t is None or b is None) else f"{t / b:.2f}")
+        table.append([f"{name} / rigidlab" if name != base_name else "baseline / rigidlab (> 1: now faster)"] + [("-" if (t is None or b is None) else f"{t / b:.2f}")
                                               for t, b in zip(ts, base, strict=True)] + ["-"])
     table.append(["rigidlab first rhs call, fresh process (ms, wall)"]
                  + [("-" if f is None else f"{f[0] * 1e3:.1f}") for f in firsts] + ["-"])

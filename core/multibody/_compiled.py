@@ -44,16 +44,18 @@ class Tree:
     a node of its rows. Groups are taken into a spanning forest of the
     bodies and the ground in the order of their rows; a group that would
     close a loop (through other bodies or through the ground) is
-    *secondary*: its rows are eliminated by a Schur complement.
+    *secondary*: its rows are eliminated by a Schur complement. A body
+    without child groups (a leaf: the last link of a chain, a free body) is
+    kind 2: its pivot is its own mass block, factored once at compile time.
     """
 
     order_size: np.ndarray  # (N,) block size of each node
     order_parent: np.ndarray  # (N,) parent node, -1 at a root
-    node_kind: np.ndarray  # (N,) 0 body, 1 row group
+    node_kind: np.ndarray  # (N,) 0 body, 1 row group, 2 leaf body
     node_ref: np.ndarray  # (N,) body index or group index
     body_node: np.ndarray  # (n,) node of each body
     group_rows: np.ndarray  # (G, 6) constraint rows of each group (padded with -1)
-    group_slot_of: np.ndarray  # (G, 2) slot of the group's child body and of its parent body (-1: ground root)
+    parent_slot: np.ndarray  # (N,) slot, in the rows of the group of the link to the parent, of its body (-1: root)
     sec_rows: np.ndarray  # (k,) secondary rows (loop closures)
 
 
@@ -92,6 +94,21 @@ class Compiled:
             for k, b in enumerate((ra_b[r], r1_b[r], r2_b[r])):
                 slot[k, r] = bodies.index(int(b)) if b >= 0 else -1
         self.slot_a, self.slot_1, self.slot_2 = slot[0].copy(), slot[1].copy(), slot[2].copy()
+        self.row_slot = np.ascontiguousarray(slot.T)
+        self.tab_slots = tab_slots
+        # the distinct body vectors (b, u, h) of the table, each evaluated once per call
+        vec_index: dict[tuple, int] = {}
+        row_v = np.zeros((m_tab, 3), dtype=_I64)
+        for r in range(m_tab):
+            for k, (b, u, h) in enumerate(((ra_b[r], self.ra_u[r], 0.0), (r1_b[r], self.r1_u[r], self.r1_h[r]),
+                                           (r2_b[r], self.r2_u[r], self.r2_h[r]))):
+                key = (int(b), *(float(x) for x in u), float(h))
+                row_v[r, k] = vec_index.setdefault(key, len(vec_index))
+        keys = list(vec_index)
+        self.row_v = row_v
+        self.vec_b = np.array([k[0] for k in keys], dtype=_I64)
+        self.vec_u = np.array([k[1:4] for k in keys], dtype=float).reshape(-1, 3)
+        self.vec_h = np.array([k[4] for k in keys], dtype=float)
         self.aux_motor = np.ascontiguousarray(eng.aux_motor, dtype=_I64).reshape(-1, 2)
         jc_body = np.full((self.m, 3), -1, dtype=_I64)
         jc_body[: self.m_dir] = tab_slots[: self.m_dir]
@@ -114,6 +131,10 @@ class Compiled:
             Wb[b, 3:, 3:] = np.linalg.inv(eng.winv_blocks[n + b])
         self.Mblocks = M
         self.Wblocks = Wb
+        # their Cholesky factors (the diagonal as its reciprocals, as the kernels store theirs): a body that
+        # touches at most two groups of rows is eliminated with its own block (see _kernel.tree_factor)
+        self.Lm = _chol_reciprocal(M)
+        self.Lw = _chol_reciprocal(Wb)
         # spring-dampers
         sp = eng.springs
         self.sp_bi = np.array([_index(s.body_i) for s in sp], dtype=_I64)
@@ -179,12 +200,13 @@ class Compiled:
             tr = build_tree(self.n, self.jc_body, rows)
             n, m, mt = self.n, self.m, self.m_tab
             N, k = tr.order_size.size, tr.sec_rows.size
-            shapes = {"A": (max(n, 1), 3, 3), "Phi": (mt,), "J": (mt, 3, 6), "gam": (mt,), "rate": (mt,),
-                      "C": (m,), "Jc": (m, 3, 6), "Ct": (m,), "gamma": (m,), "Q": (6 * n,),
-                      "motor_f": (len(self.motors), 3), "uf_F": (len(self.user_forces), 3),
+            shapes = {"A": (max(n, 1), 3, 3), "omega": (max(n, 1), 3), "V": (self.vec_b.size, 12),
+                      "Phi": (mt,), "J": (mt, 3, 6), "gam": (mt,), "rate": (mt,),
+                      "C": (m,), "Jc": (m, 3, 6), "Ct": (m,), "gamma": (m,), "Q": (6 * n,), "Tg": (max(n, 1), 3),
+                      "pi": (9,), "pj": (9,), "motor_f": (len(self.motors), 3), "uf_F": (len(self.user_forces), 3),
                       "ut_T": (len(self.user_torques), 3), "Xp": (N, 6, 6), "Lfac": (N, 6, 6), "sign": (N,),
-                      "work": (N, 6, 6), "X": (N, 6), "Z": (k, N, 6), "cv": (m,), "dq": (6 * n,), "lam": (m,),
-                      "rhs_c": (m,), "zero6": (6 * n,), "res": (4,)}
+                      "work": (N, 6, 6), "X": (N, 6), "Z": (k, 6 * N), "S": (k, k), "rs": (k,), "Ls": (k, k),
+                      "cv": (m,), "dq": (6 * n,), "lam": (m,), "rhs_c": (m,), "zero6": (6 * n,), "res": (4,)}
             tfields = [getattr(tr, f) for f in K.T_FIELDS]
             head = np.zeros(4 * (len(K.T_FIELDS) + len(K.W_FIELDS)), dtype=_I64)
             off = head.size
@@ -245,18 +267,18 @@ class Compiled:
         """Frames, table rows and constraint rows at ``(t, y)`` into the work arrays (after :meth:`select`)."""
         if self.motors:
             self.motor_values(t)
-        K.evaluate_packed(self.I, self.F, self.TI, self.W, y, level)
+        K.call_packed(self.I, self.F, self.TI, self.W, y, 0, level, y, y, y)
 
     def applied(self, t: float, y: np.ndarray, loads) -> int:
         """``Q_e + Q_v`` into ``Q`` (needs :meth:`evaluate` at level 2); ``loads(t, y, F, T)`` fills the user loads."""
         if self.user_forces or self.user_torques:
             loads(t, y, self.uf_F, self.ut_T)
-        return K.applied_packed(self.I, self.F, self.TI, self.W, y)
+        return K.call_packed(self.I, self.F, self.TI, self.W, y, 1, 0, y, y, y)
 
     def solve(self, metric: int, rhs_v: np.ndarray, rhs_c: np.ndarray, x_v: np.ndarray) -> int:
         """``[[W, D^T], [D, 0]] [x; lam] = [rhs_v; rhs_c]`` with the current ``Jc``: W the mass blocks
         (``metric`` 0) or the projection metric (1); the multipliers in ``lam`` (see ``_kernel.augmented_solve``)."""
-        return K.solve_packed(self.I, self.F, self.TI, self.W, metric, rhs_v, rhs_c, x_v)
+        return K.call_packed(self.I, self.F, self.TI, self.W, x_v, 2, metric, rhs_v, rhs_c, x_v)
 
     def dense_jacobian(self, rows: np.ndarray | None = None) -> np.ndarray:
         """The constraint Jacobian D (m, 6n) of the last evaluation as a dense array (outside the hot path)."""
@@ -275,6 +297,14 @@ class Compiled:
 def _dims(a: np.ndarray) -> tuple[int, int, int]:
     shp = tuple(int(d) for d in np.shape(a)) + (1, 1, 1)
     return shp[0], shp[1], shp[2]
+
+
+def _chol_reciprocal(blocks: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factors of the 6 x 6 ``blocks`` with the diagonal replaced by its reciprocals."""
+    L = np.linalg.cholesky(blocks) if blocks.size else np.zeros_like(blocks)
+    for b in range(L.shape[0]):
+        L[b][np.diag_indices(6)] = 1.0 / np.diag(L[b])
+    return np.ascontiguousarray(L)
 
 
 def _index(body: Any) -> int:
@@ -347,27 +377,32 @@ def build_tree(n: int, jc_body: np.ndarray, rows) -> Tree:
     node_ref = np.zeros(N, dtype=_I64)
     body_node = np.zeros(n, dtype=_I64)
     group_rows = np.full((max(G, 1), 6), -1, dtype=_I64)
-    group_slot_of = np.full((max(G, 1), 2), -1, dtype=_I64)
+    parent_slot = np.full(N, -1, dtype=_I64)
+
+    def slot_of(group_node: int, body: int) -> int:
+        rr = tree_groups[group_node - n][1]
+        return [int(b) for b in jc_body[rr[0]] if b >= 0].index(body)
+
     for i, v in enumerate(post):
-        order_parent[i] = pos[par[v]] if par[v] >= 0 else -1
+        pv = par[v]
+        order_parent[i] = pos[pv] if pv >= 0 else -1
         if v < n:
             order_size[i] = 6
-            node_kind[i] = 0
+            node_kind[i] = 2 if all(w == pv for w in adj[v]) else 0  # a leaf: no child group
             node_ref[i] = v
             body_node[v] = i
+            if pv >= 0:
+                parent_slot[i] = slot_of(pv, v)
         else:
             gi = v - n
-            key, rr = tree_groups[gi]
+            rr = tree_groups[gi][1]
             order_size[i] = len(rr)
             node_kind[i] = 1
             node_ref[i] = gi
             group_rows[gi, : len(rr)] = rr
-            slots = [int(b) for b in jc_body[rr[0]] if b >= 0]
-            pb = par[v]  # the parent body (or -1 at a ground group's root)
-            child = [b for b in key if b != pb][0]
-            group_slot_of[gi, 0] = slots.index(child)
-            group_slot_of[gi, 1] = slots.index(pb) if pb >= 0 else -1
-    return Tree(order_size, order_parent, node_kind, node_ref, body_node, group_rows, group_slot_of,
+            if pv >= 0:
+                parent_slot[i] = slot_of(v, pv)
+    return Tree(order_size, order_parent, node_kind, node_ref, body_node, group_rows, parent_slot,
                 np.array(secondary, dtype=_I64))
 
 

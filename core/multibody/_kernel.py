@@ -3,19 +3,23 @@
 Small functions over the flat arrays of :class:`core.multibody._compiled.Compiled`
 (no objects, no allocation in the inner loops). Three groups:
 
-* **Rows** (:func:`rows_eval`): every row of the engine's row table has the form
-  ``Phi = a . (y_b1 - y_b2)`` (see ``core.multibody._engine``), with ``a`` a
-  direction fixed in a body and ``y_b1``, ``y_b2`` points (``h = 1``) or
-  directions (``h = 0``) fixed in bodies. Its value, its Jacobian with respect
-  to the Newton-Euler velocities ``v = (R_dot, omega_body)`` of the (at most
-  three) bodies it touches, its rate and ``gamma`` (the acceleration terms of
-  Eq. 8.109's right-hand side) come from the body frames in O(1) per row:
+* **Rows** (:func:`body_vectors`, :func:`rows_eval`): every row of the engine's
+  row table has the form ``Phi = a . (y_b1 - y_b2)`` (see ``core.multibody._engine``),
+  with ``a`` a direction fixed in a body and ``y_b1``, ``y_b2`` points (``h = 1``)
+  or directions (``h = 0``) fixed in bodies. The distinct body vectors of the
+  table (a revolute joint's five rows share two points and three axes) are
+  evaluated once: ``g = A u``, ``r = h R + g``, ``r_dot = h R_dot + omega x g``
+  and ``r_q = omega x (omega x g)`` with ``omega = A omega_body`` (Eqs. 8.48,
+  8.19). Each row then takes its value, its Jacobian with respect to the
+  Newton-Euler velocities ``v = (R_dot, omega_body)`` of the (at most three)
+  bodies it touches, its rate and ``gamma`` (the acceleration terms of Eq.
+  8.109's right-hand side) from three table entries in O(1):
 
-  * ``d/dt (A u) = A (omega_body x u)``, so the body-frame angular part of the
-    Jacobian of ``a . b`` is ``u_a x (A_a^T b)`` for ``a`` and ``+-u x (A^T a)``
-    for the points of ``b``; the translational part is ``+-h a``;
-  * ``gamma = -(a_q . b + 2 a_dot . b_dot + a . b_q)`` with ``_q`` the
-    quadratic-velocity parts ``A (omega_body x (omega_body x u))``.
+  * ``d/dt (A u) = omega x (A u)``, so the angular part of the Jacobian of
+    ``a . b`` is ``A_a^T (g_a x b)`` for ``a`` and ``+-A^T (g x a)`` for the
+    points of ``b`` (one ``A^T`` per body the row touches); the translational
+    part is ``+-h a``;
+  * ``gamma = -(a_q . b + 2 a_dot . b_dot + a . b_q)``.
 
 * **Forces** (:func:`applied_forces`): gravity, the gyroscopic torque
   ``-omega_body x (I omega_body)`` (Eq. 8.19 in body axes), spring-dampers,
@@ -29,29 +33,46 @@ Small functions over the flat arrays of :class:`core.multibody._compiled.Compile
   eliminates every node before its parent makes no fill-in (Baraff, "Linear-time
   dynamics using Lagrange multipliers", SIGGRAPH 1996): each node's pivot is
   ``H_ii - sum_children H_ic D_c^-1 H_ci``, a 6 x 6 (body, positive definite)
-  or r x r (rows, negative definite) block, so the work is O(N). Rows that
-  close loops are handled by the caller with a small Schur complement.
+  or r x r (rows, negative definite) block, so the work is O(N). Blocks are
+  stored as full 6 x 6 blocks (a group padded with unit pivots), so that
+  every loop has a fixed trip count. A leaf body's pivot is its own mass
+  block, factored once when the System is compiled. Rows that close loops
+  are handled with a small Schur complement.
 
 Every kernel is compiled with ``nogil=True``: it touches no Python object, so
 a simulation running in a background job does not hold the thread that
 streams the scene (a compiled DOP853 run of a whole chunk would otherwise
-block it for as long as the chunk takes).
+block it for as long as the chunk takes). An integer constant handed to a
+compiled callee is made ``np.int64`` or an expression (``WH + 4 * W_Q``):
+numba compiles one copy of a callee per literal constant it is called with
+(once 43 copies of one view helper), each with all of its callees. Helpers
+are not inlined by numba (``inline="always"`` types the inlined code again
+at every call site); the compiler inlines them when it links.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core import cgutils
+from numba.core.imputils import impl_ret_borrowed
+from numba.extending import intrinsic
+
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+# The evaluation and the solve may fuse a product and a sum into one rounding (FMA: round-off of the same
+# size, half the instructions); the step loop does not, so that its stages and error norms round as the
+# interpreted loop's (numpy) do.
+_JIT_FMA = {**_JIT, "fastmath": {"contract"}}
 
 # ---------------------------------------------------------------- small algebra
 
 
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def frames(y, n, A):
     """Rotation matrices ``A(p / |p|)`` (Eq. 8.48) of the Euler parameters in ``y[3n:7n]`` into ``A`` (n, 3, 3)."""
     for b in range(n):
@@ -71,14 +92,14 @@ def frames(y, n, A):
         A[b, 2, 1] = 2.0 * (e2 * e3 + e0 * e1) * s
 
 
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def _half_g_bar_t(e0, e1, e2, e3, w0, w1, w2):
     """``G_bar(p)^T w / 2`` (Eq. 8.54) of the Euler parameters ``(e0, e1, e2, e3)`` and a body-frame ``w``."""
     return (0.5 * (-e1 * w0 - e2 * w1 - e3 * w2), 0.5 * (e0 * w0 - e3 * w1 + e2 * w2),
             0.5 * (e3 * w0 + e0 * w1 - e1 * w2), 0.5 * (-e2 * w0 + e1 * w1 + e0 * w2))
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def parameter_rates(y, n, out, offset):
     """``p_dot = G_bar(p)^T omega_body / 2`` (Eq. 8.54) of every body into ``out[offset:offset + 4n]``."""
     for b in range(n):
@@ -93,7 +114,7 @@ def parameter_rates(y, n, out, offset):
         out[k], out[k + 1], out[k + 2], out[k + 3] = _half_g_bar_t(e0, e1, e2, e3, w0, w1, w2)
 
 
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def _body_vector(A, y, n, b, u0, u1, u2, h, level, out):
     """Position, velocity and quadratic acceleration of the body vector ``(u, h)`` of body ``b`` (-1: ground).
 
@@ -120,86 +141,134 @@ def _body_vector(A, y, n, b, u0, u1, u2, h, level, out):
         out[6 + i] = A[b, i, 0] * q0 + A[b, i, 1] * q1 + A[b, i, 2] * q2
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def rows_eval(y, n, A, level, ra_b, ra_u, r1_b, r1_u, r1_h, r2_b, r2_u, r2_h, slot_a, slot_1, slot_2,
-              Phi, J, gam, rate):
-    """Value, Jacobian (level >= 1), gamma and rate (level 2) of every table row.
+@njit(**_JIT_FMA)
+def body_vectors(y, n, A, level, vec_b, vec_u, vec_h, omega, V):
+    """The table's distinct body vectors ``(b, u, h)`` into ``V`` (nv, 12): ``g = A u``, ``r = h R + g``,
+    (level 2) ``r_dot = h R_dot + omega x g`` and ``r_q = omega x (omega x g)``, ``omega = A omega_body``
+    the global angular velocity (``omega`` (n, 3), filled here). Ground vectors (``b = -1``) are fixed."""
+    if level >= 2:
+        for b in range(n):
+            w0 = y[10 * n + 3 * b]
+            w1 = y[10 * n + 3 * b + 1]
+            w2 = y[10 * n + 3 * b + 2]
+            for i in range(3):
+                omega[b, i] = A[b, i, 0] * w0 + A[b, i, 1] * w1 + A[b, i, 2] * w2
+    for k in range(vec_b.shape[0]):
+        b = vec_b[k]
+        u0 = vec_u[k, 0]
+        u1 = vec_u[k, 1]
+        u2 = vec_u[k, 2]
+        if b < 0:
+            V[k, 0] = u0
+            V[k, 1] = u1
+            V[k, 2] = u2
+            V[k, 3] = u0
+            V[k, 4] = u1
+            V[k, 5] = u2
+            for i in range(6, 12):
+                V[k, i] = 0.0
+            continue
+        h = vec_h[k]
+        g0 = A[b, 0, 0] * u0 + A[b, 0, 1] * u1 + A[b, 0, 2] * u2
+        g1 = A[b, 1, 0] * u0 + A[b, 1, 1] * u1 + A[b, 1, 2] * u2
+        g2 = A[b, 2, 0] * u0 + A[b, 2, 1] * u1 + A[b, 2, 2] * u2
+        V[k, 0] = g0
+        V[k, 1] = g1
+        V[k, 2] = g2
+        V[k, 3] = g0 + h * y[3 * b]
+        V[k, 4] = g1 + h * y[3 * b + 1]
+        V[k, 5] = g2 + h * y[3 * b + 2]
+        if level >= 2:
+            w0 = omega[b, 0]
+            w1 = omega[b, 1]
+            w2 = omega[b, 2]
+            c0, c1, c2 = _cross(w0, w1, w2, g0, g1, g2)
+            q0, q1, q2 = _cross(w0, w1, w2, c0, c1, c2)
+            V[k, 6] = c0 + h * y[7 * n + 3 * b]
+            V[k, 7] = c1 + h * y[7 * n + 3 * b + 1]
+            V[k, 8] = c2 + h * y[7 * n + 3 * b + 2]
+            V[k, 9] = q0
+            V[k, 10] = q1
+            V[k, 11] = q2
 
-    ``J`` (m, 3, 6): per row, per slot (the distinct moving bodies the row
-    touches, see ``slot_*``), the derivative with respect to the body's
-    ``(R_dot, omega_body)``. ``gam = -(a_q . b + 2 a_dot . b_dot + a . b_q)``
-    and ``rate = a_dot . b + a . b_dot`` (Eq. 8.109's ``gamma`` and ``C_dot``).
+
+@njit(**_JIT_FMA)
+def rows_eval(A, level, V, vec_h, row_v, row_slot, tab_slots, Phi, J, gam, rate):
+    """Value, Jacobian (level >= 1), gamma and rate (level 2) of every table row from the body vectors ``V``.
+
+    ``row_v`` (m, 3): the vectors ``a``, ``y_b1``, ``y_b2`` of each row;
+    ``row_slot`` (m, 3): their slots (-1: ground). ``J`` (m, 3, 6): per row,
+    per slot (the distinct moving bodies the row touches, ``tab_slots``),
+    the derivative with respect to the body's ``(R_dot, omega_body)``.
+    ``gam = -(a_q . b + 2 a_dot . b_dot + a . b_q)`` and ``rate = a_dot . b +
+    a . b_dot`` (Eq. 8.109's ``gamma`` and ``C_dot``).
     """
     m = Phi.shape[0]
-    va = np.empty(9)
-    v1 = np.empty(9)
-    v2 = np.empty(9)
     for r in range(m):
-        ka = ra_b[r]
-        k1 = r1_b[r]
-        k2 = r2_b[r]
-        _body_vector(A, y, n, ka, ra_u[r, 0], ra_u[r, 1], ra_u[r, 2], 0.0, level, va)
-        _body_vector(A, y, n, k1, r1_u[r, 0], r1_u[r, 1], r1_u[r, 2], r1_h[r], level, v1)
-        _body_vector(A, y, n, k2, r2_u[r, 0], r2_u[r, 1], r2_u[r, 2], r2_h[r], level, v2)
-        b0 = v1[0] - v2[0]
-        b1 = v1[1] - v2[1]
-        b2 = v1[2] - v2[2]
-        a0 = va[0]
-        a1 = va[1]
-        a2 = va[2]
+        ia = row_v[r, 0]
+        i1 = row_v[r, 1]
+        i2 = row_v[r, 2]
+        a0 = V[ia, 3]
+        a1 = V[ia, 4]
+        a2 = V[ia, 5]
+        b0 = V[i1, 3] - V[i2, 3]
+        b1 = V[i1, 4] - V[i2, 4]
+        b2 = V[i1, 5] - V[i2, 5]
         Phi[r] = a0 * b0 + a1 * b1 + a2 * b2
         if level >= 1:
+            Jr = J[r]
             for s in range(3):
                 for k in range(6):
-                    J[r, s, k] = 0.0
-            if ka >= 0:  # u_a x (A_a^T b)
-                s = slot_a[r]
-                t0 = A[ka, 0, 0] * b0 + A[ka, 1, 0] * b1 + A[ka, 2, 0] * b2
-                t1 = A[ka, 0, 1] * b0 + A[ka, 1, 1] * b1 + A[ka, 2, 1] * b2
-                t2 = A[ka, 0, 2] * b0 + A[ka, 1, 2] * b1 + A[ka, 2, 2] * b2
-                c0, c1, c2 = _cross(ra_u[r, 0], ra_u[r, 1], ra_u[r, 2], t0, t1, t2)
-                J[r, s, 3] += c0
-                J[r, s, 4] += c1
-                J[r, s, 5] += c2
-            if k1 >= 0:  # + h a, + u_1 x (A_1^T a)
-                s = slot_1[r]
-                h = r1_h[r]
-                J[r, s, 0] += h * a0
-                J[r, s, 1] += h * a1
-                J[r, s, 2] += h * a2
-                t0 = A[k1, 0, 0] * a0 + A[k1, 1, 0] * a1 + A[k1, 2, 0] * a2
-                t1 = A[k1, 0, 1] * a0 + A[k1, 1, 1] * a1 + A[k1, 2, 1] * a2
-                t2 = A[k1, 0, 2] * a0 + A[k1, 1, 2] * a1 + A[k1, 2, 2] * a2
-                c0, c1, c2 = _cross(r1_u[r, 0], r1_u[r, 1], r1_u[r, 2], t0, t1, t2)
-                J[r, s, 3] += c0
-                J[r, s, 4] += c1
-                J[r, s, 5] += c2
-            if k2 >= 0:  # - h a, - u_2 x (A_2^T a)
-                s = slot_2[r]
-                h = r2_h[r]
-                J[r, s, 0] -= h * a0
-                J[r, s, 1] -= h * a1
-                J[r, s, 2] -= h * a2
-                t0 = A[k2, 0, 0] * a0 + A[k2, 1, 0] * a1 + A[k2, 2, 0] * a2
-                t1 = A[k2, 0, 1] * a0 + A[k2, 1, 1] * a1 + A[k2, 2, 1] * a2
-                t2 = A[k2, 0, 2] * a0 + A[k2, 1, 2] * a1 + A[k2, 2, 2] * a2
-                c0, c1, c2 = _cross(r2_u[r, 0], r2_u[r, 1], r2_u[r, 2], t0, t1, t2)
-                J[r, s, 3] -= c0
-                J[r, s, 4] -= c1
-                J[r, s, 5] -= c2
+                    Jr[s, k] = 0.0
+            s = row_slot[r, 0]
+            if s >= 0:  # g_a x b
+                c0, c1, c2 = _cross(V[ia, 0], V[ia, 1], V[ia, 2], b0, b1, b2)
+                Jr[s, 3] += c0
+                Jr[s, 4] += c1
+                Jr[s, 5] += c2
+            s = row_slot[r, 1]
+            if s >= 0:  # + h a, + g_1 x a
+                h = vec_h[i1]
+                Jr[s, 0] += h * a0
+                Jr[s, 1] += h * a1
+                Jr[s, 2] += h * a2
+                c0, c1, c2 = _cross(V[i1, 0], V[i1, 1], V[i1, 2], a0, a1, a2)
+                Jr[s, 3] += c0
+                Jr[s, 4] += c1
+                Jr[s, 5] += c2
+            s = row_slot[r, 2]
+            if s >= 0:  # - h a, - g_2 x a
+                h = vec_h[i2]
+                Jr[s, 0] -= h * a0
+                Jr[s, 1] -= h * a1
+                Jr[s, 2] -= h * a2
+                c0, c1, c2 = _cross(V[i2, 0], V[i2, 1], V[i2, 2], a0, a1, a2)
+                Jr[s, 3] -= c0
+                Jr[s, 4] -= c1
+                Jr[s, 5] -= c2
+            for s in range(3):  # the global angular parts into body axes: A^T (...)
+                b = tab_slots[r, s]
+                if b < 0:
+                    break
+                t0 = Jr[s, 3]
+                t1 = Jr[s, 4]
+                t2 = Jr[s, 5]
+                for i in range(3):
+                    Jr[s, 3 + i] = A[b, 0, i] * t0 + A[b, 1, i] * t1 + A[b, 2, i] * t2
         if level >= 2:
-            bd0 = v1[3] - v2[3]
-            bd1 = v1[4] - v2[4]
-            bd2 = v1[5] - v2[5]
-            bq0 = v1[6] - v2[6]
-            bq1 = v1[7] - v2[7]
-            bq2 = v1[8] - v2[8]
-            gam[r] = -((va[6] * b0 + va[7] * b1 + va[8] * b2) + 2.0 * (va[3] * bd0 + va[4] * bd1 + va[5] * bd2)
+            bd0 = V[i1, 6] - V[i2, 6]
+            bd1 = V[i1, 7] - V[i2, 7]
+            bd2 = V[i1, 8] - V[i2, 8]
+            bq0 = V[i1, 9] - V[i2, 9]
+            bq1 = V[i1, 10] - V[i2, 10]
+            bq2 = V[i1, 11] - V[i2, 11]
+            gam[r] = -((V[ia, 9] * b0 + V[ia, 10] * b1 + V[ia, 11] * b2)
+                       + 2.0 * (V[ia, 6] * bd0 + V[ia, 7] * bd1 + V[ia, 8] * bd2)
                        + (a0 * bq0 + a1 * bq1 + a2 * bq2))
-            rate[r] = (va[3] * b0 + va[4] * b1 + va[5] * b2) + (a0 * bd0 + a1 * bd1 + a2 * bd2)
+            rate[r] = (V[ia, 6] * b0 + V[ia, 7] * b1 + V[ia, 8] * b2) + (a0 * bd0 + a1 * bd1 + a2 * bd2)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT_FMA)
 def constraint_rows(level, m_joint, m_dir, Phi, J, gam, rate, motor_f, aux_motor,
                     C, Jc, Ct, gamma):
     """Constraint rows of the joints and motors (``m_dir + k_angle`` rows) from the table rows.
@@ -251,23 +320,24 @@ def constraint_rows(level, m_joint, m_dir, Phi, J, gam, rate, motor_f, aux_motor
                         + fdd * cosd + fd * fd * c)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT_FMA)
 def applied_forces(y, n, A, mass, inertia, gravity, has_gyro,
                    sp_bi, sp_ui, sp_bj, sp_uj, sp_k, sp_c, sp_L0,
                    rs_p1, rs_p2, rs_k, rs_c, rs_0, rs_bi, rs_hi, rs_bj, rs_hj, Phi, rate,
-                   uf_b, uf_u, uf_has_u, uf_F, ut_b, ut_T, Q):
+                   uf_b, uf_u, uf_has_u, uf_F, ut_b, ut_T, Q, Tg, pi, pj):
     """Generalized applied and quadratic-velocity forces ``Q_e + Q_v`` (6n,), Newton-Euler form.
 
     Translational part: global forces; rotational part: body-frame torques
     about the centre of mass including ``-omega_body x (I omega_body)``.
-    Returns the index of a spring whose points coincide with a positive
-    free length (its force direction is undefined), or -1.
+    ``Tg`` (n, 3), ``pi`` and ``pj`` (9,) are work arrays. Returns the index
+    of a spring whose points coincide with a positive free length (its force
+    direction is undefined), or -1.
     """
-    Tg = np.zeros((n, 3))  # global torques, turned into body axes at the end
     for b in range(n):
         for i in range(3):
             Q[3 * b + i] = mass[b] * gravity[i]
             Q[3 * n + 3 * b + i] = 0.0
+            Tg[b, i] = 0.0  # global torques, turned into body axes at the end
         if has_gyro:
             w0 = y[10 * n + 3 * b]
             w1 = y[10 * n + 3 * b + 1]
@@ -281,8 +351,6 @@ def applied_forces(y, n, A, mass, inertia, gravity, has_gyro,
             Q[3 * n + 3 * b + 1] -= c1
             Q[3 * n + 3 * b + 2] -= c2
     bad = -1
-    pi = np.empty(9)
-    pj = np.empty(9)
     for k in range(sp_k.shape[0]):
         bi = sp_bi[k]
         bj = sp_bj[k]
@@ -382,10 +450,17 @@ def applied_forces(y, n, A, mass, inertia, gravity, has_gyro,
     return bad
 
 
+
 # ---------------------------------------------------------------- tree solve (Baraff 1996)
+#
+# Every block of the factorization is stored as a full 6 x 6 block (36
+# contiguous floats, row-major) in flat arrays: a group of r < 6 rows is
+# padded with unit pivots and zero couplings, so that every loop below has a
+# fixed trip count of 6 (the compiler unrolls and vectorizes them; loops of
+# 1-6 iterations set at run time cost several times the arithmetic).
 
 
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def _chol(P, s, L):
     """Cholesky ``P = L L^T`` of the leading s x s block of ``P`` into ``L``, the diagonal stored as its
     reciprocals (the solves multiply); False if not positive definite."""
@@ -407,7 +482,7 @@ def _chol(P, s, L):
     return True
 
 
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def _forward(L, s, x):
     """x <- L^-1 x (leading s entries), L lower triangular (reciprocal diagonal, see _chol)."""
     for i in range(s):
@@ -417,7 +492,7 @@ def _forward(L, s, x):
         x[i] = v * L[i, i]
 
 
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def _backward(L, s, x):
     """x <- L^-T x (leading s entries)."""
     for i in range(s - 1, -1, -1):
@@ -427,186 +502,244 @@ def _backward(L, s, x):
         x[i] = v * L[i, i]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def tree_factor(order_size, order_parent, node_kind, node_ref, Mblocks, Jc, group_rows, group_slot_of,
-                Xp, Lfac, sign, work):
+@njit(**_JIT)
+def _chol6(P, p, L, q):
+    """:func:`_chol` of the 6 x 6 block ``P[p:p + 36]`` into the lower triangle of ``L[q:q + 36]``."""
+    for j in range(6):
+        d = P[p + 7 * j]
+        for k in range(j):
+            d -= L[q + 6 * j + k] * L[q + 6 * j + k]
+        if not d > 0.0:
+            return False
+        d = 1.0 / np.sqrt(d)
+        L[q + 7 * j] = d
+        for i in range(j + 1, 6):
+            x = P[p + 6 * i + j]
+            for k in range(j):
+                x -= L[q + 6 * i + k] * L[q + 6 * j + k]
+            L[q + 6 * i + j] = x * d
+    return True
+
+
+@njit(**_JIT)
+def _forward6(L, q, x, o):
+    """``x[o:o + 6] <- L^-1 x[o:o + 6]`` (L the block at ``q``, as :func:`_chol6` leaves it)."""
+    for i in range(6):
+        v = x[o + i]
+        for k in range(i):
+            v -= L[q + 6 * i + k] * x[o + k]
+        x[o + i] = v * L[q + 7 * i]
+
+
+@njit(**_JIT)
+def _backward6(L, q, x, o):
+    """``x[o:o + 6] <- L^-T x[o:o + 6]``."""
+    for i in range(5, -1, -1):
+        v = x[o + i]
+        for k in range(i + 1, 6):
+            v -= L[q + 6 * k + i] * x[o + k]
+        x[o + i] = v * L[q + 7 * i]
+
+
+@njit(**_JIT_FMA)
+def tree_factor(order_parent, node_kind, node_ref, parent_slot, group_rows, Mblocks, Lbody, Jc, Xp, Lfac, sign,
+                work):
     """Block LDL^T of ``H = [[W, D^T], [D, 0]]`` over the tree, children before parents (Baraff 1996).
 
     Nodes are in elimination order ``0 .. N-1``; ``order_parent[i]`` is the
     parent node (> i) or -1. A body node (``node_kind`` 0, ``node_ref`` the
-    body) has the diagonal block ``Mblocks[body]`` (6 x 6); a group node
-    (kind 1, ``node_ref`` the group) the zero block of its rows
-    ``group_rows[g, :size]``. ``group_slot_of[g, 0/1]`` is the slot of the
-    group's rows (in ``Jc``) that holds the group's child / parent body.
+    body) has the diagonal block ``Mblocks[body]`` (6 x 6); a leaf body
+    (kind 2, no child group) keeps it as its pivot, whose Cholesky factor
+    ``Lbody[body]`` is made when the System is compiled; a group node (kind
+    1, ``node_ref`` the group) has the zero block of its rows
+    ``group_rows[g, :size]`` (-1 pads). ``parent_slot[i]`` is the slot, in
+    the group's rows of ``Jc``, of the body of the link from ``i`` to its
+    parent.
 
     The pivot of node i is ``D_i = H_ii - sum_children H_ic D_c^-1 H_ci``:
     positive definite for a body, negative definite for a group (its rows
-    independent over its child body). Stored: ``sign_i`` and the Cholesky
-    factor ``L_i`` of ``sign_i D_i`` (``Lfac[i]``), and ``X_i = L_i^-1
-    H[i, parent]`` (``Xp[i]``), so that the parent's update is ``D_p -=
-    sign_i X_i^T X_i``. Returns -1, or the node whose pivot is not definite.
+    independent over its child body). Stored (6 x 6 blocks, flat, row-major):
+    ``sign_i`` and the Cholesky factor ``L_i`` of ``sign_i D_i``
+    (``Lfac[36 i:]``), and ``X_i = L_i^-1 H[i, parent]`` (``Xp[36 i:]``), so
+    that the parent's update is ``D_p -= sign_i X_i^T X_i``. Returns -1, or
+    the node whose pivot is not definite.
     """
-    N = order_size.shape[0]
+    N = order_parent.shape[0]
     for i in range(N):
-        D = work[i]
-        if node_kind[i] == 0:
-            body = node_ref[i]
+        o = 36 * i
+        kind = node_kind[i]
+        if kind == 1:  # zero block of the rows, unit pivots on the padding (negated below)
+            g = node_ref[i]
+            for a in range(36):
+                work[o + a] = 0.0
             for a in range(6):
-                for b in range(6):
-                    D[a, b] = Mblocks[body, a, b]
+                if group_rows[g, a] < 0:
+                    work[o + 7 * a] = -1.0
+        elif kind == 0:
+            mb = 36 * node_ref[i]
+            for a in range(36):
+                work[o + a] = Mblocks[mb + a]
+    for i in range(N):
+        o = 36 * i
+        kind = node_kind[i]
+        if kind == 2:
+            L = Lbody
+            q = 36 * node_ref[i]
+            sg = 1.0
         else:
-            for a in range(6):
-                for b in range(6):
-                    D[a, b] = 0.0
-    for i in range(N):
-        s = order_size[i]
-        D = work[i]
-        L = Lfac[i]
-        sg = 1.0 if node_kind[i] == 0 else -1.0
+            L = Lfac
+            q = o
+            sg = 1.0 if kind == 0 else -1.0
+            if sg < 0.0:
+                for a in range(36):
+                    work[o + a] = -work[o + a]
+            if not _chol6(work, o, Lfac, o):
+                return i
         sign[i] = sg
-        if sg < 0.0:
-            for a in range(s):
-                for b in range(s):
-                    D[a, b] = -D[a, b]
-        if not _chol(D, s, L):
-            return i
         p = order_parent[i]
         if p < 0:
             continue
-        sp_ = order_size[p]
-        X = Xp[i]
-        # H[i, p]: body i -> group p: D_gb^T (6 x r); group i -> body p: D_gb (r x 6)
-        if node_kind[i] == 0:
-            g = node_ref[p]
-            sl = group_slot_of[g, 0]
-            for k in range(sp_):
-                r = group_rows[g, k]
-                for a in range(6):
-                    X[a, k] = Jc[r, sl, a]
-        else:
+        sl = parent_slot[i]
+        for a in range(36):
+            Xp[o + a] = 0.0
+        if kind == 1:  # group -> its parent body: D_gb (r x 6)
             g = node_ref[i]
-            sl = group_slot_of[g, 1]
-            for k in range(s):
-                r = group_rows[g, k]
-                for a in range(6):
-                    X[k, a] = Jc[r, sl, a]
-        for c in range(sp_):  # X <- L^-1 X, column by column
-            for a in range(s):
-                v = X[a, c]
-                for k in range(a):
-                    v -= L[a, k] * X[k, c]
-                X[a, c] = v * L[a, a]
-        Dp = work[p]
-        for c in range(sp_):
+            for a in range(6):
+                r = group_rows[g, a]
+                if r >= 0:
+                    for c in range(6):
+                        Xp[o + 6 * a + c] = Jc[r, sl, c]
+        else:  # body -> its parent group: D_gb^T (6 x r)
+            g = node_ref[p]
+            for c in range(6):
+                r = group_rows[g, c]
+                if r >= 0:
+                    for a in range(6):
+                        Xp[o + 6 * a + c] = Jc[r, sl, a]
+        for a in range(6):  # X <- L^-1 X, row by row (the six columns at once)
+            for k in range(a):
+                lak = L[q + 6 * a + k]
+                for c in range(6):
+                    Xp[o + 6 * a + c] -= lak * Xp[o + 6 * k + c]
+            d = L[q + 7 * a]
+            for c in range(6):
+                Xp[o + 6 * a + c] *= d
+        op = 36 * p
+        for c in range(6):  # D_p -= sign X^T X
             for d in range(c + 1):
                 v = 0.0
-                for a in range(s):
-                    v += X[a, d] * X[a, c]
+                for a in range(6):
+                    v += Xp[o + 6 * a + d] * Xp[o + 6 * a + c]
                 v *= sg
-                Dp[d, c] -= v
+                work[op + 6 * d + c] -= v
                 if d != c:
-                    Dp[c, d] -= v
+                    work[op + 6 * c + d] -= v
     return -1
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def tree_solve(order_size, order_parent, Xp, Lfac, sign, x):
-    """Solve ``H z = x`` in place, ``x`` (N, 6) by node (leading size entries), with the factor of :func:`tree_factor`."""
-    N = order_size.shape[0]
+@njit(**_JIT_FMA)
+def tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, x):
+    """Solve ``H z = x`` in place, ``x`` (6 N,) by node (zero on a group's padding), with the factor of
+    :func:`tree_factor`."""
+    N = order_parent.shape[0]
     # forward: x_i <- L_i^-1 x_i, then x_p -= sign_i X_i^T x_i (children first)
     for i in range(N):
-        s = order_size[i]
-        xi = x[i]
-        _forward(Lfac[i], s, xi)
+        o = 6 * i
+        if node_kind[i] == 2:
+            _forward6(Lbody, 36 * node_ref[i], x, o)
+        else:
+            _forward6(Lfac, 36 * i, x, o)
         p = order_parent[i]
         if p < 0:
             continue
-        X = Xp[i]
         sg = sign[i]
-        for d in range(order_size[p]):
+        for d in range(6):
             v = 0.0
-            for a in range(s):
-                v += X[a, d] * xi[a]
-            x[p, d] -= sg * v
+            for a in range(6):
+                v += Xp[36 * i + 6 * a + d] * x[o + a]
+            x[6 * p + d] -= sg * v
     # backward (parents first): z_i = sign_i L_i^-T (x_i - X_i z_p)
     for i in range(N - 1, -1, -1):
-        s = order_size[i]
-        xi = x[i]
+        o = 6 * i
         p = order_parent[i]
         if p >= 0:
-            X = Xp[i]
-            zp = x[p]
-            for a in range(s):
+            for a in range(6):
                 v = 0.0
-                for d in range(order_size[p]):
-                    v += X[a, d] * zp[d]
-                xi[a] -= v
-        _backward(Lfac[i], s, xi)
+                for d in range(6):
+                    v += Xp[36 * i + 6 * a + d] * x[6 * p + d]
+                x[o + a] -= v
+        if node_kind[i] == 2:
+            _backward6(Lbody, 36 * node_ref[i], x, o)
+        else:
+            _backward6(Lfac, 36 * i, x, o)
         if sign[i] < 0.0:
-            for a in range(s):
-                xi[a] = -xi[a]
+            for a in range(6):
+                x[o + a] = -x[o + a]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def augmented_solve(n, order_size, order_parent, node_kind, node_ref, body_node, group_rows, group_slot_of,
-                    sec_rows, jc_body, Wblocks, Jc, rhs_v, rhs_c, x_v, lam, Hp, Lfac, sign, work, X, Z):
+@njit(**_JIT_FMA)
+def augmented_solve(n, order_parent, node_kind, node_ref, body_node, group_rows, parent_slot, sec_rows, jc_body,
+                    Wblocks, Lbody, Jc, rhs_v, rhs_c, x_v, lam, Xp, Lfac, sign, work, X, Z, S, rs, Ls):
     """Solve ``[[W, D^T], [D, 0]] [x; lam] = [rhs_v; rhs_c]`` (Eq. 8.109 with ``W = M``) in O(N + k^2 N).
 
     The rows of the tree's groups are eliminated by :func:`tree_factor`;
     the ``k`` secondary rows ``sec_rows`` (loop closures) by the Schur
     complement ``S = E H^-1 E^T`` (k x k, positive definite for independent
     rows), ``S mu = E H^-1 b - c``. ``lam`` gets the multipliers of the
-    tree's and the secondary rows (others are left as they are). Returns 0,
-    1 (a pivot of the tree is not definite) or 2 (S is not).
+    tree's and the secondary rows (others are left as they are). ``X`` (6 N,)
+    and ``Z`` (k, 6 N) are work arrays. Returns 0, 1 (a pivot of the tree is
+    not definite) or 2 (S is not).
     """
-    if tree_factor(order_size, order_parent, node_kind, node_ref, Wblocks, Jc, group_rows, group_slot_of,
-                   Hp, Lfac, sign, work) >= 0:
+    if tree_factor(order_parent, node_kind, node_ref, parent_slot, group_rows, Wblocks, Lbody, Jc, Xp, Lfac, sign,
+                   work) >= 0:
         return 1
-    N = order_size.shape[0]
+    N = order_parent.shape[0]
     for i in range(N):
-        if node_kind[i] == 0:
+        o = 6 * i
+        if node_kind[i] != 1:
             b = node_ref[i]
             for k in range(3):
-                X[i, k] = rhs_v[3 * b + k]
-                X[i, 3 + k] = rhs_v[3 * n + 3 * b + k]
+                X[o + k] = rhs_v[3 * b + k]
+                X[o + 3 + k] = rhs_v[3 * n + 3 * b + k]
         else:
             g = node_ref[i]
-            for k in range(order_size[i]):
-                X[i, k] = rhs_c[group_rows[g, k]]
-    tree_solve(order_size, order_parent, Hp, Lfac, sign, X)
+            for k in range(6):
+                r = group_rows[g, k]
+                X[o + k] = rhs_c[r] if r >= 0 else 0.0
+    tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, X)
     ns = sec_rows.shape[0]
     if ns:
         for j in range(ns):
             Zj = Z[j]
-            for i in range(N):
-                for k in range(6):
-                    Zj[i, k] = 0.0
+            for k in range(6 * N):
+                Zj[k] = 0.0
             r = sec_rows[j]
             for s in range(3):
                 b = jc_body[r, s]
                 if b >= 0:
                     for k in range(6):
-                        Zj[body_node[b], k] += Jc[r, s, k]
-            tree_solve(order_size, order_parent, Hp, Lfac, sign, Zj)
-        S = np.zeros((ns, ns))
-        rs = np.zeros(ns)
+                        Zj[6 * body_node[b] + k] += Jc[r, s, k]
+            tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, Zj)
+        for l in range(ns):
+            rs[l] = 0.0
+            for j in range(ns):
+                S[l, j] = 0.0
         for l in range(ns):
             r = sec_rows[l]
             for s in range(3):
                 b = jc_body[r, s]
                 if b >= 0:
-                    i = body_node[b]
+                    o = 6 * body_node[b]
                     for k in range(6):
-                        rs[l] += Jc[r, s, k] * X[i, k]
+                        rs[l] += Jc[r, s, k] * X[o + k]
                         for j in range(ns):
-                            S[l, j] += Jc[r, s, k] * Z[j, i, k]
+                            S[l, j] += Jc[r, s, k] * Z[j, o + k]
             rs[l] -= rhs_c[r]
         for l in range(ns):  # symmetrize the round-off
             for j in range(l):
                 v = 0.5 * (S[l, j] + S[j, l])
                 S[l, j] = v
                 S[j, l] = v
-        Ls = np.zeros((ns, ns))
         if not _chol(S, ns, Ls):
             return 2
         _forward(Ls, ns, rs)
@@ -614,23 +747,25 @@ def augmented_solve(n, order_size, order_parent, node_kind, node_ref, body_node,
         for j in range(ns):
             mu = rs[j]
             lam[sec_rows[j]] = mu
-            for i in range(N):
-                for k in range(order_size[i]):
-                    X[i, k] -= mu * Z[j, i, k]
+            for k in range(6 * N):
+                X[k] -= mu * Z[j, k]
     for i in range(N):
-        if node_kind[i] == 0:
+        o = 6 * i
+        if node_kind[i] != 1:
             b = node_ref[i]
             for k in range(3):
-                x_v[3 * b + k] = X[i, k]
-                x_v[3 * n + 3 * b + k] = X[i, 3 + k]
+                x_v[3 * b + k] = X[o + k]
+                x_v[3 * n + 3 * b + k] = X[o + 3 + k]
         else:
             g = node_ref[i]
-            for k in range(order_size[i]):
-                lam[group_rows[g, k]] = X[i, k]
+            for k in range(6):
+                r = group_rows[g, k]
+                if r >= 0:
+                    lam[r] = X[o + k]
     return 0
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT_FMA)
 def jacobian_apply(n, Jc, jc_body, v, Ct, out):
     """``out = D v + C_t`` (m,) from the constraint rows' slots: the constraint velocities (Eq. 8.109's ``C_dot``)."""
     for r in range(Jc.shape[0]):
@@ -643,7 +778,7 @@ def jacobian_apply(n, Jc, jc_body, v, Ct, out):
         out[r] = acc
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def retract(y, n, dq):
     """``R -= dR``, ``p <- (p - G_bar^T dpi_body / 2) / |.|`` (first-order retraction of a projection step)."""
     for b in range(n):
@@ -678,14 +813,24 @@ def retract(y, n, dq):
 # d2)``. One call into the kernel then takes a handful of arguments whatever
 # the model (numba's dispatch costs about 0.2-0.4 us per argument).
 
-I_FIELDS = ("ra_b", "r1_b", "r2_b", "slot_a", "slot_1", "slot_2", "aux_motor", "jc_body", "sp_bi", "sp_bj",
-            "rs_p1", "rs_p2", "rs_bi", "rs_bj", "uf_b", "uf_has_u", "ut_b")
-F_FIELDS = ("ra_u", "r1_u", "r1_h", "r2_u", "r2_h", "mass", "inertia", "gravity", "Mblocks", "Wblocks", "sp_ui",
-            "sp_uj", "sp_k", "sp_c", "sp_L0", "rs_k", "rs_c", "rs_0", "rs_hi", "rs_hj", "uf_u")
-T_FIELDS = ("order_size", "order_parent", "node_kind", "node_ref", "body_node", "group_rows", "group_slot_of",
+I_FIELDS = ("vec_b", "row_v", "row_slot", "tab_slots", "aux_motor", "jc_body", "sp_bi", "sp_bj", "rs_p1", "rs_p2",
+            "rs_bi", "rs_bj", "uf_b", "uf_has_u", "ut_b")
+F_FIELDS = ("vec_u", "vec_h", "mass", "inertia", "gravity", "Mblocks", "Wblocks", "Lm", "Lw", "sp_ui", "sp_uj",
+            "sp_k", "sp_c", "sp_L0", "rs_k", "rs_c", "rs_0", "rs_hi", "rs_hj", "uf_u")
+T_FIELDS = ("order_size", "order_parent", "node_kind", "node_ref", "body_node", "group_rows", "parent_slot",
             "sec_rows")
-W_FIELDS = ("A", "Phi", "J", "gam", "rate", "C", "Jc", "Ct", "gamma", "Q", "motor_f", "uf_F", "ut_T", "Xp", "Lfac",
-            "sign", "work", "X", "Z", "cv", "dq", "lam", "rhs_c", "zero6", "res")
+W_FIELDS = ("A", "omega", "V", "Phi", "J", "gam", "rate", "C", "Jc", "Ct", "gamma", "Q", "Tg", "pi", "pj", "motor_f",
+            "uf_F", "ut_T", "Xp", "Lfac", "sign", "work", "X", "Z", "S", "rs", "Ls", "cv", "dq", "lam", "rhs_c",
+            "zero6", "res")
+(I_VEC_B, I_ROW_V, I_ROW_SLOT, I_TAB_SLOTS, I_AUX_MOTOR, I_JC_BODY, I_SP_BI, I_SP_BJ, I_RS_P1, I_RS_P2, I_RS_BI,
+ I_RS_BJ, I_UF_B, I_UF_HAS_U, I_UT_B) = range(15)
+(F_VEC_U, F_VEC_H, F_MASS, F_INERTIA, F_GRAVITY, F_MBLOCKS, F_WBLOCKS, F_LM, F_LW, F_SP_UI, F_SP_UJ, F_SP_K, F_SP_C,
+ F_SP_L0, F_RS_K, F_RS_C, F_RS_0, F_RS_HI, F_RS_HJ, F_UF_U) = range(20)
+(T_ORDER_SIZE, T_ORDER_PARENT, T_NODE_KIND, T_NODE_REF, T_BODY_NODE, T_GROUP_ROWS, T_PARENT_SLOT,
+ T_SEC_ROWS) = range(8)
+(W_A, W_OMEGA, W_V, W_PHI, W_J, W_GAM, W_RATE, W_C, W_JC, W_CT, W_GAMMA, W_Q, W_TG, W_PI, W_PJ, W_MOTOR_F, W_UF_F,
+ W_UT_T, W_XP, W_LFAC, W_SIGN, W_WORK, W_X, W_Z, W_S, W_RS, W_LS, W_CV, W_DQ, W_LAM, W_RHS_C, W_ZERO6,
+ W_RES) = range(33)
 N_SCALARS = 8  # I[0:6] = n, m_tab, m, m_joint, m_dir, has_gyro; I[6:8] spare
 IH = N_SCALARS
 FH = IH + 4 * len(I_FIELDS)
@@ -693,95 +838,155 @@ TH = 0
 WH = 4 * len(T_FIELDS)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _v1(P, H, base, k):
-    o = H[base + 4 * k]
-    return P[o : o + H[base + 4 * k + 1]]
+def _view_codegen(ndim):
+    def codegen(context, builder, sig, args):
+        aty = sig.args[0]
+        rty = sig.return_type
+        src = context.make_array(aty)(context, builder, args[0])
+        out = context.make_array(rty)(context, builder)
+        itemsize = context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(aty.dtype)))
+        dims = list(args[2 : 2 + ndim])
+        strides = [itemsize]
+        for d in dims[:0:-1]:
+            strides.insert(0, builder.mul(strides[0], d))
+        context.populate_array(out, data=builder.gep(src.data, [args[1]]), shape=cgutils.pack_array(builder, dims),
+                               strides=cgutils.pack_array(builder, strides), itemsize=itemsize, meminfo=src.meminfo,
+                               parent=src.parent)
+        return impl_ret_borrowed(context, builder, rty, out._getvalue())
+
+    return codegen
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _v2(P, H, base, k):
-    o = H[base + 4 * k]
-    d0 = H[base + 4 * k + 1]
-    d1 = H[base + 4 * k + 2]
-    return P[o : o + d0 * d1].reshape((d0, d1))
+@intrinsic
+def _view2(typingctx, arr, offset, d0, d1):
+    """``arr[offset:offset + d0 d1].reshape(d0, d1)`` of a contiguous 1-d ``arr``, without numba's reshape
+    (a call into its runtime that costs tens of ns per view)."""
+    return types.Array(arr.dtype, 2, "C")(arr, offset, d0, d1), _view_codegen(2)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _v3(P, H, base, k):
-    o = H[base + 4 * k]
-    d0 = H[base + 4 * k + 1]
-    d1 = H[base + 4 * k + 2]
-    d2 = H[base + 4 * k + 3]
-    return P[o : o + d0 * d1 * d2].reshape((d0, d1, d2))
+@intrinsic
+def _view3(typingctx, arr, offset, d0, d1, d2):
+    """As :func:`_view2`, 3-d."""
+    return types.Array(arr.dtype, 3, "C")(arr, offset, d0, d1, d2), _view_codegen(3)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
+def _v1(P, H, at):
+    """The 1-d field whose header entry is at ``H[at:at + 4]`` (a view of ``P``)."""
+    o = H[at]
+    return P[o : o + H[at + 1]]
+
+
+@njit(**_JIT)
+def _vflat(P, H, at):
+    """The field of header ``at``, flat."""
+    o = H[at]
+    return P[o : o + H[at + 1] * H[at + 2] * H[at + 3]]
+
+
+@njit(**_JIT)
+def _v2(P, H, at):
+    """The 2-d field of header ``at``."""
+    return _view2(P, H[at], H[at + 1], H[at + 2])
+
+
+@njit(**_JIT)
+def _v3(P, H, at):
+    """The 3-d field of header ``at``."""
+    return _view3(P, H[at], H[at + 1], H[at + 2], H[at + 3])
+
+
+@njit(**_JIT)
 def evaluate_packed(I, F, TI, W, y, level):
-    """Frames, table rows and constraint rows (joints and motors) at ``y`` into ``W`` (motor values read
-    from ``W``'s ``motor_f``, filled by the caller)."""
+    """Frames, body vectors, table rows and constraint rows (joints and motors) at ``y`` into ``W`` (motor
+    values read from ``W``'s ``motor_f``, filled by the caller)."""
     n = I[0]
-    A = _v3(W, TI, WH, 0)
+    A = _v3(W, TI, WH + 4 * W_A)
     frames(y, n, A)
-    Phi = _v1(W, TI, WH, 1)
-    J = _v3(W, TI, WH, 2)
-    gam = _v1(W, TI, WH, 3)
-    rate = _v1(W, TI, WH, 4)
-    rows_eval(y, n, A, level, _v1(I, I, IH, 0), _v2(F, I, FH, 0), _v1(I, I, IH, 1), _v2(F, I, FH, 1),
-              _v1(F, I, FH, 2), _v1(I, I, IH, 2), _v2(F, I, FH, 3), _v1(F, I, FH, 4), _v1(I, I, IH, 3),
-              _v1(I, I, IH, 4), _v1(I, I, IH, 5), Phi, J, gam, rate)
-    constraint_rows(level, I[3], I[4], Phi, J, gam, rate, _v2(W, TI, WH, 10), _v2(I, I, IH, 6),
-                    _v1(W, TI, WH, 5), _v3(W, TI, WH, 6), _v1(W, TI, WH, 7), _v1(W, TI, WH, 8))
+    V = _v2(W, TI, WH + 4 * W_V)
+    vec_h = _v1(F, I, FH + 4 * F_VEC_H)
+    body_vectors(y, n, A, level, _v1(I, I, IH + 4 * I_VEC_B), _v2(F, I, FH + 4 * F_VEC_U), vec_h, _v2(W, TI, WH + 4 * W_OMEGA), V)
+    Phi = _v1(W, TI, WH + 4 * W_PHI)
+    J = _v3(W, TI, WH + 4 * W_J)
+    gam = _v1(W, TI, WH + 4 * W_GAM)
+    rate = _v1(W, TI, WH + 4 * W_RATE)
+    rows_eval(A, level, V, vec_h, _v2(I, I, IH + 4 * I_ROW_V), _v2(I, I, IH + 4 * I_ROW_SLOT), _v2(I, I, IH + 4 * I_TAB_SLOTS),
+              Phi, J, gam, rate)
+    constraint_rows(level, I[3], I[4], Phi, J, gam, rate, _v2(W, TI, WH + 4 * W_MOTOR_F), _v2(I, I, IH + 4 * I_AUX_MOTOR),
+                    _v1(W, TI, WH + 4 * W_C), _v3(W, TI, WH + 4 * W_JC), _v1(W, TI, WH + 4 * W_CT), _v1(W, TI, WH + 4 * W_GAMMA))
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def applied_packed(I, F, TI, W, y):
     """``Q_e + Q_v`` into ``W``'s ``Q`` (after a level-2 :func:`evaluate_packed`); a coincident spring or -1."""
     n = I[0]
-    return applied_forces(y, n, _v3(W, TI, WH, 0), _v1(F, I, FH, 5), _v3(F, I, FH, 6), _v1(F, I, FH, 7),
-                          I[5] != 0, _v1(I, I, IH, 8), _v2(F, I, FH, 10), _v1(I, I, IH, 9), _v2(F, I, FH, 11),
-                          _v1(F, I, FH, 12), _v1(F, I, FH, 13), _v1(F, I, FH, 14), _v1(I, I, IH, 10),
-                          _v1(I, I, IH, 11), _v1(F, I, FH, 15), _v1(F, I, FH, 16), _v1(F, I, FH, 17),
-                          _v1(I, I, IH, 12), _v2(F, I, FH, 18), _v1(I, I, IH, 13), _v2(F, I, FH, 19),
-                          _v1(W, TI, WH, 1), _v1(W, TI, WH, 4), _v1(I, I, IH, 14), _v2(F, I, FH, 20),
-                          _v1(I, I, IH, 15), _v2(W, TI, WH, 11), _v1(I, I, IH, 16), _v2(W, TI, WH, 12),
-                          _v1(W, TI, WH, 9))
+    return applied_forces(y, n, _v3(W, TI, WH + 4 * W_A), _v1(F, I, FH + 4 * F_MASS), _v3(F, I, FH + 4 * F_INERTIA),
+                          _v1(F, I, FH + 4 * F_GRAVITY), I[5] != 0, _v1(I, I, IH + 4 * I_SP_BI), _v2(F, I, FH + 4 * F_SP_UI),
+                          _v1(I, I, IH + 4 * I_SP_BJ), _v2(F, I, FH + 4 * F_SP_UJ), _v1(F, I, FH + 4 * F_SP_K),
+                          _v1(F, I, FH + 4 * F_SP_C), _v1(F, I, FH + 4 * F_SP_L0), _v1(I, I, IH + 4 * I_RS_P1),
+                          _v1(I, I, IH + 4 * I_RS_P2), _v1(F, I, FH + 4 * F_RS_K), _v1(F, I, FH + 4 * F_RS_C),
+                          _v1(F, I, FH + 4 * F_RS_0), _v1(I, I, IH + 4 * I_RS_BI), _v2(F, I, FH + 4 * F_RS_HI),
+                          _v1(I, I, IH + 4 * I_RS_BJ), _v2(F, I, FH + 4 * F_RS_HJ), _v1(W, TI, WH + 4 * W_PHI),
+                          _v1(W, TI, WH + 4 * W_RATE), _v1(I, I, IH + 4 * I_UF_B), _v2(F, I, FH + 4 * F_UF_U),
+                          _v1(I, I, IH + 4 * I_UF_HAS_U), _v2(W, TI, WH + 4 * W_UF_F), _v1(I, I, IH + 4 * I_UT_B),
+                          _v2(W, TI, WH + 4 * W_UT_T), _v1(W, TI, WH + 4 * W_Q), _v2(W, TI, WH + 4 * W_TG),
+                          _v1(W, TI, WH + 4 * W_PI), _v1(W, TI, WH + 4 * W_PJ))
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def solve_packed(I, F, TI, W, metric, rhs_v, rhs_c, x_v):
     """:func:`augmented_solve` with the mass blocks (``metric`` 0) or the projection metric (1); the
     multipliers into ``W``'s ``lam``."""
     n = I[0]
-    blocks = _v3(F, I, FH, 8) if metric == 0 else _v3(F, I, FH, 9)
-    return augmented_solve(n, _v1(TI, TI, TH, 0), _v1(TI, TI, TH, 1), _v1(TI, TI, TH, 2), _v1(TI, TI, TH, 3),
-                           _v1(TI, TI, TH, 4), _v2(TI, TI, TH, 5), _v2(TI, TI, TH, 6), _v1(TI, TI, TH, 7),
-                           _v2(I, I, IH, 7), blocks, _v3(W, TI, WH, 6), rhs_v, rhs_c, x_v, _v1(W, TI, WH, 21),
-                           _v3(W, TI, WH, 13), _v3(W, TI, WH, 14), _v1(W, TI, WH, 15), _v3(W, TI, WH, 16),
-                           _v2(W, TI, WH, 17), _v3(W, TI, WH, 18))
+    if metric == 0:
+        blocks = _vflat(F, I, FH + 4 * F_MBLOCKS)
+        Lb = _vflat(F, I, FH + 4 * F_LM)
+    else:
+        blocks = _vflat(F, I, FH + 4 * F_WBLOCKS)
+        Lb = _vflat(F, I, FH + 4 * F_LW)
+    return augmented_solve(n, _v1(TI, TI, TH + 4 * T_ORDER_PARENT), _v1(TI, TI, TH + 4 * T_NODE_KIND),
+                           _v1(TI, TI, TH + 4 * T_NODE_REF), _v1(TI, TI, TH + 4 * T_BODY_NODE), _v2(TI, TI, TH + 4 * T_GROUP_ROWS),
+                           _v1(TI, TI, TH + 4 * T_PARENT_SLOT), _v1(TI, TI, TH + 4 * T_SEC_ROWS), _v2(I, I, IH + 4 * I_JC_BODY),
+                           blocks, Lb, _v3(W, TI, WH + 4 * W_JC), rhs_v, rhs_c, x_v, _v1(W, TI, WH + 4 * W_LAM),
+                           _vflat(W, TI, WH + 4 * W_XP), _vflat(W, TI, WH + 4 * W_LFAC), _v1(W, TI, WH + 4 * W_SIGN),
+                           _vflat(W, TI, WH + 4 * W_WORK), _vflat(W, TI, WH + 4 * W_X), _v2(W, TI, WH + 4 * W_Z),
+                           _v2(W, TI, WH + 4 * W_S), _v1(W, TI, WH + 4 * W_RS), _v2(W, TI, WH + 4 * W_LS))
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
+def call_packed(I, F, TI, W, y, op, arg, rhs_v, rhs_c, x_v):
+    """The evaluations the Python side asks for outside a right-hand side, in one compiled entry: ``op`` 0
+    :func:`evaluate_packed` at level ``arg``, 1 :func:`applied_packed`, 2 :func:`solve_packed` with metric
+    ``arg`` (``rhs_v``, ``rhs_c``, ``x_v``). Returns the callee's status (0 for an evaluation)."""
+    if op == 0:
+        evaluate_packed(I, F, TI, W, y, arg)
+        return 0
+    if op == 1:
+        return applied_packed(I, F, TI, W, y)
+    return solve_packed(I, F, TI, W, arg, rhs_v, rhs_c, x_v)
+
+
+@njit(**_JIT)
 def rhs_packed(I, F, TI, W, y, ydot, alpha):
     """``y_dot = [R_dot, p_dot, a]`` (Eqs. 8.51-8.54, 8.109) in one call; the user's loads and the motor
     values are in ``W`` already. Returns 0, 1 or 2 (see :func:`augmented_solve`) or ``3 + k`` for spring
     ``k`` whose points coincide."""
     n = I[0]
-    evaluate_packed(I, F, TI, W, y, 2)
+    evaluate_packed(I, F, TI, W, y, np.int64(2))  # (np.int64: one compiled callee for every level)
     bad = applied_packed(I, F, TI, W, y)
     if bad >= 0:
         return 3 + bad
-    gamma = _v1(W, TI, WH, 8)
+    gamma = _v1(W, TI, WH + 4 * W_GAMMA)
     if alpha != 0.0:  # Baumgarte: gamma - 2 alpha C_dot - alpha^2 C
-        cv = _v1(W, TI, WH, 19)
-        C = _v1(W, TI, WH, 5)
-        jacobian_apply(n, _v3(W, TI, WH, 6), _v2(I, I, IH, 7), y[7 * n :], _v1(W, TI, WH, 7), cv)
+        cv = _v1(W, TI, WH + 4 * W_CV)
+        C = _v1(W, TI, WH + 4 * W_C)
+        jacobian_apply(n, _v3(W, TI, WH + 4 * W_JC), _v2(I, I, IH + 4 * I_JC_BODY), y[7 * n :], _v1(W, TI, WH + 4 * W_CT), cv)
         for r in range(gamma.shape[0]):
             gamma[r] = gamma[r] - 2.0 * alpha * cv[r] - alpha * alpha * C[r]
-    lam = _v1(W, TI, WH, 21)
+    lam = _v1(W, TI, WH + 4 * W_LAM)
     for r in range(lam.shape[0]):
         lam[r] = 0.0
-    st = solve_packed(I, F, TI, W, 0, _v1(W, TI, WH, 9), gamma, ydot[7 * n :])
+    st = solve_packed(I, F, TI, W, np.int64(0), _v1(W, TI, WH + 4 * W_Q), gamma, ydot[7 * n :])
     if st:
         return st
     for k in range(3 * n):
@@ -790,14 +995,14 @@ def rhs_packed(I, F, TI, W, y, ydot, alpha):
     return 0
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def _max_abs_kept(x, TI):
     """max |x_r| over the rows the tree solves (its groups' and the secondary rows)."""
-    group_rows = _v2(TI, TI, TH, 5)
-    node_kind = _v1(TI, TI, TH, 2)
-    node_ref = _v1(TI, TI, TH, 3)
-    order_size = _v1(TI, TI, TH, 0)
-    sec = _v1(TI, TI, TH, 7)
+    group_rows = _v2(TI, TI, TH + 4 * T_GROUP_ROWS)
+    node_kind = _v1(TI, TI, TH + 4 * T_NODE_KIND)
+    node_ref = _v1(TI, TI, TH + 4 * T_NODE_REF)
+    order_size = _v1(TI, TI, TH + 4 * T_ORDER_SIZE)
+    sec = _v1(TI, TI, TH + 4 * T_SEC_ROWS)
     res = 0.0
     for i in range(node_kind.shape[0]):
         if node_kind[i] == 1:
@@ -813,7 +1018,7 @@ def _max_abs_kept(x, TI):
     return res
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def project_packed(I, F, TI, W, y, tol):
     """Newton projection of positions onto ``C = 0``, then of velocities onto ``D v + C_t = 0`` (in place).
 
@@ -836,17 +1041,18 @@ def project_packed(I, F, TI, W, y, tol):
         s = 1.0 / np.sqrt(s)
         for k in range(4):
             y[3 * n + 4 * b + k] *= s
-    C = _v1(W, TI, WH, 5)
-    Jc = _v3(W, TI, WH, 6)
-    Ct = _v1(W, TI, WH, 7)
-    jc_body = _v2(I, I, IH, 7)
-    dq = _v1(W, TI, WH, 20)
-    zero6 = _v1(W, TI, WH, 23)
-    cv = _v1(W, TI, WH, 19)
+    C = _v1(W, TI, WH + 4 * W_C)
+    Jc = _v3(W, TI, WH + 4 * W_JC)
+    Ct = _v1(W, TI, WH + 4 * W_CT)
+    jc_body = _v2(I, I, IH + 4 * I_JC_BODY)
+    dq = _v1(W, TI, WH + 4 * W_DQ)
+    zero6 = _v1(W, TI, WH + 4 * W_ZERO6)
+    cv = _v1(W, TI, WH + 4 * W_CV)
+    one = np.int64(1)  # (np.int64: see the module's docstring)
     prev = np.inf
     res = 0.0
     for it in range(10):
-        evaluate_packed(I, F, TI, W, y, 1)
+        evaluate_packed(I, F, TI, W, y, one)
         res = _max_abs_kept(C, TI)
         if res <= tol or (it > 0 and res <= 1e-8 and res > 0.25 * prev):
             break
@@ -854,7 +1060,7 @@ def project_packed(I, F, TI, W, y, tol):
             return 5, res, 0.0
         if it == 9:
             return 4, res, 0.0
-        st = solve_packed(I, F, TI, W, 1, zero6, C, dq)
+        st = solve_packed(I, F, TI, W, one, zero6, C, dq)
         if st:
             return st, res, 0.0
         retract(y, n, dq)
@@ -875,7 +1081,7 @@ def project_packed(I, F, TI, W, y, tol):
         rv = _max_abs_kept(cv, TI)
         if rv <= floor:
             break
-        st = solve_packed(I, F, TI, W, 1, zero6, cv, dq)
+        st = solve_packed(I, F, TI, W, one, zero6, cv, dq)
         if st:
             return st, res, rv
         for k in range(v.shape[0]):
@@ -907,7 +1113,7 @@ _MAX_FACTOR = 10.0
 _STALE_DERIVATIVE_TOL = 1e-3
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def _rms(x, scale):
     s = 0.0
     for i in range(x.shape[0]):
@@ -916,7 +1122,7 @@ def _rms(x, scale):
     return np.sqrt(s) / np.sqrt(x.shape[0])
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def _stage_sum(K, a, s, h, y, out):
     """``out = y + (K[:s].T @ a[:s]) * h``."""
     for i in range(y.shape[0]):
@@ -926,7 +1132,7 @@ def _stage_sum(K, a, s, h, y, out):
         out[i] = y[i] + acc * h
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(**_JIT)
 def dop853_projected(I, F, TI, W, y, f, carry, t1, t_out, k_out, rtol, atol, position_tol, n_rhs, max_rhs, stalled,
                      A, B, E3, E5, D, out_y, out_res):
     """Run DOP853 with projection from ``(carry[0], y)`` towards ``t1``; the states at ``t_out[k_out:]``
