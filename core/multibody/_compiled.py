@@ -45,16 +45,18 @@ class Tree:
     bodies and the ground in the order of their rows; a group that would
     close a loop (through other bodies or through the ground) is
     *secondary*: its rows are eliminated by a Schur complement. A body
-    without child groups (a leaf: the last link of a chain, a free body) is
-    kind 2: its pivot is its own mass block, factored once at compile time.
+    without child groups (a leaf: the last link of a chain, a free body)
+    keeps its own mass block as its pivot, factored once at compile time.
     """
 
     order_size: np.ndarray  # (N,) block size of each node
     order_parent: np.ndarray  # (N,) parent node, -1 at a root
-    node_kind: np.ndarray  # (N,) 0 body, 1 row group, 2 leaf body
+    node_kind: np.ndarray  # (N,) 0 body, 1 row group
     node_ref: np.ndarray  # (N,) body index or group index
+    leaf: np.ndarray  # (N,) 1 for a body without child groups, else 0
     body_node: np.ndarray  # (n,) node of each body
     group_rows: np.ndarray  # (G, 6) constraint rows of each group (padded with -1)
+    group_slot_of: np.ndarray  # (G, 2) slot of the group's child body and of its parent body (-1: ground root)
     parent_slot: np.ndarray  # (N,) slot, in the rows of the group of the link to the parent, of its body (-1: root)
     sec_rows: np.ndarray  # (k,) secondary rows (loop closures)
 
@@ -378,6 +380,8 @@ def build_tree(n: int, jc_body: np.ndarray, rows) -> Tree:
     body_node = np.zeros(n, dtype=_I64)
     group_rows = np.full((max(G, 1), 6), -1, dtype=_I64)
     parent_slot = np.full(N, -1, dtype=_I64)
+    leaf = np.zeros(N, dtype=_I64)
+    group_slot_of = np.full((max(G, 1), 2), -1, dtype=_I64)
 
     def slot_of(group_node: int, body: int) -> int:
         rr = tree_groups[group_node - n][1]
@@ -388,7 +392,7 @@ def build_tree(n: int, jc_body: np.ndarray, rows) -> Tree:
         order_parent[i] = pos[pv] if pv >= 0 else -1
         if v < n:
             order_size[i] = 6
-            node_kind[i] = 2 if all(w == pv for w in adj[v]) else 0  # a leaf: no child group
+            leaf[i] = int(all(w == pv for w in adj[v]))  # no child group
             node_ref[i] = v
             body_node[v] = i
             if pv >= 0:
@@ -402,8 +406,11 @@ def build_tree(n: int, jc_body: np.ndarray, rows) -> Tree:
             group_rows[gi, : len(rr)] = rr
             if pv >= 0:
                 parent_slot[i] = slot_of(v, pv)
-    return Tree(order_size, order_parent, node_kind, node_ref, body_node, group_rows, parent_slot,
-                np.array(secondary, dtype=_I64))
+            child = [b for b in tree_groups[gi][0] if b != pv][0]
+            group_slot_of[gi, 0] = slot_of(v, child)
+            group_slot_of[gi, 1] = parent_slot[i]
+    return Tree(order_size, order_parent, node_kind, node_ref, leaf, body_node, group_rows, group_slot_of,
+                parent_slot, np.array(secondary, dtype=_I64))
 
 
 def compile_engine(eng: Any) -> Compiled | None:

@@ -542,14 +542,14 @@ def _backward6(L, q, x, o):
 
 
 @njit(**_JIT_FMA)
-def tree_factor(order_parent, node_kind, node_ref, parent_slot, group_rows, Mblocks, Lbody, Jc, Xp, Lfac, sign,
-                work):
+def tree_factor(order_parent, node_kind, node_ref, leaf, parent_slot, group_rows, Mblocks, Lbody, Jc, Xp, Lfac,
+                sign, work):
     """Block LDL^T of ``H = [[W, D^T], [D, 0]]`` over the tree, children before parents (Baraff 1996).
 
     Nodes are in elimination order ``0 .. N-1``; ``order_parent[i]`` is the
     parent node (> i) or -1. A body node (``node_kind`` 0, ``node_ref`` the
     body) has the diagonal block ``Mblocks[body]`` (6 x 6); a leaf body
-    (kind 2, no child group) keeps it as its pivot, whose Cholesky factor
+    (``leaf[i]``, no child group) keeps it as its pivot, whose Cholesky factor
     ``Lbody[body]`` is made when the System is compiled; a group node (kind
     1, ``node_ref`` the group) has the zero block of its rows
     ``group_rows[g, :size]`` (-1 pads). ``parent_slot[i]`` is the slot, in
@@ -568,6 +568,8 @@ def tree_factor(order_parent, node_kind, node_ref, parent_slot, group_rows, Mblo
     for i in range(N):
         o = 36 * i
         kind = node_kind[i]
+        if leaf[i]:
+            continue
         if kind == 1:  # zero block of the rows, unit pivots on the padding (negated below)
             g = node_ref[i]
             for a in range(36):
@@ -582,7 +584,7 @@ def tree_factor(order_parent, node_kind, node_ref, parent_slot, group_rows, Mblo
     for i in range(N):
         o = 36 * i
         kind = node_kind[i]
-        if kind == 2:
+        if leaf[i]:
             L = Lbody
             q = 36 * node_ref[i]
             sg = 1.0
@@ -638,14 +640,14 @@ def tree_factor(order_parent, node_kind, node_ref, parent_slot, group_rows, Mblo
 
 
 @njit(**_JIT_FMA)
-def tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, x):
+def tree_solve(order_parent, node_ref, leaf, Lbody, Xp, Lfac, sign, x):
     """Solve ``H z = x`` in place, ``x`` (6 N,) by node (zero on a group's padding), with the factor of
     :func:`tree_factor`."""
     N = order_parent.shape[0]
     # forward: x_i <- L_i^-1 x_i, then x_p -= sign_i X_i^T x_i (children first)
     for i in range(N):
         o = 6 * i
-        if node_kind[i] == 2:
+        if leaf[i]:
             _forward6(Lbody, 36 * node_ref[i], x, o)
         else:
             _forward6(Lfac, 36 * i, x, o)
@@ -668,7 +670,7 @@ def tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, x):
                 for d in range(6):
                     v += Xp[36 * i + 6 * a + d] * x[6 * p + d]
                 x[o + a] -= v
-        if node_kind[i] == 2:
+        if leaf[i]:
             _backward6(Lbody, 36 * node_ref[i], x, o)
         else:
             _backward6(Lfac, 36 * i, x, o)
@@ -678,8 +680,8 @@ def tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, x):
 
 
 @njit(**_JIT_FMA)
-def augmented_solve(n, order_parent, node_kind, node_ref, body_node, group_rows, parent_slot, sec_rows, jc_body,
-                    Wblocks, Lbody, Jc, rhs_v, rhs_c, x_v, lam, Xp, Lfac, sign, work, X, Z, S, rs, Ls):
+def augmented_solve(n, order_parent, node_kind, node_ref, leaf, body_node, group_rows, parent_slot, sec_rows,
+                    jc_body, Wblocks, Lbody, Jc, rhs_v, rhs_c, x_v, lam, Xp, Lfac, sign, work, X, Z, S, rs, Ls):
     """Solve ``[[W, D^T], [D, 0]] [x; lam] = [rhs_v; rhs_c]`` (Eq. 8.109 with ``W = M``) in O(N + k^2 N).
 
     The rows of the tree's groups are eliminated by :func:`tree_factor`;
@@ -690,8 +692,8 @@ def augmented_solve(n, order_parent, node_kind, node_ref, body_node, group_rows,
     and ``Z`` (k, 6 N) are work arrays. Returns 0, 1 (a pivot of the tree is
     not definite) or 2 (S is not).
     """
-    if tree_factor(order_parent, node_kind, node_ref, parent_slot, group_rows, Wblocks, Lbody, Jc, Xp, Lfac, sign,
-                   work) >= 0:
+    if tree_factor(order_parent, node_kind, node_ref, leaf, parent_slot, group_rows, Wblocks, Lbody, Jc, Xp, Lfac,
+                   sign, work) >= 0:
         return 1
     N = order_parent.shape[0]
     for i in range(N):
@@ -706,7 +708,7 @@ def augmented_solve(n, order_parent, node_kind, node_ref, body_node, group_rows,
             for k in range(6):
                 r = group_rows[g, k]
                 X[o + k] = rhs_c[r] if r >= 0 else 0.0
-    tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, X)
+    tree_solve(order_parent, node_ref, leaf, Lbody, Xp, Lfac, sign, X)
     ns = sec_rows.shape[0]
     if ns:
         for j in range(ns):
@@ -719,7 +721,7 @@ def augmented_solve(n, order_parent, node_kind, node_ref, body_node, group_rows,
                 if b >= 0:
                     for k in range(6):
                         Zj[6 * body_node[b] + k] += Jc[r, s, k]
-            tree_solve(order_parent, node_kind, node_ref, Lbody, Xp, Lfac, sign, Zj)
+            tree_solve(order_parent, node_ref, leaf, Lbody, Xp, Lfac, sign, Zj)
         for l in range(ns):
             rs[l] = 0.0
             for j in range(ns):
@@ -817,7 +819,7 @@ I_FIELDS = ("vec_b", "row_v", "row_slot", "tab_slots", "aux_motor", "jc_body", "
             "rs_bi", "rs_bj", "uf_b", "uf_has_u", "ut_b")
 F_FIELDS = ("vec_u", "vec_h", "mass", "inertia", "gravity", "Mblocks", "Wblocks", "Lm", "Lw", "sp_ui", "sp_uj",
             "sp_k", "sp_c", "sp_L0", "rs_k", "rs_c", "rs_0", "rs_hi", "rs_hj", "uf_u")
-T_FIELDS = ("order_size", "order_parent", "node_kind", "node_ref", "body_node", "group_rows", "parent_slot",
+T_FIELDS = ("order_size", "order_parent", "node_kind", "node_ref", "leaf", "body_node", "group_rows", "parent_slot",
             "sec_rows")
 W_FIELDS = ("A", "omega", "V", "Phi", "J", "gam", "rate", "C", "Jc", "Ct", "gamma", "Q", "Tg", "pi", "pj", "motor_f",
             "uf_F", "ut_T", "Xp", "Lfac", "sign", "work", "X", "Z", "S", "rs", "Ls", "cv", "dq", "lam", "rhs_c",
@@ -826,8 +828,8 @@ W_FIELDS = ("A", "omega", "V", "Phi", "J", "gam", "rate", "C", "Jc", "Ct", "gamm
  I_RS_BJ, I_UF_B, I_UF_HAS_U, I_UT_B) = range(15)
 (F_VEC_U, F_VEC_H, F_MASS, F_INERTIA, F_GRAVITY, F_MBLOCKS, F_WBLOCKS, F_LM, F_LW, F_SP_UI, F_SP_UJ, F_SP_K, F_SP_C,
  F_SP_L0, F_RS_K, F_RS_C, F_RS_0, F_RS_HI, F_RS_HJ, F_UF_U) = range(20)
-(T_ORDER_SIZE, T_ORDER_PARENT, T_NODE_KIND, T_NODE_REF, T_BODY_NODE, T_GROUP_ROWS, T_PARENT_SLOT,
- T_SEC_ROWS) = range(8)
+(T_ORDER_SIZE, T_ORDER_PARENT, T_NODE_KIND, T_NODE_REF, T_LEAF, T_BODY_NODE, T_GROUP_ROWS, T_PARENT_SLOT,
+ T_SEC_ROWS) = range(9)
 (W_A, W_OMEGA, W_V, W_PHI, W_J, W_GAM, W_RATE, W_C, W_JC, W_CT, W_GAMMA, W_Q, W_TG, W_PI, W_PJ, W_MOTOR_F, W_UF_F,
  W_UT_T, W_XP, W_LFAC, W_SIGN, W_WORK, W_X, W_Z, W_S, W_RS, W_LS, W_CV, W_DQ, W_LAM, W_RHS_C, W_ZERO6,
  W_RES) = range(33)
@@ -945,7 +947,7 @@ def solve_packed(I, F, TI, W, metric, rhs_v, rhs_c, x_v):
         blocks = _vflat(F, I, FH + 4 * F_WBLOCKS)
         Lb = _vflat(F, I, FH + 4 * F_LW)
     return augmented_solve(n, _v1(TI, TI, TH + 4 * T_ORDER_PARENT), _v1(TI, TI, TH + 4 * T_NODE_KIND),
-                           _v1(TI, TI, TH + 4 * T_NODE_REF), _v1(TI, TI, TH + 4 * T_BODY_NODE), _v2(TI, TI, TH + 4 * T_GROUP_ROWS),
+                           _v1(TI, TI, TH + 4 * T_NODE_REF), _v1(TI, TI, TH + 4 * T_LEAF), _v1(TI, TI, TH + 4 * T_BODY_NODE), _v2(TI, TI, TH + 4 * T_GROUP_ROWS),
                            _v1(TI, TI, TH + 4 * T_PARENT_SLOT), _v1(TI, TI, TH + 4 * T_SEC_ROWS), _v2(I, I, IH + 4 * I_JC_BODY),
                            blocks, Lb, _v3(W, TI, WH + 4 * W_JC), rhs_v, rhs_c, x_v, _v1(W, TI, WH + 4 * W_LAM),
                            _vflat(W, TI, WH + 4 * W_XP), _vflat(W, TI, WH + 4 * W_LFAC), _v1(W, TI, WH + 4 * W_SIGN),
