@@ -758,6 +758,10 @@ def chains_main(quick: bool) -> None:
     print(f"{machine}; " + ", ".join(f"{k} {v}" for k, v in versions.items()))
     print(f"T = {CHAIN_T_END:g} s, outputs at {CHAIN_FPS} Hz; tip error = largest distance of the last link's end "
           f"from the reference; CPU = process time; cap {cap:g} s per run\n")
+    from core._warm import warm
+
+    # compile or load the kernels before any run is timed (a stale cache would put a compile in the first point)
+    print(f"kernels ready ({warm():.1f} s of CPU, not counted below)\n", flush=True)
     results = {}
     references = {}
     for n in links:
