@@ -7,7 +7,7 @@ Examples
 ``rigidlab serve --host 0.0.0.0 --mode per-client``
     Serve a classroom LAN; every browser gets its own state, the browsers
     spread over one worker process per core (``--workers N`` to choose;
-    :mod:`app.workers`).
+    :mod:`app.supervisor`).
 ``rigidlab serve --present --state demo.json``
     Start in presenter view from a saved scene state (Share > Download state).
 ``rigidlab bench``
@@ -139,7 +139,7 @@ def _lan_notes(host: str, port: int, mode: str) -> None:
 def _serve(args: argparse.Namespace) -> int:
     from app import state as state_codec
     from app.server import create_app
-    from app.workers import default_workers, serve_workers
+    from app.supervisor import default_workers, serve_workers
 
     worker = args.worker_index
     workers = args.workers
@@ -233,7 +233,7 @@ def _serve(args: argparse.Namespace) -> int:
 def _warm_kernels() -> subprocess.Popen | None:
     """Start ``python -m core._warm`` (see core/_warm.py); None if it cannot start.
 
-    At the server's own priority: a scene's job that needs the kernels waits for it (:mod:`app.worker`),
+    At the server's own priority: a scene's job that needs the kernels waits for it (:mod:`app.jobs`),
     so it compiles for that job. (At nice 10 it was starved on a busy machine while the job waited: 40 s
     of CPU in 4 min at a load of 13 on 2 cores.)
     """
@@ -262,7 +262,7 @@ def _stop_signals_as_interrupt() -> dict:
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
-    from app.workers import unignore_sigint
+    from app.supervisor import unignore_sigint
 
     previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, interrupt)}
     ignored = unignore_sigint()

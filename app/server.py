@@ -20,7 +20,7 @@ poses inside ``atomic()``. Hidden scenes are never updated. Every GUI value
 passes the gate (:mod:`app.gate`) before viser stores it. An exception in a
 scene pauses that scene (:meth:`app.scenes.base.Scene.frame`); the server
 keeps serving. Long work runs on one background executor per app
-(:mod:`app.worker`).
+(:mod:`app.jobs`).
 
 Besides the scene chooser, every session has a presenter-view switch and a
 *Share* folder: *Copy state* (the active scene's state as a short string, a
@@ -51,7 +51,7 @@ from app.gate import Gate, RefusedValue, client_request_path
 from app.panel import ControlPanel
 from app.scenes import discover_scenes, discovery_errors
 from app.scenes.base import Scene, SceneContext, aim_camera, plot_text_css
-from app.worker import make_executor
+from app.jobs import make_executor
 from core._warm import running_for as warm_up_running_for
 
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
@@ -69,7 +69,7 @@ MODES = ("shared", "per-client")
 Mode = Literal["shared", "per-client"]
 
 #: While the compiled kernels' warm-up (core/_warm.py, started by ``rigidlab serve``) has run this long (s)
-#: and a scene's clock holds for a job (whose kernels wait for the warm-up: app.worker), its audience sees
+#: and a scene's clock holds for a job (whose kernels wait for the warm-up: app.jobs), its audience sees
 #: this notice, with a spinner, until the warm-up ends or the clock moves: a first start on a new install
 #: compiles for a minute or two.
 _WARM_NOTICE_AFTER = 2.0
@@ -887,7 +887,7 @@ def create_app(
     reuse_port : bool
         Listen with ``SO_REUSEPORT``: several processes share ``port`` and
         the kernel spreads connections over them (the per-client workers of
-        :mod:`app.workers`). The port must then be given (not 0).
+        :mod:`app.supervisor`). The port must then be given (not 0).
 
     Returns
     -------

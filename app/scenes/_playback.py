@@ -184,7 +184,7 @@ class PlaybackRequests:
     """Requests of a scene with a :class:`Playback` and a chunk timeline (tests, notebooks).
 
     A mixin for scenes that set ``self.playback`` (a :class:`Playback`) and
-    ``self.timeline`` (an :class:`app.worker.ChunkTimeline`); what is
+    ``self.timeline`` (an :class:`app.jobs.ChunkTimeline`); what is
     requested is applied by the scene's next ``update``.
     """
 

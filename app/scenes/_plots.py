@@ -1,7 +1,7 @@
 """Histories, plot windows, CSV export and legends shared by the timed scenes.
 
 The gyroscope and free-body scenes compute their motion in chunks of
-simulated time on the app's executor (:class:`app.worker.ChunkTimeline`).
+simulated time on the app's executor (:class:`app.jobs.ChunkTimeline`).
 Besides what a scene draws, every chunk carries a :class:`Table`: its sample
 times ``t`` (n,), the exported columns (n, m) and the same rows already
 formatted as CSV text, all built on the executor. :class:`History` keeps the

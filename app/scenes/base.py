@@ -22,7 +22,7 @@ scene:
   browser that clicked it;
 * **a frame budget** -- :meth:`frame` times each update (wall and CPU time of
   the loop thread, ``frame_seconds``); long work goes to ``self.executor``
-  (see :mod:`app.worker`).
+  (see :mod:`app.jobs`).
 
 Life cycle, driven by the session that owns the scene (one per server in
 ``shared`` mode, one per browser in ``per-client`` mode):
@@ -61,7 +61,7 @@ from app.controls import Button
 from app.gate import Gate
 from app.panel import ControlPanel, NotifyClient
 from app.readout import PRESENTER_FONT_SCALE, Readout
-from app.worker import make_executor
+from app.jobs import make_executor
 
 __all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE", "aim_camera"]
 

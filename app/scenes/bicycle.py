@@ -13,7 +13,7 @@ falls; faster, it falls slowly into a tightening turn (capsize).
 The scene holds no physics and does no long work on the loop thread:
 
 * the ride is computed on the app's executor in chunks of 0.5 s of
-  simulated time ahead of the display clock (:class:`app.worker.ChunkTimeline`,
+  simulated time ahead of the display clock (:class:`app.jobs.ChunkTimeline`,
   sequential): the job :func:`_compute_chunk` rebuilds the System in the
   worker, puts it in the last state of the previous chunk (or of the
   displayed instant, pushed) and runs :func:`core.models.whipple_ride`,
@@ -60,7 +60,7 @@ from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table
 from app.scenes._trail import ChunkedTrail, StickHead
 from app.scenes.base import Scene
-from app.worker import ChunkTimeline
+from app.jobs import ChunkTimeline
 from core.models import (
     MEIJAARD_2007,
     WHIPPLE_FALL_LEAN,

@@ -18,7 +18,7 @@ Everything shown comes from :class:`core.models.CamFollower`:
   :class:`core.multibody.System` with the contact constraints (Eqs.
   8.90-8.109), continued with the Hunt-Crossley model after the first
   separation, so the follower leaves the cam and lands. It runs on the app's
-  process pool in chunks of one revolution (:class:`app.worker.ChunkTimeline`,
+  process pool in chunks of one revolution (:class:`app.jobs.ChunkTimeline`,
   each chunk continuing from the last state of the previous one) and the
   display clock holds while the chunk it needs is being computed.
 
@@ -68,7 +68,7 @@ from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from app.readout import significant
 from app.scenes._plots import Legend, format_rows
 from app.scenes.base import PRESENTER_LINE_SCALE, Scene
-from app.worker import ChunkTimeline
+from app.jobs import ChunkTimeline
 from core.models import CamFollower, CamProfile
 
 __all__ = [

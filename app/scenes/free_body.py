@@ -22,7 +22,7 @@ are not those of the frame axes); the panel's legend keys the colours, and
 
 The scene holds no physics, and the loop thread does no long work: the
 motion is computed on the app's executor in chunks of 1 s of simulated time
-ahead of the display clock (:class:`app.worker.ChunkTimeline`; the ghost
+ahead of the display clock (:class:`app.jobs.ChunkTimeline`; the ghost
 continues from the end of the previous chunk, never recursively), and the
 clock holds while the chunk it needs is not ready. The per-model constants
 (the exact solution, the model with its principal axes, the momentum
@@ -50,7 +50,7 @@ from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
 from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
-from app.worker import ChunkTimeline
+from app.jobs import ChunkTimeline
 from core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, IntegrationError, integrate
 from core.rigid_body import (
     FreeBodyModel,

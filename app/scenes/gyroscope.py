@@ -13,7 +13,7 @@ show the angular velocity, the angular momentum and the torque, in colours
 that are not the red / green / blue of frame axes, with labels and a legend.
 
 The scene holds no physics. Everything long runs on the app's executor
-(:class:`app.worker.ChunkTimeline`), in chunks of 2 s of simulated time ahead
+(:class:`app.jobs.ChunkTimeline`), in chunks of 2 s of simulated time ahead
 of the display clock, and the clock holds while the chunk it needs is not
 ready. Without applied torques :func:`core.gyroscope.top_motion` evaluates
 the closed form at absolute times (its constants computed once per
@@ -45,7 +45,7 @@ from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh, Table, window_seconds
 from app.scenes._trail import ChunkedTrail
 from app.scenes.base import Scene
-from app.worker import ChunkTimeline
+from app.jobs import ChunkTimeline
 from core.gyroscope import (
     NutationResult,
     RotorParams,

@@ -16,7 +16,7 @@ the energy, its drift and the constraint residual ``max |C|`` live.
 
 The scene holds no physics and does no long work on the loop thread. The
 motion is computed on the app's executor in chunks of 1 s of simulated time
-ahead of the display clock (:class:`app.worker.ChunkTimeline`, sequential):
+ahead of the display clock (:class:`app.jobs.ChunkTimeline`, sequential):
 the job :func:`_compute_chunk` takes the frozen :class:`Model` (picklable
 parameters), rebuilds the System from them in the worker, puts it in the final
 state of the previous chunk and runs :meth:`core.multibody.System.simulate`
@@ -48,7 +48,7 @@ from app.readout import one_digit, significant
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
 from app.scenes.base import Scene
-from app.worker import ChunkTimeline
+from app.jobs import ChunkTimeline
 from core.gyroscope import RotorParams, top_motion
 from core.models import heavy_top, pendulum_chain, slider_crank, spatial_double_pendulum
 from core.multibody import ADAPTIVE_METHODS, FIXED_STEP_METHODS, JOINT_KINDS

@@ -11,7 +11,7 @@ critical upright spin of :func:`core.models.rolling_disk_critical_spin`.
 
 The scene holds no physics and does no long work on the loop thread. The
 motion is computed on the app's executor in chunks of 0.5 s of simulated
-time ahead of the display clock (:class:`app.worker.ChunkTimeline`,
+time ahead of the display clock (:class:`app.jobs.ChunkTimeline`,
 sequential): the job :func:`_compute_chunk` takes the frozen :class:`Model`
 (picklable parameters), rebuilds the System with
 :func:`core.models.rolling_disk` in the worker, puts it in the final state
@@ -70,7 +70,7 @@ from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import LOG_FLOOR, History, Legend, PlotRefresh, Table, log10_floor
 from app.scenes._trail import ChunkedTrail, StickHead
 from app.scenes.base import Scene
-from app.worker import ChunkTimeline
+from app.jobs import ChunkTimeline
 from core.contact import ContactError
 from core.integrators import IntegrationError
 from core.models import FLAT_LEAN, rolling_disk, rolling_disk_critical_spin

@@ -1,7 +1,7 @@
 """A scene started while the kernels' warm-up runs (``rigidlab serve`` on a new install).
 
 The worker's kernels wait for the warm-up instead of compiling beside it
-(:mod:`core._warm`, :mod:`app.worker`), and the audience is told why the scene
+(:mod:`core._warm`, :mod:`app.jobs`), and the audience is told why the scene
 waits. A child process stands in for the warm-up: it holds the warm-up's lock
 until the test closes its stdin.
 """
@@ -13,10 +13,15 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 import core._warm as warm
 from app.scenes.gyroscope import GyroscopeScene
 from app.scenes.linkages import LinkagesScene
 from tests.helpers import wait_until
+
+#: the warm-up lock is one per machine: tests that hold it run on one xdist worker, one after another
+pytestmark = pytest.mark.xdist_group("warm_up_lock")
 
 ROOT = Path(__file__).resolve().parents[2]
 COMPILING = "Compiling the kernels (first start only)…"

@@ -20,6 +20,9 @@ from numba.core.dispatcher import Dispatcher
 import core._warm as warm
 from tests.helpers import wait_until
 
+#: the warm-up lock is one per machine: tests that hold it run on one xdist worker, one after another
+pytestmark = pytest.mark.xdist_group("warm_up_lock")
+
 ROOT = Path(__file__).resolve().parents[2]
 
 _HOLDER = textwrap.dedent("""

@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from app.worker import ChunkTimeline, make_executor
+from app.jobs import ChunkTimeline, make_executor
 from tests.app import _jobs
 
 
@@ -152,7 +152,7 @@ def test_a_failed_job_fails_every_submitter_and_is_not_kept(executor) -> None:
 
 
 def test_jobs_that_do_not_pickle_by_name_are_not_shared() -> None:
-    from app.worker import _job_key
+    from app.jobs import _job_key
 
     assert _job_key(_jobs.square, (2.0,), {}) == _job_key(_jobs.square, (2.0,), {})
     assert _job_key(_jobs.square, (2.0,), {}) != _job_key(_jobs.square, (3.0,), {})

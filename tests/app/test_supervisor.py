@@ -1,4 +1,4 @@
-"""Per-client mode on several worker processes (``rigidlab serve --workers N``, :mod:`app.workers`).
+"""Per-client mode on several worker processes (``rigidlab serve --workers N``, :mod:`app.supervisor`).
 
 The multi-worker test starts the real command in a subprocess: two workers
 share one port, plain websocket clients connect until both workers hold
@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from app import cli
-from app.workers import reuse_port_supported
+from app.supervisor import reuse_port_supported
 from tests.app.conftest import WsClient
 from tests.helpers import process_group_gone, wait_until
 

@@ -91,7 +91,7 @@ def make_executor(
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     context = multiprocessing.get_context("forkserver")
-    modules = ["numpy", "scipy.special", "scipy.integrate", "app.worker"]
+    modules = ["numpy", "scipy.special", "scipy.integrate", "app.jobs"]
     modules += [m for m in dict.fromkeys(preload) if m not in modules]
     context.set_forkserver_preload(modules)
     workers = max(1, (os.cpu_count() or 2) - 1)
