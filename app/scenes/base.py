@@ -434,6 +434,12 @@ class Scene:
                     self.help_readout = self.add_readout(self.help)
         return self._gui_folder
 
+    def plot_area(self) -> Any:
+        """The GUI container a scene's plots and tables go in (a context manager): every scene calls this
+        instead of making its own "Plots" folder, so the page's layout of plots (beside the 3-D view) is
+        decided here, once."""
+        return self.target.gui.add_folder("Plots")
+
     def add_ground_grid(
         self,
         *,

@@ -620,7 +620,7 @@ class FreeBodyScene(PlaybackRequests, Scene):
                                          hint="Fixed-step methods"))
                 self.controls.add(Slider("rtol_exp", "log10 rtol", min=-13.0, max=-3.0, step=1.0,
                                          default=_DEFAULT.rtol_exp, hint="Adaptive methods (scipy)"))
-            with gui.add_folder("Plots"):
+            with self.plot_area():
                 # plotted as log10 values on linear axes (uPlot's log axes label
                 # tiny values as 0)
                 floor = math.log10(_LOG_FLOOR)

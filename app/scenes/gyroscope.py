@@ -561,7 +561,7 @@ class GyroscopeScene(PlaybackRequests, Scene):
             with gui.add_folder("Show"):
                 self.controls.add(Toggle("show_trail", "Tip trail", default=True))
                 self.controls.add(Toggle("show_arrows", "Arrows ω, L, M", default=True))
-            with gui.add_folder("Plots"):
+            with self.plot_area():
                 empty = (np.zeros(2), np.zeros(2))
                 # x is simulated time in seconds, not a calendar date (uPlot's default)
                 x_scale = {"x": {"time": False}}

@@ -671,7 +671,7 @@ class LinkagesScene(PlaybackRequests, Scene):
                                          hint="Step of rk4 / midpoint"))
             with gui.add_folder("Show"):
                 self.controls.add(Toggle("show_forces", "Reaction arrows", default=True))
-            with gui.add_folder("Plots"):
+            with self.plot_area():
                 x_scale = {"x": {"time": False}}
                 empty = np.zeros(2)
                 plot_energy = self.add_plot(

@@ -725,7 +725,7 @@ class RollingDiskScene(PlaybackRequests, Scene):
                                          hint="Keep the disk in view: the ground moves under it"))
                 self.controls.add(Toggle("show_track", "Track", default=True))
                 self.controls.add(Toggle("show_force", "Contact force arrow", default=True))
-            with gui.add_folder("Plots"):
+            with self.plot_area():
                 x_scale = {"x": {"time": False}}
                 empty = np.zeros(2)
                 plot_lean = self.add_plot(
