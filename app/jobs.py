@@ -301,7 +301,9 @@ class ChunkTimeline:
     Notes
     -----
     All methods are for the loop thread. ``error`` holds the exception of a
-    chunk that failed (no more chunks are asked for until :meth:`reset`).
+    chunk that failed (no more chunks are asked for until :meth:`reset`). A
+    chunk whose ``final`` attribute is true ends the motion: no later chunk is
+    asked for.
     """
 
     def __init__(
@@ -404,6 +406,8 @@ class ChunkTimeline:
     def _request(self, k: int) -> None:
         if k in self._chunks or k in self._jobs:
             return
+        if any(getattr(c, "final", False) for j, c in self._chunks.items() if j < k):
+            return  # the motion ends in an earlier chunk (a fall, a separation): nothing comes after it
         if not self.sequential:
             self._jobs[k] = self._executor.submit(self._compute, k, None)
             return

@@ -1,0 +1,423 @@
+"""The timed scenes' one pipeline: :class:`SimulationScene`.
+
+A timed scene (a motion computed by core and played on a clock) declares
+four things and gets the rest from this layer:
+
+* ``Inputs`` -- a frozen dataclass whose fields are the keys of the
+  controls the motion depends on (a change of any of them starts the
+  motion again from t = 0);
+* :meth:`SimulationScene.job` -- one line: a picklable callable
+  ``compute(k, previous) -> chunk`` (a ``functools.partial`` of a
+  module-level function that calls core) for chunk ``k`` of a segment;
+* :meth:`SimulationScene.plots` -- :class:`PlotSpec` s: a title, the
+  series' labels and colours, and a function of the window's table columns;
+* :meth:`SimulationScene.draw` -- the poses of the sample drawn
+  (``draw(chunk, j)``, inside ``target.atomic()``).
+
+The layer owns the clock (:class:`app.scenes._playback.Playback`: play,
+pause, reset, time scale, presets), the chunk timeline on the app's
+executor (:class:`app.jobs.ChunkTimeline`), the history of the chunks
+reached (:class:`app.scenes._plots.History`), the plot refresh spread over
+frames (:class:`app.scenes._plots.PlotRefresh`), error notices, the
+real-time-rate readout and the CSV export of the plotted window.
+
+Chunks
+------
+A chunk is any object with ``k`` (its index), ``t`` ((n,) sample times,
+display time, increasing) and ``table`` (:class:`app.scenes._plots.Table`);
+optionally ``final`` (True: the motion ends at ``t[-1]``, e.g. a fall),
+``end`` (why, shown once in a notice) and ``failure`` (a non-fatal message
+shown once, e.g. a ghost integrator that stopped). Chunk ``k`` of a segment
+covers ``[t0 + k T, t0 + (k + 1) T]`` of display time, ``T`` =
+:attr:`chunk_time`.
+
+Segments
+--------
+A motion is one segment from t = 0 until the scene continues it from a state
+it reached (:meth:`continue_from`: the bicycle's push starts a new segment at
+the state shown, from core's ``final_state``); the clock runs on.
+
+Rate
+----
+:attr:`real_time_rate` is simulated seconds per wall second over the last
+:data:`RATE_WINDOW` seconds while playing; when it stays below
+:data:`RATE_SHORTFALL` of the time scale, the readout says the rate the scene
+actually runs at (a busy server, or chunks that take longer than they last).
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import functools
+import math
+from collections.abc import Callable, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+from app.jobs import ChunkTimeline
+from app.scenes._playback import Playback, PlaybackRequests
+from app.scenes._plots import History, PlotRefresh
+from app.scenes.base import Scene
+
+__all__ = ["PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL"]
+
+#: Wall seconds over which the real-time rate is measured.
+RATE_WINDOW = 2.0
+#: The readout reports the rate when it is below this fraction of the time scale.
+RATE_SHORTFALL = 0.9
+
+
+@dataclasses.dataclass(frozen=True)
+class PlotSpec:
+    """One plot of a timed scene.
+
+    Attributes
+    ----------
+    name : key of the plot (``scene.plot_handles[name]``)
+    title : shown above the plot
+    series : ``(label, colour)`` of each y series (CSS colours)
+    data : ``data(t, columns) -> tuple of (n,) arrays``, one per series, from
+        the plotted window's times ``t`` (n,) and table columns (n, m)
+    shown : ``shown(inputs) -> bool``: whether the plot is shown for these
+        inputs (None: always)
+    """
+
+    name: str
+    title: str
+    series: tuple[tuple[str, str], ...]
+    data: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, ...]]
+    shown: Callable[[Any], bool] | None = None
+    x_label: str = "t (s)"
+    aspect: float = 1.6
+
+
+@dataclasses.dataclass(frozen=True)
+class Segment:
+    """Where a stretch of chunks starts.
+
+    Attributes
+    ----------
+    index : counts the segments since the last restart (0: from t = 0)
+    t0 : display time at the segment's start (s)
+    start : what the job continues from (None: the motion's initial state),
+        e.g. core's ``final_state`` (picklable)
+    extra : anything else the scene's job needs for this segment (e.g. a push)
+    """
+
+    index: int = 0
+    t0: float = 0.0
+    start: Any = None
+    extra: Any = None
+
+
+class SimulationScene(PlaybackRequests, Scene):
+    """A scene whose motion core computes in chunks and the layer plays on a clock (module docstring)."""
+
+    #: Frozen dataclass of the control values the motion depends on (field names = control keys).
+    Inputs: ClassVar[type]
+    #: Preset names, in button order (:meth:`preset_values` gives each one's control values).
+    presets: ClassVar[tuple[str, ...]] = ()
+    #: Simulated seconds per chunk.
+    chunk_time: ClassVar[float] = 1.0
+    #: Whether chunk k continues from chunk k - 1 (else chunks are independent).
+    sequential: ClassVar[bool] = True
+    #: Chunks the timeline keeps for a replay.
+    chunks_kept: ClassVar[int] = 8
+    #: How far into a chunk the clock is when the next chunk is asked for (0: at once).
+    ask_ahead: ClassVar[float] = 0.0
+    #: Wall seconds between refreshes of the readout and the plots.
+    refresh_period: ClassVar[float] = 0.25
+    #: Length of the plotted (and exported) window, s.
+    window: float = 10.0
+    #: CSV header: one line, column names with units (t first).
+    csv_header: ClassVar[str] = ""
+
+    def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
+        super().__init__(target, notify, context=context)
+        self.playback = Playback(self.presets, controls=self.controls)
+        self._input_keys = frozenset(f.name for f in dataclasses.fields(self.Inputs))
+        self.timeline = ChunkTimeline(self.executor, self._no_job, chunk_time=self.chunk_time,
+                                      sequential=self.sequential, capacity=self.chunks_kept)
+        self.history = History()
+        # owned by the loop thread
+        self.segment = Segment()
+        self.config: Any = None  # the Inputs in use (None until the first frame)
+        self.sim_time = 0.0  # display clock (s)
+        self.local_time = 0.0  # clock within the segment (s)
+        self.display_time = 0.0  # time of the sample drawn (s)
+        self.waiting = False  # the clock holds: the chunk it needs is not ready
+        self.ended = False  # the motion ended itself (a final chunk reached)
+        self.last_chunk: Any = None
+        self.plot_handles: dict[str, Any] = {}
+        self.status: Any = None  # the layer's readout (time, rate, the scene's lines)
+        self._specs: tuple[PlotSpec, ...] = ()
+        self._refresh = PlotRefresh(("readout",), self.refresh_period)
+        self._plot_window: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros((0, 0)))
+        self._drawn: tuple | None = None
+        self._refreshed_time = -1.0
+        self._reported: set[str] = set()
+        self._rate: collections.deque[tuple[float, float]] = collections.deque()
+        self.real_time_rate = math.nan
+
+    @staticmethod
+    def _no_job(k: int, previous: Any) -> Any:  # pragma: no cover - replaced at the first frame
+        raise RuntimeError("the scene's job is set at its first frame")
+
+    # -- what a scene declares ---------------------------------------------------------------------
+    def job(self, inputs: Any, segment: Segment) -> Callable[[int, Any], Any]:  # pragma: no cover - abstract
+        """``compute(k, previous) -> chunk`` for ``inputs`` from ``segment`` (picklable; runs on the executor)."""
+        raise NotImplementedError
+
+    def build_nodes(self) -> None:  # pragma: no cover - abstract
+        """Create the scene's nodes under ``self.root`` (once)."""
+        raise NotImplementedError
+
+    def build_controls(self) -> None:
+        """Add the scene's controls, legend and readouts inside its folder; :meth:`add_playback` and
+        :meth:`add_presets` place the layer's (called after the status readout is placed)."""
+
+    def plots(self) -> Sequence[PlotSpec]:
+        """The scene's plots (made once, in :meth:`plot_area`)."""
+        return ()
+
+    def draw(self, chunk: Any, j: int) -> None:  # pragma: no cover - abstract
+        """Send the poses of sample ``j`` of ``chunk`` (inside ``target.atomic()``; loop thread)."""
+        raise NotImplementedError
+
+    def preset_values(self, name: str) -> dict[str, Any]:
+        """Control values of preset ``name`` (set before the motion restarts)."""
+        return {}
+
+    def on_configure(self, inputs: Any) -> None:
+        """Hook: the motion restarts with new ``inputs`` (visibility of nodes, label texts)."""
+
+    def on_restart(self) -> None:
+        """Hook: the clock goes back to t = 0 (clear trails)."""
+
+    def readout_lines(self) -> list[str]:
+        """Hook: the scene's lines of the status readout (refreshed with the plots)."""
+        return []
+
+    def end_notice(self, chunk: Any) -> tuple[str, str]:
+        """Title and text of the notice when the motion ends itself (a final chunk)."""
+        return "The motion ended", f"{getattr(chunk, 'end', '')}. Press Reset or change a control."
+
+    def background(self) -> None:
+        """Hook: once per frame after the clock moved, for side jobs (modes, sweeps) on ``self.executor``."""
+
+    # -- building -----------------------------------------------------------------------------------
+    def build(self) -> None:
+        self.make_root()
+        self.build_nodes()
+        with self.make_folder():
+            self.build_controls()
+            if self.status is None:
+                self.add_playback()
+            self._specs = tuple(self.plots())
+            if self._specs:
+                with self.plot_area():
+                    for spec in self._specs:
+                        n = len(spec.series)
+                        self.plot_handles[spec.name] = self.add_plot(
+                            (np.zeros(2),) * (n + 1),
+                            ({"label": spec.x_label},
+                             *({"label": label, "stroke": color, "width": 2} for label, color in spec.series)),
+                            title=spec.title, scales={"x": {"time": False}}, aspect=spec.aspect,
+                        )
+            if self.csv_header:
+                self.add_download("download_csv", "Download CSV", f"{self.name}.csv", self.csv_bytes,
+                                  hint="the samples of the plotted window, up to the time shown")
+        self._refresh = PlotRefresh(("readout", *(s.name for s in self._specs)), self.refresh_period)
+
+    def add_playback(self) -> None:
+        """The Play / Pause / Reset row, the time scale and the status readout, here in the folder."""
+        self.playback.add_gui()
+        self.status = self.add_readout("Computing the motion…")
+
+    def add_presets(self) -> None:
+        """The preset buttons, here in the folder."""
+        self.playback.add_preset_buttons()
+
+    # -- read by tests and notebooks ------------------------------------------------------------
+    @property
+    def inputs(self) -> Any:
+        """The values of the controls in use, as ``Inputs``."""
+        values = self.controls.values()
+        return self.Inputs(**{key: values[key] for key in self._input_keys})
+
+    # -- the clock ------------------------------------------------------------------------------------
+    def configure(self, inputs: Any) -> None:
+        """Use ``inputs``: the motion again from t = 0."""
+        self.config = inputs
+        self._reported = set()
+        self.on_configure(inputs)
+        self.restart()
+        for spec in self._specs:
+            if spec.shown is not None:
+                self.plot_handles[spec.name].visible = bool(spec.shown(inputs))
+
+    def restart(self) -> None:
+        """The motion from t = 0 (chunks of the same inputs are reused)."""
+        self._start(Segment())
+        self.sim_time = 0.0
+        self.history.clear()
+        self._refreshed_time = -1.0
+        self._refresh.force()
+        self.on_restart()
+
+    def continue_from(self, start: Any, extra: Any = None) -> None:
+        """A new segment from ``start`` (core's ``final_state`` of the sample shown) at the time shown."""
+        self._start(Segment(self.segment.index + 1, self.display_time, start, extra))
+        self.sim_time = self.display_time
+
+    def _start(self, segment: Segment) -> None:
+        self.segment = segment
+        self.timeline.reset(self.job(self.config, segment))
+        self.local_time = 0.0
+        self.ended = False
+        self._drawn = None
+        self._reported.discard("error")
+        self._reported.discard("end")
+
+    def update(self, dt: float) -> None:
+        preset = self.playback.take_preset()
+        changed = self.controls.take_changes()
+        if preset is not None:
+            self.controls.set_many(self.preset_values(preset))
+            self.playback.set_playing(True)
+        if self.config is None or preset is not None or changed & self._input_keys:
+            inputs = self.inputs
+            if inputs != self.config or preset is not None:
+                self.configure(inputs)
+        self.on_frame(changed)
+        tick = self.playback.tick(dt)
+        if tick.reset:
+            ended = self.ended
+            self.restart()
+            if ended:
+                self.playback.set_playing(True)
+        step = 0.0 if self.ended else tick.step
+        here = self.timeline.chunk_at(self.local_time, ahead=self.ask_ahead)
+        if here is not None and getattr(here, "final", False):
+            step = min(step, max(0.0, float(here.t[-1]) - self.sim_time))
+        before = self.local_time
+        self.local_time, chunk, self.waiting = self.timeline.advance(self.local_time, step)
+        self.sim_time = self.segment.t0 + self.local_time
+        self._measure_rate(dt, self.local_time - before, tick.step > 0.0 or self.waiting)
+        error = self.timeline.error
+        if error is not None and "error" not in self._reported:
+            self._reported.add("error")
+            self.playback.set_playing(False)
+            self.notify(f"{self.title}: motion stopped",
+                        f"{type(error).__name__}: {error}. The motion stops at t = {self.sim_time:.2f} s; "
+                        "change a control to run it again.", "warning")
+        self.background()
+        if chunk is not None:
+            self._frame(chunk, dt)
+        elif self.status is not None and self._drawn is None:
+            self.status.content = "Computing the motion…"
+
+    def on_frame(self, changed: set[str]) -> None:
+        """Hook: once per frame after the inputs were applied (``changed``: the control keys changed), before
+        the clock moves (requests such as a push)."""
+
+    def _measure_rate(self, dt: float, advanced: float, running: bool) -> None:
+        if not running or not self.playback.playing or self.ended:
+            self._rate.clear()
+            self.real_time_rate = math.nan
+            return
+        self._rate.append((max(dt, 0.0), max(advanced, 0.0)))
+        wall = sum(w for w, _ in self._rate)
+        while len(self._rate) > 1 and wall - self._rate[0][0] >= RATE_WINDOW:
+            wall -= self._rate.popleft()[0]
+        if wall >= 0.5 * RATE_WINDOW:
+            self.real_time_rate = sum(s for _, s in self._rate) / wall
+
+    def _frame(self, chunk: Any, dt: float) -> None:
+        if getattr(chunk, "final", False) and self.sim_time >= float(chunk.t[-1]) - 1e-12:
+            self.ended = True
+            if "end" not in self._reported:
+                self._reported.add("end")
+                self.notify(*self.end_notice(chunk), "info")
+        due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
+        key = (self.sim_time, chunk.k, self.segment.index)
+        if key == self._drawn:  # paused: the poses are on the page; only a last refresh may be due
+            if due is not None:
+                with self.target.atomic():
+                    self._refresh_one(due)
+            return
+        self._drawn = key
+        self.last_chunk = chunk
+        self.history.add(self.segment.index * 1_000_000 + chunk.k, chunk.table)
+        failure = getattr(chunk, "failure", None)
+        if failure is not None and failure not in self._reported:
+            self._reported.add(failure)
+            self.notify(f"{self.title}", failure, "warning")
+        j = self.sample_index(chunk)
+        self.display_time = float(chunk.t[j])
+        with self.target.atomic():
+            self.draw(chunk, j)
+            if due is not None:
+                self._refresh_one(due)
+
+    def sample_index(self, chunk: Any) -> int:
+        """The sample of ``chunk`` at or just before the clock."""
+        n = int(chunk.t.size)
+        return int(min(max(np.searchsorted(chunk.t, self.sim_time + 1e-9, side="right") - 1, 0), n - 1))
+
+    # -- readout, plots, export -------------------------------------------------------------------
+    def window_start(self) -> float:
+        return max(0.0, self.display_time - self.window)
+
+    def rate_text(self) -> str | None:
+        """The readout's line on the rate, when the scene runs slower than the time scale asks."""
+        rate, scale = self.real_time_rate, self.playback.time_scale
+        if not math.isfinite(rate) or rate >= RATE_SHORTFALL * scale:
+            return None
+        cause = "waiting for the computation" if self.waiting else "the server cannot keep up"
+        return f"**Running at {rate:.2f}× real time** ({cause}; Time scale asks {scale:g}×)"
+
+    def _refresh_one(self, what: str) -> None:
+        if what == "readout":
+            # the readout opens each refresh cycle: the plots of the cycle show the window as it is now
+            self._refreshed_time = self.sim_time
+            self._plot_window = self.history.trimmed_window(self.window_start(), self.display_time)
+            if self.status is not None:
+                self.status.content = self.readout_text()
+            return
+        spec = next(s for s in self._specs if s.name == what)
+        if spec.shown is not None and not spec.shown(self.config):
+            return
+        t, columns = self._plot_window
+        if t.size == 0:
+            return
+        self.set_plot_data(self.plot_handles[what], (t, *spec.data(t, columns)))
+
+    def set_plot_data(self, handle: Any, data: tuple) -> None:
+        """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page)."""
+        handle.data = tuple(np.asarray(a, dtype=float) for a in data)
+
+    def readout_text(self) -> str:
+        lines = [f"**t** = {self.display_time:.2f} s"]
+        rate = self.rate_text()
+        if rate is not None:
+            lines.append(rate)
+        lines += self.readout_lines()
+        if self.waiting and self.playback.playing and not self.ended:
+            lines.append("*computing the next chunk…*")
+        return "\n\n".join(lines)
+
+    def csv_bytes(self) -> bytes:
+        """The CSV of the motion in the plot window, up to the displayed time."""
+        return self.history.csv(self.csv_header_for(self.config), self.window_start(), self.display_time)
+
+    def csv_header_for(self, inputs: Any) -> str:
+        """Hook: the CSV header for ``inputs`` (default :attr:`csv_header`)."""
+        return self.csv_header
+
+
+def job(fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Callable[[int, Any], Any]:
+    """``functools.partial(fn, *args, **kwargs)``: a scene's job, picklable when ``fn`` is module-level."""
+    return functools.partial(fn, *args, **kwargs)

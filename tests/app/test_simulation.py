@@ -1,0 +1,172 @@
+"""The timed scenes' pipeline (app/scenes/_simulation.py), on a toy scene.
+
+The toy's job is a closed form (x = a sin t, sampled at 60 Hz), so what the
+layer does with it (the clock, chunks, segments, the end of a motion, plots,
+CSV, the rate readout, errors) is checked without any physics. The timed
+scenes' own tests check their motions on the same layer.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+
+from app.controls import Slider
+from app.scenes._plots import Table
+from app.scenes._simulation import PlotSpec, SimulationScene
+from tests.app.conftest import GatedExecutor
+from tests.helpers import wait_until
+
+
+@dataclasses.dataclass(frozen=True)
+class _Inputs:
+    amplitude: float = 1.0
+    end: float = 0.0  # > 0: the motion ends there (a final chunk)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Chunk:
+    k: int
+    t: np.ndarray
+    x: np.ndarray
+    table: Table
+    final: bool = False
+    end: str = ""
+    failure: str | None = None
+
+
+def _toy_job(inputs: _Inputs, t0: float, start: float | None, k: int, previous: Any) -> _Chunk:
+    if inputs.amplitude < 0:
+        raise ValueError("amplitude: expected >= 0, got a negative value")
+    a = inputs.amplitude if start is None else start
+    t = t0 + k + np.linspace(0.0, 1.0, 61)
+    final = bool(inputs.end > 0 and t[-1] >= t0 + inputs.end)
+    if final:
+        t = t[t <= t0 + inputs.end + 1e-12]
+    x = a * np.sin(t)
+    return _Chunk(k, t, x, Table.build(t, x[:, None]), final=final, end="it stopped" if final else "",
+                  failure="a side note" if k == 1 else None)
+
+
+class _Toy(SimulationScene):
+    name: ClassVar[str] = "toy"
+    title: ClassVar[str] = "Toy"
+    Inputs = _Inputs
+    presets = ("big",)
+    csv_header = "t (s),x (m)"
+    window = 3.0
+
+    def job(self, inputs: _Inputs, segment: Any) -> Any:
+        return functools.partial(_toy_job, inputs, segment.t0, segment.start)
+
+    def build_nodes(self) -> None:
+        self.drawn: list[tuple[float, float]] = []
+
+    def build_controls(self) -> None:
+        self.add_playback()
+        self.add_presets()
+        self.controls.add(Slider("amplitude", "a", min=-1.0, max=5.0, step=0.1, default=1.0))
+        self.controls.add(Slider("end", "end", min=0.0, max=10.0, step=0.1, default=0.0))
+
+    def plots(self) -> list[PlotSpec]:
+        return [PlotSpec("x", "x(t)", (("x (m)", "#2563eb"),), lambda t, c: (c[:, 0],))]
+
+    def draw(self, chunk: _Chunk, j: int) -> None:
+        self.drawn.append((float(chunk.t[j]), float(chunk.x[j])))
+
+    def preset_values(self, name: str) -> dict[str, Any]:
+        return {"amplitude": 4.0}
+
+
+def _run(scene: Any, seconds: float, dt: float = 1 / 60) -> None:
+    for _ in range(round(seconds / dt)):
+        scene.frame(dt)
+
+
+def _play_until(scene: Any, t: float, dt: float = 1 / 60) -> None:
+    def moved() -> bool:
+        scene.frame(dt)
+        return scene.sim_time >= t
+
+    wait_until(moved, timeout=60.0, interval=0.0)
+
+
+def test_the_clock_draws_the_closed_form_and_fills_plots_and_csv(make_bare_scene) -> None:
+    scene, notices = make_bare_scene(_Toy)
+    _play_until(scene, 2.5)
+    t, x = scene.drawn[-1]
+    assert x == pytest.approx(math.sin(t), abs=1e-15)
+    assert t <= scene.sim_time + 1e-9 and scene.sim_time - t < 1 / 60 + 1e-9  # the sample at or before
+    wait_until(lambda: (scene.frame(1 / 60), scene.plot_handles["x"].data[0].size > 10)[1], timeout=60.0,
+               interval=0.0)
+    tp, xp = scene.plot_handles["x"].data
+    np.testing.assert_allclose(xp, np.sin(tp), atol=1e-15)
+    rows = scene.csv_bytes().decode().splitlines()
+    assert rows[0] == "t (s),x (m)"
+    assert float(rows[1].split(",")[0]) >= scene.window_start() - 1e-12
+    assert ("Toy", "a side note", "warning") in notices  # a chunk's failure: once
+    assert sum(n[1] == "a side note" for n in notices) == 1
+
+
+def test_a_changed_input_restarts_and_a_preset_sets_values(make_bare_scene) -> None:
+    scene, _ = make_bare_scene(_Toy)
+    _play_until(scene, 1.2)
+    scene.controls.apply({"amplitude": 2.0})
+    _play_until(scene, 0.3)
+    assert scene.config.amplitude == 2.0
+    assert scene.sim_time < 1.0  # restarted
+    scene.apply_preset("big")
+    _play_until(scene, 0.2)
+    assert scene.controls.value("amplitude") == 4.0 and scene.drawn[-1][1] == pytest.approx(
+        4.0 * math.sin(scene.drawn[-1][0]), abs=1e-14)
+
+
+def test_a_final_chunk_ends_the_motion_once_and_reset_plays_it_again(make_bare_scene) -> None:
+    scene, notices = make_bare_scene(_Toy)
+    scene.controls.apply({"end": 1.5})
+    wait_until(lambda: (scene.frame(0.05), scene.ended)[1], timeout=60.0, interval=0.0)
+    assert scene.sim_time == pytest.approx(1.5, abs=1e-12)
+    _run(scene, 0.5)
+    assert scene.sim_time == pytest.approx(1.5, abs=1e-12)  # held at the end
+    assert [n[0] for n in notices].count("The motion ended") == 1
+    scene.request_reset()
+    scene.frame(0.05)
+    assert not scene.ended and scene.sim_time < 0.2
+
+
+def test_a_segment_continues_the_clock_from_the_state_shown(make_bare_scene) -> None:
+    scene, _ = make_bare_scene(_Toy)
+    _play_until(scene, 1.3)
+    t_shown = scene.display_time
+    scene.continue_from(3.0)
+    _play_until(scene, t_shown + 0.5)
+    t, x = scene.drawn[-1]
+    assert scene.segment.index == 1 and scene.segment.t0 == t_shown
+    assert x == pytest.approx(3.0 * math.sin(t), abs=1e-14)  # the new segment's job, on the same clock
+
+
+def test_a_failed_chunk_stops_the_clock_with_a_notice(make_bare_scene) -> None:
+    scene, notices = make_bare_scene(_Toy)
+    scene.controls.apply({"amplitude": -0.5})
+    wait_until(lambda: (scene.frame(1 / 60), scene.timeline.error is not None)[1], timeout=60.0, interval=0.0)
+    scene.frame(1 / 60)
+    assert not scene.playing and scene.paused_error is None
+    assert any("motion stopped" in n[0] and "amplitude" in n[1] for n in notices)
+
+
+def test_the_readout_says_the_rate_when_the_chunks_hold_the_clock(make_bare_scene) -> None:
+    gate = GatedExecutor()
+    scene, _ = make_bare_scene(_Toy, executor=gate)
+    gate.open.set()
+    _play_until(scene, 0.9)
+    gate.open.clear()  # the chunks stop coming: the clock holds at the end of what is computed
+    _run(scene, 3.0, dt=0.05)
+    assert scene.real_time_rate < 0.5
+    text = scene.readout_text()
+    assert "real time" in text and "waiting for the computation" in text
+    gate.open.set()
