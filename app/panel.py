@@ -246,6 +246,8 @@ class ControlPanel:
             if isinstance(spec, VectorText):
                 if isinstance(value, str):
                     return spec.parse(value)
+                if not isinstance(value, (list, tuple)):
+                    raise Refused(f"expected {spec.size} numbers, got {describe(value)}")
                 items = list(value)
                 if not all(_is_finite_number(v) for v in items):
                     raise Refused(f"expected {spec.size} finite numbers, got {describe(value)}")
@@ -315,6 +317,9 @@ class ControlPanel:
                 accepted[key] = self._checked(spec, value)
             except ValueError as exc:
                 refused.append(f"{spec.label}: {str(exc).split(': ', 1)[-1]}")
+            except (TypeError, OverflowError, RecursionError):  # a value of a type no check foresaw: that key only
+                refused.append(f"{spec.label}: expected a value like {describe(spec.display(self.value(key)))}, "
+                               f"got a {type(value).__name__}")
         return accepted, refused
 
     def apply(self, accepted: Mapping[str, Any]) -> None:
@@ -328,4 +333,9 @@ class ControlPanel:
 
 
 def _is_finite_number(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(float(x))
+    if not isinstance(x, (int, float)) or isinstance(x, bool):
+        return False
+    try:
+        return math.isfinite(float(x))
+    except OverflowError:  # an int too large for a float
+        return False

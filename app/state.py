@@ -25,7 +25,9 @@ from __future__ import annotations
 import base64
 import binascii
 import json
+import os
 import re
+import stat
 import urllib.parse
 import zlib
 from pathlib import Path
@@ -39,8 +41,17 @@ PREFIX = "rl1."
 MAX_JSON_BYTES = 64_000
 #: Largest text accepted as a state (characters).
 MAX_TEXT = 20_000
+#: Largest state file read (bytes; checked before reading): ``MAX_TEXT`` characters of UTF-8.
+MAX_FILE_BYTES = 4 * MAX_TEXT
+#: Deepest nesting of JSON arrays and objects accepted (real states: 3).
+MAX_DEPTH = 16
+#: Longest number accepted in a state's JSON (characters; a float's repr has at most 24).
+MAX_NUMBER_CHARS = 50
 
 _STRING_RE = re.compile(r"rl1\.[A-Za-z0-9_\-]+=*")
+_JSON_STRING_RE = re.compile(r'"(?:[^"\\]|\\.)*"', re.DOTALL)
+_BRACKET_RE = re.compile(r"[\[\]{}]")
+_LONG_NUMBER_RE = re.compile(r"[0-9.eE+\-]{%d,}" % (MAX_NUMBER_CHARS + 1))
 
 
 class StateError(ValueError):
@@ -91,11 +102,30 @@ def decode(text: str) -> dict[str, Any]:
             shown = text[:40] + ("..." if len(text) > 40 else "")
             raise StateError(f"state: expected a string starting with {PREFIX!r}, JSON or a link, got {shown!r}")
         raw = _decode_string(match.group(0))
+    _check_json_shape(raw)
     try:
         state = json.loads(raw)
     except json.JSONDecodeError as exc:
         raise StateError(f"state: expected JSON, got text that is not ({exc.msg} at {exc.pos})") from None
+    except (ValueError, RecursionError) as exc:  # (the checks above leave none; a last resort)
+        raise StateError(f"state: expected JSON, got text that is not ({type(exc).__name__})") from None
     return check(state)
+
+
+def _check_json_shape(raw: str) -> None:
+    """Refuse JSON nested deeper than :data:`MAX_DEPTH` or with a number longer than :data:`MAX_NUMBER_CHARS`,
+    before the parser sees it: Python's parser recurses per level (RecursionError at ~1000) and refuses
+    integers of more than 4300 digits with a bare ValueError."""
+    skeleton = _JSON_STRING_RE.sub('""', raw)  # brackets and digits inside strings are text
+    long_number = _LONG_NUMBER_RE.search(skeleton)
+    if long_number is not None:
+        raise StateError(f"state: expected numbers of at most {MAX_NUMBER_CHARS} characters, got one of "
+                         f"{len(long_number.group(0))}")
+    depth = 0
+    for bracket in _BRACKET_RE.finditer(skeleton):
+        depth += 1 if bracket.group(0) in "[{" else -1
+        if depth > MAX_DEPTH:
+            raise StateError(f"state: expected arrays and objects nested at most {MAX_DEPTH} deep, got deeper")
 
 
 def check(state: Any) -> dict[str, Any]:
@@ -135,15 +165,40 @@ def state_from_path(path: str | None) -> str | None:
 def load_file(path: str | Path) -> dict[str, Any]:
     """Read a state from a file (JSON or the short string).
 
+    Only a regular file of at most :data:`MAX_FILE_BYTES` bytes is read; its
+    kind and size are checked before reading (``/dev/zero`` would be read
+    until memory runs out, a FIFO would wait for a writer).
+
     Raises
     ------
     StateError
-        If the file cannot be read or does not hold a state.
+        If the file cannot be read, is not a regular file, is too large or
+        does not hold a state.
     """
+    name = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        _check_file(os.stat(path), name)
+        # O_NONBLOCK: a FIFO put in the file's place since the stat does not block the open (fstat refuses it)
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0))
+        with os.fdopen(fd, "rb") as file:
+            _check_file(os.fstat(fd), name)
+            data = file.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
-        raise StateError(f"state file: cannot read {str(path)!r} ({exc.strerror or exc})") from None
+        raise StateError(f"state file: cannot read {name!r} ({exc.strerror or exc})") from None
+    if len(data) > MAX_FILE_BYTES:  # grew since the check
+        raise StateError(f"state file: expected at most {MAX_FILE_BYTES} bytes, got more in {name!r}")
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
-        raise StateError(f"state file: expected text (JSON or a state string), got binary data in {str(path)!r}") from None
+        raise StateError(f"state file: expected text (JSON or a state string), got binary data in {name!r}") from None
     return decode(text)
+
+
+def _check_file(info: os.stat_result, name: str) -> None:
+    if not stat.S_ISREG(info.st_mode):
+        kind = ("a directory" if stat.S_ISDIR(info.st_mode) else "a FIFO" if stat.S_ISFIFO(info.st_mode)
+                else "a device" if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode)
+                else "a socket" if stat.S_ISSOCK(info.st_mode) else "not a regular file")
+        raise StateError(f"state file: expected a regular file, got {kind}: {name!r}")
+    if info.st_size > MAX_FILE_BYTES:
+        raise StateError(f"state file: expected at most {MAX_FILE_BYTES} bytes, got {info.st_size} in {name!r}")
