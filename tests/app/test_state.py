@@ -70,3 +70,66 @@ def test_files(tmp_path: Any) -> None:
         codec.load_file(tmp_path / "missing.json")
     with pytest.raises(ValueError, match="not JSON compliant|Out of range float"):
         codec.encode({"scene": "x", "values": {"a": float("nan")}})
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('{"scene": "x", "values": {"a": ' + "1" * 19_000 + "}}", "expected numbers of at most 50 characters, got one of 19000"),
+    ('{"scene": "x", "values": {"a": -1.' + "5" * 60 + "}}", "expected numbers of at most 50 characters, got one of 63"),
+    ('{"scene": "x", "values": ' + "[" * 3000 + "]" * 3000 + "}", "expected arrays and objects nested at most 16 deep"),
+    ('{"scene": "x", "values": ' + '{"a": ' * 20 + "1" + "}" * 20 + "}", "nested at most 16 deep"),
+])
+def test_long_numbers_and_deep_nesting_are_refused_before_parsing(text: str, message: str) -> None:
+    with pytest.raises(codec.StateError, match=message):
+        codec.decode(text)
+    with pytest.raises(codec.StateError, match=message):  # the same inside a state string
+        codec.decode(codec.PREFIX + base64.urlsafe_b64encode(zlib.compress(text.encode(), 9)).decode().rstrip("="))
+
+
+def test_brackets_and_digits_inside_strings_are_text() -> None:
+    state = {"scene": "x", "values": {"a": "[" * 100 + "1" * 100, "b": -1.2345678901234567e-308}}
+    assert codec.decode(json.dumps(state)) == state
+
+
+def test_only_small_regular_files_are_read(tmp_path: Any) -> None:
+    import os
+
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)  # reading it waited for a writer
+    with pytest.raises(codec.StateError, match="expected a regular file, got a FIFO"):
+        codec.load_file(fifo)
+    with pytest.raises(codec.StateError, match="expected a regular file, got a directory"):
+        codec.load_file(tmp_path)
+    if os.path.exists("/dev/zero"):  # read until memory ran out
+        with pytest.raises(codec.StateError, match="expected a regular file, got a device: '/dev/zero'"):
+            codec.load_file("/dev/zero")
+    big = tmp_path / "big.json"
+    big.write_text(json.dumps({**STATE, "pad": "a" * codec.MAX_FILE_BYTES}))
+    with pytest.raises(codec.StateError, match=rf"expected at most {codec.MAX_FILE_BYTES} bytes, got \d+ in"):
+        codec.load_file(big)
+    link = tmp_path / "link.json"
+    link.symlink_to(fifo)
+    with pytest.raises(codec.StateError, match="got a FIFO"):
+        codec.load_file(link)
+
+
+def test_a_wrong_typed_value_is_refused_by_name_and_the_rest_loads() -> None:
+    """``{"axis": 1.0}`` (a number where the sandbox's axis field takes three) raised TypeError in the check, and
+    nothing of the state loaded; now that value is refused with its control's name and the others are used."""
+    from app.scenes.sandbox import SandboxScene
+    from app.server import create_app
+    from tests.helpers import wait_until
+
+    state = {"scene": "sandbox", "values": {"axis": 1.0, "angle": 30.0, "input": "Axis and angle"}}
+    app = create_app(port=0, scene_classes={"sandbox": SandboxScene}, state=state, run_unwatched=True)
+    try:
+        session = app.session_for()
+        scene = app.scene_for()
+        assert wait_until(lambda: any(n[0] == "State loaded in part" for n in session.notices), timeout=60.0)
+        body = next(n[1] for n in session.notices if n[0] == "State loaded in part")
+        assert "Axis: expected 3 numbers, got 1.0" in body, body
+        assert scene.controls.value("angle") == 30.0 and scene.controls.value("input") == "Axis and angle"
+        for values in ({"axis": {"x": 1}}, {"axis": [1, "x", 0]}, {"axis": [10**400, 0, 0]}, {"angle": [30.0]}, {"angle": 10**400}):
+            accepted, refused = scene.check_state({"scene": "sandbox", "values": values})
+            assert accepted == {} and len(refused) == 1 and refused[0].split(":")[0] in ("Axis", "Angle (deg)"), refused
+    finally:
+        app.stop()
