@@ -84,6 +84,62 @@ def _port_free(host: str, port: int) -> OSError | None:
     return None
 
 
+#: Seconds ``--host`` may take to resolve before ``rigidlab serve`` gives up.
+HOST_TIMEOUT = 4.0
+
+
+def _host_problem(host: str, timeout: float = HOST_TIMEOUT) -> str | None:
+    """Why ``host`` cannot be served on (it does not resolve within ``timeout`` seconds, or is not an address
+    of this machine), or None. viser binds in a thread of its own and waited forever for a server that
+    could not start: an unresolvable ``--host`` hung the command without a word."""
+    if host in ("", "0.0.0.0", "::"):
+        return None
+    found: list = []
+
+    def resolve() -> None:
+        try:
+            found.append(socket.getaddrinfo(host, None, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE))
+        except (OSError, UnicodeError) as exc:
+            found.append(exc)
+
+    thread = threading.Thread(target=resolve, name="rigidlab-resolve", daemon=True)
+    thread.start()
+    thread.join(timeout)
+    if not found:
+        return f"{host!r} did not resolve within {timeout:g} s"
+    if isinstance(found[0], Exception):
+        exc = found[0]
+        return f"cannot resolve {host!r} ({getattr(exc, 'strerror', None) or exc})"
+    family, _, _, _, address = found[0][0]
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        try:
+            probe.bind((address[0], 0, *address[2:]))
+        except OSError as exc:
+            return f"cannot listen on {host!r} ({address[0]}: {exc.strerror or exc})"
+    return None
+
+
+def _check_host_first(argv: list[str]) -> int | None:
+    """``rigidlab serve --host H``: 2 (and one line) if ``H`` cannot be served on, checked before the parser
+    imports the scenes (seconds), so the answer comes within :data:`HOST_TIMEOUT`; None otherwise."""
+    if not argv or argv[0] != "serve" or "--worker-index" in argv or "--spare" in argv:
+        return None
+    early = argparse.ArgumentParser(add_help=False)
+    early.add_argument("--host", default=None)
+    try:
+        known, _ = early.parse_known_args(argv[1:])
+    except SystemExit:
+        return None  # the full parser reports it
+    if known.host is None:
+        return None
+    problem = _host_problem(known.host)
+    if problem is None:
+        return None
+    print(f"rigidlab serve: --host: {problem}; use an address of this machine, such as 127.0.0.1 "
+          "or 0.0.0.0 (every interface)", file=sys.stderr)
+    return 2
+
+
 def _positive_workers(text: str) -> int:
     """argparse type of ``--workers``: an integer from 1 to 64."""
     try:
@@ -126,8 +182,10 @@ def _lan_notes(host: str, port: int, mode: str) -> None:
     """For a host other than loopback: the LAN addresses to open, and the no-password warning."""
     if _is_loopback(host):
         return
+    from app.server import page_url
+
     for address in _lan_addresses():
-        print(f"rigidlab: on the LAN: http://{address}:{port}", flush=True)
+        print(f"rigidlab: on the LAN: {page_url(address, port)}", flush=True)
     warning = (f"rigidlab: warning: serving on {host}: anyone who can reach this address can "
                "open the page, with no password")
     if mode == "shared":
@@ -138,7 +196,6 @@ def _lan_notes(host: str, port: int, mode: str) -> None:
 
 def _serve(args: argparse.Namespace) -> int:
     from app import state as state_codec
-    from app.server import create_app
     from app.supervisor import default_workers, serve_workers
 
     worker = args.worker_index
@@ -147,7 +204,7 @@ def _serve(args: argparse.Namespace) -> int:
         print("rigidlab serve: --workers: shared mode runs one process (its scene state is one); "
               "use --mode per-client to spread browsers over several workers", file=sys.stderr)
         return 2
-    if worker is None and args.mode == "per-client":
+    if worker is None and not args.spare and args.mode == "per-client":
         workers = default_workers() if workers is None else workers
         if workers > 1:
             if args.state is not None:  # refuse a bad file once, not in every worker
@@ -174,12 +231,52 @@ def _serve(args: argparse.Namespace) -> int:
         except state_codec.StateError as exc:
             print(f"rigidlab serve: --state: {exc}", file=sys.stderr)
             return 2
+    if args.spare:
+        return _serve_spare(args, state)
     busy = None if worker is not None else _port_free(args.host, args.port)  # a worker shares the port
     if busy is not None:
         reason = "is in use" if busy.errno == errno.EADDRINUSE else f"cannot be used ({busy.strerror or busy})"
         print(f"rigidlab serve: port {args.port} on {args.host} {reason}; choose another with --port "
               "(--port 0 picks a free one)", file=sys.stderr)
         return 2
+    return _run_app(args, state, worker)
+
+
+def _serve_spare(args: argparse.Namespace, state: dict | None) -> int:
+    """A spare worker of :mod:`app.supervisor`: import everything and start the process pool, then wait for the
+    supervisor's ``start I/N`` line on stdin and serve as worker I of N (end of input: exit quietly).
+
+    A worker started cold spends most of its start (9 s of imports and 11 s of the fork server's preload on a
+    busy 2-core machine) before it listens; a spare listens within a second of the line.
+    """
+    from app.jobs import make_executor
+    from app.scenes import discover_scenes
+
+    previous = _stop_signals_as_interrupt()
+    executor = None
+    try:  # (a supervisor that is gone closes the pipe: end of input)
+        classes = discover_scenes()
+        executor = make_executor(processes=True, preload=[cls.__module__ for cls in classes.values()])
+        print(f"rigidlab: spare worker ready (pid {os.getpid()})", flush=True)
+        line = sys.stdin.readline().split()
+        if len(line) != 2 or line[0] != "start":
+            raise KeyboardInterrupt  # the supervisor is gone (end of input)
+        worker = _worker_index(line[1])
+    except (KeyboardInterrupt, argparse.ArgumentTypeError):
+        if executor is not None:
+            executor.shutdown(wait=False, cancel_futures=True)
+        return 0
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    return _run_app(args, state, worker, executor=executor)
+
+
+def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, int] | None, *,
+             executor=None) -> int:
+    """Build the app and serve until Ctrl-C or SIGTERM (``worker``: as worker I of N of a supervisor)."""
+    from app.server import create_app
+
     # SIGTERM stops the app from here on: viser answers on the port while create_app is still building the
     # session, and a SIGTERM then (a service manager, a script that waits for the port) killed the process
     # outright and left its fork server and resource tracker running, orphaned
@@ -191,7 +288,9 @@ def _serve(args: argparse.Namespace) -> int:
     try:
         try:
             app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
-                             presenter=args.present, state=state, reuse_port=worker is not None)
+                             presenter=args.present, state=state, reuse_port=worker is not None,
+                             executor=executor)
+            executor = None  # the app's now
         except ValueError as exc:
             print(f"rigidlab serve: {exc}", file=sys.stderr)
             return 2
@@ -225,6 +324,8 @@ def _serve(args: argparse.Namespace) -> int:
             warm.terminate()
         if app is not None:
             app.stop()
+        if executor is not None:  # (create_app failed)
+            executor.shutdown(wait=False, cancel_futures=True)
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     return 0
@@ -334,6 +435,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="per-client mode: worker processes sharing the port, the browsers spread over "
                             "them (default: one per core); shared mode is one process")
     serve.add_argument("--worker-index", type=_worker_index, default=None, help=argparse.SUPPRESS)
+    serve.add_argument("--spare", action="store_true", help=argparse.SUPPRESS)  # app.supervisor's spare worker
     serve.add_argument("--present", action="store_true",
                        help="start in presenter view (large labels, thick arrows, large readouts)")
     serve.add_argument("--state", default=None, metavar="FILE",
@@ -349,6 +451,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``rigidlab`` console script; returns the exit status."""
+    status = _check_host_first(sys.argv[1:] if argv is None else list(argv))
+    if status is not None:
+        return status
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     return int(args.func(args))

@@ -54,8 +54,13 @@ def _worker_ready() -> int:
 def _worker_start() -> None:
     """Each worker process, at its start: a compiled kernel it needs while ``rigidlab serve``'s warm-up child
     compiles them waits for the warm-up and loads its result (see :mod:`core._warm`), instead of compiling
-    the same kernels beside it; the objects it inherited are frozen out of the garbage collector."""
+    the same kernels beside it; the objects it inherited are frozen out of the garbage collector; SIGINT is
+    ignored (Ctrl-C in a terminal reaches the whole process group: the app stops its pool, and a worker
+    interrupted in its queue read printed a KeyboardInterrupt traceback)."""
     import gc
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     from core._warm import defer_compiles_to_warm_up
 

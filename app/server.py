@@ -34,8 +34,10 @@ import collections
 import concurrent.futures
 import dataclasses
 import html
+import inspect
 import json
 import logging
+import math
 import threading
 import time
 import traceback
@@ -824,6 +826,96 @@ class RigidlabApp:
             sys.setswitchinterval(self._switch_interval)
 
 
+#: Largest camera coordinate accepted from a browser (m); the scenes are a few metres across.
+CAMERA_LIMIT = 1e6
+#: A browser's dropped camera messages are logged at most this often (s).
+_CAMERA_LOG_SECONDS = 10.0
+
+
+def page_url(host: str, port: int) -> str:
+    """The address browsers open for a server bound to ``host``: a wildcard (``0.0.0.0``, ``::``) shows
+    127.0.0.1, and an IPv6 address goes in brackets (``http://[::1]:8080``, RFC 3986)."""
+    shown = "127.0.0.1" if host in ("0.0.0.0", "", "::") else host
+    if ":" in shown and not shown.startswith("["):
+        shown = f"[{shown}]"
+    return f"http://{shown}:{port}"
+
+
+def camera_refusal(message: Any) -> str | None:
+    """Why a browser's ``ViewerCameraMessage`` is refused, or None.
+
+    viser stores the camera a browser reports as it comes; a NaN, an infinity,
+    a zero quaternion or up vector, or a look-at point on the camera then made
+    viser's camera setters raise (``Camera look_at must be finite``) when a
+    scene aimed the camera, a traceback in the log per hostile message.
+    """
+    def vector(name: str, size: int, limit: float = CAMERA_LIMIT) -> tuple[float, ...]:
+        value = getattr(message, name)
+        if (not isinstance(value, (tuple, list)) or len(value) != size
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)):
+            raise ValueError(f"{name}: expected {size} numbers, got {value!r:.60}")
+        if not all(math.isfinite(x) and abs(x) <= limit for x in value):
+            raise ValueError(f"{name}: expected {size} finite numbers of at most {limit:g}, got {value!r:.60}")
+        return tuple(float(x) for x in value)
+
+    def number(name: str, lo: float, hi: float) -> float:
+        value = getattr(message, name)
+        if (not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value)
+                or not lo <= value <= hi):
+            raise ValueError(f"{name}: expected a number from {lo:g} to {hi:g}, got {value!r:.60}")
+        return float(value)
+
+    try:
+        wxyz = vector("wxyz", 4, 2.0)
+        if not 0.5 < math.sqrt(sum(x * x for x in wxyz)) < 2.0:
+            raise ValueError(f"wxyz: expected a unit quaternion, got {wxyz}")
+        position = vector("position", 3)
+        look_at = vector("look_at", 3)
+        up = vector("up_direction", 3)
+        if position == look_at:
+            raise ValueError("look_at: expected a point other than the camera position, got the position")
+        if not any(up):
+            raise ValueError("up_direction: expected a nonzero vector, got (0, 0, 0)")
+        number("fov", 1e-6, math.pi)
+        near = number("near", 0.0, CAMERA_LIMIT)
+        number("far", near, 1e12)
+        number("image_height", 0, 100_000)
+        number("image_width", 0, 100_000)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
+def _guard_camera_messages(server: viser.ViserServer) -> None:
+    """Put :func:`camera_refusal` in front of viser's camera handler of every connection: a refused camera
+    message is dropped (never stored, so it never reaches a scene's camera) with one log line."""
+    from viser import _messages
+
+    def on_connection(conn: Any) -> None:
+        handlers = conn._incoming_handlers.get(_messages.ViewerCameraMessage, [])
+        last_log = [-math.inf, 0]  # (time, drops since)
+
+        def guarded(viser_handler: Callable[..., Any]) -> Callable[..., Any]:
+            async def handle(client_id: int, message: Any) -> None:
+                reason = camera_refusal(message)
+                if reason is None:
+                    result = viser_handler(client_id, message)
+                    if inspect.isawaitable(result):
+                        await result
+                    return
+                now = time.monotonic()
+                last_log[1] += 1
+                if now - last_log[0] >= _CAMERA_LOG_SECONDS:
+                    _log.warning("browser %d: camera message dropped (%s)%s", client_id, reason,
+                                 f"; {last_log[1] - 1} more dropped since the last report" if last_log[1] > 1 else "")
+                    last_log[0], last_log[1] = now, 0
+            return handle
+
+        handlers[:] = [guarded(h) for h in handlers]
+
+    server._websock_server.on_client_connect(on_connection)
+
+
 def _listen_with_reuse_port() -> None:
     """Make viser's websocket server listen with ``SO_REUSEPORT`` in this process (idempotent).
 
@@ -860,6 +952,7 @@ def create_app(
     presenter: bool = False,
     state: dict[str, Any] | None = None,
     reuse_port: bool = False,
+    executor: concurrent.futures.Executor | None = None,
 ) -> RigidlabApp:
     """Start a viser server with every registered scene and the session loop.
 
@@ -888,6 +981,11 @@ def create_app(
         Listen with ``SO_REUSEPORT``: several processes share ``port`` and
         the kernel spreads connections over them (the per-client workers of
         :mod:`app.supervisor`). The port must then be given (not 0).
+    executor : concurrent.futures.Executor or None
+        The background executor, made beforehand with
+        ``app.jobs.make_executor(processes=True, preload=...)`` (a spare
+        worker of :mod:`app.supervisor` starts its process pool before it is
+        needed); the app owns it and shuts it down. Default: made here.
 
     Returns
     -------
@@ -925,7 +1023,8 @@ def create_app(
         if not port:
             raise ValueError("port: reuse_port shares a given port; expected a port from 1 to 65535, got 0")
         _listen_with_reuse_port()
-    executor = make_executor(processes=True, preload=[cls.__module__ for cls in scene_classes.values()])
+    if executor is None:
+        executor = make_executor(processes=True, preload=[cls.__module__ for cls in scene_classes.values()])
     try:
         server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)
     except BaseException:
@@ -933,11 +1032,11 @@ def create_app(
         raise
     try:
         server.gui.configure_theme(control_width="large", show_share_button=False)
+        _guard_camera_messages(server)
         bound = server.get_port()
-        shown_host = "127.0.0.1" if host in ("0.0.0.0", "", "::") else host
         app = RigidlabApp(
             server=server,
-            url=f"http://{shown_host}:{bound}",
+            url=page_url(host, bound),
             port=bound,
             mode=mode,
             scene_names=tuple(scene_classes),

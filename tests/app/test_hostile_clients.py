@@ -225,3 +225,62 @@ def test_hostile_client_cannot_break_a_shared_session(
     captured = capfd.readouterr()
     assert "Traceback" not in captured.err, captured.err[-2000:]
     assert "Traceback" not in captured.out, captured.out[-2000:]
+
+
+def _camera(**changes: Any) -> bytes:
+    """A browser's camera message (as :func:`app.wire.camera_message`) with ``changes``."""
+    import msgpack
+
+    message = {"type": "ViewerCameraMessage", "wxyz": (1.0, 0.0, 0.0, 0.0), "position": (3.0, -4.0, 2.5),
+               "fov": 0.9, "near": 0.01, "far": 1000.0, "image_height": 750, "image_width": 1200,
+               "look_at": (0.0, 0.0, 0.0), "up_direction": (0.0, 0.0, 1.0)}
+    return msgpack.packb({**message, **changes}, use_bin_type=True)
+
+
+HOSTILE_CAMERAS = [
+    {"look_at": (math.nan, 0.0, 0.0)}, {"look_at": (math.inf, 0.0, 0.0)}, {"look_at": (1e308, 1e308, 0.0)},
+    {"look_at": (3.0, -4.0, 2.5)}, {"wxyz": (math.nan, 0.0, 0.0, 0.0)}, {"wxyz": (0.0, 0.0, 0.0, 0.0)},
+    {"fov": math.nan}, {"fov": math.inf}, {"fov": -1.0}, {"near": math.nan}, {"far": -math.inf},
+    {"up_direction": (0.0, 0.0, 0.0)}, {"up_direction": (0.0, math.nan, 1.0)}, {"image_height": -5},
+    {"position": (-math.inf, 0.0, 0.0)},  # last: a stored NaN position made the next aim of the camera raise
+]
+
+
+@pytest.mark.parametrize("mode", ["shared", "per-client"])
+def test_hostile_camera_messages_are_dropped_with_one_log_line(
+    mode: str, ws_client: Any, caplog: Any, capfd: Any
+) -> None:
+    """viser stores the camera a browser reports as it comes; with a non-finite position or look-at stored,
+    the next scene switch (which aims the camera) raised in viser's camera setter, a traceback in the log.
+    Such messages are dropped before viser sees them, with one log line (not one per message)."""
+    from app.server import DEFAULT_CAMERA_LOOK_AT
+    from tests.app.test_server import fake_app
+
+    caplog.set_level(logging.INFO)
+    app = fake_app(mode)
+    try:
+        attacker, client_id = ws_client(app)
+        session = app.session_for(client_id if mode == "per-client" else None)
+        camera = app.server.get_clients()[client_id].camera
+        for changes in HOSTILE_CAMERAS:
+            attacker.send(_camera(**changes))
+        # a scene switch aims the camera: after the camera messages (one connection's messages are handled
+        # in order), so with one of them stored, viser's setter raised here
+        attacker.set_gui_value(session._chooser, "Beta")
+        assert wait_until(lambda: session.active_name == "beta")
+        assert wait_until(lambda: np.allclose(camera.look_at, DEFAULT_CAMERA_LOOK_AT))
+        for value in (camera.position, camera.look_at, camera.wxyz, camera.up_direction, [camera.fov]):
+            assert np.all(np.isfinite(value))
+        dropped = [r for r in caplog.records if "camera message dropped" in r.getMessage()]
+        assert len(dropped) == 1 and "look_at" in dropped[0].getMessage(), [r.getMessage() for r in dropped]
+        # valid camera messages still move the camera
+        attacker.send(_camera(fov=0.7))
+        assert wait_until(lambda: camera.fov == pytest.approx(0.7))
+        assert client_id in app.client_ids()
+    finally:
+        app.stop()
+    tracebacks = [r for r in caplog.records if r.exc_info or "Traceback" in r.getMessage()]
+    assert not tracebacks, [r.getMessage()[:500] for r in tracebacks[:3]]
+    assert not [r for r in caplog.records if r.levelno >= logging.ERROR], [r.getMessage()[:300] for r in caplog.records]
+    captured = capfd.readouterr()
+    assert "Traceback" not in captured.err + captured.out, (captured.err + captured.out)[-2000:]

@@ -669,3 +669,68 @@ def test_rigidlab_serve_stops_on_a_sigterm_that_another_of_its_threads_receives(
             process.wait()
         with contextlib.suppress(ProcessLookupError):
             os.killpg(process.pid, signal.SIGKILL)
+
+
+@pytest.mark.parametrize(("host", "message"), [
+    ("no-such-host.invalid", "rigidlab serve: --host: cannot resolve 'no-such-host.invalid'"),
+    ("192.0.2.1", "rigidlab serve: --host: cannot listen on '192.0.2.1'"),  # (TEST-NET-1: not this machine's)
+])
+def test_cli_host_that_cannot_be_served_gives_one_line_and_status_2(host: str, message: str, capsys: Any) -> None:
+    """viser binds in a thread of its own and waited forever for a server that could not start: an unresolvable
+    --host hung the command without a word. It is checked (with a timeout) before anything starts."""
+    assert cli.main(["serve", "--host", host, "--port", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(message), err
+
+
+def test_page_urls_put_ipv6_addresses_in_brackets() -> None:
+    from app.server import page_url
+
+    assert page_url("::1", 8080) == "http://[::1]:8080"
+    assert page_url("fe80::1%eth0", 80) == "http://[fe80::1%eth0]:80"
+    assert page_url("127.0.0.1", 8080) == "http://127.0.0.1:8080"
+    assert page_url("0.0.0.0", 8080) == page_url("::", 8080) == "http://127.0.0.1:8080"
+    assert page_url("localhost", 1) == "http://localhost:1"
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "long number", "deep nesting"])
+def test_cli_state_that_is_no_small_file_gives_one_line_and_status_2(kind: str, tmp_path: Any, capsys: Any) -> None:
+    """--state /dev/zero read until memory ran out, a FIFO waited for a writer, a 19000-digit integer or
+    3000-deep nesting printed a raw traceback."""
+    import os
+
+    path = tmp_path / "state.json"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "device":
+        path = "/dev/zero"
+    elif kind == "long number":
+        path.write_text('{"scene": "sandbox", "values": {"angle": ' + "1" * 19_000 + "}}")
+    else:
+        path.write_text('{"scene": "sandbox", "values": ' + "[" * 3000 + "]" * 3000 + "}")
+    assert cli.main(["serve", "--port", "0", "--state", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("rigidlab serve: --state: state"), err
+
+
+def test_ctrl_c_to_the_process_group_prints_no_traceback() -> None:
+    """Ctrl-C in a terminal sends SIGINT to the whole process group: the app's pool worker processes got it too
+    and each printed a KeyboardInterrupt traceback from its queue read. They ignore it now (the app stops them)."""
+    import os
+    import signal
+
+    process, lines = _serve_until_ready("--scene", "sandbox", new_session=True)
+    try:
+        assert lines and lines[-1].startswith("rigidlab: press Ctrl-C"), "".join(lines)
+        os.killpg(process.pid, signal.SIGINT)
+        rest, _ = process.communicate(timeout=30)
+        output = "".join(lines) + rest
+        assert process.returncode == 0, output
+        assert "rigidlab: stopping" in output and "Traceback" not in output and "KeyboardInterrupt" not in output, output
+        assert wait_until(lambda: process_group_gone(process.pid), timeout=20.0), "processes of the server were left"
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
