@@ -15,9 +15,15 @@ viser server, session loop, process pool) that all listen on that port with
   kernel no longer hands it connections: the viser client reconnects on its
   own (or on reload) and lands on a live worker, with a new session.
 * **Reporting and restarts**: a worker that ends unexpectedly is reported
-  (exit status or signal) and started again; one that fails again within
-  :data:`CRASH_WINDOW` seconds of its start three times in a row is left
-  stopped, with a message.
+  (exit status or signal) and replaced at once by a **spare**: a process
+  that has imported the app and started its process pool, and waits (not
+  listening) for the line ``start I/N`` on its stdin; it then listens within
+  a second, where a worker started cold took 19-25 s on a busy 2-core
+  machine (imports, then the fork server's preload). A new spare starts once
+  every worker serves. Without a spare (two ends in a row, or a spare that
+  keeps failing) the worker is started cold. A worker that fails again
+  within :data:`CRASH_WINDOW` seconds of its start three times in a row is
+  left stopped, with a message.
 
 Shared mode stays one process: its state is one. Beyond one machine, the
 same workers sit behind a standard reverse proxy (docs/app.md, docs/nginx.conf).
@@ -124,6 +130,10 @@ class Supervisor:
         self.out = out
         self._print_lock = threading.Lock()
         self._stop = threading.Event()
+        self._slots = threading.Lock()  # held while the watcher starts processes, and by stop
+        self.spare: subprocess.Popen | None = None  # a warm process waiting to replace a worker
+        self.spare_ready = threading.Event()
+        self.failed_spares = 0
 
     def say(self, text: str) -> None:
         with self._print_lock:
@@ -133,27 +143,61 @@ class Supervisor:
         return [sys.executable, "-m", "app.cli", "serve", *self.worker_args,
                 "--worker-index", f"{worker.index + 1}/{len(self.workers)}"]
 
-    def start(self, worker: _Worker) -> None:
-        worker.ready.clear()
+    def _popen(self, command: list[str], **kwargs) -> subprocess.Popen:
         env = dict(os.environ, PYTHONUNBUFFERED="1")
-        worker.process = subprocess.Popen(
-            self._command(worker), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+        process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
             start_new_session=True,  # Ctrl-C reaches the supervisor only; it stops the workers in order
+            **kwargs,
         )
-        worker.started = time.monotonic()
-        threading.Thread(target=self._forward, args=(worker, worker.process), daemon=True,
-                         name=f"rigidlab-worker-{worker.index + 1}-log").start()
+        threading.Thread(target=self._forward, args=(process,), daemon=True,
+                         name=f"rigidlab-worker-{process.pid}-log").start()
+        return process
 
-    def _forward(self, worker: _Worker, process: subprocess.Popen) -> None:
-        """Print the worker's output with its number; notice its ready line."""
+    def start(self, worker: _Worker) -> None:
+        """Start ``worker`` cold (a new process)."""
+        worker.ready.clear()
+        worker.process = self._popen(self._command(worker))
+        worker.started = time.monotonic()
+
+    def start_spare(self) -> None:
+        """Start a spare worker (see the module docstring)."""
+        self.spare_ready.clear()
+        command = [sys.executable, "-m", "app.cli", "serve", *self.worker_args, "--spare"]
+        self.spare = self._popen(command, stdin=subprocess.PIPE)
+
+    def replace(self, worker: _Worker) -> bool:
+        """Hand ``worker``'s slot to the spare; False if there is none (or it cannot take it)."""
+        spare, self.spare = self.spare, None
+        if spare is None or spare.poll() is not None:
+            return False
+        worker.ready.clear()
+        worker.process = spare
+        worker.started = time.monotonic()
+        try:
+            assert spare.stdin is not None
+            spare.stdin.write(f"start {worker.index + 1}/{len(self.workers)}\n")
+            spare.stdin.flush()
+        except OSError:  # it ended meanwhile: reported as that worker's end at the next look
+            return True
+        return True
+
+    def _owner(self, process: subprocess.Popen) -> _Worker | None:
+        return next((w for w in self.workers if w.process is process), None)
+
+    def _forward(self, process: subprocess.Popen) -> None:
+        """Print a worker's output with its number (a spare's with "spare"); notice its ready line."""
         assert process.stdout is not None
         for line in process.stdout:
             line = line.rstrip("\n")
-            if line.startswith("rigidlab: worker ready"):
+            worker = self._owner(process)
+            if worker is not None and line.startswith("rigidlab: worker ready"):
                 worker.ready.set()
+            elif line.startswith("rigidlab: spare worker ready") and process is self.spare:
+                self.spare_ready.set()
             if line[:1] in _BANNER or not line.strip():
                 continue  # viser's boxed address banner, the same in every worker
-            self.say(f"[worker {worker.index + 1}] {line}")
+            self.say(f"[worker {worker.index + 1}] {line}" if worker is not None else f"[spare] {line}")
 
     def wait_ready(self, timeout: float = STARTUP_TIMEOUT) -> list[int]:
         """Wait until every worker printed its ready line; the (1-based) numbers of those that did not."""
@@ -168,31 +212,61 @@ class Supervisor:
 
     def watch(self) -> None:
         """Until :meth:`stop`: report a worker that ends and start it again (see the module docstring)."""
-        while not self._stop.wait(0.2):
-            for worker in self.workers:
-                process = worker.process
-                if worker.stopped or process is None or process.poll() is None:
-                    continue
-                code = process.returncode
-                _end_group(process)
-                alive = sum(1 for w in self.workers if w.process is not None and w.process.poll() is None)
-                self.say(f"rigidlab: worker {worker.index + 1} (pid {process.pid}) {_exit_text(code)}; its "
-                         f"browsers lost their sessions and reconnect to a live worker ({alive} running) "
-                         "when the page reloads")
-                if time.monotonic() - worker.started < CRASH_WINDOW:
-                    worker.failed_starts += 1
-                else:
-                    worker.failed_starts = 0
-                if worker.failed_starts >= MAX_FAILED_STARTS:
-                    worker.stopped = True
-                    self.say(f"rigidlab: worker {worker.index + 1} failed {MAX_FAILED_STARTS} times within "
-                             f"{CRASH_WINDOW:g} s of starting; it stays stopped (see its output above)")
-                    continue
+        while not self._stop.wait(0.1):
+            with self._slots:
+                if self._stop.is_set():
+                    return
+                if self._look():
+                    return
+
+    def _look(self) -> bool:
+        """One look of :meth:`watch`; True when no worker is left running."""
+        self._watch_spare()
+        for worker in self.workers:
+            process = worker.process
+            if worker.stopped or process is None or process.poll() is None:
+                continue
+            code = process.returncode
+            _end_group(process)
+            alive = sum(1 for w in self.workers if w.process is not None and w.process.poll() is None)
+            self.say(f"rigidlab: worker {worker.index + 1} (pid {process.pid}) {_exit_text(code)}; its "
+                     f"browsers lost their sessions and reconnect to a live worker ({alive} running) "
+                     "when the page reloads")
+            if time.monotonic() - worker.started < CRASH_WINDOW:
+                worker.failed_starts += 1
+            else:
+                worker.failed_starts = 0
+            if worker.failed_starts >= MAX_FAILED_STARTS:
+                worker.stopped = True
+                self.say(f"rigidlab: worker {worker.index + 1} failed {MAX_FAILED_STARTS} times within "
+                         f"{CRASH_WINDOW:g} s of starting; it stays stopped (see its output above)")
+                continue
+            if self.replace(worker):
+                how = "the spare worker took its place"
+            else:
                 self.start(worker)
-                self.say(f"rigidlab: worker {worker.index + 1} restarted (pid {worker.process.pid})")
-            if all(w.stopped for w in self.workers):
-                self.say("rigidlab: no worker is running; stopping")
-                return
+                how = "started cold, no spare was running"
+            self.say(f"rigidlab: worker {worker.index + 1} restarted (pid {worker.process.pid}; {how})")
+        if all(w.stopped for w in self.workers):
+            self.say("rigidlab: no worker is running; stopping")
+            return True
+        return False
+
+    def _watch_spare(self) -> None:
+        """Report a spare that ended; start one when every live worker serves (after a start or a replacement,
+        so that it does not slow them down); give up on spares after repeated failures."""
+        spare = self.spare
+        if spare is not None and spare.poll() is not None:
+            self.spare = None
+            _end_group(spare)
+            self.failed_spares += 1
+            self.say(f"rigidlab: the spare worker (pid {spare.pid}) {_exit_text(spare.returncode)}"
+                     + ("; no more spares: a worker that ends is started cold"
+                        if self.failed_spares >= MAX_FAILED_STARTS else ""))
+        if self.spare is None and self.failed_spares < MAX_FAILED_STARTS and all(
+                w.stopped or (w.ready.is_set() and w.process is not None and w.process.poll() is None)
+                for w in self.workers):
+            self.start_spare()
 
     def stop(self, timeout: float = 20.0) -> None:
         """Ask every worker to stop (SIGINT, as Ctrl-C), then kill the ones still running after ``timeout``.
@@ -200,7 +274,13 @@ class Supervisor:
         A second Ctrl-C while waiting kills the workers at once.
         """
         self._stop.set()
-        running = [w.process for w in self.workers if w.process is not None and w.process.poll() is None]
+        with self._slots:  # (the watcher starts nothing from here on)
+            running = [w.process for w in self.workers if w.process is not None and w.process.poll() is None]
+            spare, self.spare = self.spare, None
+        if spare is not None:  # it holds nothing: killed with its process group (interrupted in its imports, it
+            _end_group(spare)  # printed a KeyboardInterrupt traceback)
+            with contextlib.suppress(subprocess.TimeoutExpired, KeyboardInterrupt):
+                spare.wait(timeout=10.0)
         for process in running:
             with contextlib.suppress(ProcessLookupError):
                 process.send_signal(signal.SIGINT)
@@ -278,10 +358,11 @@ def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str
                 supervisor.stop()
                 print("rigidlab serve: no worker started (see their output above)", file=err)
                 return 1
-            shown = "127.0.0.1" if host in ("0.0.0.0", "", "::") else host
+            from app.server import page_url
+
             supervisor.say(f"rigidlab: {count - len(missing)} of {count} workers serve port {bound} "
                            "(per-client mode; the kernel spreads the browsers over them)")
-            supervisor.say(f"rigidlab: open http://{shown}:{bound}")
+            supervisor.say(f"rigidlab: open {page_url(host, bound)}")
             if on_ready is not None:
                 on_ready(bound)
             supervisor.say("rigidlab: press Ctrl-C to stop")
