@@ -916,6 +916,43 @@ def _guard_camera_messages(server: viser.ViserServer) -> None:
     server._websock_server.on_client_connect(on_connection)
 
 
+def _drop_undecodable_messages() -> None:
+    """Make viser's websocket reader drop a message it cannot decode, with one log line (idempotent).
+
+    viser 1.1.1's ``_message_consumer`` decodes each client message into its
+    typed dataclass (``float("abc")`` for a camera's look-at, a text frame, an
+    unknown type); the exception ended the connection with a traceback in the
+    log (websockets' "connection handler failed"). The replacement keeps the
+    connection and logs one line per connection at most every 10 s.
+    """
+    from viser.infra import _infra
+
+    if getattr(_infra._message_consumer, "rigidlab_guarded", False):
+        return
+
+    async def _message_consumer(websocket: Any, handle_message: Callable[[Any], None], message_class: Any) -> None:
+        last_log, dropped = -math.inf, 0
+        while True:
+            raw = await websocket.recv()
+            try:
+                if not isinstance(raw, bytes):
+                    raise ValueError("a text frame, expected binary msgpack")
+                message = message_class.deserialize(raw)
+            except Exception as exc:  # a hostile or broken client: its message only
+                dropped += 1
+                now = time.monotonic()
+                if now - last_log >= _CAMERA_LOG_SECONDS:
+                    _log.warning("connection %s: undecodable message dropped (%s: %.120s)%s",
+                                 getattr(websocket, "id", "?"), type(exc).__name__, exc,
+                                 f"; {dropped - 1} more dropped since the last report" if dropped > 1 else "")
+                    last_log, dropped = now, 0
+                continue
+            handle_message(message)
+
+    _message_consumer.rigidlab_guarded = True  # type: ignore[attr-defined]
+    _infra._message_consumer = _message_consumer
+
+
 def _listen_with_reuse_port() -> None:
     """Make viser's websocket server listen with ``SO_REUSEPORT`` in this process (idempotent).
 
@@ -1023,6 +1060,7 @@ def create_app(
         if not port:
             raise ValueError("port: reuse_port shares a given port; expected a port from 1 to 65535, got 0")
         _listen_with_reuse_port()
+    _drop_undecodable_messages()
     if executor is None:
         executor = make_executor(processes=True, preload=[cls.__module__ for cls in scene_classes.values()])
     try:

@@ -273,6 +273,14 @@ def test_hostile_camera_messages_are_dropped_with_one_log_line(
             assert np.all(np.isfinite(value))
         dropped = [r for r in caplog.records if "camera message dropped" in r.getMessage()]
         assert len(dropped) == 1 and "look_at" in dropped[0].getMessage(), [r.getMessage() for r in dropped]
+        # messages viser cannot decode (a text where a number goes, a text frame, an unknown type) are dropped
+        # with a log line; they ended the connection with a traceback
+        import msgpack
+
+        attacker.send(_camera(look_at="abc"))
+        attacker.send(_camera(fov=[1, 2]))
+        attacker.send("not msgpack")  # type: ignore[arg-type]
+        attacker.send(msgpack.packb({"type": "NoSuchMessage"}))
         # valid camera messages still move the camera
         attacker.send(_camera(fov=0.7))
         assert wait_until(lambda: camera.fov == pytest.approx(0.7))
