@@ -54,6 +54,7 @@ from app.panel import ControlPanel
 from app.scenes import discover_scenes, discovery_errors
 from app.scenes.base import Scene, SceneContext, aim_camera, plot_text_css
 from app.jobs import make_executor
+from app.loop_thread import install as install_loop_events
 from core._warm import running_for as warm_up_running_for
 
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
@@ -1063,6 +1064,7 @@ def create_app(
     _drop_undecodable_messages()
     if executor is None:
         executor = make_executor(processes=True, preload=[cls.__module__ for cls in scene_classes.values()])
+    install_loop_events()  # the loop thread's writes wake viser's event loop thread-safely (app/loop_thread.py)
     try:
         server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)
     except BaseException:

@@ -82,20 +82,6 @@ FRAME_HISTORY = 4096
 PLOT_Y_AXIS_PX, PLOT_FONT_PX = 62, 12
 
 
-def _asyncio_event_race(exc: BaseException) -> bool:
-    """True for viser 1.1.1's thread race: a GUI or scene write from the loop thread pushes a message and sets
-    an ``asyncio.Event`` from this thread (``AsyncMessageBuffer.push``) while the event loop iterates that
-    event's waiters, and ``Event.set`` raises "deque mutated during iteration". The message is already in the
-    buffer; the loop thread's next write wakes the sender. Such a frame is dropped, not a reason to pause."""
-    if not (isinstance(exc, RuntimeError) and "mutated during iteration" in str(exc)):
-        return False
-    frames = traceback.extract_tb(exc.__traceback__)
-    if not frames or not frames[-1].filename.replace("\\", "/").endswith("asyncio/locks.py"):
-        return False
-    _log.info("a frame was dropped: viser's message event was set by two threads at once")
-    return True
-
-
 def plot_axes(presenter: bool) -> tuple[dict, dict]:
     """uPlot options of a scene plot's x and y axes: tick labels at :data:`PLOT_FONT_PX`, times
     :data:`app.readout.PRESENTER_FONT_SCALE` in presenter view, the y axis widened with them."""
@@ -249,9 +235,7 @@ class Scene:
                 self.notify(f"{self.title} resumed", "A control changed: the scene runs again.", "info")
             self.update(dt)
         except Exception as exc:
-            if not _asyncio_event_race(exc):
-                self._pause(exc)
-            # (the race: the frame's remaining writes are made again by the next frame)
+            self._pause(exc)
         finally:
             self.frames += 1
             self.frame_seconds.append((time.perf_counter() - wall0, time.thread_time() - cpu0))
