@@ -9,6 +9,8 @@ follow the ``name: expected ..., got ...`` style of :mod:`core.rigid_body`,
 
 from __future__ import annotations
 
+from core._errors import ArgumentError
+
 import math
 import numbers
 from typing import Any
@@ -74,18 +76,18 @@ def float_array(x: Any, name: str, *, expected: str = "an array of real numbers"
     try:
         arr = np.asarray(x)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected {expected}, got {short_repr(x)}") from None
+        raise ArgumentError(name, f"{name}: expected {expected}, got {short_repr(x)}") from None
     if _is_complex(arr):
-        raise ValueError(f"{name}: expected real numbers, got complex (dtype {arr.dtype}): {short_repr(x)}")
+        raise ArgumentError(name, f"{name}: expected real numbers, got complex (dtype {arr.dtype}): {short_repr(x)}")
     if arr.dtype.kind in "USV":  # text is not a number here (numpy would parse "1e-3")
-        raise ValueError(f"{name}: expected {expected}, got text {short_repr(x)}")
+        raise ArgumentError(name, f"{name}: expected {expected}, got text {short_repr(x)}")
     if arr.dtype.kind == "b" or (arr.dtype.kind == "O" or not isinstance(x, np.ndarray)) and _holds_bool(x):
         where = " " if isinstance(x, (bool, np.bool_)) else " in "
-        raise ValueError(f"{name}: expected {expected}, got a boolean{where}{short_repr(x)}")
+        raise ArgumentError(name, f"{name}: expected {expected}, got a boolean{where}{short_repr(x)}")
     try:
         return np.array(arr, dtype=np.float64) if copy else np.asarray(arr, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected {expected}, got {short_repr(x)}") from None
+        raise ArgumentError(name, f"{name}: expected {expected}, got {short_repr(x)}") from None
 
 
 def real_number(x: Any, name: str, *, expected: str = "a finite real number") -> float:
@@ -96,18 +98,18 @@ def real_number(x: Any, name: str, *, expected: str = "a finite real number") ->
         x = x.item()
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real):
         if isinstance(x, (complex, np.complexfloating)):
-            raise ValueError(f"{name}: expected real numbers, got complex {x!r}")
-        raise ValueError(f"{name}: expected {expected}, got {short_repr(x)}")
+            raise ArgumentError(name, f"{name}: expected real numbers, got complex {x!r}")
+        raise ArgumentError(name, f"{name}: expected {expected}, got {short_repr(x)}")
     value = float(x)
     if not math.isfinite(value):
-        raise ValueError(f"{name}: expected {expected}, got {value!r}")
+        raise ArgumentError(name, f"{name}: expected {expected}, got {value!r}")
     return value
 
 
 def positive_integer(x: Any, name: str) -> int:
     """``x`` as an int >= 1 (Python or numpy integer, not a bool)."""
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)) or x < 1:
-        raise ValueError(f"{name}: expected an integer >= 1, got {short_repr(x)}")
+        raise ArgumentError(name, f"{name}: expected an integer >= 1, got {short_repr(x)}")
     return int(x)
 
 
@@ -118,14 +120,15 @@ def output_times(t: Any, name: str = "t") -> np.ndarray:
     if tt.ndim == 0:
         tt = tt.reshape(1)
     if tt.ndim != 1 or tt.size == 0:
-        raise ValueError(f"{name}: expected a non-empty 1-D array of output times (s), got shape {tt.shape}")
+        raise ArgumentError(name, f"{name}: expected a non-empty 1-D array of output times (s), got shape {tt.shape}")
     bad = np.flatnonzero(~np.isfinite(tt))
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"{name}: expected finite times (s), got {name}[{i}] = {float(tt[i])!r}")
+        raise ArgumentError(name, f"{name}: expected finite times (s), got {name}[{i}] = {float(tt[i])!r}")
     back = np.flatnonzero(np.diff(tt) < 0.0)
     if back.size:
         i = int(back[0]) + 1
-        raise ValueError(f"{name}: expected non-decreasing times (s), got {name}[{i}] = {float(tt[i])!r} after "
+        raise ArgumentError(name,
+                            f"{name}: expected non-decreasing times (s), got {name}[{i}] = {float(tt[i])!r} after "
                          f"{name}[{i - 1}] = {float(tt[i - 1])!r}")
     return tt

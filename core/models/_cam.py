@@ -25,6 +25,8 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from core._constants import CAM_ATOL, CAM_RTOL, SEPARATION_XTOL
+from core._errors import ArgumentError
 from core._validation import float_array, output_times, real_number, short_repr
 
 __all__ = [
@@ -252,21 +254,21 @@ class CamCurve:
 def _positive(x: Any, name: str, unit: str) -> float:
     v = real_number(x, name, expected=f"a finite number > 0 ({unit})")
     if not v > 0:
-        raise ValueError(f"{name}: expected a finite number > 0 ({unit}), got {v!r}")
+        raise ArgumentError(name, f"{name}: expected a finite number > 0 ({unit}), got {v!r}")
     return v
 
 
 def _non_negative(x: Any, name: str, unit: str) -> float:
     v = real_number(x, name, expected=f"a finite number >= 0 ({unit})")
     if not v >= 0:
-        raise ValueError(f"{name}: expected a finite number >= 0 ({unit}), got {v!r}")
+        raise ArgumentError(name, f"{name}: expected a finite number >= 0 ({unit}), got {v!r}")
     return v
 
 
 def _angles(theta: Any, name: str = "theta") -> np.ndarray:
     arr = float_array(theta, name, expected="cam angles (rad)")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite cam angles (rad), got {short_repr(theta)}")
+        raise ArgumentError(name, f"{name}: expected finite cam angles (rad), got {short_repr(theta)}")
     return arr
 
 
@@ -317,22 +319,25 @@ class CamProfile:
         fields = {"eccentric": ("radius", "eccentricity"),
                   "rise_dwell_return": ("lift", "rise", "dwell", "fall", "law")}
         if not isinstance(self.kind, str) or self.kind not in fields:
-            raise ValueError(f"kind: expected 'eccentric' or 'rise_dwell_return' ({how}), got {short_repr(self.kind)}")
+            raise ArgumentError("kind",
+                                f"kind: expected 'eccentric' or 'rise_dwell_return' ({how}), got {short_repr(self.kind)}")
         other = next(k for k in fields if k != self.kind)
         missing = [f for f in fields[self.kind] if getattr(self, f) is None]
         extra = [f for f in fields[other] if getattr(self, f) is not None]
         if missing or extra:
             names = ", ".join(missing or extra)
             article = "an" if self.kind == "eccentric" else "a"
-            raise ValueError(f"{names}: {article} {self.kind!r} profile {'needs' if missing else 'has no'} {names} "
-                             f"({how}), got {short_repr(self)}")
+            raise ArgumentError(names,
+                                f"{names}: {article} {self.kind!r} profile {'needs' if missing else 'has no'} {names} "
+                                f"({how}), got {short_repr(self)}")
         if self.kind == "eccentric":
             base = _eccentric_fields(self.radius, self.eccentricity)[0]
         else:
             base = _rise_dwell_return_fields(self.base_radius, self.lift, self.rise, self.dwell, self.fall,
                                              self.law)[0]
         if not base == self.base_radius:
-            raise ValueError(f"base_radius: expected {base!r} m for this {self.kind!r} profile ({how}), "
+            raise ArgumentError("base_radius",
+                                f"base_radius: expected {base!r} m for this {self.kind!r} profile ({how}), "
                              f"got {short_repr(self.base_radius)}")
 
     @classmethod
@@ -475,7 +480,7 @@ class CamProfile:
             m/rad, m/rad^2).
         """
         if self.kind != "rise_dwell_return":
-            raise ValueError(
+            raise ArgumentError("kind",
                 "kind: the eccentric cam has no motion law of its own (its lift depends on the follower); "
                 "use CamFollower(profile, ...).kinematics(theta)"
             )
@@ -501,7 +506,8 @@ def _eccentric_fields(radius: Any, eccentricity: Any) -> tuple[float, float, flo
     R = _positive(radius, "radius", "m")
     e = _positive(eccentricity, "eccentricity", "m")
     if not e < R:
-        raise ValueError(f"eccentricity: expected less than radius={R!r} (the shaft inside the cam), got {e!r}")
+        raise ArgumentError("eccentricity",
+                            f"eccentricity: expected less than radius={R!r} (the shaft inside the cam), got {e!r}")
     return R - e, R, e
 
 
@@ -514,10 +520,10 @@ def _rise_dwell_return_fields(base_radius: Any, lift: Any, rise: Any, dwell: Any
     b2 = _non_negative(dwell, "dwell", "rad")
     b3 = _positive(fall, "fall", "rad")
     if not isinstance(law, str) or law not in CAM_LAWS:
-        raise ValueError(f"law: expected one of {list(CAM_LAWS)}, got {short_repr(law)}")
+        raise ArgumentError("law", f"law: expected one of {list(CAM_LAWS)}, got {short_repr(law)}")
     total = b1 + b2 + b3
     if total > _TWO_PI * (1.0 + 1e-12):
-        raise ValueError(
+        raise ArgumentError("rise, dwell, fall",
             f"rise, dwell, fall: expected rise + dwell + fall <= 2 pi (one turn), got {total!r} rad"
         )
     return Rb, L, b1, b2, b3, law
@@ -593,21 +599,24 @@ class CamFollower:
 
     def __post_init__(self) -> None:
         if not isinstance(self.profile, CamProfile):
-            raise ValueError(f"profile: expected a CamProfile, got {type(self.profile).__name__}")
+            raise ArgumentError("profile", f"profile: expected a CamProfile, got {type(self.profile).__name__}")
         if not isinstance(self.follower, str) or self.follower not in FOLLOWER_KINDS:
-            raise ValueError(f"follower: expected one of {list(FOLLOWER_KINDS)}, got {short_repr(self.follower)}")
+            raise ArgumentError("follower",
+                                f"follower: expected one of {list(FOLLOWER_KINDS)}, got {short_repr(self.follower)}")
         rf = _non_negative(self.roller_radius, "roller_radius", "m")
         if self.follower == "flat" and rf != 0.0:
-            raise ValueError(f"roller_radius: a flat-faced follower has no roller, expected 0.0, got {rf!r}")
+            raise ArgumentError("roller_radius",
+                                f"roller_radius: a flat-faced follower has no roller, expected 0.0, got {rf!r}")
         if self.follower == "roller" and not rf > 0:
-            raise ValueError(f"roller_radius: expected a roller radius > 0 (m) for follower='roller', got {rf!r}")
+            raise ArgumentError("roller_radius",
+                                f"roller_radius: expected a roller radius > 0 (m) for follower='roller', got {rf!r}")
         m = _positive(self.mass, "mass", "kg")
         k = _non_negative(self.stiffness, "stiffness", "N/m")
         F0 = _non_negative(self.preload, "preload", "N")
         g = real_number(self.gravity, "gravity", expected="a finite acceleration (m/s^2)")
         eo = real_number(self.offset, "offset", expected="a finite distance (m)")
         if not F0 + m * g > 0:
-            raise ValueError(
+            raise ArgumentError("preload",
                 f"preload: expected preload + mass * gravity > 0 (the follower must press on the cam at rest), "
                 f"got {F0!r} + {m!r} * {g!r} = {F0 + m * g!r} N"
             )
@@ -619,7 +628,7 @@ class CamFollower:
         if self.follower == "roller":
             if not abs(eo) < Rp:
                 what = "radius - eccentricity + roller_radius" if prof.kind == "eccentric" else "base_radius + roller_radius"
-                raise ValueError(
+                raise ArgumentError("offset",
                     f"offset: expected |offset| < {what} = {Rp!r} m (the follower axis must cross the roller "
                     f"centre's lowest circle), got {eo!r}"
                 )
@@ -1107,7 +1116,7 @@ class CamFollower:
                     worst, where = float(prof.base_radius - need[i]), float(u[i])
             if not worst > 0:
                 needed = prof.base_radius - worst
-                raise ValueError(
+                raise ArgumentError("base_radius",
                     f"base_radius: a flat-faced follower needs a convex cam, radius of curvature R_b + s + s'' > 0, "
                     f"but it is {worst:.6g} m at cam angle {where:.6g} rad; use base_radius > {needed:.6g} m, "
                     f"longer rise/fall angles or a smaller lift, or a roller follower"
@@ -1119,7 +1128,7 @@ class CamFollower:
             fix = (f"use roller_radius < {largest:.6g} m (the largest roller that does not undercut this cam) or a "
                    "larger base_radius" if largest > 0 else "no roller fits this motion: use a larger base_radius, "
                    "longer rise/fall angles or a smaller lift")
-            raise ValueError(
+            raise ArgumentError("roller_radius",
                 f"roller_radius: expected less than the pitch curve's smallest convex radius of curvature, which is "
                 f"{rho:.6g} m (at cam angle {where:.6g} rad) with this roller, got {self.roller_radius!r}: the cam "
                 f"would be undercut; {fix}"
@@ -1341,15 +1350,16 @@ def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_
     if abs(w) > MAX_CAM_SPEED:
         # the accelerations carry omega^2 times lengths and products of such terms: past this they overflow,
         # and the contact search then reports a degenerate curve instead of the speed
-        raise ValueError(f"speed: expected a cam speed (rad/s) of magnitude at most {MAX_CAM_SPEED:g}, got {w!r}")
+        raise ArgumentError("speed",
+                            f"speed: expected a cam speed (rad/s) of magnitude at most {MAX_CAM_SPEED:g}, got {w!r}")
     t0 = real_number(start, "start", expected="a finite start time (s)")
     if not isinstance(model, str) or model not in CAM_CONTACT_MODELS:
-        raise ValueError(f"model: expected one of {list(CAM_CONTACT_MODELS)}, got {short_repr(model)}")
+        raise ArgumentError("model", f"model: expected one of {list(CAM_CONTACT_MODELS)}, got {short_repr(model)}")
     kc = _positive(contact_stiffness, "contact_stiffness", "N/m^exponent")
     cc = _non_negative(contact_damping, "contact_damping", "s/m")
     ec = real_number(contact_exponent, "contact_exponent", expected="a finite exponent >= 1")
     if not ec >= 1.0:
-        raise ValueError(f"contact_exponent: expected a finite exponent >= 1, got {ec!r}")
+        raise ArgumentError("contact_exponent", f"contact_exponent: expected a finite exponent >= 1, got {ec!r}")
     theta0 = w * t0
     kin = cam.kinematics(theta0)
     s0, ds0 = float(kin.lift), float(kin.dlift)
@@ -1361,7 +1371,7 @@ def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_
         penetration = (max(force, 0.0) / kc) ** (1.0 / ec)
         scale = min(cam.profile.base_radius, cam.roller_radius if cam.follower == "roller" else math.inf)
         if penetration > 0.5 * scale:  # (System.add_contact would refuse it, blaming the bodies' placement)
-            raise ValueError(
+            raise ArgumentError("contact_stiffness",
                 f"contact_stiffness: expected a contact stiff enough to hold the follower near the cam's surface, "
                 f"got {kc!r} N/m^{ec:g}: the contact force of {force:.4g} N presses it {penetration:.3g} m into "
                 f"the cam, more than half the cam's length scale {scale:g} m; use contact_stiffness > "
@@ -1434,7 +1444,8 @@ def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: A
     if method is None:
         method = "kinematic" if model == "constraint" else "DOP853"
     elif method not in _CAM_METHODS:
-        raise ValueError(f"method: expected one of {', '.join(map(repr, _CAM_METHODS))} or None (the cam's run "
+        raise ArgumentError("method",
+                            f"method: expected one of {', '.join(map(repr, _CAM_METHODS))} or None (the cam's run "
                          f"takes rtol and atol, not a fixed step), got {method!r}")
     traj = built.system.simulate(times, method=method, rtol=rtol, atol=atol, on_separation=on_separation)
     history = traj.contact(built.contact)
