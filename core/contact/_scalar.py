@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ._kernel import _CHART_LIMIT, _MAX_ITER, _STEP_TOL, ContactError, _lost
+from ._errors import _CHART_LIMIT, _MAX_ITER, _STEP_TOL, ContactError, _lost
 
 __all__ = ["evaluate_one", "geometry_one", "newton_one"]
 

@@ -19,9 +19,8 @@ from typing import Any
 import numpy as np
 
 from ._curves import PlanarCurve
-from ._kernel import (
-    CONTACT_RANK_TOL,
-    ContactError,
+from ._errors import CONTACT_RANK_TOL, ContactError
+from ._geometry import (
     _extremal,
     _globalize,
     _Group,
