@@ -2,3 +2,7 @@
 
 Conventions are stated once in ``docs/conventions.md``.
 """
+
+from core._errors import ArgumentError  # (a leaf module: importing core stays cheap)
+
+__all__ = ["ArgumentError"]

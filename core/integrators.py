@@ -106,10 +106,13 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from core._constants import DEFAULT_ATOL, DEFAULT_RTOL
 from core._validation import float_array, positive_integer, real_number, short_repr
 
 __all__ = [
     "ADAPTIVE_METHODS",
+    "DEFAULT_ATOL",
+    "DEFAULT_RTOL",
     "FIXED_STEP_METHODS",
     "MAX_STEPS",
     "METHOD_ORDERS",
@@ -702,8 +705,8 @@ def integrate(
     method: str = "rk4",
     dt: float | None = None,
     save_every: int = 1,
-    rtol: float = 1e-8,
-    atol: float = 1e-10,
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
     t_eval: np.ndarray | None = None,
     max_drift: float = 1.0,
     max_steps: int = MAX_STEPS,

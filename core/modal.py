@@ -864,7 +864,7 @@ def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_sti
     from core.multibody import System
     from core.multibody import _linearization as lin
     from core.multibody._simulate import check_assembled
-    from core.multibody._system import _make_state
+    from core.multibody._state import _make_state
 
     if not isinstance(system, System):
         raise ValueError(f"system: expected a core.multibody.System, got {short_repr(system)}")

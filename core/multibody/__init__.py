@@ -19,6 +19,7 @@ Example::
     system.assemble()
     traj = system.simulate([0.0, 0.5, 1.0])
     force, torque = traj.reaction(hinge)
+    more = system.simulate([1.0, 1.5], initial=traj.final_state)  # continues the run
 """
 
 from ._analysis import RANK_TOL, AssemblyError, AssemblyReport, EquilibriumReport
@@ -42,6 +43,7 @@ from ._simulate import (
     STABILIZATIONS,
     MultibodyTrajectory,
 )
+from ._state import RunState
 from ._system import INERTIA_TRIANGLE_TOL, MAX_BAUMGARTE, PERPENDICULAR_TOL, State, System
 
 __all__ = [
@@ -65,6 +67,7 @@ __all__ = [
     "Motor",
     "MultibodyTrajectory",
     "RotationalSpringDamper",
+    "RunState",
     "SingularSystemError",
     "SpringDamper",
     "State",

@@ -20,7 +20,7 @@ import numpy as np
 from core._validation import positive_integer, real_number
 
 from ._engine import _Engine
-from ._system import retract
+from ._state import _make_state, retract
 
 __all__ = ["RANK_TOL", "AssemblyError", "AssemblyReport", "EquilibriumReport"]
 
@@ -378,7 +378,6 @@ def assemble(system: Any, *, t: Any = None, tol: Any = 1e-12, max_iterations: An
 
 # ------------------------------------------------------------- statics
 def _static_residual(eng: _Engine, system: Any, t: float, y: np.ndarray, lam: np.ndarray, keep: np.ndarray):
-    from ._system import _make_state
 
     At, Y, Phi, gam = eng.table(t, y, level=2)
     C, D, _, _ = eng.constraint_rows(t, Y, Phi, gam, level=1)

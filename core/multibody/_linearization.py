@@ -46,7 +46,7 @@ import scipy.sparse
 
 from . import _tree_basis
 from ._engine import _Engine, cross
-from ._system import exp_parameters, quaternion_products
+from ._state import exp_parameters, quaternion_products
 
 __all__ = [
     "Reference",

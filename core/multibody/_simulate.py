@@ -27,6 +27,8 @@ import numpy as np
 from scipy.linalg import lapack
 from scipy.optimize import brentq
 
+from core._constants import DEFAULT_ATOL, DEFAULT_RTOL
+from core._errors import ArgumentError
 from core._validation import output_times, positive_integer, real_number, short_repr
 from core import integrators
 from core.integrators import (
@@ -63,7 +65,7 @@ from ._engine import (
     matrices,
     parameter_rates,
 )
-from ._system import State, _make_state
+from ._state import RUN_CONTACT_MODELS, RunState, State, _make_state, _run_state
 
 __all__ = [
     "ADAPTIVE_METHODS",
@@ -1081,15 +1083,46 @@ class MultibodyTrajectory:
         if not -n <= index < n:
             raise ValueError(f"index: expected -{n} <= index < {n}, got {index}")
         state = _make_state(self._owner, float(self.t[index]), np.concatenate([self.q[index], self.v[index]]))
+        known = self._contacts_at(state.t)
+        if known is not None:
+            state = dataclasses.replace(state, _contacts=known)
+        return state
+
+    def _contacts_at(self, t: float) -> tuple | None:
+        """Per contact ``(s, chart_i, chart_j)`` at time ``t`` of the run (from its track), or None."""
         track = getattr(self._model, "contact_track", None)
         contacts = self._model.eng.contacts
-        if contacts and track is not None and all(c.index in track and track[c.index].times for c in contacts):
-            known = []
-            for c in contacts:
-                s, charts = track[c.index].start(state.t)
-                known.append((s, charts[0], charts[1]))
-            state = dataclasses.replace(state, _contacts=tuple(known))
-        return state
+        if not (contacts and track is not None and all(c.index in track and track[c.index].times
+                                                        for c in contacts)):
+            return None
+        known = []
+        for c in contacts:
+            s, charts = track[c.index].start(t)
+            known.append((s, charts[0], charts[1]))
+        return tuple(known)
+
+    def run_state(self, index: int) -> RunState:
+        """The :class:`RunState` at output ``index`` (negative counts from the end): positions, velocities,
+        time, the contacts' surface parameters and models there; a run from it continues this one
+        (``system.simulate(t, initial=traj.run_state(i))``, ``t[0] >= self.t[i]``)."""
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise ValueError(f"index: expected an integer, got {short_repr(index)}")
+        n = self.t.size
+        if not -n <= index < n:
+            raise ValueError(f"index: expected -{n} <= index < {n}, got {index}")
+        t = float(self.t[index])
+        modes = None if self._modes is None else self._modes[index]
+        return _run_state(t, np.concatenate([self.q[index], self.v[index]]), self._contacts_at(t), modes)
+
+    @property
+    def final_state(self) -> RunState:
+        """The :class:`RunState` the run ended in (its last output): ``system.simulate(t,
+        initial=traj.final_state)`` continues the run, ``t[0] >= traj.t[-1]`` (see :meth:`run_state`)."""
+        key = "final_state"
+        with self._lock:
+            if key not in self._cache:
+                self._cache[key] = self.run_state(-1)
+            return self._cache[key]
 
 
 # ------------------------------------------------------------------ simulate
@@ -1479,12 +1512,16 @@ def simulate(
     position_tol: float = 1e-12,
     max_steps: int = MAX_STEPS,
     on_separation: str = "stop",
+    initial: RunState | None = None,
 ) -> MultibodyTrajectory:
-    """Integrate the constrained equations of motion from the System's current state.
+    """Integrate the constrained equations of motion from the System's current state (or ``initial``).
 
     The current state is taken as the state at ``t[0]``; it must satisfy
     the constraints (to 1e-8; call :meth:`System.assemble` first). The
-    System is not changed.
+    System is not changed. With ``initial`` (a :class:`RunState`, e.g.
+    ``traj.final_state``) the run starts from it instead, at its time
+    ``initial.t``, with the contacts' warm starts and models it holds: the
+    continuation of the run that ended there.
 
     Parameters
     ----------
@@ -1510,7 +1547,8 @@ def simulate(
         rolling contacts or ``stabilization`` other than ``"projection"``
         is refused.
     rtol, atol : float, keyword-only
-        Adaptive methods: scipy's tolerances (default 1e-8 and 1e-10);
+        Adaptive methods: scipy's tolerances (default
+        ``core.integrators.DEFAULT_RTOL`` 1e-8 and ``DEFAULT_ATOL`` 1e-10);
         ``"kinematic"``: those of its DOP853 continuation.
     dt : float, keyword-only
         Fixed-step methods: the largest step (required).
@@ -1537,6 +1575,10 @@ def simulate(
         flight, re-contact and impact; ``"bilateral"`` keeps the constraint
         (the force goes negative). Each crossing is reported in
         ``separations`` (time by Brent's method on the dense output).
+    initial : RunState or None, keyword-only
+        The state to start from (see :func:`_initial_state`); the output
+        times must not begin before ``initial.t`` (outputs at ``initial.t``
+        give its state).
 
     Returns
     -------
@@ -1570,8 +1612,8 @@ def simulate(
             what = ("method 'kinematic' solves at the output times (rtol/atol are its DOP853 continuation's)"
                     if kinematic else f"adaptive method '{method}' takes rtol/atol")
             raise ValueError(f"dt: {what}, not dt (got dt={dt!r})")
-        rtol = 1e-8 if rtol is None else real_number(rtol, "rtol", expected="a finite tolerance > 0")
-        atol = 1e-10 if atol is None else real_number(atol, "atol", expected="a finite tolerance > 0")
+        rtol = DEFAULT_RTOL if rtol is None else real_number(rtol, "rtol", expected="a finite tolerance > 0")
+        atol = DEFAULT_ATOL if atol is None else real_number(atol, "atol", expected="a finite tolerance > 0")
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"rtol, atol: expected > 0, got rtol={rtol!r}, atol={atol!r}")
     else:
@@ -1599,22 +1641,30 @@ def simulate(
 
     shared = system._engine()
     eng = shared.workspace()  # this run's own work arrays: simulations may run in parallel threads
-    if eng.contact_kernel is not None:
-        eng.contact_state["track"] = {}  # the run's tracked contact parameters (ContactKernel.evaluate)
     n = eng.n
     if n == 0:
         raise ValueError("system: has no bodies to simulate (add_body first)")
     t0 = float(tt[0])
     y0 = np.array(system._y)
+    own_modes = True  # the contacts are in the System's models (the rank analysis may be shared)
+    if initial is not None:
+        t0, y0, own_modes = _initial_state(system, eng, initial, tt)
+    if eng.contact_kernel is not None:
+        eng.contact_state["track"] = {}  # the run's tracked contact parameters (ContactKernel.evaluate)
+    # a constraint-model contact already compliant (a run continued after a separation): the System is free to
+    # leave the contact, and "kinematic" integrates from the start as it does after a separation
+    resumed_compliant = bool(eng.contacts) and any(
+        c.model == "constraint" and int(mode) != 0 for c, mode in zip(eng.contacts, eng.contact_state["mode"]))
     if eng.m:
         check_assembled(eng, t0, y0, "simulate", limit=max(1e-8, 1e3 * position_tol))
         if not eng.analyzed:
             analyze_rank(eng, t0, y0)
-            shared.adopt(eng)
+            if own_modes:
+                shared.adopt(eng)
     else:
         eng.analyzed = True
     check_constrained_mass(eng, t0, y0)
-    if kinematic:
+    if kinematic and not resumed_compliant:
         _check_kinematic(eng, t0)
     model = _Dynamics(system, eng, stabilization=stabilization, baumgarte=baumgarte, position_tol=position_tol)
     model.outputs_end_steps = kinematic  # (from the initial projection on; see _run_kinematic)
@@ -1623,7 +1673,8 @@ def simulate(
         y0 = model.project(t0, y0)
     # a contact may be in the compliant model during the run: from the start, or after a separation
     model.locate_touches = adaptive and bool(eng.contacts) and (
-        on_separation == "compliant" or any(c.model != "constraint" for c in eng.contacts))
+        on_separation == "compliant" or any(c.model != "constraint" for c in eng.contacts)
+        or bool(eng.contact_state["mode"].any()))
     if not (model._separations or model.locate_touches):
         model.stop_time = None  # (the integrators skip the event check)
 
@@ -1694,7 +1745,9 @@ def simulate(
     idx = first.size
     t_cur, y_cur = t0, y0
     stopped = False
-    continued = False
+    continued = resumed_compliant  # (a compliant contact is free to leave: integrated from the start)
+    if kinematic and continued:
+        model.outputs_end_steps = False
     try:
         while True:
             if pending_event is not None:
@@ -1760,6 +1813,77 @@ def simulate(
         raise
     return _finish(system, eng, model, method, stabilization, out_t, out_y, out_mode, kc, n, n_steps, n_rhs,
                    "separated" if stopped else "completed")
+
+
+def _initial_state(system: Any, eng: _Engine, initial: Any, tt: np.ndarray) -> tuple[float, np.ndarray, bool]:
+    """The start ``(t0, y0, own_modes)`` of a run continued from the :class:`RunState` ``initial``.
+
+    Puts the contacts of the run's workspace ``eng`` in the models
+    ``initial`` names and their Newton's warm start at its surface
+    parameters. ``own_modes``: the models are the System's own (False:
+    the workspace's rank analysis is redone, and not handed to the
+    System).
+
+    Raises
+    ------
+    ArgumentError
+        ``initial`` (not a RunState, another number of bodies or contacts,
+        non-finite values) or ``t`` (output times before ``initial.t``).
+    """
+    if not isinstance(initial, RunState):
+        raise ArgumentError("initial", f"initial: expected a RunState (traj.final_state), got "
+                                          f"{short_repr(initial)}")
+    n = eng.n
+    q, v = np.asarray(initial.q, dtype=float), np.asarray(initial.v, dtype=float)
+    if q.shape != (7 * n,) or v.shape != (6 * n,):
+        raise ArgumentError("initial", f"initial: expected the state of {n} bodies (q ({7 * n},), v "
+                                          f"({6 * n},)), got q {q.shape}, v {v.shape}")
+    t0 = float(initial.t)
+    if not (math.isfinite(t0) and np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        raise ArgumentError("initial", "initial: expected a finite time, q and v")
+    # the outputs start at the state's time; a first output within round-off of it (k T computed two ways)
+    # counts as that time
+    if float(tt[0]) < t0 - 8.0 * np.finfo(float).eps * max(1.0, abs(t0)):
+        raise ArgumentError("t", f"t: a run from initial starts at initial.t = {t0!r}; expected output "
+                                    f"times >= it, got t[0] = {float(tt[0])!r}")
+    y0 = np.concatenate([q, v])
+    P = y0[3 * n : 7 * n].reshape(n, 4)
+    norms = np.linalg.norm(P, axis=1)
+    if np.any(norms == 0.0):
+        raise ArgumentError("initial", "initial: expected Euler parameters of norm 1, got norm 0")
+    y0[3 * n : 7 * n] = (P / norms[:, None]).ravel()
+    k = len(eng.contacts)
+    models = tuple(initial.contact_models)
+    if models and len(models) != k:
+        raise ArgumentError("initial", f"initial: describes {len(models)} contacts, the System has {k}")
+    if any(m not in RUN_CONTACT_MODELS for m in models):
+        raise ArgumentError("initial", f"initial.contact_models: expected {list(RUN_CONTACT_MODELS)} per "
+                                          f"contact, got {short_repr(models)}")
+    own_modes = True
+    if k:
+        ker = eng.contact_kernel
+        params, charts = initial.contact_parameters, initial.contact_charts
+        if params is not None:
+            if charts is None or len(params) != k or len(charts) != k:
+                raise ArgumentError("initial", f"initial: expected surface parameters and charts of {k} "
+                                                  f"contacts")
+            state = ker.initial_state([(np.array(s), ci, cj) for s, (ci, cj) in zip(params, charts)])
+        else:
+            state = ker.copy_state(eng.contact_state)
+        mode = np.array(eng.contact_state["mode"])
+        if models:
+            wanted = np.array([RUN_CONTACT_MODELS.index(m) for m in models], dtype=mode.dtype)
+            for c, code in zip(eng.contacts, wanted):
+                if code == 0 and c.model != "constraint":
+                    raise ArgumentError("initial", f"initial: contact {c.name!r} is compliant in this System "
+                                                      "and has no constraint model to return to")
+            own_modes = bool(np.array_equal(wanted, mode))
+            mode = wanted
+        state["mode"] = mode
+        eng.contact_state = state
+        if not own_modes:
+            eng.contact_modes_changed()
+    return t0, y0, own_modes
 
 
 @dataclass(frozen=True)

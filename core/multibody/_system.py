@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, real_number, short_repr
+from core._validation import float_array, output_times, positive_integer, real_number, short_repr
+from core.integrators import ADAPTIVE_METHODS, MAX_STEPS, MIN_RTOL
 from core.rotations import UNIT_NORM_TOL
 
 from ._drivers import driver_function
@@ -35,8 +36,12 @@ from ._elements import (
     Torque,
 )
 from ._engine import _Engine, matrices
+from ._analysis import assemble, equilibrium
+from ._evaluation import evaluate
+from ._simulate import KINEMATIC_METHOD, simulate
+from ._state import RunState, State, _make_state, exp_parameters, quaternion_products, retract  # noqa: F401
 
-__all__ = ["INERTIA_TRIANGLE_TOL", "MAX_BAUMGARTE", "PERPENDICULAR_TOL", "State", "System"]
+__all__ = ["INERTIA_TRIANGLE_TOL", "MAX_BAUMGARTE", "PERPENDICULAR_TOL", "RunState", "State", "System"]
 
 #: Relative tolerance of the triangle inequality of principal moments:
 #: ``J3 - (J1 + J2) <= INERTIA_TRIANGLE_TOL * J3`` (as in core.rigid_body).
@@ -144,134 +149,12 @@ def _perpendicular(h: np.ndarray) -> np.ndarray:
     return f / np.linalg.norm(f)
 
 
-# ------------------------------------------------------------------ state
-@dataclass(frozen=True, eq=False)
-class State:
-    """The state ``(t, q, v)`` of a System's bodies (a read-only snapshot).
-
-    Layout for ``n`` bodies (ground excluded), in the order they were added::
-
-        q = [R (3n) | p (4n)]            centres of mass (global, m); Euler
-                                         parameters (scalar first, unit)
-        v = [R_dot (3n) | omega_body (3n)]  global velocities (m/s); body-frame
-                                         angular velocities (rad/s)
-
-    The accessors take a body handle and return copies.
-
-    Attributes
-    ----------
-    t : float
-        Time (s).
-    q : (7n,) ndarray
-    v : (6n,) ndarray
-    """
-
-    t: float
-    q: np.ndarray = field(repr=False)  # (7n,)
-    v: np.ndarray = field(repr=False)  # (6n,)
-    _owner: Any = field(repr=False, compare=False)
-    # surface parameters and charts of the contacts at this state, per contact (s, chart_i, chart_j), when
-    # known (a trajectory's state): set_state makes them the warm start of the next run's contact Newton
-    _contacts: Any = field(default=None, repr=False, compare=False)
-
-    @property
-    def n_bodies(self) -> int:
-        """Number of bodies (ground excluded) the state describes."""
-        return self.v.shape[0] // 6
-
-    def _index(self, body: Any) -> int:
-        if not isinstance(body, Body):
-            raise ValueError(f"body: expected a Body, got {short_repr(body)}")
-        if body._owner is not self._owner:
-            raise ValueError(f"body: {body.name!r} belongs to another System than this state")
-        if body.index >= self.n_bodies:
-            raise ValueError(
-                f"body: {body.name!r} was added after this state was taken; the state does not know it"
-            )
-        return body.index
-
-    def position(self, body: Body) -> np.ndarray:
-        """(3,) centre of mass R of ``body``, global (m); the origin for the ground."""
-        i = self._index(body)
-        return np.zeros(3) if i < 0 else self.q[3 * i : 3 * i + 3].copy()
-
-    def orientation(self, body: Body) -> np.ndarray:
-        """(4,) Euler parameters of ``body`` (scalar first, unit); ``(1, 0, 0, 0)`` for the ground."""
-        i = self._index(body)
-        if i < 0:
-            return np.array([1.0, 0.0, 0.0, 0.0])
-        n = self.n_bodies
-        p = self.q[3 * n + 4 * i : 3 * n + 4 * i + 4]
-        return p / np.linalg.norm(p)
-
-    def velocity(self, body: Body) -> np.ndarray:
-        """(3,) velocity of the centre of mass, global (m/s)."""
-        i = self._index(body)
-        return np.zeros(3) if i < 0 else self.v[3 * i : 3 * i + 3].copy()
-
-    def omega_body(self, body: Body) -> np.ndarray:
-        """(3,) angular velocity in the body frame (the chapter's omega-bar, rad/s)."""
-        i = self._index(body)
-        n = self.n_bodies
-        return np.zeros(3) if i < 0 else self.v[3 * n + 3 * i : 3 * n + 3 * i + 3].copy()
-
-    def omega(self, body: Body) -> np.ndarray:
-        """(3,) angular velocity in the global frame (rad/s): ``A(p) omega_body``."""
-        i = self._index(body)
-        if i < 0:
-            return np.zeros(3)
-        return matrices(self.orientation(body)[None])[0] @ self.omega_body(body)
-
-    def rotation_matrix(self, body: Body) -> np.ndarray:
-        """(3, 3) rotation matrix A of ``body`` (body to global, Eq. 8.48)."""
-        return matrices(self.orientation(body)[None])[0]
-
-    def point(self, body: Body, u_body: Any) -> np.ndarray:
-        """(3,) global position ``R + A u_body`` of a point given in the body frame."""
-        u = _vector(u_body, "u_body")
-        return self.position(body) + self.rotation_matrix(body) @ u
-
-    def displaced(self, dq: Any = None, dv: Any = None) -> State:
-        """A new state moved by tangent-space increments.
-
-        Parameters
-        ----------
-        dq : (6n,) or None
-            ``[dR (3n) | dpi_body (3n)]``: translations (global, m) and small
-            rotations (body frame, rad); the Euler parameters become
-            ``p * exp(dpi_body / 2)`` (quaternion product, exact).
-        dv : (6n,) or None
-            Added to ``v``.
-
-        Returns
-        -------
-        State
-            Same time, same System.
-        """
-        n = self.n_bodies
-        y = np.concatenate([self.q, self.v])
-        if dq is not None:
-            d = float_array(dq, "dq", copy=True)
-            if d.shape != (6 * n,) or not np.all(np.isfinite(d)):
-                raise ValueError(f"dq: expected finite increments of shape ({6 * n},), got {short_repr(dq)}")
-            y = retract(y, n, d)
-        if dv is not None:
-            d = float_array(dv, "dv", copy=True)
-            if d.shape != (6 * n,) or not np.all(np.isfinite(d)):
-                raise ValueError(f"dv: expected finite increments of shape ({6 * n},), got {short_repr(dv)}")
-            y[7 * n :] += d
-        return _make_state(self._owner, self.t, y)
-
-
 def _check_run_limits(t: Any, method: Any, rtol: Any, stabilization: Any, baumgarte: Any, max_steps: Any,
                       adaptive: tuple[str, ...]) -> None:
     """Refuse the options of ``System.simulate`` that would make a run overflow or never end: ``baumgarte``
     above :data:`MAX_BAUMGARTE`, or with ``alpha (t[-1] - t[0])`` above ``max_steps`` for an adaptive run with
     Baumgarte's stabilization; ``rtol`` below ``core.integrators.MIN_RTOL`` (the other checks are
     ``core.multibody._simulate.simulate``'s)."""
-    from core._validation import output_times, positive_integer
-    from core.integrators import MIN_RTOL
-
     alpha = real_number(baumgarte, "baumgarte", expected="a finite rate > 0 (rad/s)")
     if not 0.0 < alpha <= MAX_BAUMGARTE:
         raise ValueError(f"baumgarte: expected a finite rate > 0 and <= core.multibody._system.MAX_BAUMGARTE = "
@@ -293,51 +176,6 @@ def _check_run_limits(t: Any, method: Any, rtol: Any, stabilization: Any, baumga
                 f"each: alpha={alpha:g} rad/s over t[-1] - t[0] = {span:g} s needs at least {alpha * span:.3g}, "
                 f"more than max_steps={budget}; use a smaller baumgarte or a shorter time span, "
                 "stabilization='projection', or pass a larger max_steps")
-
-
-def _make_state(owner: Any, t: float, y: np.ndarray) -> State:
-    n = y.shape[0] // 13
-    q = np.array(y[: 7 * n])
-    v = np.array(y[7 * n :])
-    q.setflags(write=False)
-    v.setflags(write=False)
-    return State(float(t), q, v, owner)
-
-
-def exp_parameters(phi: np.ndarray) -> np.ndarray:
-    """Euler parameters (k, 4) of rotation vectors phi (k, 3): ``(cos(|phi|/2), sin(|phi|/2) phi/|phi|)``."""
-    ang = np.sqrt(np.einsum("ki,ki->k", phi, phi))
-    half = 0.5 * ang
-    # sin(x/2)/x, accurate near 0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sinc = np.where(ang > 1e-4, np.sin(half) / np.where(ang > 0, ang, 1.0), 0.5 - ang * ang / 48.0)
-    return np.concatenate([np.cos(half)[:, None], sinc[:, None] * phi], axis=1)
-
-
-def quaternion_products(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton products (k, 4) of (k, 4) arrays, scalar first (Eqs. 8.69-8.72)."""
-    w1, x1, y1, z1 = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
-    w2, x2, y2, z2 = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-    return np.stack(
-        [
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-        ],
-        axis=1,
-    )
-
-
-def retract(y: np.ndarray, n: int, dq: np.ndarray) -> np.ndarray:
-    """``y`` (13n,) moved by tangent increments dq = [dR (3n) | dpi_body (3n)] (new array, unit p)."""
-    out = np.array(y, dtype=float)
-    out[: 3 * n] += dq[: 3 * n]
-    P = out[3 * n : 7 * n].reshape(n, 4)
-    P = quaternion_products(P, exp_parameters(dq[3 * n : 6 * n].reshape(n, 3)))
-    P /= np.linalg.norm(P, axis=1)[:, None]
-    out[3 * n : 7 * n] = P.ravel()
-    return out
 
 
 # ------------------------------------------------------------------ system
@@ -1142,8 +980,6 @@ class System:
             convergence, or joints that cannot all hold at once; the message
             names the joint with the largest residual.
         """
-        from ._analysis import assemble
-
         return assemble(self, t=t, tol=tol, max_iterations=max_iterations)
 
     def equilibrium(self, *, t: float | None = None, tol: float = 1e-10, max_iterations: int = 50):
@@ -1172,8 +1008,6 @@ class System:
         AssemblyError
             When Newton does not converge.
         """
-        from ._analysis import equilibrium
-
         return equilibrium(self, t=t, tol=tol, max_iterations=max_iterations)
 
     def simulate(
@@ -1189,8 +1023,9 @@ class System:
         position_tol: float = 1e-12,
         max_steps: int | None = None,
         on_separation: str = "stop",
+        initial: RunState | None = None,
     ):
-        """Integrate the constrained equations of motion from the current state.
+        """Integrate the constrained equations of motion from the current state (or ``initial``).
 
         The augmented index-1 equations ``[[M, D^T], [D, 0]] [a; lambda] =
         [Q_e + Q_v; gamma]`` in Newton-Euler form (velocities ``R_dot`` and
@@ -1198,8 +1033,11 @@ class System:
         are integrated with the state projected back onto the constraints
         after every step. The current state is taken as the state at
         ``t[0]``; it must satisfy the constraints to 1e-8 (call
-        :meth:`assemble` first). The System is not changed; continue with
-        ``system.set_state(traj.state(-1))``.
+        :meth:`assemble` first). The System is not changed; continue a run
+        with ``system.simulate(t2, initial=traj.final_state)`` (a
+        :class:`RunState`: positions, velocities, time, the contacts'
+        surface parameters and models), or make its end the current state
+        with ``system.set_state(traj.state(-1))``.
 
         Parameters
         ----------
@@ -1216,7 +1054,8 @@ class System:
             velocities, accelerations and multipliers (Eqs. 8.105-8.107),
             without integration error (see ``core.multibody._simulate.simulate``).
         rtol, atol : float, keyword-only
-            Adaptive methods: scipy's tolerances (defaults 1e-8, 1e-10;
+            Adaptive methods: scipy's tolerances (defaults
+            ``core.integrators.DEFAULT_RTOL`` 1e-8, ``DEFAULT_ATOL`` 1e-10;
             ``rtol >= core.integrators.MIN_RTOL``, 2.2e-14);
             ``"kinematic"``: those of DOP853 after a compliant continuation.
         dt : float, keyword-only
@@ -1253,6 +1092,18 @@ class System:
             ``"compliant"`` continues with that contact's compliant model
             and ``"bilateral"`` keeps the constraint (it pulls); every
             crossing is listed in ``traj.separations`` (docs/contact.md).
+        initial : RunState or None, keyword-only
+            Start from this state (``traj.final_state`` of an earlier run of
+            this System, or ``traj.run_state(i)``) instead of the current
+            one: at its time ``initial.t`` (``t[0] >= initial.t``; an output
+            at ``initial.t`` is its state), with the contacts' warm starts
+            and models it holds (a contact that separated into the compliant
+            model stays compliant). The run is the continuation of the one
+            that ended there: split at an output time, two runs agree with
+            one long run to the integrator's tolerance (adaptive methods
+            restart their step-size control at the split), to round-off for
+            ``"kinematic"`` and for fixed steps that end on the split
+            (docs/multibody.md, "Continuing a run").
 
         Returns
         -------
@@ -1266,16 +1117,12 @@ class System:
             constrained equations are singular; ``IntegrationError`` when
             the integrator fails.
         """
-        from core.integrators import ADAPTIVE_METHODS, MAX_STEPS
-
-        from ._simulate import KINEMATIC_METHOD, simulate
-
         _check_run_limits(t, method, rtol, stabilization, baumgarte,
                           MAX_STEPS if max_steps is None else max_steps, ADAPTIVE_METHODS + (KINEMATIC_METHOD,))
         return simulate(
             self, t, method=method, rtol=rtol, atol=atol, dt=dt, stabilization=stabilization, baumgarte=baumgarte,
             position_tol=position_tol, max_steps=MAX_STEPS if max_steps is None else max_steps,
-            on_separation=on_separation,
+            on_separation=on_separation, initial=initial,
         )
 
     def evaluate(self, *, t: float | None = None):
@@ -1290,7 +1137,5 @@ class System:
         -------
         Evaluation
         """
-        from ._evaluation import evaluate
-
         return evaluate(self, t=t)
 
