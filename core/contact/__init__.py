@@ -23,9 +23,9 @@ Example::
     traj.contact(c).normal_force           # (3,) N: m g
 """
 
-from ._contact import CONTACT_MODELS, Contact, ContactHistory, Separation
+from ._contact import CONTACT_MODELS, Contact, ContactHistory, Separation, gap_crossings
 from ._curves import PlanarCurve
-from ._kernel import CONTACT_RANK_TOL, ContactError
+from ._errors import CONTACT_RANK_TOL, ContactError
 from ._surfaces import Ellipsoid, ParametricSurface, Plane, Sphere, Surface, Torus
 
 __all__ = [
@@ -42,4 +42,5 @@ __all__ = [
     "Sphere",
     "Surface",
     "Torus",
+    "gap_crossings",
 ]

@@ -7,7 +7,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CONTACT_MODELS", "Contact", "ContactHistory", "Separation"]
+from core._errors import ArgumentError
+
+__all__ = ["CONTACT_MODELS", "Contact", "ContactHistory", "Separation", "gap_crossings"]
 
 #: Contact models of ``System.add_contact``.
 CONTACT_MODELS = ("constraint", "compliant")
@@ -145,3 +147,59 @@ class Separation:
     normal: np.ndarray = field(repr=False)
     state: Any = field(repr=False)
     action: str
+
+
+def gap_crossings(t: Any, gap: Any, *, compliant: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """Times a compliant contact opens and closes between outputs: ``(openings (k,), closings (m,))`` (s).
+
+    One boundary convention for every contact test in core: a contact is
+    *closed* where it touches, ``gap <= 0`` (the Hunt-Crossley force ``F = k
+    delta^e (1 + 3/2 c delta_dot)`` with ``delta = -gap`` is zero at
+    ``gap = 0``, the bodies still touch), *open* where ``gap > 0``; likewise
+    a constraint-model contact holds while its normal force (the multiplier,
+    Eq. 8.107) is ``>= 0`` and separates where it turns negative. So a
+    sample with ``gap == 0`` counts as closed: an opening is a pair of
+    outputs with ``gap[i] <= 0 < gap[i + 1]``, a closing one with ``gap[i] >
+    0 >= gap[i + 1]``; the time is interpolated linearly in the gap (the
+    zero of the chord).
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Output times (s), non-decreasing.
+    gap : (n,) array_like
+        Distance along the common normal at those times (m; negative: the
+        compliant contact's penetration), e.g. ``traj.contact(c).gap``.
+    compliant : (n,) array_like of bool or None, keyword-only
+        Which outputs have the contact in the compliant model; only pairs
+        of outputs both compliant count (a constraint-model contact's gap is
+        round-off). None: all (``~traj.contact(c).constraint`` is the usual
+        mask).
+
+    Returns
+    -------
+    openings, closings : (k,), (m,) ndarray
+        Increasing times (s).
+
+    Raises
+    ------
+    ArgumentError
+        ``t``, ``gap`` or ``compliant`` not of one length ``n``.
+    """
+    tt = np.asarray(t, dtype=float).reshape(-1)
+    g = np.asarray(gap, dtype=float).reshape(-1)
+    if g.shape != tt.shape:
+        raise ArgumentError("gap", f"gap: expected {tt.size} values (one per output time), got {g.size}")
+    if compliant is None:
+        mask = np.ones(tt.shape, dtype=bool)
+    else:
+        mask = np.asarray(compliant, dtype=bool).reshape(-1)
+        if mask.shape != tt.shape:
+            raise ArgumentError("compliant", f"compliant: expected {tt.size} flags (one per output time), got "
+                                             f"{mask.size}")
+    a, b = g[:-1], g[1:]
+    both = mask[:-1] & mask[1:]
+    out = []
+    for idx in (np.flatnonzero(both & (a <= 0.0) & (b > 0.0)), np.flatnonzero(both & (a > 0.0) & (b <= 0.0))):
+        out.append(tt[idx] + a[idx] / (a[idx] - b[idx]) * (tt[idx + 1] - tt[idx]))
+    return out[0], out[1]

@@ -38,6 +38,7 @@ from ._cam import (
     CamMotion,
     CamProfile,
     CamSystem,
+    CamTouch,
 )
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
 from ._pendulum import MAX_LINKS, ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
@@ -102,6 +103,7 @@ __all__ = [
     "CamMotion",
     "CamProfile",
     "CamSystem",
+    "CamTouch",
     "HeavyTop",
     "ReducedChainMotion",
     "RollingDiskMotion",

@@ -39,6 +39,7 @@ __all__ = [
     "CamMotion",
     "CamProfile",
     "CamSystem",
+    "CamTouch",
 ]
 
 #: Displacement laws of :meth:`CamProfile.rise_dwell_return`.
@@ -225,6 +226,23 @@ class CamKinematics(NamedTuple):
     lift: np.ndarray
     dlift: np.ndarray
     d2lift: np.ndarray
+
+
+class CamTouch(NamedTuple):
+    """Where cam and follower touch, in the fixed profile plane with the cam turned by ``theta``.
+
+    Attributes
+    ----------
+    point : ndarray, ``theta.shape + (2,)``
+        The contact point (m): :meth:`CamFollower.cam_curve` ``(theta).point``
+        turned by ``theta`` about the shaft.
+    normal : ndarray, ``theta.shape + (2,)``
+        The common unit normal from the cam to the follower:
+        :meth:`CamFollower.contact_normal` turned by ``theta``.
+    """
+
+    point: np.ndarray
+    normal: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -809,6 +827,101 @@ class CamFollower:
             return math.sqrt((2.0 * k * e + F) / (m * e))
         return math.sqrt(1.0 / self._max_ratio()[0])
 
+    def separation_intervals(self, speed: float, *, samples: int = 1440) -> tuple[tuple[float, float], ...]:
+        """Cam-angle intervals ``(start, end)`` (rad) of one revolution where the closed-form force ``N < 0``.
+
+        The follower leaves the cam where :meth:`contact_force` ``N(theta)``
+        turns negative and lands where it returns to ``>= 0`` (one boundary
+        convention for every contact test in core: the contact holds while
+        ``N >= 0``, see :func:`core.contact.gap_crossings`). The force is
+        tabulated at ``samples + 1`` angles ``2 pi j / samples`` (``j = 0 ..
+        samples``); each sign change is refined by Brent's method on
+        :meth:`contact_force` to ``core._constants.SEPARATION_XTOL``
+        (1e-12 rad); a sample where ``N == 0`` exactly is the boundary
+        itself. ``start`` is in ``[0, 2 pi)``; ``end > start`` and may
+        exceed ``2 pi`` (an interval across cam angle 0 ends in the next
+        revolution). Below :meth:`jump_speed` there is none.
+
+        Parameters
+        ----------
+        speed : float
+            Cam speed omega (rad/s); its sign does not matter.
+        samples : int, keyword-only
+            Samples per revolution of the tabulated force (>= 8): an
+            interval shorter than about two samples may be missed.
+
+        Returns
+        -------
+        tuple of (float, float)
+            In increasing ``start``; ``((0, 2 pi),)`` if the force is
+            negative at every sample.
+        """
+        from scipy.optimize import brentq
+
+        from core._validation import positive_integer
+
+        w = real_number(speed, "speed", expected="a finite cam speed (rad/s)")
+        count = positive_integer(samples, "samples")
+        if count < 8:
+            raise ArgumentError("samples", f"samples: expected an integer >= 8, got {count!r}")
+        step = _TWO_PI / count
+        theta = np.arange(count + 1) * step
+        force = np.asarray(self.contact_force(theta, w))
+        if not np.any(force[:-1] < 0.0):
+            return ()
+
+        def f(x: float) -> float:
+            return float(self.contact_force(x, w))
+
+        def root(i: int) -> float:  # N changes sign between samples i and i + 1
+            a, b = float(theta[i]), float(theta[i + 1])
+            if force[i] == 0.0:
+                return a
+            if force[i + 1] == 0.0:
+                return b
+            return float(brentq(f, a, b, xtol=SEPARATION_XTOL))
+
+        starts = [i for i in range(count) if force[i] >= 0.0 > force[i + 1]]
+        ends = [i for i in range(count) if force[i] < 0.0 <= force[i + 1]]
+        if not starts:
+            return ((0.0, _TWO_PI),)
+        end_roots = sorted(root(i) for i in ends)
+        intervals = []
+        for i in starts:
+            a = root(i)
+            later = [e for e in end_roots if e > a]
+            intervals.append((a, later[0] if later else end_roots[0] + _TWO_PI))
+        return tuple(intervals)
+
+    def touch_location(self, theta: Any) -> CamTouch:
+        """The contact point and common normal at cam angle ``theta`` in the fixed profile plane.
+
+        The cam frame's :meth:`cam_curve` ``(theta).point`` and
+        :meth:`contact_normal` turned by ``theta`` about the shaft (the
+        plane rotation ``(x cos theta - y sin theta, x sin theta + y cos
+        theta)``): where the follower touches the cam while it rides on it
+        (the closed form; a run's contact point is ``CamMotion.contact_point``).
+
+        Parameters
+        ----------
+        theta : array_like
+            Cam angles (rad), any shape.
+
+        Returns
+        -------
+        CamTouch
+            ``point`` (m) and ``normal``, each ``theta.shape + (2,)``.
+        """
+        th = _angles(theta)
+        c, s = np.cos(th)[..., None], np.sin(th)[..., None]
+        p = np.asarray(self.cam_curve(th).point)
+        nrm = np.asarray(self.contact_normal(th))
+
+        def turned(v: np.ndarray) -> np.ndarray:
+            return np.concatenate([c * v[..., :1] - s * v[..., 1:], s * v[..., :1] + c * v[..., 1:]], axis=-1)
+
+        return CamTouch(turned(p), turned(nrm))
+
     def build_system(
         self,
         speed: float,
@@ -865,9 +978,10 @@ class CamFollower:
         contact_stiffness: float = 1e8,
         contact_damping: float = 0.5,
         contact_exponent: float = 1.5,
-        rtol: float = 1e-10,
-        atol: float = 1e-12,
+        rtol: float = CAM_RTOL,
+        atol: float = CAM_ATOL,
         method: str | None = None,
+        initial: Any = None,
     ) -> CamMotion:
         """Run the cam at constant ``speed`` on :class:`core.multibody.System` (see :meth:`build_system`).
 
@@ -893,7 +1007,8 @@ class CamFollower:
         contact_stiffness, contact_damping, contact_exponent : float, keyword-only
             The Hunt-Crossley law (see :meth:`build_system`).
         rtol, atol : float, keyword-only
-            DOP853's tolerances.
+            DOP853's tolerances (defaults ``core._constants.CAM_RTOL`` 1e-10,
+            ``CAM_ATOL`` 1e-12).
         method : str or None, keyword-only
             ``System.simulate``'s method: ``"kinematic"``, ``"DOP853"`` or
             ``"RK45"`` (the fixed-step ones would need a ``dt``). Default: ``"kinematic"`` for the
@@ -903,13 +1018,23 @@ class CamFollower:
             multiplier, exact to the Newton tolerance; a separation
             continued in the compliant model is integrated by DOP853 at
             ``rtol``, ``atol``), ``"DOP853"`` for the compliant model.
+        initial : RunState or None, keyword-only
+            Continue a run: ``motion.final_state`` of an earlier run of this
+            cam at this ``speed`` with the same ``model`` and contact law
+            (the System is built at ``initial.t`` and the run starts from
+            that state, the contact in the model it was in: a follower that
+            separated with ``on_separation="compliant"`` continues in
+            flight, integrated by DOP853). ``t[0] >= initial.t``. Split at
+            an output, two runs equal one long run to the Newton tolerance
+            on the cam (``"kinematic"``) and to DOP853's tolerance in flight
+            (docs/models.md).
 
         Returns
         -------
         CamMotion
         """
         return _simulate(self, speed, t, model, on_separation, contact_stiffness, contact_damping,
-                         contact_exponent, rtol, atol, method)
+                         contact_exponent, rtol, atol, method, initial)
 
     def _max_ratio(self) -> tuple[float, float]:
         """``max over theta of -m s'' / (k s + F_0 + m g)`` and its angle."""
@@ -1226,6 +1351,15 @@ class CamMotion:
         The System's run (poses of ``system.bodies``: cam, follower); None
         in a pickled copy (the trajectory holds the System's compiled
         model, which does not pickle).
+    contact_normal : (n, 3) ndarray
+        Common normal at the contact, global, from the cam to the follower.
+    constraint : (n,) ndarray of bool
+        The contact was in the constraint model at the output (False: the
+        compliant model, from the start or after a separation).
+    final_state : RunState or None
+        The state the run ended in (``trajectory.final_state``; it
+        pickles): ``cam.simulate(speed, t2, initial=motion.final_state)``
+        continues the run.
     """
 
     t: np.ndarray  # (n,)
@@ -1239,11 +1373,14 @@ class CamMotion:
     landings: np.ndarray  # (k, 2)
     status: str
     trajectory: Any = field(repr=False)
+    contact_normal: np.ndarray | None = field(default=None, repr=False)  # (n, 3)
+    constraint: np.ndarray | None = field(default=None, repr=False)  # (n,)
+    final_state: Any = field(default=None, repr=False)
 
     def __reduce__(self):
         arrays = (self.t, self.cam_angle, self.lift, self.lift_rate, self.contact_force, self.contact_point, self.gap,
                   self.separations, self.landings)
-        return (CamMotion, (*arrays, self.status, None))
+        return (CamMotion, (*arrays, self.status, None, self.contact_normal, self.constraint, self.final_state))
 
 
 @dataclass(frozen=True)
@@ -1418,19 +1555,13 @@ def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_
 
 
 def _gap_crossings(t: np.ndarray, speed: float, gap: np.ndarray, compliant: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Openings and closings of a compliant contact between outputs: ``(k, 2)`` times and cam angles each.
+    """Openings and closings of a compliant contact between outputs: ``(k, 2)`` times and cam angles each
+    (:func:`core.contact.gap_crossings`: only pairs of outputs both in the compliant model; ``gap <= 0``
+    counts as closed; the time interpolated linearly in the gap)."""
+    from core.contact import gap_crossings
 
-    Only pairs of consecutive outputs both in the compliant model count;
-    the time is interpolated linearly in the gap.
-    """
-    a, b = gap[:-1], gap[1:]
-    both = compliant[:-1] & compliant[1:]
-    result = []
-    for idx in (np.flatnonzero(both & (a < 0) & (b >= 0)), np.flatnonzero(both & (a >= 0) & (b < 0))):
-        frac = a[idx] / (a[idx] - b[idx])
-        times = t[idx] + frac * (t[idx + 1] - t[idx])
-        result.append(np.stack([times, speed * times], axis=-1).reshape(-1, 2))
-    return result[0], result[1]
+    return tuple(np.stack([times, speed * times], axis=-1).reshape(-1, 2)
+                 for times in gap_crossings(t, gap, compliant=compliant))
 
 
 #: Methods of :meth:`CamFollower.simulate`: the adaptive ones and the kinematic analysis.
@@ -1438,16 +1569,24 @@ _CAM_METHODS = ("kinematic", "DOP853", "RK45")
 
 
 def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: Any, contact_stiffness: Any,
-              contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any, method: Any = None) -> CamMotion:
+              contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any, method: Any = None,
+              initial: Any = None) -> CamMotion:
+    from core.multibody import RunState
+
     times = output_times(t)
-    built = _build_system(cam, speed, float(times[0]), model, contact_stiffness, contact_damping, contact_exponent)
+    if initial is not None and not isinstance(initial, RunState):
+        raise ArgumentError("initial", f"initial: expected a RunState (motion.final_state), got "
+                                       f"{short_repr(initial)}")
+    start = float(times[0]) if initial is None else float(initial.t)
+    built = _build_system(cam, speed, start, model, contact_stiffness, contact_damping, contact_exponent)
     if method is None:
         method = "kinematic" if model == "constraint" else "DOP853"
     elif method not in _CAM_METHODS:
         raise ArgumentError("method",
                             f"method: expected one of {', '.join(map(repr, _CAM_METHODS))} or None (the cam's run "
                          f"takes rtol and atol, not a fixed step), got {method!r}")
-    traj = built.system.simulate(times, method=method, rtol=rtol, atol=atol, on_separation=on_separation)
+    traj = built.system.simulate(times, method=method, rtol=rtol, atol=atol, on_separation=on_separation,
+                                 initial=initial)
     history = traj.contact(built.contact)
     follower = built.system.bodies.index(built.follower)
     z = traj.q[:, 3 * follower + 2]
@@ -1464,5 +1603,6 @@ def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: A
     return CamMotion(
         t=np.array(traj.t), cam_angle=w * np.array(traj.t), lift=lift, lift_rate=np.array(zd), contact_force=force,
         contact_point=np.array(history.point), gap=gap, separations=sep, landings=landings, status=traj.status,
-        trajectory=traj,
+        trajectory=traj, contact_normal=np.array(history.normal), constraint=~compliant,
+        final_state=traj.final_state,
     )
