@@ -44,6 +44,8 @@ import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
 
+from core._constants import RIDE_ATOL, RIDE_RTOL
+from core._errors import ArgumentError
 from core._validation import float_array, real_number, short_repr
 
 __all__ = [
@@ -865,6 +867,11 @@ class WhippleRide:
         contact was lost: the run ends there.
     end : str
         Why the run ended before ``t[-1]`` asked for ("" if it did not).
+    final_state : RunState
+        The state at ``t[-1]`` (positions, velocities, the wheels' contact
+        parameters; it pickles): ``whipple_ride(system, t2,
+        initial=ride.final_state)`` continues the ride, on this System or a
+        new ``whipple_bicycle`` of the same speed and parameters.
     """
 
     t: np.ndarray
@@ -877,18 +884,20 @@ class WhippleRide:
     front_contact: np.ndarray = field(repr=False)
     fallen: bool
     end: str
+    final_state: Any = field(default=None, repr=False)
 
 
 def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_limit: float = WHIPPLE_FALL_LEAN,
-                 rtol: float = 1e-6, atol: float = 1e-8, piece: float = 0.25) -> WhippleRide:
-    """Ride a :func:`whipple_bicycle` from its current state over the output times ``t`` (DOP853).
+                 rtol: float = RIDE_RTOL, atol: float = RIDE_ATOL, piece: float = 0.25,
+                 initial: Any = None) -> WhippleRide:
+    """Ride a :func:`whipple_bicycle` from its current state (or ``initial``) over the output times ``t`` (DOP853).
 
     The System's :meth:`~core.multibody.System.simulate` runs in pieces of
-    ``piece`` seconds; the ride ends after the first sample whose lean
-    passes ``lean_limit``, at a separation (a wheel's normal force reaching
-    zero), or when the contact cannot be followed any more (a wheel lying
-    flat), with ``fallen`` set and the reason in ``end``. The System's
-    current state is left as it was.
+    ``piece`` seconds, each continuing from the last one's final state; the
+    ride ends after the first sample whose lean passes ``lean_limit``, at a
+    separation (a wheel's normal force reaching zero), or when the contact
+    cannot be followed any more (a wheel lying flat), with ``fallen`` set
+    and the reason in ``end``. The System is not changed.
 
     Parameters
     ----------
@@ -904,6 +913,12 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
     piece : float, keyword-only
         Simulated seconds per call of ``simulate`` (the lean is checked
         after each).
+    initial : RunState or None, keyword-only
+        Start from this state (``ride.final_state`` of an earlier ride, on
+        this System or another ``whipple_bicycle`` of the same speed and
+        parameters) instead of the System's current one: the ride continues
+        that ride, the wheels' contact Newton from the parameters it ended
+        with. ``t[0] >= initial.t``.
 
     Returns
     -------
@@ -911,51 +926,51 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
     """
     from core.contact import ContactError
     from core.integrators import IntegrationError
-    from core.multibody import AssemblyError, SingularSystemError
+    from core.multibody import AssemblyError, RunState, SingularSystemError
 
     p = _parameters(parameters)
     times = float_array(t, "t", expected="output times (s)").reshape(-1)
     if times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
         raise ValueError(f"t: expected at least two finite, increasing times (s), got {short_repr(t)}")
     limit = real_number(lean_limit, "lean_limit", expected="a lean (rad) > 0")
-    start = system.state
+    if initial is not None and not isinstance(initial, RunState):
+        raise ArgumentError("initial", f"initial: expected a RunState (ride.final_state), got {short_repr(initial)}")
     rear_c, front_c = system.contacts
     parts: list[dict] = []
     end = ""
     fallen = False
     i = 0
-    try:
-        while i < times.size - 1:
-            j = int(np.searchsorted(times, times[i] + piece, side="right"))
-            j = min(max(j, i + 2), times.size)
-            try:
-                traj = system.simulate(times[i:j], rtol=rtol, atol=atol)
-            except (ContactError, SingularSystemError, IntegrationError, AssemblyError) as exc:
-                end = f"the run stopped near t = {times[i]:.3f} s: {exc}"
-                fallen = True
-                break
-            q = np.asarray(traj.q)
-            ang = whipple_angles(q, p)
-            part = {"t": np.asarray(traj.t), "q": q, "v": np.asarray(traj.v), "lean": ang.lean, "steer": ang.steer,
-                    "yaw": ang.yaw, "rear": traj.contact(rear_c).point, "front": traj.contact(front_c).point}
-            over = np.flatnonzero(np.abs(ang.lean) > limit)
-            if over.size:
-                part = {k: a[: over[0] + 1] for k, a in part.items()}
-                end = f"the bicycle fell: its lean passed {math.degrees(limit):.0f} deg at t = {part['t'][-1]:.3f} s"
-                fallen = True
-            elif traj.status == "separated":
-                sep = traj.separations[-1]
-                end = f"the {sep.contact.name.split('_')[0]} wheel left the ground at t = {sep.t:.3f} s"
-                fallen = True
-            parts.append(part if not parts else {k: a[1:] for k, a in part.items()})
-            if fallen:
-                break
-            system.set_state(traj.state(-1))
-            i = j - 1
-    finally:
-        system.set_state(start)
+    at = initial  # the state the next piece starts from (None: the System's current state)
+    while i < times.size - 1:
+        j = int(np.searchsorted(times, times[i] + piece, side="right"))
+        j = min(max(j, i + 2), times.size)
+        try:
+            traj = system.simulate(times[i:j], rtol=rtol, atol=atol, initial=at)
+        except (ContactError, SingularSystemError, IntegrationError, AssemblyError) as exc:
+            end = f"the run stopped near t = {times[i]:.3f} s: {exc}"
+            fallen = True
+            break
+        q = np.asarray(traj.q)
+        ang = whipple_angles(q, p)
+        part = {"t": np.asarray(traj.t), "q": q, "v": np.asarray(traj.v), "lean": ang.lean, "steer": ang.steer,
+                "yaw": ang.yaw, "rear": traj.contact(rear_c).point, "front": traj.contact(front_c).point}
+        over = np.flatnonzero(np.abs(ang.lean) > limit)
+        if over.size:
+            part = {k: a[: over[0] + 1] for k, a in part.items()}
+            end = f"the bicycle fell: its lean passed {math.degrees(limit):.0f} deg at t = {part['t'][-1]:.3f} s"
+            fallen = True
+        elif traj.status == "separated":
+            sep = traj.separations[-1]
+            end = f"the {sep.contact.name.split('_')[0]} wheel left the ground at t = {sep.t:.3f} s"
+            fallen = True
+        keep = over[0] + 1 if over.size else traj.t.size
+        parts.append(part if not parts else {k: a[1:] for k, a in part.items()})
+        at = traj.run_state(int(keep) - 1)
+        if fallen:
+            break
+        i = j - 1
     if not parts:
-        st = start
+        st = system.state if initial is None else initial
         ang = whipple_angles(st.q, p)
         one = {"t": np.array([st.t]), "q": st.q[None], "v": st.v[None], "lean": ang.lean.reshape(1),
                "steer": ang.steer.reshape(1), "yaw": ang.yaw.reshape(1), "rear": np.full((1, 3), np.nan),
@@ -964,5 +979,15 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
     out = {k: np.concatenate([pt[k] for pt in parts]) for k in parts[0]}
     for a in out.values():
         a.setflags(write=False)
+    if at is None:  # (the ride could not start: its start)
+        at = initial if initial is not None else _run_state_of(system)
     return WhippleRide(out["t"], out["q"], out["v"], out["lean"], out["steer"], out["yaw"], out["rear"], out["front"],
-                       fallen, end)
+                       fallen, end, at)
+
+
+def _run_state_of(system: Any):
+    """The System's current state as a :class:`~core.multibody.RunState` (no contact warm start)."""
+    from core.multibody import RunState
+
+    st = system.state
+    return RunState(st.t, st.q, st.v)
