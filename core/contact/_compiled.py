@@ -70,8 +70,8 @@ O_VALUE, O_GAP, O_NORMAL, O_PI, O_PJ, O_RANK, O_N, O_SDOT, O_RATE, O_GAMMA, O_GA
 OUT_SIZE = 48
 DESC_SIZE = 42
 
-_STEP_TOL = 1e-11  # (= _kernel._STEP_TOL)
-_CHART_LIMIT = 1.0  # (= _kernel._CHART_LIMIT)
+_STEP_TOL = 1e-11  # (= _errors._STEP_TOL)
+_CHART_LIMIT = 1.0  # (= _errors._CHART_LIMIT)
 
 
 def describe(surface):
