@@ -897,7 +897,10 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
     ride ends after the first sample whose lean passes ``lean_limit``, at a
     separation (a wheel's normal force reaching zero), or when the contact
     cannot be followed any more (a wheel lying flat), with ``fallen`` set
-    and the reason in ``end``. The System is not changed.
+    and the reason in ``end``. The System's current state is left as it
+    was; a ride without ``initial`` moves its contacts' warm start to the
+    ride's end (for callers that keep the System between rides; continuing
+    from ``ride.final_state`` needs no kept System).
 
     Parameters
     ----------
@@ -941,6 +944,7 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
     fallen = False
     i = 0
     at = initial  # the state the next piece starts from (None: the System's current state)
+    last = None  # the ride's last State (with its contacts' surface parameters)
     while i < times.size - 1:
         j = int(np.searchsorted(times, times[i] + piece, side="right"))
         j = min(max(j, i + 2), times.size)
@@ -966,6 +970,7 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
         keep = over[0] + 1 if over.size else traj.t.size
         parts.append(part if not parts else {k: a[1:] for k, a in part.items()})
         at = traj.run_state(int(keep) - 1)
+        last = traj.state(int(keep) - 1)
         if fallen:
             break
         i = j - 1
@@ -979,6 +984,12 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
     out = {k: np.concatenate([pt[k] for pt in parts]) for k in parts[0]}
     for a in out.values():
         a.setflags(write=False)
+    if initial is None and last is not None:
+        # a ride from the System's current state leaves the contacts' warm start at the ride's end (the state
+        # itself as it was), as before RunState: a caller that keeps the System between rides continues there
+        start = system.state
+        system.set_state(last)
+        system.set_state(start)
     if at is None:  # (the ride could not start: its start)
         at = initial if initial is not None else _run_state_of(system)
     return WhippleRide(out["t"], out["q"], out["v"], out["lean"], out["steer"], out["yaw"], out["rear"], out["front"],
