@@ -795,6 +795,10 @@ class RigidlabApp:
             count = len(self._sessions)
         _log.info("browser %d connected (%d session%s in this process)", client.client_id, count,
                   "" if count == 1 else "s")
+        if client.client_id not in self.server.get_clients():
+            # the browser left while its session was built: viser removed it (before its disconnect callback,
+            # which found no session to close), so the session would run for nobody
+            self._on_disconnect(client)
 
     def _on_disconnect(self, client: viser.ClientHandle) -> None:
         with self._lock:

@@ -99,6 +99,8 @@ def test_reconnecting_clients_on_two_workers_pause_no_session() -> None:
         # the workers still serve: a browser that comes now sees the scene move
         late = WsClient(url)
         wait_until(lambda: late.frames > 30, timeout=60.0)
+        # every session of a browser that left is closed: only the late browser's stays
+        wait_until(lambda: out.count(LEFT) == out.count(CONNECTED) - 1, timeout=120.0)
         print(f"churn: {CLIENTS} clients x {CYCLES} connections in {seconds:.1f} s, "
               f"{out.count(CONNECTED)} sessions built, {out.count(LEFT)} removed, {sum(frames)} frames received, "
               f"{out.count('on a closed connection')} writes to a closed connection warned")
