@@ -17,10 +17,13 @@ mode, a client's in per-client mode) and puts itself in front of it:
 * an accepted value (cast to the control's type) is handed to viser's own
   handler, which stores it, broadcasts it and runs the callbacks.
 
-This module and :func:`client_request_path` are the only places that reach
-into viser's private attributes (``_websock_interface``,
-``_gui_input_handle_from_uuid``, ``_handle_gui_updates``); they are checked
-against viser 1.1.x, which ``pyproject.toml`` pins.
+This module reaches into viser's private attributes (``_websock_interface``,
+``_gui_input_handle_from_uuid``, ``_handle_gui_updates``), as do three other
+places, each for one purpose: :func:`client_request_path` (the page's
+address), the incoming-message guards of :mod:`app.server` (camera messages
+and messages viser cannot decode, dropped before viser stores them) and
+:mod:`app.loop_thread` (viser's message events kept to its event loop). All
+are checked against viser 1.1.x, which ``pyproject.toml`` pins.
 """
 
 from __future__ import annotations
