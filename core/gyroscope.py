@@ -42,6 +42,7 @@ the same formulas (regular precession about the angular momentum).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -59,15 +60,20 @@ __all__ = [
     "GYROSCOPE_MAX_ANGLE",
     "GyroscopeTrajectory",
     "Invariants",
+    "MotionSamples",
+    "MotionSummary",
     "NutationResult",
     "RotorParams",
+    "RotorSetup",
     "RotorVectors",
     "SteadyPrecessionRates",
     "TopMotion",
     "equations_of_motion",
     "invariants",
+    "motion_summary",
     "nutation",
     "rotor_vectors",
+    "sample_motion",
     "simulate",
     "sleeping_top_critical_spin",
     "steady_precession_rates",
@@ -1524,3 +1530,208 @@ def simulate(
     for a in (tt, angles, rates):
         a.setflags(write=False)
     return GyroscopeTrajectory(t=tt, angles=angles, rates=rates, method="numerical")
+
+
+# ------------------------------------------------------ sampling one motion
+@dataclass(frozen=True)
+class RotorSetup:
+    """One motion to sample: a rotor, its state at t = 0 and constant applied torques.
+
+    Hashable (the scenes key their caches by it) and checked once, here.
+
+    Parameters
+    ----------
+    params : RotorParams
+    state0 : (6,) ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)`` at t = 0
+        (rad, rad/s), stored as a tuple of floats.
+    torques : (3,) constant generalized torques ``(M_phi, M_theta, M_psi)``
+        (N m) of Eq. 8.16, stored as a tuple of floats.
+
+    Raises
+    ------
+    ValueError
+        Naming ``params``, ``state0`` or ``torques`` for a value
+        :func:`simulate` would refuse.
+    """
+
+    params: RotorParams
+    state0: tuple[float, ...]  # (6,)
+    torques: tuple[float, ...] = (0.0, 0.0, 0.0)  # (3,)
+
+    def __post_init__(self) -> None:
+        _check_params(self.params)
+        s0 = _check_state(self.state0, "state0")
+        if s0.shape != (6,):
+            raise ValueError(f"state0: expected shape (6,), got {s0.shape}")
+        m = _check_array(self.torques, "torques")
+        if m.shape != (3,):
+            raise ValueError(f"torques: expected shape (3,) = (M_phi, M_theta, M_psi), got {m.shape}")
+        object.__setattr__(self, "state0", tuple(float(x) for x in s0))
+        object.__setattr__(self, "torques", tuple(float(x) for x in m))
+
+    @property
+    def has_torque(self) -> bool:
+        """Whether an applied torque acts (then the motion is integrated, not the closed form)."""
+        return any(m != 0.0 for m in self.torques)
+
+
+@dataclass(frozen=True)
+class MotionSummary:
+    """What one motion's constants predict (:func:`motion_summary`).
+
+    Attributes
+    ----------
+    motion : the closed form's constants (:class:`TopMotion`), None when torques act.
+    prediction : nutation bounds, period and mean rates (Eq. 8.21), None when torques act
+        or the nutation cannot be predicted.
+    invariants0 : (3,) ``d1, d2, E`` at t = 0 (Eqs. 8.14, 8.19-8.20).
+    spin : ``omega3 = psi_dot + phi_dot cos theta`` at t = 0 (rad/s).
+    critical_spin : the sleeping top's critical spin ``2 sqrt(mgl I) / I3`` (rad/s).
+    """
+
+    motion: TopMotion | None
+    prediction: NutationResult | None
+    invariants0: np.ndarray = field(repr=False)  # (3,)
+    spin: float
+    critical_spin: float
+
+    @property
+    def period(self) -> float:
+        """The predicted nutation period (s): ``inf`` when theta stays put, NaN when not predicted."""
+        return float(self.prediction.period) if self.prediction is not None else math.nan
+
+    def describe(self) -> tuple[tuple[str, str], ...]:
+        """The motion in words: ``(topic, text)`` pairs (spin; nutation, Eq. 8.21), numbers to 3 digits."""
+        spin = (f"ω3 = dψ/dt + dφ/dt cos θ = {_digits(self.spin)} rad/s; "
+                f"sleeping top critical spin {_digits(self.critical_spin)} rad/s")
+        nu = self.prediction
+        if nu is None:
+            return ("Spin", spin), ("Nutation", "applied torques act, no closed-form prediction (DOP853 on Eq. 8.16).")
+        lo, hi = math.degrees(float(nu.theta_min)), math.degrees(float(nu.theta_max))
+        rate = _digits(float(nu.mean_precession_rate))
+        if math.isinf(self.period):
+            return ("Spin", spin), ("Nutation", f"(Eq. 8.21): none, θ stays at {lo:.2f}°; dφ/dt = {rate} rad/s")
+        return ("Spin", spin), ("Nutation", f"(Eq. 8.21): θ from {lo:.2f}° to {hi:.2f}°, period "
+                                            f"{_digits(self.period)} s; mean dφ/dt {rate} rad/s")
+
+
+def _digits(x: float, digits: int = 3) -> str:
+    """``x`` with ``digits`` significant digits, plain notation between 1e-3 and 1e5."""
+    if x == 0.0 or not math.isfinite(x):
+        return f"{x:g}"
+    if 1e-3 <= abs(x) < 1e5:
+        return f"{x:.{max(0, digits - 1 - math.floor(math.log10(abs(x))))}f}"
+    return f"{x:.{digits - 1}e}"
+
+
+@functools.lru_cache(maxsize=32)
+def motion_summary(setup: RotorSetup) -> MotionSummary:
+    """The constants of ``setup``'s motion, computed once per setup (cached; about a millisecond).
+
+    Without applied torques: :func:`top_motion` (the closed form's constants,
+    Eqs. 8.19-8.21) and :func:`nutation` (bounds, period, mean precession);
+    always the invariants at t = 0 (:func:`invariants`), the spin and
+    :func:`sleeping_top_critical_spin`.
+
+    Parameters
+    ----------
+    setup : RotorSetup
+
+    Returns
+    -------
+    MotionSummary
+    """
+    if not isinstance(setup, RotorSetup):
+        raise ValueError(f"setup: expected a RotorSetup, got {type(setup).__name__}")
+    p, s0 = setup.params, np.array(setup.state0)
+    motion = prediction = None
+    if not setup.has_torque:
+        motion = top_motion(p, s0)
+        try:
+            prediction = nutation(p, s0)
+        except ValueError:
+            prediction = None
+    inv = invariants(p, s0)
+    invariants0 = np.array([float(inv.d1), float(inv.d2), float(inv.energy)])
+    invariants0.setflags(write=False)
+    spin = float(s0[5] + s0[3] * math.cos(s0[1]))
+    return MotionSummary(motion, prediction, invariants0, spin, sleeping_top_critical_spin(p))
+
+
+@dataclass(frozen=True)
+class MotionSamples:
+    """One stretch of a motion with what a view of it draws (read-only arrays; global frame).
+
+    Attributes
+    ----------
+    t : (n,) sample times (s).
+    angles : (n, 3) ZXZ angles ``(phi, theta, psi)`` (rad).
+    rates : (n, 3) ``(phi_dot, theta_dot, psi_dot)`` (rad/s).
+    vectors : :class:`RotorVectors` at the samples, each (n, 3): rotor axis, omega (Eq. 8.8), L, torque.
+    invariants : (n, 3) ``d1, d2, E`` (Eqs. 8.14, 8.19-8.20).
+    method : ``"closed_form"``, ``"steady"`` or ``"numerical"`` (as :class:`GyroscopeTrajectory`).
+    """
+
+    t: np.ndarray  # (n,)
+    angles: np.ndarray  # (n, 3)
+    rates: np.ndarray  # (n, 3)
+    vectors: RotorVectors  # each (n, 3)
+    invariants: np.ndarray  # (n, 3)
+    method: str
+
+    @property
+    def final_state(self) -> np.ndarray:
+        """(6,) the state at ``t[-1]``: ``start`` of the next stretch (:func:`sample_motion`)."""
+        return np.concatenate([self.angles[-1], self.rates[-1]])
+
+
+def sample_motion(setup: RotorSetup, t: Any, *, start: Any = None, rtol: float = 1e-9,
+                  atol: float = 1e-10) -> MotionSamples:
+    """``setup``'s motion at the times ``t``, with its vectors and invariants.
+
+    Without applied torques the closed form (Eq. 8.21) at the absolute times
+    ``t`` (the constants of :func:`motion_summary`, computed once per setup;
+    ``start`` is not needed). With torques DOP853 on Eq. 8.16 from ``start``,
+    the state at ``t[0]`` (the previous stretch's ``final_state``; None: the
+    setup's ``state0``, then ``t[0]`` must be 0). The default tolerances are
+    a view's (the drawn and plotted accuracy); :func:`simulate` has tighter ones.
+
+    Parameters
+    ----------
+    setup : RotorSetup
+    t : (n,) sample times (s), increasing, >= 0.
+    start : (6,) state at ``t[0]``, or None.
+    rtol, atol : keyword-only, tolerances of the numerical path.
+
+    Returns
+    -------
+    MotionSamples
+
+    Raises
+    ------
+    ValueError
+        For bad times or start (naming them), a failed numerical run (as
+        :func:`simulate`), or a motion that leaves the finite range (naming
+        what left it and near which time).
+    """
+    summary = motion_summary(setup)
+    tt = _check_times(t)
+    if summary.motion is not None:
+        traj = summary.motion.at(tt)
+    else:
+        if start is None and float(tt[0]) != 0.0:
+            raise ValueError(f"start: expected the state at t[0] = {float(tt[0])!r} s of a torque-driven motion, "
+                             "got None (only a stretch from t = 0 starts from state0)")
+        s0 = np.array(setup.state0) if start is None else _check_state(start, "start")
+        traj = simulate(setup.params, s0, tt - tt[0], torques=setup.torques, rtol=rtol, atol=atol)
+    states = np.concatenate([traj.angles, traj.rates], axis=1)
+    vectors = rotor_vectors(setup.params, states, setup.torques)
+    inv = invariants(setup.params, states)
+    columns = np.stack([inv.d1, inv.d2, inv.energy], axis=1)
+    for name, a in (("angles", traj.angles), ("rates", traj.rates), ("invariants", columns),
+                    ("vectors", np.stack([vectors.omega, vectors.angular_momentum, vectors.torque]))):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name}: the motion left the finite range near t = {float(tt[0]):.3g} s")
+    for a in (columns, vectors.rotor_axis, vectors.omega, vectors.angular_momentum, vectors.torque):
+        a.setflags(write=False)
+    return MotionSamples(tt, traj.angles, traj.rates, vectors, columns, traj.method)
