@@ -58,7 +58,7 @@ import numpy as np
 
 from app.jobs import ChunkTimeline
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import History, PlotRefresh
+from app.scenes._plots import History, Legend, PlotRefresh
 from app.scenes.base import Scene
 
 __all__ = ["PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL"]
@@ -77,7 +77,8 @@ class PlotSpec:
     ----------
     name : key of the plot (``scene.plot_handles[name]``)
     title : shown above the plot
-    series : ``(label, colour)`` of each y series (CSS colours)
+    series : ``(label, colour)`` of each y series (CSS colours), or ``(label, colour, options)`` with
+        more uPlot series options (e.g. ``{"dash": [6, 4]}``)
     data : ``data(t, columns) -> tuple of (n,) arrays``, one per series, from
         the plotted window's times ``t`` (n,) and table columns (n, m)
     shown : ``shown(inputs) -> bool``: whether the plot is shown for these
@@ -86,7 +87,7 @@ class PlotSpec:
 
     name: str
     title: str
-    series: tuple[tuple[str, str], ...]
+    series: tuple[tuple[Any, ...], ...]
     data: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, ...]]
     shown: Callable[[Any], bool] | None = None
     x_label: str = "t (s)"
@@ -133,6 +134,9 @@ class SimulationScene(PlaybackRequests, Scene):
     window: float = 10.0
     #: CSV header: one line, column names with units (t first).
     csv_header: ClassVar[str] = ""
+    #: Title of the notice when :meth:`check_inputs` refuses the inputs (lower case: the start of the
+    #: refusal of a loaded state, :meth:`values_refusal`).
+    refusal_title: ClassVar[str] = "Invalid values"
 
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
         super().__init__(target, notify, context=context)
@@ -158,6 +162,8 @@ class SimulationScene(PlaybackRequests, Scene):
         self._drawn: tuple | None = None
         self._refreshed_time = -1.0
         self._reported: set[str] = set()
+        self._error_paused = False  # an error stopped the running clock (a change of the inputs restarts it)
+        self._timeline_inputs: Any = None  # the inputs of the timeline's chunks (None: not a motion from t = 0)
         self._rate: collections.deque[tuple[float, float]] = collections.deque()
         self.real_time_rate = math.nan
 
@@ -185,6 +191,18 @@ class SimulationScene(PlaybackRequests, Scene):
     def draw(self, chunk: Any, j: int) -> None:  # pragma: no cover - abstract
         """Send the poses of sample ``j`` of ``chunk`` (inside ``target.atomic()``; loop thread)."""
         raise NotImplementedError
+
+    def check_inputs(self, inputs: Any) -> None:
+        """Hook: raise ValueError (naming the argument) when ``inputs`` cannot run together (each control's
+        value passed its own check); the layer then keeps the motion in use, sets the controls back to it
+        and says why in a notice titled :attr:`refusal_title`. Also checks a state before it loads."""
+
+    def values_refusal(self, values: dict[str, Any]) -> str | None:
+        try:
+            self.check_inputs(self.Inputs(**{key: values[key] for key in self._input_keys}))
+        except ValueError as exc:
+            return f"{self.refusal_title.lower()}: {exc}"
+        return None
 
     def preset_values(self, name: str) -> dict[str, Any]:
         """Control values of preset ``name`` (set before the motion restarts)."""
@@ -223,7 +241,8 @@ class SimulationScene(PlaybackRequests, Scene):
                         self.plot_handles[spec.name] = self.add_plot(
                             (np.zeros(2),) * (n + 1),
                             ({"label": spec.x_label},
-                             *({"label": label, "stroke": color, "width": 2} for label, color in spec.series)),
+                             *({"label": s[0], "stroke": s[1], "width": 2, **(s[2] if len(s) > 2 else {})}
+                               for s in spec.series)),
                             title=spec.title, scales={"x": {"time": False}}, aspect=spec.aspect,
                         )
             if self.csv_header:
@@ -235,6 +254,13 @@ class SimulationScene(PlaybackRequests, Scene):
         """The Play / Pause / Reset row, the time scale and the status readout, here in the folder."""
         self.playback.add_gui()
         self.status = self.add_readout("Computing the motion…")
+
+    def add_legend(self, items: Sequence[tuple[Sequence[int], str]], title: str = "") -> Legend:
+        """The colour key of the scene's arrows and curves (:class:`app.scenes._plots.Legend`), here in the
+        folder; it grows in presenter view. Give it the colour constants the nodes are drawn with."""
+        legend = Legend(self.target.gui, items, title, presenter=self.presenter)
+        self._readouts.append(legend)  # type: ignore[arg-type]  # (set_presenter, as a readout has)
+        return legend
 
     def add_presets(self) -> None:
         """The preset buttons, here in the folder."""
@@ -249,11 +275,24 @@ class SimulationScene(PlaybackRequests, Scene):
 
     # -- the clock ------------------------------------------------------------------------------------
     def configure(self, inputs: Any) -> None:
-        """Use ``inputs``: the motion again from t = 0."""
+        """Use ``inputs``: the motion again from t = 0 (or refuse them: :meth:`check_inputs`)."""
+        try:
+            self.check_inputs(inputs)
+        except ValueError as exc:
+            self.notify(self.refusal_title, f"{exc}. Keeping the previous values (the controls are set back).",
+                        "warning")
+            kept = self.config if self.config is not None else self.Inputs()
+            self.controls.set_many(dataclasses.asdict(kept))
+            if self.config is not None:
+                return
+            inputs = kept
         self.config = inputs
         self._reported = set()
+        resume, self._error_paused = self._error_paused, False
         self.on_configure(inputs)
         self.restart()
+        if resume:  # the failed motion had stopped a running clock: the notice promised a change runs it again
+            self.playback.set_playing(True)
         for spec in self._specs:
             if spec.shown is not None:
                 self.plot_handles[spec.name].visible = bool(spec.shown(inputs))
@@ -273,12 +312,17 @@ class SimulationScene(PlaybackRequests, Scene):
         self.sim_time = self.display_time
 
     def _start(self, segment: Segment) -> None:
+        # a restart of the motion the timeline holds (same inputs, from t = 0) replays its chunks (and stops
+        # again where it failed); anything else starts a new timeline
+        replay = segment.index == 0 and self.segment.index == 0 and self._timeline_inputs == self.config
         self.segment = segment
-        self.timeline.reset(self.job(self.config, segment))
+        if not replay:
+            self.timeline.reset(self.job(self.config, segment))
+            self._timeline_inputs = self.config if segment.index == 0 else None
+            self._reported.discard("error")
         self.local_time = 0.0
         self.ended = False
         self._drawn = None
-        self._reported.discard("error")
         self._reported.discard("end")
 
     def update(self, dt: float) -> None:
@@ -309,6 +353,7 @@ class SimulationScene(PlaybackRequests, Scene):
         error = self.timeline.error
         if error is not None and "error" not in self._reported:
             self._reported.add("error")
+            self._error_paused = self.playback.playing  # (a clock paused by hand stays paused)
             self.playback.set_playing(False)
             self.notify(f"{self.title}: motion stopped",
                         f"{type(error).__name__}: {error}. The motion stops at t = {self.sim_time:.2f} s; "

@@ -82,6 +82,22 @@ class _Toy(SimulationScene):
     def preset_values(self, name: str) -> dict[str, Any]:
         return {"amplitude": 4.0}
 
+    def check_inputs(self, inputs: _Inputs) -> None:
+        if inputs.amplitude > 4.5:
+            raise ValueError(f"amplitude: expected <= 4.5 together with end, got {inputs.amplitude!r}")
+
+
+class _KeyedToy(_Toy):
+    """The toy with a dashed series and a legend."""
+
+    def build_controls(self) -> None:
+        super().build_controls()
+        self.legend = self.add_legend((((37, 99, 235), "x"),), "Key:")
+
+    def plots(self) -> list[PlotSpec]:
+        return [PlotSpec("x", "x(t)", (("x (m)", "#2563eb"), ("bound", "#888888", {"dash": [6, 4], "width": 1})),
+                         lambda t, c: (c[:, 0], np.ones_like(t)))]
+
 
 def _run(scene: Any, seconds: float, dt: float = 1 / 60) -> None:
     for _ in range(round(seconds / dt)):
@@ -170,3 +186,56 @@ def test_the_readout_says_the_rate_when_the_chunks_hold_the_clock(make_bare_scen
     text = scene.readout_text()
     assert "real time" in text and "waiting for the computation" in text
     gate.open.set()
+
+
+def test_a_change_after_a_failure_runs_again_unless_the_clock_was_paused_by_hand(make_bare_scene) -> None:
+    scene, notices = make_bare_scene(_Toy)
+    scene.controls.apply({"amplitude": -0.5})
+    wait_until(lambda: (scene.frame(1 / 60), scene.timeline.error is not None)[1], timeout=60.0, interval=0.0)
+    scene.frame(1 / 60)
+    assert not scene.playing
+    scene.controls.apply({"amplitude": 1.0})  # the notice said: change a control to run it again
+    _play_until(scene, 0.5)
+    assert scene.playing and scene.config.amplitude == 1.0
+    scene.playback.set_playing(False)  # paused by hand, then a failure: a change does not start the clock
+    scene.controls.apply({"amplitude": -0.5})
+    wait_until(lambda: (scene.frame(1 / 60), scene.timeline.error is not None)[1], timeout=60.0, interval=0.0)
+    scene.controls.apply({"amplitude": 2.0})
+    _run(scene, 0.2)
+    assert not scene.playing and scene.sim_time == 0.0 and scene.config.amplitude == 2.0
+
+
+def test_reset_replays_the_chunks_of_the_same_inputs(make_bare_scene) -> None:
+    scene, _ = make_bare_scene(_Toy)
+    _play_until(scene, 2.5)
+    computed = scene.chunks_computed
+    scene.request_reset()
+    scene.frame(1 / 60)
+    assert scene.sim_time < 0.2
+    _play_until(scene, 2.5)
+    assert scene.chunks_computed <= computed + 1  # (the clock may have asked for one chunk ahead)
+    scene.controls.apply({"amplitude": 2.0})  # other inputs: new chunks
+    _play_until(scene, 1.5)
+    assert scene.chunks_computed >= computed + 2
+
+
+def test_refused_inputs_keep_the_motion_and_set_the_controls_back(make_bare_scene) -> None:
+    scene, notices = make_bare_scene(_Toy)
+    _play_until(scene, 0.5)
+    scene.controls.apply({"amplitude": 4.8})
+    _run(scene, 0.1)
+    assert scene.config.amplitude == 1.0 and scene.controls.value("amplitude") == 1.0
+    assert scene.sim_time > 0.5  # not restarted
+    title, text, level = next(n for n in notices if n[0] == "Invalid values")
+    assert "amplitude: expected <= 4.5" in text and "set back" in text and level == "warning"
+    assert scene.values_refusal({"amplitude": 4.8, "end": 0.0}).startswith("invalid values: amplitude: expected")
+    assert scene.values_refusal({"amplitude": 2.0, "end": 0.0}) is None
+
+
+def test_series_options_and_a_legend_that_grows_in_presenter_view(make_bare_scene) -> None:
+    scene, _ = make_bare_scene(_KeyedToy)
+    series = scene.plot_handles["x"].series
+    assert series[2]["dash"] == [6, 4] and series[2]["width"] == 1 and series[1]["width"] == 2
+    before = scene.legend.handle.content
+    scene.set_presenter(True)
+    assert scene.legend.handle.content != before and "#2563eb" in before
