@@ -31,10 +31,21 @@ import trimesh
 from app.nodes import set_array, set_arrays
 from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
-__all__ = ["Parts", "Placed", "PartsView", "body_point", "spring_polyline"]
+__all__ = ["Parts", "Placed", "PartsView", "body_point", "ring_mesh", "rod_mesh", "spring_polyline"]
 
 #: Coils of a spring drawn as a zigzag (segments = 2 coils + 2 straight ends).
 SPRING_COILS = 8
+
+
+def rod_mesh(a: Any, b: Any, radius: float, *, sections: int = 20) -> trimesh.Trimesh:
+    """A cylinder of ``radius`` (m) from point ``a`` to point ``b`` (3,) (an axle, a pin, a spoke)."""
+    return trimesh.creation.cylinder(radius=radius, segment=np.array([a, b], dtype=float), sections=sections)
+
+
+def ring_mesh(radius: float, tube: float, *, sections: tuple[int, int] = (72, 12)) -> trimesh.Trimesh:
+    """A ring (torus) of ``radius`` and ``tube`` radius (m) in the x-z plane, its axis along y (a gimbal, a tyre)."""
+    ring = trimesh.creation.torus(radius, tube, major_sections=sections[0], minor_sections=sections[1])
+    return ring.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [1, 0, 0]))
 
 
 def _ro(a: Any, dtype: Any = float) -> np.ndarray:

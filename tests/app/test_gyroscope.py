@@ -78,7 +78,7 @@ def test_presets_drive_the_expected_motion(gyro):
     for i, name in enumerate(PRESETS):
         click(scene, f"preset_{i}")  # the preset's button, as the page sends a click
         want = preset_inputs(name)
-        wait_until(lambda: scene.model is not None and scene.model.inputs == want and 0.2 < scene.sim_time)
+        wait_until(lambda: scene.config == want and 0.2 < scene.sim_time)
         for spec in SLIDERS:
             # the page's sliders show the preset
             assert scene.controls.value(spec.key) == getattr(want, spec.key)
@@ -128,7 +128,7 @@ def test_cross_field_rule_gives_a_notice_and_sets_the_slider_back(gyro):
     assert send_value(scene, "I3", 3.0)  # in the slider's range, but > 2 I with I = 1
     wait_until(lambda: notices_with(app, "Invalid rotor parameters"))
     assert notices_with(app, "I3: expected I3 <= 2*I")
-    assert notices_with(app, "the sliders are set back")
+    assert notices_with(app, "the controls are set back")
     assert scene.model.params == params_before
     t0 = scene.sim_time
     wait_until(lambda: scene.sim_time > t0 + 0.1)  # the motion was not restarted
@@ -214,7 +214,7 @@ def test_a_failing_torque_run_stops_the_clock_with_a_notice_and_finite_arrows(gy
     app, scene = gyro
     assert send_value(scene, "theta0_deg", 0.0)
     assert send_value(scene, "m_phi", 5.0)
-    wait_until(lambda: notices_with(app, "Simulation stopped"))
+    wait_until(lambda: notices_with(app, "motion stopped"))
     assert notices_with(app, "sin(theta) = 0")
     assert scene.paused_error is None and not scene.playing
     with app.session_for().run_lock:
@@ -229,8 +229,8 @@ def test_a_run_that_fails_while_paused_by_hand_stays_paused_after_a_slider(gyro)
     scene.playback.set_playing(False)
     assert send_value(scene, "theta0_deg", 0.0)
     assert send_value(scene, "m_phi", 5.0)
-    wait_until(lambda: notices_with(app, "Simulation stopped"))
-    assert notices_with(app, "Reset replays it up to there")
+    wait_until(lambda: notices_with(app, "motion stopped"))
+    assert notices_with(app, "change a control to run it again")
     assert send_value(scene, "m_phi", 0.0)
     wait_until(lambda: scene.model.torques == (0.0, 0.0, 0.0))
     time.sleep(0.3)
@@ -316,15 +316,15 @@ def test_plots_use_seconds_a_readable_log_drift_and_a_window_of_two_periods(gyro
     from app.scenes.gyroscope import DRIFT_FLOOR_LOG10, drift_log10
 
     app, scene = gyro
-    gui = scene.gui
-    for plot in (gui.plot_theta, gui.plot_phi_dot, gui.plot_drift):
+    plots = scene.plot_handles
+    for plot in (plots["theta"], plots["phi_dot"], plots["drift"]):
         assert plot.scales["x"]["time"] is False
     assert send_value(scene, "time_scale", 4.0)
     wait_until(lambda: scene.sim_time > 8.0, timeout=20.0)
-    wait_until(lambda: gui.plot_drift.data[0].size > 5)
+    wait_until(lambda: plots["drift"].data[0].size > 5)
     with app.session_for().run_lock:
-        t, *drift = gui.plot_drift.data
-        t_theta = np.asarray(gui.plot_theta.data[0])
+        t, *drift = plots["drift"].data
+        t_theta = np.asarray(plots["theta"].data[0])
         sim_time, window = scene.sim_time, scene.window
     drift = np.array(drift)
     assert np.all(np.isfinite(drift))
@@ -346,8 +346,8 @@ def test_plots_use_seconds_a_readable_log_drift_and_a_window_of_two_periods(gyro
 
 def test_readout_shows_meaningful_digits(gyro):
     app, scene = gyro
-    wait_until(lambda: "drift since t = 0" in scene.gui.readout.content)
-    text = scene.gui.readout.content
+    wait_until(lambda: "drift since t = 0" in scene.status.content)
+    text = scene.status.content
     assert "**d1** = 9.600 kg m²/s" in text  # I3 psi_dot0 = 0.8 * 12, four digits
     assert "**E** = 58.60 J" in text
     # the drift is shown as the drift (round-off), not as ten digits of d1
@@ -355,7 +355,7 @@ def test_readout_shows_meaningful_digits(gyro):
     for value in drift_line.split(":")[1].split(","):
         assert float(value) < 1e-12
     # the model's constants, in their own readout (sent when they change)
-    assert "θ from 60.00° to 62.22°, period 0.668 s" in scene.gui.info.content
+    assert "θ from 60.00° to 62.22°, period 0.668 s" in scene.info.content
 
 
 def test_csv_export_is_the_trajectory_shown(gyro):
@@ -388,7 +388,7 @@ def test_state_round_trip_reproduces_the_motion(running_app):
     first = running_app(scene="gyroscope")
     scene = first.scene_for()
     scene.apply_preset("Cuspidal motion")
-    wait_until(lambda: scene.model is not None and scene.model.inputs == preset_inputs("Cuspidal motion"))
+    wait_until(lambda: scene.config == preset_inputs("Cuspidal motion"))
     assert send_value(scene, "time_scale", 2.5)
     assert send_value(scene, "show_trail", False)
     state = scene.state()
@@ -399,7 +399,7 @@ def test_state_round_trip_reproduces_the_motion(running_app):
     other = second.scene_for()
     wait_until(lambda: other.sim_time > 1.0)
     second.session_for().request_state(state)
-    wait_until(lambda: other.model.inputs == scene.model.inputs)
+    wait_until(lambda: other.config == scene.config)
     with second.session_for().run_lock:  # (the loop sets the new inputs, then restarts the clock)
         assert other.sim_time < 1.0  # the motion restarts
     assert other.playback.time_scale == 2.5 and not other.trail.visible
@@ -419,7 +419,7 @@ def test_state_round_trip_reproduces_the_motion(running_app):
     wait_until(lambda: notices_with(second, "State not loaded"))
     assert "invalid rotor parameters: I3: expected I3 <= 2*I" in notices_with(second, "State not loaded")[-1][1]
     assert not notices_with(second, "Invalid rotor parameters")
-    assert other.model.inputs == scene.model.inputs and other.controls.value("I3") == scene.model.inputs.I3
+    assert other.config == scene.config and other.controls.value("I3") == scene.config.I3
 
 
 # -- a scene on a bare server, driven frame by frame ----------------------------
@@ -496,7 +496,7 @@ def _start_preset(scene, preset, time_scale):
     scene.frame(0.0)
     wait_until(lambda: scene.timeline.ready(0))
     scene.frame(0.0)
-    assert scene.model.inputs == preset_inputs(preset) and scene.playing
+    assert scene.config == preset_inputs(preset) and scene.playing
 
 
 def _next_frame(scene, dt=1 / 60):
@@ -540,7 +540,7 @@ def test_arrow_labels_sit_by_their_tips_in_every_frame(bare_scene):
         for _ in range(40):
             _next_frame(scene)
             tips = np.asarray(scene.arrows.points, dtype=float)[:, 1]
-            upper = 1 if scene.momentum_label_above else 0
+            upper = scene.vectors.upper  # the pair's arrow (0: ω, 1: L) whose label is above
             # the label of the higher tip is the upper one, up to the swap hysteresis (0.05 m)
             assert tips[upper, 2] >= tips[1 - upper, 2] - 0.05 - 1e-6, preset
             for i, label in enumerate(scene.arrow_labels):
