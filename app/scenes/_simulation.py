@@ -61,7 +61,7 @@ from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh
 from app.scenes.base import Scene
 
-__all__ = ["PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL"]
+__all__ = ["PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL", "power_of_ten"]
 
 #: Wall seconds over which the real-time rate is measured.
 RATE_WINDOW = 2.0
@@ -83,6 +83,10 @@ class PlotSpec:
         the plotted window's times ``t`` (n,) and table columns (n, m)
     shown : ``shown(inputs) -> bool``: whether the plot is shown for these
         inputs (None: always)
+    rescale : divide the y series by a power of ten when the window's largest
+        ``|y|`` is below 0.01 or from 1e5 on, and say so in the title
+        (``"... [×1e-09]"``): uPlot writes tick labels with at most three
+        decimals, so a drift of 1e-9 would read "0" at every tick
     """
 
     name: str
@@ -92,6 +96,17 @@ class PlotSpec:
     shown: Callable[[Any], bool] | None = None
     x_label: str = "t (s)"
     aspect: float = 1.6
+    rescale: bool = False
+
+
+def power_of_ten(series: Sequence[np.ndarray]) -> int:
+    """The exponent ``e`` a :class:`PlotSpec` with ``rescale`` divides its series by (``10**e``): 0 while the
+    largest finite ``|y|`` is in [0.01, 1e5) or zero, else ``floor(log10(max |y|))``."""
+    finite = [np.abs(y[np.isfinite(y)]) for y in series]
+    top = max((float(y.max()) for y in finite if y.size), default=0.0)
+    if top == 0.0 or 0.01 <= top < 1e5:
+        return 0
+    return math.floor(math.log10(top))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -217,6 +232,11 @@ class SimulationScene(PlaybackRequests, Scene):
     def readout_lines(self) -> list[str]:
         """Hook: the scene's lines of the status readout (refreshed with the plots)."""
         return []
+
+    def plot_title(self, spec: PlotSpec) -> str:
+        """Hook: the title of plot ``spec`` now (default ``spec.title``; e.g. with an offset the data
+        subtract); sent when it changes."""
+        return spec.title
 
     def end_notice(self, chunk: Any) -> tuple[str, str]:
         """Title and text of the notice when the motion ends itself (a final chunk)."""
@@ -438,7 +458,17 @@ class SimulationScene(PlaybackRequests, Scene):
         t, columns = self._plot_window
         if t.size == 0:
             return
-        self.set_plot_data(self.plot_handles[what], (t, *spec.data(t, columns)))
+        series = tuple(np.asarray(y, dtype=float) for y in spec.data(t, columns))
+        title = self.plot_title(spec)
+        if spec.rescale:
+            e = power_of_ten(series)
+            if e:
+                series = tuple(y / 10.0**e for y in series)
+                title = f"{title} [×1e{e:+03d}]"
+        handle = self.plot_handles[what]
+        if handle.title != title:
+            handle.title = title
+        self.set_plot_data(handle, (t, *series))
 
     def set_plot_data(self, handle: Any, data: tuple) -> None:
         """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page)."""

@@ -18,7 +18,7 @@ import pytest
 
 from app.controls import Slider
 from app.scenes._plots import Table
-from app.scenes._simulation import PlotSpec, SimulationScene
+from app.scenes._simulation import PlotSpec, SimulationScene, power_of_ten
 from tests.app.conftest import GatedExecutor
 from tests.helpers import wait_until
 
@@ -239,3 +239,39 @@ def test_series_options_and_a_legend_that_grows_in_presenter_view(make_bare_scen
     before = scene.legend.handle.content
     scene.set_presenter(True)
     assert scene.legend.handle.content != before and "#2563eb" in before
+
+
+class _TinyToy(_Toy):
+    """The toy with a second plot of 1e-9 x, rescaled, whose title carries the amplitude."""
+
+    def plots(self) -> list[PlotSpec]:
+        return [*super().plots(), PlotSpec("tiny", "tiny x", (("x (m)", "#2563eb"),),
+                                           lambda t, c: (1e-9 * c[:, 0],), rescale=True)]
+
+    def plot_title(self, spec: PlotSpec) -> str:
+        return f"{spec.title}, a = {self.config.amplitude:g}" if spec.name == "tiny" else spec.title
+
+
+def test_power_of_ten_leaves_readable_series_and_scales_tiny_and_huge_ones() -> None:
+    assert power_of_ten((np.array([0.02, -3.0]), np.array([np.nan]))) == 0
+    assert power_of_ten((np.zeros(3),)) == 0
+    assert power_of_ten((np.array([2.5e-9, -7.0e-9]),)) == -9
+    assert power_of_ten((np.array([1e-3]), np.array([np.inf, -4e-3]))) == -3
+    assert power_of_ten((np.array([3.0e7]),)) == 7
+
+
+def test_a_rescaled_plot_divides_its_series_and_says_so_in_its_title(make_bare_scene) -> None:
+    scene, _ = make_bare_scene(_TinyToy)
+
+    def plotted() -> bool:
+        scene.frame(1 / 60)
+        return scene.plot_handles["tiny"].data[0].size > 10 and scene.plot_handles["x"].data[0].size > 10
+
+    wait_until(plotted, timeout=60.0, interval=0.0)
+    handle = scene.plot_handles["tiny"]
+    t, y = (np.asarray(a) for a in handle.data)
+    e = int(handle.title.rsplit("×1e", 1)[1].rstrip("]"))
+    assert handle.title == f"tiny x, a = 1 [×1e{e:+03d}]" and e == power_of_ten((1e-9 * np.sin(t),))
+    np.testing.assert_allclose(y * 10.0**e, 1e-9 * np.sin(t), rtol=1e-12, atol=1e-24)
+    assert 1.0 <= np.abs(y).max() < 10.0  # readable tick labels
+    assert scene.plot_handles["x"].title == "x(t)"  # a plot without rescale is left alone
