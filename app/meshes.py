@@ -14,7 +14,7 @@ import functools
 import numpy as np
 import trimesh
 
-__all__ = ["body_parts", "ring", "pins", "Mesh"]
+__all__ = ["body_parts", "ring", "pins", "pedestal", "spinning_top", "Mesh"]
 
 Mesh = tuple[np.ndarray, np.ndarray]
 
@@ -90,3 +90,37 @@ def pins(inner: float, outer: float, radius: float) -> Mesh:
         pin.apply_translation((sign * (inner + outer) / 2.0, 0.0, 0.0))
         parts.append(pin)
     return _pack(trimesh.util.concatenate(parts))
+
+
+@functools.lru_cache(maxsize=None)
+def spinning_top(pivot_depth: float, *, disc_radius: float = 0.32, tip: float = 0.6) -> dict[str, Mesh]:
+    """A top: a disc, an axle from its fixed point to a knob, and a block on the disc's rim (shows the spin).
+
+    Origin at the disc's centre (the centre of mass); the rotor axis is +z; the axle runs from the fixed
+    point at ``z = -pivot_depth`` to the knob at ``z = tip`` (m).
+
+    Returns
+    -------
+    dict
+        ``{"body": mesh, "marker": mesh}``.
+    """
+    disc = trimesh.creation.cylinder(radius=float(disc_radius), height=0.07, sections=48)
+    axle = trimesh.creation.cylinder(radius=0.025, segment=((0.0, 0.0, -float(pivot_depth)), (0.0, 0.0, float(tip))),
+                                     sections=16)
+    knob = trimesh.creation.icosphere(subdivisions=2, radius=0.045).apply_translation((0.0, 0.0, float(tip)))
+    marker = trimesh.creation.box(extents=(0.12, 0.07, 0.08)).apply_translation((float(disc_radius) - 0.06, 0.0, 0.0))
+    return {"body": _pack(trimesh.util.concatenate([disc, axle, knob])), "marker": _pack(marker)}
+
+
+@functools.lru_cache(maxsize=None)
+def pedestal(height: float, *, radius: float = 0.25, post: float = 0.035) -> Mesh:
+    """A round foot of ``radius`` on the ground with a post up to a pivot (m).
+
+    Origin at the pivot, ``height`` above the ground (the foot at ``z = -height``), the post along z ending
+    0.05 m below the pivot.
+    """
+    h = float(height)
+    column = trimesh.creation.cylinder(radius=float(post), segment=((0.0, 0.0, -h), (0.0, 0.0, -0.05)), sections=16)
+    foot = trimesh.creation.cylinder(radius=float(radius), height=0.05, sections=32).apply_translation(
+        (0.0, 0.0, 0.025 - h))
+    return _pack(trimesh.util.concatenate([column, foot]))

@@ -31,7 +31,7 @@ import trimesh
 from app.nodes import set_array, set_arrays
 from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
-__all__ = ["Parts", "Placed", "PartsView", "body_point", "ring_mesh", "rod_mesh", "spring_polyline"]
+__all__ = ["Parts", "Placed", "PartsView", "body_point", "ring_mesh", "rod_mesh", "saturating_arrows", "spring_polyline"]
 
 #: Coils of a spring drawn as a zigzag (segments = 2 coils + 2 straight ends).
 SPRING_COILS = 8
@@ -104,6 +104,19 @@ def spring_polyline(a: np.ndarray, b: np.ndarray, *, width: float, coils: int = 
     offsets = offsets * np.minimum(1.0, length / (4.0 * width + 1e-300))  # flat when compressed to nothing
     pts = a[..., None, :] + fractions[:, None] * axis[..., None, :] + offsets[..., :, None] * side[..., None, :]
     return np.stack([pts[..., :-1, :], pts[..., 1:, :]], axis=-2)
+
+
+def saturating_arrows(starts: Any, vectors: Any, *, half: float, longest: float) -> np.ndarray:
+    """Arrows (n, 2, 3) float32 from ``starts`` (n, 3) along ``vectors`` (n, 3) (a force, a torque), of
+    length ``longest |v| / (|v| + half)`` (m): a vector of size ``half`` gets half the longest arrow, and
+    no arrow is longer than ``longest``, however large the vector (zero for a zero vector)."""
+    starts = np.asarray(starts, dtype=float)
+    vectors = np.asarray(vectors, dtype=float)
+    norms = np.sqrt(np.einsum("ij,ij->i", vectors, vectors))
+    out = np.empty((starts.shape[0], 2, 3), dtype=np.float32)
+    out[:, 0] = starts
+    out[:, 1] = starts + vectors * (longest / (norms + half))[:, None]
+    return out
 
 
 @dataclasses.dataclass(frozen=True)

@@ -355,6 +355,8 @@ class SimulationScene(PlaybackRequests, Scene):
             inputs = self.inputs
             if inputs != self.config or preset is not None:
                 self.configure(inputs)
+        if changed - self._input_keys:
+            self._drawn = None  # a display control changed (arrows, trails): the sample is drawn again, also paused
         self.on_frame(changed)
         tick = self.playback.tick(dt)
         if tick.reset:

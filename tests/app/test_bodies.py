@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.scenes._bodies import SPRING_COILS, Parts, spring_polyline
+from app.scenes._bodies import SPRING_COILS, Parts, saturating_arrows, spring_polyline
 from app.scenes._svg import Chart, nice_ticks
 
 
@@ -64,3 +64,19 @@ def test_charts_write_only_finite_numbers_and_round_ticks() -> None:
     svg = chart.svg()
     assert "nan" not in svg.lower() and "inf" not in svg.lower()
     assert svg.count("<polyline") == 1 and svg.count("<circle") == 1
+
+
+def test_saturating_arrows_point_along_their_vectors_and_never_exceed_the_longest() -> None:
+    rng = np.random.default_rng(7)
+    starts = rng.normal(size=(6, 3))
+    vectors = rng.normal(size=(6, 3)) * np.array([0.0, 1e-3, 1.0, 10.0, 1e3, 1e9])[:, None]
+    arrows = saturating_arrows(starts, vectors, half=10.0, longest=0.9)
+    assert arrows.shape == (6, 2, 3) and arrows.dtype == np.float32
+    np.testing.assert_allclose(arrows[:, 0], starts, rtol=1e-6)
+    d = arrows[:, 1].astype(float) - starts
+    norms = np.linalg.norm(vectors, axis=1)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 0.9 * norms / (norms + 10.0), rtol=1e-5, atol=1e-6)
+    assert np.all(np.linalg.norm(d, axis=1) < 0.9 + 1e-6)
+    # the arrow of a vector of size `half` is half the longest, along the vector
+    one = saturating_arrows(np.zeros((1, 3)), np.array([[0.0, 0.0, 10.0]]), half=10.0, longest=0.9)
+    np.testing.assert_allclose(one[0, 1], [0.0, 0.0, 0.45], rtol=1e-6)

@@ -275,3 +275,17 @@ def test_a_rescaled_plot_divides_its_series_and_says_so_in_its_title(make_bare_s
     np.testing.assert_allclose(y * 10.0**e, 1e-9 * np.sin(t), rtol=1e-12, atol=1e-24)
     assert 1.0 <= np.abs(y).max() < 10.0  # readable tick labels
     assert scene.plot_handles["x"].title == "x(t)"  # a plot without rescale is left alone
+
+
+def test_a_display_control_draws_the_sample_again_while_paused(make_bare_scene) -> None:
+    scene, _ = make_bare_scene(_Toy)
+    _play_until(scene, 0.5)
+    scene.playback.set_playing(False)
+    _run(scene, 0.1)
+    drawn = len(scene.drawn)
+    _run(scene, 0.1)
+    assert len(scene.drawn) == drawn  # paused: nothing is sent again
+    scene.controls.apply({"time_scale": 2.0})  # not an input: the motion goes on, the sample is drawn again
+    scene.frame(1 / 60)
+    assert len(scene.drawn) == drawn + 1 and scene.drawn[-1] == scene.drawn[-2]
+    assert scene.sim_time == scene.drawn[-1][0] or scene.sim_time - scene.drawn[-1][0] < 1 / 60
