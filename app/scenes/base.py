@@ -62,6 +62,7 @@ from app.gate import Gate
 from app.panel import ControlPanel, NotifyClient
 from app.readout import PRESENTER_FONT_SCALE, Readout
 from app.jobs import make_executor
+from app.nodes import set_array
 
 __all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE", "aim_camera"]
 
@@ -495,6 +496,23 @@ class Scene:
         handle = self.target.gui.add_uplot(data, series, **options)
         self._plots.append(handle)
         return handle
+
+    def add_legend(self, items: Any, title: str = "") -> Any:
+        """A colour key (:class:`app.scenes._plots.Legend`: ``(rgb, text)`` items) in the current GUI folder, its
+        text enlarged in presenter view with the readouts'."""
+        from app.scenes._plots import Legend  # (the scenes' plotting helpers import nothing of this module)
+
+        legend = Legend(self.target.gui, items, title, presenter=self.presenter)
+        self._readouts.append(legend)  # set_presenter(on), as a Readout
+        return legend
+
+    def set_arrows(self, handle: Any, points: Any) -> None:
+        """Show arrows made with :meth:`add_arrows` at ``points`` ((n, 2, 3) m), or hide them (None); the
+        visibility is sent only when it changes."""
+        if points is not None:
+            set_array(handle, "points", points)
+        if handle.visible != (points is not None):
+            handle.visible = points is not None
 
     def add_readout(self, content: str = "", **kwargs: Any) -> Readout:
         """A text panel in the current GUI folder (sent only when it changes)."""
