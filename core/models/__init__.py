@@ -40,6 +40,7 @@ from ._cam import (
     CamSystem,
     CamTouch,
 )
+from ._linkage_motion import LINKAGE_KINDS, Linkage, LinkageInfo, LinkageMotion, linkage, linkage_motion
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
 from ._pendulum import MAX_LINKS, ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
 from ._rolling_disk import (
@@ -107,6 +108,10 @@ __all__ = [
     "HeavyTop",
     "ReducedChainMotion",
     "RollingDiskMotion",
+    "LINKAGE_KINDS",
+    "Linkage",
+    "LinkageInfo",
+    "LinkageMotion",
     "SliderCrank",
     "SpatialDoublePendulum",
     "heavy_top",
@@ -115,6 +120,8 @@ __all__ = [
     "rolling_disk",
     "rolling_disk_critical_spin",
     "rolling_disk_reference",
+    "linkage",
+    "linkage_motion",
     "slider_crank",
     "spatial_double_pendulum",
 ]
