@@ -31,7 +31,8 @@ import trimesh
 from app.nodes import set_array, set_arrays
 from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
-__all__ = ["Parts", "Placed", "PartsView", "body_point", "ring_mesh", "rod_mesh", "saturating_arrows", "spring_polyline"]
+__all__ = ["Parts", "Placed", "PartsView", "add_body_meshes", "body_point", "ring_mesh", "rod_mesh", "saturating_arrows",
+           "spring_polyline"]
 
 #: Coils of a spring drawn as a zigzag (segments = 2 coils + 2 straight ends).
 SPRING_COILS = 8
@@ -104,6 +105,19 @@ def spring_polyline(a: np.ndarray, b: np.ndarray, *, width: float, coils: int = 
     offsets = offsets * np.minimum(1.0, length / (4.0 * width + 1e-300))  # flat when compressed to nothing
     pts = a[..., None, :] + fractions[:, None] * axis[..., None, :] + offsets[..., :, None] * side[..., None, :]
     return np.stack([pts[..., :-1, :], pts[..., 1:, :]], axis=-2)
+
+
+def add_body_meshes(scene: Any, name: str, meshes: Sequence[tuple[Any, Any]], *, opacity: float | None = None,
+                    **frame_kwargs: Any) -> Any:
+    """A frame at ``name`` holding one rigid body drawn as meshes: ``(mesh, rgb)`` each, a mesh being a
+    ``trimesh.Trimesh`` or ``(vertices, faces)`` in the body frame (m); ``opacity`` < 1 draws a translucent copy
+    (a ghost). Returns the frame: its pose moves the body (``frame_kwargs``: its pose, visibility at creation)."""
+    frame = scene.add_frame(name, show_axes=False, **frame_kwargs)
+    for k, (mesh, color) in enumerate(meshes):
+        vertices, faces = (mesh.vertices, mesh.faces) if isinstance(mesh, trimesh.Trimesh) else mesh
+        scene.add_mesh_simple(f"{name}/mesh{k}", np.asarray(vertices, dtype=np.float32),
+                              np.asarray(faces, dtype=np.uint32), color=color, opacity=opacity)
+    return frame
 
 
 def saturating_arrows(starts: Any, vectors: Any, *, half: float, longest: float) -> np.ndarray:

@@ -68,3 +68,9 @@ def overlapping_pairs(boxes: dict[str, tuple[float, float, float, float]]) -> li
     """Names of the label pairs whose boxes overlap."""
     names = list(boxes)
     return [(a, b) for i, a in enumerate(names) for b in names[i + 1:] if overlap(boxes[a], boxes[b])]
+
+
+def drawn_instances(batched: object) -> int:
+    """Instances of a batched mesh drawn at a nonzero scale (e.g. the links of a chain shown)."""
+    scales = np.asarray(getattr(batched, "batched_scales"), dtype=float)
+    return int(np.count_nonzero(np.any(scales.reshape(scales.shape[0], -1) != 0.0, axis=1)))

@@ -80,3 +80,16 @@ def test_saturating_arrows_point_along_their_vectors_and_never_exceed_the_longes
     # the arrow of a vector of size `half` is half the longest, along the vector
     one = saturating_arrows(np.zeros((1, 3)), np.array([[0.0, 0.0, 10.0]]), half=10.0, longest=0.9)
     np.testing.assert_allclose(one[0, 1], [0.0, 0.0, 0.45], rtol=1e-6)
+
+
+def test_add_body_meshes_puts_every_mesh_under_one_frame(server) -> None:
+    import trimesh
+
+    from app.scenes._bodies import add_body_meshes
+
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    frame = add_body_meshes(server.scene, "/bodies_test/ghost", [(box, (10, 20, 30)), ((box.vertices, box.faces),
+                                                                                    (40, 50, 60))],
+                            opacity=0.4, position=(1.0, 0.0, 0.0), visible=False)
+    assert not frame.visible and np.allclose(frame.position, (1.0, 0.0, 0.0))
+    frame.remove()

@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from app.scenes.linkages import RESIDUAL_BOUND, LinkagesScene
+from tests.app._views import drawn_instances
 from tests.browser._page import drawn_fraction, png_pixels
 from tests.helpers import wait_until
 
@@ -49,7 +50,7 @@ def _settled_view(page, timeout: float = 20.0) -> np.ndarray:
 def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     _, page, scene = scene_page(LinkagesScene)
     wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=30.0)
-    assert scene.visible_links == 5
+    assert drawn_instances(scene.rods) == 5
     page.get_by_role("button", name="Pause", exact=True).click()
     wait_until(lambda: not scene.playing)
     thumb = _slider_thumb(page, "N links")
@@ -60,12 +61,12 @@ def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     thumb.focus()
     page.keyboard.press("End")  # the slider's maximum: 10 links
     wait_until(lambda: scene.controls.value("n_links") == 10)
-    wait_until(lambda: scene.visible_links == 10 and scene.setup.model.n_links == 10, timeout=30.0)
+    wait_until(lambda: drawn_instances(scene.rods) == 10 and scene.setup.model.n_links == 10, timeout=30.0)
     page.wait_for_timeout(800)
     ten = _view(page.screenshot())
     thumb.focus()
     page.keyboard.press("Home")  # one link
-    wait_until(lambda: scene.visible_links == 1 and scene.setup.model.n_links == 1, timeout=30.0)
+    wait_until(lambda: drawn_instances(scene.rods) == 1 and scene.setup.model.n_links == 1, timeout=30.0)
     page.wait_for_timeout(800)
     one = _view(page.screenshot())
     # ten joints and arrows against one: many pixels of the 3-D view differ
@@ -101,7 +102,7 @@ def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
 def test_residual_plot_stays_below_its_bound(scene_page) -> None:
     _, page, scene = scene_page(LinkagesScene)
     scene.playback.set_time_scale(4.0)
-    wait_until(lambda: scene.sim_time > 4.0 and scene.gui.plot_residual.data[0].size > 100, timeout=60.0)
+    wait_until(lambda: scene.sim_time > 4.0 and scene.plot_handles["residual"].data[0].size > 100, timeout=60.0)
     # paused, the plots stop being redrawn (the page re-creates a plot's
     # elements when its data changes)
     page.get_by_role("button", name="Pause", exact=True).click()
@@ -110,10 +111,10 @@ def test_residual_plot_stays_below_its_bound(scene_page) -> None:
     title = page.locator(".u-title", has_text="constraint residual (log10)").first
     title.wait_for(state="visible", timeout=30_000)
     title.scroll_into_view_if_needed()
-    t, residual, bound, _ = (np.asarray(a) for a in scene.gui.plot_residual.data)
+    t, residual, bound, _ = (np.asarray(a) for a in scene.plot_handles["residual"].data)
     assert t[-1] > 2.0
     assert np.all(residual < math.log10(RESIDUAL_BOUND))
     np.testing.assert_allclose(bound, math.log10(RESIDUAL_BOUND))
     assert scene.max_residual < RESIDUAL_BOUND
     # the readout states the bound beside the residual
-    assert "(bound 1e-08)" in scene.gui.readout.content
+    assert "(bound 1e-08)" in scene.status.content
