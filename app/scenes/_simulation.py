@@ -346,6 +346,7 @@ class SimulationScene(PlaybackRequests, Scene):
         self._reported.discard("end")
 
     def update(self, dt: float) -> None:
+        self.tick_labels()
         preset = self.playback.take_preset()
         changed = self.controls.take_changes()
         if preset is not None:

@@ -208,6 +208,7 @@ class Scene:
         self._readouts: list[Readout] = []
         self._plots: list[Any] = []
         self._downloads: dict[str, tuple[str, Callable[[], bytes]]] = {}
+        self._labels_due = 0  # frames until the labels' visibility is sent again (resend_labels)
         #: (wall seconds, loop-thread CPU seconds) of the latest frames.
         self.frame_seconds: collections.deque[tuple[float, float]] = collections.deque(maxlen=FRAME_HISTORY)
         self.frames = 0
@@ -285,11 +286,27 @@ class Scene:
         if self._gui_folder is not None:
             self._gui_folder.visible = active
         if active and self._labels:
-            with self.target.atomic():
-                for handle, _ in self._labels:
-                    if handle.visible:
-                        handle.visible = False
-                        handle.visible = True
+            self._resend_labels()
+
+    def _resend_labels(self) -> None:
+        with self.target.atomic():
+            for handle, _ in self._labels:
+                if handle.visible:
+                    handle.visible = False
+                    handle.visible = True
+
+    def resend_labels(self, *, after: int = 30) -> None:
+        """Send the visibility of the shown labels again ``after`` frames from now (counted by
+        :meth:`tick_labels`): viser 1.1.1's page may not draw a label made visible soon after it was created
+        while a browser is connected (a scene that shows its labels with its first chunk)."""
+        self._labels_due = int(after)
+
+    def tick_labels(self) -> None:
+        """Count one frame towards :meth:`resend_labels` (the timed scenes' layer calls it every frame)."""
+        if self._labels_due > 0:
+            self._labels_due -= 1
+            if self._labels_due == 0:
+                self._resend_labels()
 
     def close(self) -> None:
         self.controls.remove_all()

@@ -282,10 +282,10 @@ class LinkagesScene(SimulationScene):
         self.parts.show(setup.parts)
         for key, node in self.supports.items():
             node.visible = key == {TOP: "top", CRANK: "crank"}.get(preset, "chain")
-        self.slider.visible = info.slider >= 0
-        self.top.visible = self.ghost_pivot.visible = info.top >= 0
+        self.slider.visible, self.top.visible, self.ghost_pivot.visible = info.slider >= 0, info.top >= 0, info.top >= 0
         self.labels["top"].visible = self.labels["ghost"].visible = info.top >= 0
         self.labels["motor"].visible = info.motor
+        self.resend_labels()
         self.info.content = "  \n".join(info.description())
 
     def draw(self, chunk: _Chunk, j: int) -> None:

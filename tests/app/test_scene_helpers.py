@@ -19,6 +19,7 @@ class _Plain(Scene):
         self.make_root()
         with self.make_folder():
             self.legend = self.add_legend((((225, 80, 0), "a force"),), "Colours:")
+        self.label = self.add_label(f"{self.root}/label", "a label", visible=False)
         self.arrows = self.add_arrows(f"{self.root}/arrows", np.zeros((1, 2, 3)), (225, 80, 0), shaft_radius=0.01,
                                       head_radius=0.03, head_length=0.05, visible=False)
 
@@ -44,3 +45,19 @@ def test_set_arrows_shows_moves_and_hides_them(make_bare_scene: Any) -> None:
     scene.set_arrows(scene.arrows, None)
     assert not scene.arrows.visible
     np.testing.assert_allclose(np.asarray(scene.arrows.points), points)  # kept while hidden
+
+
+def test_labels_are_sent_again_the_given_frames_after_they_are_shown(make_bare_scene: Any) -> None:
+    scene, _ = make_bare_scene(_Plain)
+    sent: list[bool] = []
+    scene._resend_labels = lambda: sent.append(scene.label.visible)  # count the re-sends
+    scene.label.visible = True
+    scene.resend_labels(after=3)
+    for _ in range(2):
+        scene.tick_labels()
+    assert sent == []
+    scene.tick_labels()
+    assert sent == [True]
+    for _ in range(5):
+        scene.tick_labels()
+    assert sent == [True]  # once
