@@ -12,8 +12,6 @@ residual and, where the textbook gives one, the closed form beside it.
 
 from __future__ import annotations
 
-import copy
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -227,7 +225,8 @@ class LinkageMotion:
         Multibody minus closed form: the slider's x (m), or the rotation angle between the two tops'
         attitudes (rad, Eq. 8.82).
     n_steps, n_rhs : int, the integrator's steps and right-hand sides
-    final_state : what :func:`linkage_motion` continues from (``initial=``)
+    final_state : RunState, what :func:`linkage_motion` continues from (``initial=``; core's
+        ``traj.final_state``)
     """
 
     t: np.ndarray
@@ -255,15 +254,6 @@ class LinkageMotion:
         if self.difference is not None:
             parts.append(self.difference[:, None])
         return np.concatenate(parts, axis=1)
-
-
-@dataclass(frozen=True)
-class _Resume:
-    """Time, positions and velocities a run ended in (picklable)."""
-
-    t: float
-    q: np.ndarray
-    v: np.ndarray
 
 
 def _continuous(p: np.ndarray) -> np.ndarray:
@@ -300,28 +290,20 @@ def linkage_motion(linkage: Linkage, t: Any, *, initial: Any = None, **options: 
     Raises
     ------
     ValueError
-        Naming ``initial`` for a state of another linkage or a time after ``t[0]``; naming the quantity
-        when the motion leaves the finite range; what ``simulate`` raises (``IntegrationError``, ...).
+        Naming the quantity when the motion leaves the finite range; what ``simulate`` raises
+        (``ArgumentError`` naming ``initial`` or ``t`` for a state of another System or one after ``t[0]``,
+        ``IntegrationError``, ...).
     """
-    system = linkage.system
-    t = np.asarray(t, dtype=float)
-    if initial is not None:
-        if not isinstance(initial, _Resume) or initial.v.shape != (6 * len(system.bodies),):
-            raise ValueError(f"initial: expected the final_state of a motion of this linkage, got {initial!r}")
-        if t.size == 0 or not t[0] >= initial.t:
-            raise ValueError(f"initial: its time {initial.t!r} is after the first output time")
-        system = copy.deepcopy(system)  # a run from a state: the linkage's System stays at t = 0
-        system.set_state(dataclasses.replace(system.state, t=initial.t, q=initial.q, v=initial.v))
-    traj = system.simulate(t, **options)
+    system, t = linkage.system, np.asarray(t, dtype=float)
+    traj = system.simulate(t, initial=initial, **options)
     n, nb = t.size, len(system.bodies)
     R = traj.q[:, : 3 * nb].reshape(n, nb, 3)
     p = _continuous(traj.q[:, 3 * nb :].reshape(n, nb, 4))
     bodies, u = linkage.info.joint_bodies, linkage.info.joint_points_body
     points = np.broadcast_to(u, (n, *u.shape)).copy()
     points[:, bodies >= 0] = R[:, bodies[bodies >= 0]] + rotate_vector(p[:, bodies[bodies >= 0]], u[bodies >= 0])
-    joints = {j.name: j for j in system.joints}  # the copy's joints, by name
-    forces = np.stack([traj.reaction(joints[j.name])[0] for j in linkage.joints], axis=1)
-    torque = traj.reaction(system.motors[0])[1] if linkage.motor is not None else None
+    forces = np.stack([traj.reaction(j)[0] for j in linkage.joints], axis=1)
+    torque = traj.reaction(linkage.motor)[1] if linkage.motor is not None else None
     closed = center = difference = None
     if linkage.slider_crank is not None:
         sc = linkage.slider_crank
@@ -335,12 +317,11 @@ def linkage_motion(linkage: Linkage, t: Any, *, initial: Any = None, **options: 
     for name, a in (("positions", traj.q), ("energy", traj.energy), ("residual", traj.residual_position)):
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{name}: the motion left the finite range near t = {t[0]:.3g} s")
-    final = _Resume(float(t[-1]), _ro(traj.q[-1]), _ro(traj.v[-1]))
     return LinkageMotion(
         t=_ro(t), R=_ro(R), p=_ro(p), joint_points=_ro(points), joint_forces=_ro(forces),
         motor_torque=None if torque is None else _ro(torque), energy=_ro(traj.energy),
         residual=_ro(traj.residual_position), closed_form=None if closed is None else _ro(closed),
         closed_form_center=None if center is None else _ro(center),
         difference=None if difference is None else _ro(difference), n_steps=int(traj.n_steps),
-        n_rhs=int(traj.n_rhs), final_state=final,
+        n_rhs=int(traj.n_rhs), final_state=traj.final_state,
     )
