@@ -32,13 +32,25 @@ import numpy as np
 
 from app.nodes import set_array, set_pose
 
-__all__ = ["PointArrows", "saturated_tips", "SINE_FLOOR"]
+__all__ = ["PointArrows", "saturated_tips", "vertex_rgb", "SINE_FLOOR"]
 
 #: The pair's up/down offset shrinks for arrows nearer than asin(this) to the vertical.
 SINE_FLOOR = 0.5
 UPPER_ANCHOR = "bottom-right"  # the point is the label's bottom-right corner: text above and left of it
 LOWER_ANCHOR = "top-left"  # text below and right of the point
 CENTRE_ANCHOR = "center-center"
+
+
+def vertex_rgb(colors: Any) -> np.ndarray:
+    """The colours (..., 3) 0..255 to give viser's arrows and line segments so that they are drawn in ``colors``.
+
+    The page treats the colours of these nodes as linear light and encodes them as sRGB on output, while a
+    mesh's colour, a legend's swatch and CSS colours are sRGB already: an orange (245, 140, 0) arrow was
+    drawn gold (about (213, 184, 66) lit). Decoding sRGB to linear here (IEC 61966-2-1) gives back the
+    colour asked for, so one colour constant serves the node and its legend."""
+    c = np.asarray(colors, dtype=float) / 255.0
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return np.round(255.0 * linear).astype(np.uint8)
 
 
 def saturated_tips(vectors: Any, longest: Sequence[float], half: Sequence[float]) -> np.ndarray:
@@ -58,7 +70,7 @@ class PointArrows:
         Owner of the nodes (arrows and labels grow in presenter view).
     name : str
         Path of the frame holding the arrows (``{name}/arrows``) and labels (``{name}/label_i``).
-    texts, colors : one label text and RGB colour (0..255) per arrow.
+    texts, colors : one label text and RGB colour (0..255, sRGB: as drawn, see :func:`vertex_rgb`) per arrow.
     beyond : (k,) m past each tip along its arrow, where its label sits.
     pair : indices of the two arrows whose labels keep their tips' vertical order (None: no pair).
     aside, swap : m, the pair's up/down offset and the hysteresis of their order.
@@ -71,7 +83,7 @@ class PointArrows:
         k = len(texts)
         self.frame = scene.target.scene.add_frame(name, show_axes=False)
         self.arrows = scene.add_arrows(f"{name}/arrows", np.zeros((k, 2, 3), dtype=np.float32),
-                                       np.array(colors, dtype=np.uint8), **arrow)
+                                       vertex_rgb(colors), **arrow)
         self.beyond, self.pair, self.aside, self.swap = tuple(beyond), pair, float(aside), float(swap)
         self.upper = pair[1] if pair is not None else -1  # the pair's arrow whose label is above
         self.labels = [scene.add_label(f"{name}/label_{i}", text, anchor=self.anchor(i), scale=label_scale)

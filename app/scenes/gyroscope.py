@@ -19,7 +19,7 @@ import trimesh
 from app.controls import Slider, Toggle
 from app.nodes import set_pose
 from app.readout import one_digit, significant
-from app.scenes._arrows import PointArrows, saturated_tips
+from app.scenes._arrows import PointArrows, saturated_tips, vertex_rgb
 from app.scenes._bodies import ring_mesh, rod_mesh
 from app.scenes._plots import LOG_FLOOR as DRIFT_FLOOR_LOG10
 from app.scenes._plots import Table, window_seconds
@@ -37,7 +37,6 @@ __all__ = ["CSV_HEADER", "DRIFT_FLOOR_LOG10", "GyroscopeScene", "Inputs", "PRESE
 _OUTER_RADIUS, _INNER_RADIUS, _RING_TUBE = 1.2, 1.0, 0.035
 _ROTOR_RADIUS, _ROTOR_THICKNESS, _TIP_RADIUS, _BASE_Z = 0.6, 0.14, 1.35, -1.6
 _CHUNK_SIM_TIME, _CHUNK_SAMPLES = 2.0, 481  # s of simulated time per chunk; samples (240 per second)
-_TRAIL_EVERY = 3  # frames between trail sends
 # Arrows ω, L, M: length = longest |v| / (|v| + half) (m); ω's is shorter than L's so that their tips
 # (and labels) stay apart for a fast top, where both lie nearly along the rotor axis.
 _ARROW_LONGEST, _ARROW_HALF = (1.8, 2.4, 2.4), (5.0, 4.0, 1.0)  # m; rad/s, kg m^2/s, N m
@@ -70,11 +69,10 @@ class Inputs:
                           (self.m_phi, self.m_theta, self.m_psi))
 
 
-_DEFAULT = Inputs()
 #: The sliders, by folder: initial state, rotor, applied torques (rates written dθ/dt: a combining dot is
 #: lost in some browsers).
 SLIDERS: tuple[Slider, ...] = tuple(
-    Slider(key, label, min=lo, max=hi, step=step, default=getattr(_DEFAULT, key), hint=hint)
+    Slider(key, label, min=lo, max=hi, step=step, default=getattr(Inputs, key), hint=hint)
     for key, label, lo, hi, step, hint in (
         ("theta0_deg", "θ (deg)", 0.0, 180.0, 0.1, "Nutation angle θ at t = 0 (deg)"),
         ("theta_dot0", "dθ/dt (rad/s)", -5.0, 5.0, 0.01, "Nutation rate at t = 0"),
@@ -156,13 +154,14 @@ def _meshes() -> dict[str, trimesh.Trimesh]:
     }
 
 
-#: The 3-D labels on the bodies: (node under the root, text, position in its frame, screen anchor). None spins:
-#: the rotor's sits on the disc's rim at -Y of the inner gimbal's frame, off the rotor axis and its arrows.
+#: The 3-D labels on the bodies: (node under the root, text, position in its frame, screen anchor). None spins;
+#: the rotor's is carried by the inner gimbal. Presenter view shows the angles (BODY_SYMBOLS): texts overlapped.
 BODY_LABELS = (
     ("outer", "outer gimbal φ", (0.0, 0.0, _OUTER_RADIUS + _RING_TUBE), "bottom-left"),
     ("outer/inner", "inner gimbal θ", (-_OUTER_RADIUS - _RING_TUBE, 0.0, 0.0), "top-center"),
     ("outer/inner", "rotor ψ", (0.0, -_ROTOR_RADIUS - 0.02, 0.0), "top-center"),
 )
+BODY_SYMBOLS = ("φ", "θ", "ψ")
 
 
 class GyroscopeScene(SimulationScene):
@@ -206,8 +205,7 @@ class GyroscopeScene(SimulationScene):
     angles = rates = current_invariants = np.zeros(3)  # as drawn (replaced, never written into)
 
     @property
-    def window(self) -> float:  # type: ignore[override]
-        """Length of the plot window (s): at least two predicted nutation periods."""
+    def window(self) -> float:  # type: ignore[override]  # (s) at least two predicted nutation periods
         return window_seconds(self.summary.period if self.summary is not None else math.nan, fallback=10.0)
 
     # -- building --------------------------------------------------------------------------------
@@ -224,11 +222,11 @@ class GyroscopeScene(SimulationScene):
                                   ("outer/inner/rotor/marker", "marker", (220, 60, 60))):
             scene.add_mesh_simple(f"{root}/{path}", _meshes()[mesh].vertices, _meshes()[mesh].faces, color=color,
                                   opacity=0.08 if mesh == "sphere" else None)
-        self.body_labels = [self.add_label(f"{root}/{node}/label_{i}", text, position=position, anchor=anchor,
-                                           scale=_LABEL_SCALE)
+        self.body_labels = [self.add_label(f"{root}/{node}/label_{i}", BODY_SYMBOLS[i] if self.presenter else text,
+                                           position=position, anchor=anchor, scale=_LABEL_SCALE)
                             for i, (node, text, position, anchor) in enumerate(BODY_LABELS)]
-        self.trail = ChunkedTrail(self, f"{root}/trail", _TRAIL_COLOR, thickness=3.0, thickness_units="screen",
-                                  capacity=400, min_step=0.004)
+        self.trail = ChunkedTrail(self, f"{root}/trail", vertex_rgb(_TRAIL_COLOR), thickness=3.0, capacity=400,
+                                  min_step=0.004, thickness_units="screen")
         self.vectors = PointArrows(self, f"{root}/vectors", _ARROW_LABELS, _ARROW_COLORS, beyond=(0.15, 0.15, 0.2),
                                    label_scale=_LABEL_SCALE, shaft_radius=0.04, head_radius=0.1, head_length=0.18)
         self.arrows, self.arrow_labels = self.vectors.arrows, self.vectors.labels
@@ -237,7 +235,7 @@ class GyroscopeScene(SimulationScene):
         gui = self.target.gui
         self.legend = self.add_legend(tuple(zip((*_ARROW_COLORS, _TRAIL_COLOR), (
             "ω angular velocity", "L angular momentum about O", "M torque (gravity + applied)",
-            "trail of the rotor-axis tip"))), "Arrows from the fixed point O (rotor frame: red x, green y, blue z):")
+            "trail of the rotor-axis tip"))), "Arrows from O (rotor frame: red x, green y, blue z; gimbals φ, θ, ψ)")
         self.add_playback()
         self.info = self.add_readout("")
         self.add_presets()
@@ -249,6 +247,10 @@ class GyroscopeScene(SimulationScene):
         with gui.add_folder("Show"):
             self.controls.add(Toggle("show_trail", "Tip trail", default=True))
             self.controls.add(Toggle("show_arrows", "Arrows ω, L, M", default=True))
+
+    def on_presenter(self, on: bool) -> None:
+        for label, (_, text, _, _), symbol in zip(self.body_labels, BODY_LABELS, BODY_SYMBOLS, strict=True):
+            label.text = symbol if on else text
 
     def plots(self) -> list[PlotSpec]:
         dashed = {"dash": [6, 4], "width": 1}
@@ -304,8 +306,8 @@ class GyroscopeScene(SimulationScene):
         for frame, q in zip((self.outer_frame, self.inner_frame, self.rotor_frame), chunk.wxyz[j], strict=True):
             set_pose(frame, wxyz=q)
         self.trail.add(chunk.trail[j])
-        if self.trail.visible and self.trail.pending and self.frames % _TRAIL_EVERY == 0:
-            self.trail.flush()  # the newest chunk of the trail only
+        if self.trail.visible and self.trail.pending and self.frames % 3 == 0:
+            self.trail.flush()  # the newest chunk of the trail only, every third frame
         if self.vectors.visible:
             self.vectors.draw(chunk.tips[j])  # the labels move in the message batch of their arrows
 
