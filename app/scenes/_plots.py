@@ -53,7 +53,7 @@ class Table:
     Attributes
     ----------
     t : (n,) sample times (s), increasing.
-    columns : (n, m) the exported columns at those times (the scene's units).
+    columns : (n, m) the exported columns at those times (the scene's units), then any plotted-only ones.
     csv : n rows ``t, columns...`` formatted as CSV text (no line ends).
     """
 
@@ -62,13 +62,20 @@ class Table:
     csv: tuple[str, ...]
 
     @classmethod
-    def build(cls, t: np.ndarray, columns: np.ndarray) -> Table:
-        """A table of ``t`` (n,) and ``columns`` (n, m), with its CSV rows (run on the executor)."""
+    def build(cls, t: np.ndarray, columns: np.ndarray, *, plotted: np.ndarray | None = None) -> Table:
+        """A table of ``t`` (n,) and ``columns`` (n, m), with its CSV rows (run on the executor).
+
+        ``plotted`` (n, e): more columns for the plots only, kept after the exported ones (columns
+        ``m .. m + e - 1``) and left out of the CSV rows.
+        """
         t = np.array(t, dtype=float)
         columns = np.array(columns, dtype=float).reshape(t.shape[0], -1)
+        csv = format_rows(t, columns)
+        if plotted is not None:
+            columns = np.hstack([columns, np.asarray(plotted, dtype=float).reshape(t.shape[0], -1)])
         for a in (t, columns):
             a.setflags(write=False)
-        return cls(t, columns, format_rows(t, columns))
+        return cls(t, columns, csv)
 
 
 def format_rows(t: np.ndarray, columns: np.ndarray) -> tuple[str, ...]:

@@ -169,6 +169,9 @@ class SimulationScene(PlaybackRequests, Scene):
         self.waiting = False  # the clock holds: the chunk it needs is not ready
         self.ended = False  # the motion ended itself (a final chunk reached)
         self.last_chunk: Any = None
+        #: The refresh (``"readout"`` or a plot's name) sent in this frame after :meth:`draw`, or None: a scene
+        #: may hold back sends of its own (a traced curve) in a frame that already sends a plot.
+        self.refresh_due: str | None = None
         self.plot_handles: dict[str, Any] = {}
         self.status: Any = None  # the layer's readout (time, rate, the scene's lines)
         self._specs: tuple[PlotSpec, ...] = ()
@@ -409,7 +412,7 @@ class SimulationScene(PlaybackRequests, Scene):
             if "end" not in self._reported:
                 self._reported.add("end")
                 self.notify(*self.end_notice(chunk), "info")
-        due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
+        due = self.refresh_due = self._refresh.due(dt, moving=self.sim_time != self._refreshed_time)
         key = (self.sim_time, chunk.k, self.segment.index)
         if key == self._drawn:  # paused: the poses are on the page; only a last refresh may be due
             if due is not None:
