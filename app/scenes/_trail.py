@@ -7,7 +7,9 @@ later still receives the whole curve (viser keeps each node's latest
 points). :class:`StickHead` draws the newest stretch of such a curve, up to
 a moving body, with poses only (see there for why). :func:`extend_trail` and
 :func:`trail_segments` keep a curve as a capped list of points drawn as one
-fixed-size buffer (for curves that are re-sent whole).
+fixed-size buffer (for curves that are re-sent whole). :class:`SphereTrail`
+is a curve traced on a translucent sphere with a marker at its newest point
+(the free body's polhode on the momentum sphere, a rotor tip's path).
 
 How the page applies what it receives (viser 1.1.1's client, measured in
 headless Chromium): a node's pose (``SetPositionMessage``,
@@ -27,10 +29,11 @@ import math
 from typing import Any
 
 import numpy as np
+import trimesh
 
 from app.nodes import set_array, set_pose, wxyz_z_to
 
-__all__ = ["ChunkedTrail", "StickHead", "extend_trail", "trail_segments", "FAR_SEGMENTS"]
+__all__ = ["ChunkedTrail", "SphereTrail", "StickHead", "extend_trail", "trail_segments", "FAR_SEGMENTS"]
 
 Vec = tuple[float, float, float]
 
@@ -439,3 +442,47 @@ class StickHead(_Framed):
         if (tip is not None) != self._tip_shown:
             self._tip_shown = tip is not None
             self.tip.visible = self._tip_shown
+
+
+class SphereTrail:
+    """A curve traced on a translucent sphere, with a ball marking the newest point (created once).
+
+    The nodes sit under the frame ``name`` at ``position`` (its axes drawn ``axes_length`` long): the
+    sphere (``radius``, ``sphere_color``, ``opacity``), a :class:`ChunkedTrail` ``{name}/trail`` and the
+    marker ``{name}/head``. A scene may add nodes of its own under :attr:`name` (they share the frame).
+    :meth:`add` feeds a point (frame coordinates), :meth:`flush` sends what changed: the trail's newest
+    chunk and the marker's position.
+    """
+
+    def __init__(self, scene: Any, name: str, color: Any, *, position: Any, radius: float, thickness: float,
+                 capacity: int, min_step: float, marker_color: Any, marker_radius: float = 0.05,
+                 axes_length: float = 0.0, sphere_color: Any = (200, 200, 230), opacity: float = 0.15) -> None:
+        api = scene.target.scene
+        self.name = name
+        self.frame = api.add_frame(name, position=tuple(float(x) for x in position), show_axes=axes_length > 0,
+                                   axes_length=max(axes_length, 1e-6), axes_radius=0.01)
+        sphere = trimesh.creation.icosphere(subdivisions=3, radius=radius)
+        self.sphere = api.add_mesh_simple(f"{name}/sphere", sphere.vertices.astype(np.float32),
+                                          sphere.faces.astype(np.uint32), color=sphere_color, opacity=opacity)
+        self.trail = ChunkedTrail(scene, f"{name}/trail", color, thickness=thickness, capacity=capacity,
+                                  min_step=min_step)
+        self.marker = api.add_icosphere(f"{name}/head", radius=marker_radius, color=marker_color)
+
+    @property
+    def points(self) -> np.ndarray:
+        """The curve drawn (n, 3), oldest first."""
+        return self.trail.points
+
+    def clear(self) -> None:
+        self.trail.clear()
+
+    def add(self, point: Any) -> bool:
+        """Feed a point (3,); True when the trail changed (a flush is due)."""
+        return self.trail.add(point)
+
+    def flush(self) -> None:
+        """Send the trail's newest chunk and place the marker at the newest point."""
+        self.trail.flush()
+        newest = self.trail.newest
+        if newest is not None:
+            set_pose(self.marker, position=newest)
