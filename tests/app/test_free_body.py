@@ -178,7 +178,7 @@ def test_ghost_integrators_error_and_cache(free):
     assert scene.chunks_computed == computed
     assert send_value(scene, "method", "none")
     wait_until(lambda: not scene.ghost_frame.visible)
-    assert not scene.gui.plot_error.visible and not scene.gui.plot_drift.visible
+    assert not scene.plot_handles["error"].visible and not scene.plot_handles["drift"].visible
 
 
 def test_failing_ghost_gives_a_notice_and_the_scene_keeps_running(free):
@@ -235,26 +235,26 @@ def test_plot_window_spans_two_omega_periods_and_plots_only_what_runs(free):
     assert send_value(scene, "time_scale", 4.0)
     wait_until(lambda: scene.sim_time > 6.0, timeout=20.0)
     # the plots refresh in turn (one per refresh, a few Hz): wait for both
-    wait_until(locked(app, lambda: np.asarray(scene.gui.plot_omega.data[0]).size > 100
-                      and np.asarray(scene.gui.plot_error.data[0]).size > 100))
+    wait_until(locked(app, lambda: np.asarray(scene.plot_handles["omega"].data[0]).size > 100
+                      and np.asarray(scene.plot_handles["error"].data[0]).size > 100))
     with app.session_for().run_lock:
-        t, wx, wy, wz = (np.asarray(a) for a in scene.gui.plot_omega.data)
-        err_t = np.asarray(scene.gui.plot_error.data[0])
+        t, wx, wy, wz = (np.asarray(a) for a in scene.plot_handles["omega"].data)
+        err_t = np.asarray(scene.plot_handles["error"].data[0])
         display_time = scene.display_time
     # refreshed every 0.2 s of wall time: at scale 4, up to ~1 s of simulated time old
     assert t.size <= 401 and t[0] == 0.0 and display_time - 1.2 < t[-1] <= display_time
-    assert scene.gui.plot_omega.scales["x"]["time"] is False
+    assert scene.plot_handles["omega"].scales["x"]["time"] is False
     # omega_x of the flip reverses within the window
     assert wx.max() > 5.0 and wx.min() < -5.0
-    assert err_t.size > 100 and scene.gui.plot_error.visible
+    assert err_t.size > 100 and scene.plot_handles["error"].visible
 
 
 def test_readout_shows_meaningful_digits(free):
     app, scene = free
-    wait_until(lambda: "**Ghost**" in scene.gui.readout.content)
-    text = scene.gui.readout.content
+    wait_until(lambda: "**Ghost**" in scene.status.content)
+    text = scene.status.content
     # the motion's constants, in their own readout (sent when they change)
-    info = scene.gui.info.content
+    info = scene.info.content
     assert "ω period 9.58 s" in info
     assert "**E** = 63.84 J, **|L|** = 21.27 kg m²/s" in info
     assert "2E J2/|L|² = 0.9995" in info
@@ -282,8 +282,8 @@ def test_readout_after_the_flip_preset_explains_the_flip(free):
             want = preset_omega(name, inertia)
             wait_until(lambda: scene.setup is not None and scene.setup.body == body
                        and np.allclose(scene.setup.omega_body0, want)
-                       and scene.gui.info.content == scene.setup.readout)
-            info = scene.gui.info.content
+                       and scene.info.content == scene.setup.readout)
+            info = scene.info.content
             if body == BODIES[2]:  # two equal moments
                 assert "no intermediate axis and no flip" in info and "Dzhanibekov" not in info, info
                 continue
