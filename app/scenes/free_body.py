@@ -1,18 +1,16 @@
 """Free rigid body scene: torque-free motion, polhode, and the Dzhanibekov flip.
 
-A body of :func:`core.models.free_body_shape` (a T-handle by default) spins freely from
-:func:`core.models.free_body_start` (``L`` along +Z, so a flip about the intermediate axis turns it
-upside down about a vertical ``L``). Each 1 s chunk is :func:`core.models.free_body_window`: the exact
-motion and, with a ghost integrator chosen, its run compared with it. A third picture shows the
-body-frame momentum sphere, the energy ellipsoid and the polhode. The scene runs on
-:class:`app.scenes._simulation.SimulationScene` and holds no physics; Euler parameters go to viser's
-``wxyz`` as they are (scalar first).
+A body of :func:`core.models.free_body_shape` spins freely from :func:`core.models.free_body_start` (``L`` along
++Z: a flip about the intermediate axis turns it upside down). Each 1 s chunk is :func:`core.models.free_body_window`,
+the exact motion and, with a ghost integrator chosen, its run compared with it; a third picture shows the momentum
+sphere, the energy ellipsoid and the polhode. Runs on :class:`app.scenes._simulation.SimulationScene`; no physics.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
 import time
 from typing import Any, ClassVar
@@ -23,8 +21,8 @@ from app.controls import Choice, Slider
 from app.nodes import set_array, set_pose
 from app.readout import one_digit, significant
 from app.scenes._plots import Legend, Table, log10_floor, window_seconds
-from app.scenes._simulation import PlotSpec, SimulationScene
 from app.scenes._shapes import arrow_segments, ellipsoid_wireframe, parts_mesh
+from app.scenes._simulation import PlotSpec, SimulationScene
 from app.scenes._trail import SphereTrail
 from core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, IntegrationError
 from core.models import (FREE_BODY_NAMES, GHOST_COLUMNS, INVARIANT_ROUND_OFF, WINDOW_COLUMNS, FreeBodyStart,
@@ -35,18 +33,18 @@ __all__ = ["BODIES", "CSV_HEADER", "CSV_HEADER_GHOST", "FreeBodyScene", "INTEGRA
            "body_mesh", "initial_orientation", "preset_omega"]
 
 _EXACT_POS, _GHOST_POS, _SPHERE_POS = np.array([0.0, 0.0, 0.0]), np.array([0.0, 1.9, 0.0]), np.array([0.0, -2.3, 0.0])
-_ARROW_BASES = np.array([_EXACT_POS, _EXACT_POS, _GHOST_POS])  # L, omega, the ghost's L
 _SPHERE_RADIUS = 0.9
-_ARROW_LENGTH = 1.3  # m: L arrows; omega saturates at this length
-_OMEGA_HALF = 3.0  # rad/s: omega arrow length 1.3 m |omega| / (|omega| + 3 rad/s); the L arrows 1.3 m
-_SAMPLE_DT = 1.0 / 60.0  # s: ghost samples and CSV rows; without a ghost the exact body is drawn at 240 Hz
-_EXACT_SAMPLES_PER_ROW = 4
-_TRACE_PERIOD = 0.05  # s of wall time between polhode / label updates
+_ARROW_LENGTH, _OMEGA_HALF = 1.3, 3.0  # m: the L arrows; omega's is 1.3 m |omega| / (|omega| + 3 rad/s)
+_SAMPLE_DT, _EXACT_SAMPLES_PER_ROW = 1.0 / 60.0, 4  # s: ghost samples and CSV rows; the exact body alone: 240 Hz
+_TRACE_PERIOD = 0.05  # s of wall time between polhode updates
 _LABEL_SCALE = 1.3  # 3-D labels: about 16 px (presenter view: x 1.8)
-_EXACT_COLOR, _GHOST_COLOR = (220, 150, 60), (140, 170, 255)
-# no arrow or traced curve is red, green or blue (the frame axes)
-_L_COLOR, _OMEGA_COLOR, _GHOST_L_COLOR = (25, 25, 35), (200, 30, 160), (130, 130, 145)
-_POLHODE_COLOR, _ELLIPSOID_COLOR = (0, 160, 150), (120, 120, 145)
+# (colour, legend) of what is drawn; no arrow or traced curve is red, green or blue (the frame axes)
+_EXACT, _GHOST = ((220, 150, 60), "exact solution (body axes red x, green y, blue z)"), \
+    ((140, 170, 255), "ghost: the chosen integrator")
+_L, _OMEGA, _GHOST_L = ((25, 25, 35), "L angular momentum (fixed in space)"), ((200, 30, 160), "ω angular velocity"), \
+    ((130, 130, 145), "the ghost's L")
+_POLHODE, _ELLIPSOID = ((0, 160, 150), "polhode: L_body on the momentum sphere"), \
+    ((120, 120, 145), "energy ellipsoid L·I⁻¹L = 2E")
 
 #: Bodies offered in the "Body" dropdown (core's shapes; mesh frame = body frame, origin at the centre of mass).
 BODIES = FREE_BODY_NAMES
@@ -65,30 +63,21 @@ class Inputs:
     """Values of the scene's controls (the T-handle's intermediate axis is body x: the default flips)."""
 
     body: str = BODIES[0]
-    omega_x: float = 6.0
+    omega_x: float = 6.0  # initial omega, body frame (rad/s)
     omega_y: float = 0.12
     omega_z: float = 0.12
     method: str = "splitting"
     dt: float = 0.01
     rtol_exp: float = -8.0
 
-    @property
-    def omega(self) -> tuple[float, float, float]:
-        """Initial angular velocity, body frame (rad/s)."""
-        return (self.omega_x, self.omega_y, self.omega_z)
-
-    @property
-    def rtol(self) -> float:
-        return 10.0 ** float(self.rtol_exp)
-
-    @property
-    def ghost(self) -> bool:
-        return self.method != "none"
+    omega = property(lambda self: (self.omega_x, self.omega_y, self.omega_z))
+    rtol = property(lambda self: 10.0 ** float(self.rtol_exp))
+    ghost = property(lambda self: self.method != "none")
 
     def ghost_text(self) -> str:
         """The ghost's method and step (or tolerance)."""
-        return f"{self.method}, dt {self.dt:g} s" if self.method in FIXED_STEP_METHODS else \
-            f"{self.method}, rtol {self.rtol:.0e}"
+        step = f"dt {self.dt:g} s" if self.method in FIXED_STEP_METHODS else f"rtol {self.rtol:.0e}"
+        return f"{self.method}, {step}"
 
 
 _DEFAULT = Inputs()
@@ -112,35 +101,9 @@ def preset_omega(name: str, inertia: np.ndarray) -> np.ndarray:
 initial_orientation = euler_parameters_momentum_up
 
 
-@dataclasses.dataclass(frozen=True)
-class _Setup:
-    """Core's motion of one body and initial omega (its fields read through), the plot window and the readout."""
-
-    body: str
-    start: FreeBodyStart
-    window: float  # s
-    readout: str  # the motion's constants (Markdown)
-
-    def __getattr__(self, name: str) -> Any:  # inertia, omega_body0, p0, solution, geometry, L_global, state0
-        if name.startswith("__") or name == "start":
-            raise AttributeError(name)
-        return getattr(self.start, name)
-
-
 @functools.lru_cache(maxsize=32)
-def _setup(body: str, omega: tuple[float, float, float]) -> _Setup:
-    start = free_body_start(body_mesh(body)[2], omega)
-    g, period = start.geometry, float(start.solution.period)
-    window = window_seconds(period, fallback=20.0, cap=120.0)
-    motion = (f"{start.solution.kind}, ω period {significant(period, 3)} s" if 0.0 < period < math.inf else
-              "on the separatrix (ω period infinite)" if period > 0.0 else
-              f"{'steady rotation' if start.solution.kind == 'steady' else 'at rest'}, ω constant")
-    lines = [f"**Motion**: {motion}; plots show the last {window:.3g} s",
-             "**Principal moments** " + ", ".join(significant(float(m), 3) for m in g.moments) + " kg m²"]
-    if g.L_norm > 0:
-        lines.append(f"**E** = {significant(g.energy)} J, **|L|** = {significant(g.L_norm)} kg m²/s (constant); "
-                     + start.polhode.description)
-    return _Setup(body, start, window, "  \n".join(lines))
+def _start(body: str, omega: tuple[float, float, float]) -> FreeBodyStart:
+    return free_body_start(free_body_shape(body), omega)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,15 +114,14 @@ class _Chunk:
     arrows: np.ndarray  # (n, 3, 2, 3) float32: L and omega at the exact body, the ghost's L at the ghost
     polhode: np.ndarray  # (n, 3) L_body in the sphere's picture
     failure: str | None  # why the ghost stopped in this chunk
-    table: Table  # exported columns (CSV_HEADER_GHOST), then omega error and the drifts, plotted only
-    setup: _Setup
+    table: Table  # the CSV's columns, then the omega error and the drifts (plotted only)
+    setup: FreeBodyStart
 
 
 def _compute_chunk(inputs: Inputs, k: int, previous: _Chunk | None) -> _Chunk:
     """Chunk ``k`` (1 s) of the motion for ``inputs`` (runs on the executor)."""
-    setup = _setup(inputs.body, inputs.omega)
-    t0, run, failure = float(k), None, None
-    before = previous.window.ghost if previous is not None else None
+    setup, t0, run, failure = _start(inputs.body, inputs.omega), float(k), None, None
+    before = previous.window.ghost if previous is not None else None  # the ghost continues from its last state
     y0 = setup.state0 if k == 0 else before.final_state if before is not None else None
     if inputs.ghost and y0 is not None:
         try:
@@ -175,11 +137,12 @@ def _compute_chunk(inputs: Inputs, k: int, previous: _Chunk | None) -> _Chunk:
     elif inputs.ghost:  # the ghost stopped: empty fields
         columns = np.hstack([columns, np.full((columns.shape[0], len(GHOST_COLUMNS)), np.nan)])
         plotted = np.full((columns.shape[0], 4), np.nan)
-    vectors = np.stack([np.broadcast_to(setup.L_global, (n, 3)), w.omega, g.L if g is not None else np.zeros((n, 3))], 1)
-    L_norm = setup.geometry.L_norm
-    return _Chunk(k, w.t, w, arrow_segments(_ARROW_BASES, vectors, length=_ARROW_LENGTH, half=(0.0, _OMEGA_HALF, 0.0)),
-                  w.L_body * (_SPHERE_RADIUS / L_norm if L_norm > 0 else 0.0), failure,
-                  Table.build(w.t[::every], columns, plotted=plotted), setup)
+    vectors = np.stack([np.broadcast_to(setup.L_global, (n, 3)), w.omega, np.zeros((n, 3)) if g is None else g.L], 1)
+    arrows = arrow_segments((_EXACT_POS, _EXACT_POS, _GHOST_POS), vectors, length=_ARROW_LENGTH,
+                            half=(0.0, _OMEGA_HALF, 0.0))
+    scale = _SPHERE_RADIUS / setup.geometry.L_norm if setup.geometry.L_norm > 0 else 0.0
+    return _Chunk(k, w.t, w, arrows, w.L_body * scale, failure, Table.build(w.t[::every], columns, plotted=plotted),
+                  setup)
 
 
 class FreeBodyScene(SimulationScene):
@@ -210,77 +173,58 @@ class FreeBodyScene(SimulationScene):
     # look a little right of the body so the GUI panel does not cover the ghost
     camera_position: ClassVar[tuple[float, float, float]] = (4.4, 0.85, 1.85)
     camera_look_at: ClassVar[tuple[float, float, float]] = (0.0, 1.3, -0.15)
-    Inputs = Inputs
-    presets = PRESETS
-    csv_header = CSV_HEADER
+    Inputs, presets, csv_header = Inputs, PRESETS, CSV_HEADER
     window = 20.0  # s until the first chunk gives the motion's period
 
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
         super().__init__(target, notify, context=context)
-        self.setup: _Setup | None = None  # constants of the motion drawn (from the chunks)
-        self.p_exact, self.omega_exact, self.p_ghost = np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), None
-        self.ghost_error: dict[str, float] = {}
-        self.ghost_failed = False
+        self.setup: FreeBodyStart | None = None  # core's motion drawn (from the chunks)
+        self.omega_exact = np.zeros(3)  # omega_body of the exact body drawn (rad/s)
+        self.ghost_error, self.ghost_failed = {}, False  # the drawn sample's (core's GhostComparison.errors, and t)
         self.arrow_points = np.zeros((3, 2, 3), dtype=np.float32)
-        self._traced, self._trace_due = -math.inf, False  # wall clock of the last trace; one is due
+        self._traced, self._trace_due = -math.inf, False  # wall clock of the last polhode update; one is due
 
     def job(self, inputs: Inputs, segment: Any) -> Any:
         return functools.partial(_compute_chunk, inputs)
 
     def preset_values(self, name: str) -> dict[str, Any]:
-        w = preset_omega(name, body_mesh(str(self.controls.value("body")))[2])
-        return {key: float(x) for key, x in zip(("omega_x", "omega_y", "omega_z"), w, strict=True)}
+        w = preset_omega(name, body_mesh(str(self.controls.value("body")))[2]).tolist()
+        return dict(zip(("omega_x", "omega_y", "omega_z"), w, strict=True))
 
     def csv_header_for(self, inputs: Inputs) -> str:
         return CSV_HEADER_GHOST if inputs.ghost else CSV_HEADER
 
-    # -- build ---------------------------------------------------------------------------------------
     def build_nodes(self) -> None:
         scene, root = self.target.scene, self.root
         frame = functools.partial(scene.add_frame, axes_length=0.5, axes_radius=0.015)
         self.exact_frame = frame(f"{root}/exact", position=tuple(_EXACT_POS))
         self.ghost_frame = frame(f"{root}/ghost", position=tuple(_GHOST_POS))
         self.body_frames, self.ghost_frames = {}, {}
-        for i, name in enumerate(BODIES):
-            v, f, _ = body_mesh(name)
-            shown = name == _DEFAULT.body
-            self.body_frames[name] = scene.add_mesh_simple(f"{root}/exact/body{i}", v, f, color=_EXACT_COLOR,
-                                                           visible=shown)
-            self.ghost_frames[name] = scene.add_mesh_simple(f"{root}/ghost/body{i}", v, f, color=_GHOST_COLOR,
-                                                            opacity=0.45, visible=shown)
-        self.arrows = self.add_arrows(f"{root}/arrows", np.zeros((3, 2, 3), dtype=np.float32),
-                                      np.array([_L_COLOR, _OMEGA_COLOR, _GHOST_L_COLOR], dtype=np.uint8),
+        for (i, name), (frames, which, color, opacity) in itertools.product(enumerate(BODIES), (
+                (self.body_frames, "exact", _EXACT[0], None), (self.ghost_frames, "ghost", _GHOST[0], 0.45))):
+            frames[name] = scene.add_mesh_simple(f"{root}/{which}/body{i}", *body_mesh(name)[:2], color=color,
+                                                 opacity=opacity, visible=name == _DEFAULT.body)
+        self.arrows = self.add_arrows(f"{root}/arrows", self.arrow_points, np.array([_L[0], _OMEGA[0], _GHOST_L[0]]),
                                       shaft_radius=0.025, head_radius=0.06, head_length=0.12)
-        self.polhode = SphereTrail(self, f"{root}/momentum", _POLHODE_COLOR, position=_SPHERE_POS,
-                                   radius=_SPHERE_RADIUS, thickness=0.025, capacity=600, min_step=0.005,
-                                   marker_color=_L_COLOR, axes_length=1.1)
+        self.polhode = SphereTrail(self, f"{root}/momentum", _POLHODE[0], position=_SPHERE_POS, radius=_SPHERE_RADIUS,
+                                   thickness=0.025, capacity=600, min_step=0.005, marker_color=_L[0], axes_length=1.1)
         self.ellipsoid = self.add_lines(f"{root}/momentum/ellipsoid", ellipsoid_wireframe(np.zeros(3)),
-                                        _ELLIPSOID_COLOR, thickness=0.008)
+                                        _ELLIPSOID[0], thickness=0.008)
         # 3-D labels in static places (a label in a turning frame would orbit with it), ω's at its arrow's tip
-        up = functools.partial(self.add_label, anchor="bottom-center", scale=_LABEL_SCALE)
-        self.labels = {
-            "exact": self.add_label(f"{root}/label_exact", "exact solution", position=_EXACT_POS + (0.0, 0.0, -0.95),
-                                    anchor="top-center", scale=_LABEL_SCALE),
-            "ghost": up(f"{root}/label_ghost", "ghost\n" + _DEFAULT.ghost_text(),
-                        position=_GHOST_POS + (0.0, 0.0, _ARROW_LENGTH + 0.08)),
-            "sphere": up(f"{root}/label_sphere", "momentum sphere\n(body frame)",
-                         position=_SPHERE_POS + (0.0, 0.0, _SPHERE_RADIUS + 0.12)),
-            "L": up(f"{root}/label_L", "L", position=_EXACT_POS + (0.0, 0.0, _ARROW_LENGTH + 0.08)),
-            "omega": self.add_label(f"{root}/label_omega", "ω", anchor="bottom-left", scale=_LABEL_SCALE),
-        }
+        self.labels = {key: self.add_label(f"{root}/label_{key}", text, position=position, anchor=anchor,
+                                           scale=_LABEL_SCALE) for key, text, position, anchor in (
+            ("exact", "exact solution", _EXACT_POS + (0.0, 0.0, -0.95), "top-center"),
+            ("ghost", "ghost\n" + _DEFAULT.ghost_text(), _GHOST_POS + (0.0, 0.0, _ARROW_LENGTH + 0.08), "bottom-center"),
+            ("sphere", "momentum sphere\n(body frame)", _SPHERE_POS + (0.0, 0.0, _SPHERE_RADIUS + 0.12),
+             "bottom-center"),
+            ("L", "L", _EXACT_POS + (0.0, 0.0, _ARROW_LENGTH + 0.08), "bottom-center"),
+            ("omega", "ω", (0.0, 0.0, 0.0), "bottom-left"))}
 
     def build_controls(self) -> None:
-        self.legend = Legend(self.target.gui, (
-            (_EXACT_COLOR, "exact solution (body axes red x, green y, blue z)"),
-            (_GHOST_COLOR, "ghost: the chosen integrator"),
-            (_L_COLOR, "L angular momentum (fixed in space)"),
-            (_OMEGA_COLOR, "ω angular velocity"),
-            (_GHOST_L_COLOR, "the ghost's L"),
-            (_POLHODE_COLOR, "polhode: L_body on the momentum sphere"),
-            (_ELLIPSOID_COLOR, "energy ellipsoid L·I⁻¹L = 2E"),
-        ), presenter=self.presenter)
+        self.legend = Legend(self.target.gui, (_EXACT, _GHOST, _L, _OMEGA, _GHOST_L, _POLHODE, _ELLIPSOID),
+                             presenter=self.presenter)
         self.add_playback()
-        self.info = self.add_readout("")
+        self.info = self.add_readout("")  # the motion's constants (sent when they change)
         self.controls.add(Choice("body", "Body", options=BODIES, default=_DEFAULT.body))
         self.add_presets()
         with self.target.gui.add_folder("Initial ω (body frame, rad/s)"):
@@ -296,8 +240,7 @@ class FreeBodyScene(SimulationScene):
     def plots(self) -> list[PlotSpec]:
         # log10 values on linear axes (uPlot's log axes label tiny values as 0); a drift at or below round-off
         # is drawn on the grey round-off line (it would jump between a few eps and exact zeros, a square wave)
-        floor = math.log10(INVARIANT_ROUND_OFF)
-        ghost = lambda inputs: inputs.ghost  # noqa: E731
+        floor, ghost = math.log10(INVARIANT_ROUND_OFF), (lambda inputs: inputs.ghost)
         return [
             PlotSpec("omega", "exact ω_body(t) (body frame)", (("ω_x (rad/s)", "#dc2626"), ("ω_y (rad/s)", "#16a34a"),
                      ("ω_z (rad/s)", "#2563eb")), lambda t, c: (c[:, 4], c[:, 5], c[:, 6])),
@@ -327,37 +270,43 @@ class FreeBodyScene(SimulationScene):
     def draw(self, chunk: _Chunk, j: int) -> None:
         setup, w, g = chunk.setup, chunk.window, chunk.window.ghost
         if setup is not self.setup:
-            self.setup, self.window, self.info.content = setup, setup.window, setup.readout
-            n = setup.geometry.L_norm
+            self.setup, self.window = setup, window_seconds(float(setup.solution.period), fallback=20.0, cap=120.0)
+            self.info.content, n = self.info_text(setup), setup.geometry.L_norm
             self.ellipsoid.points = ellipsoid_wireframe(setup.geometry.semi_axes, setup.geometry.axes,
                                                         scale=_SPHERE_RADIUS / n if n > 0 else 0.0)
             self.labels["L"].visible = n > 0
         self.ghost_failed |= chunk.failure is not None
-        # with a ghost both bodies are drawn at its sample instant, so that the two poses compare directly
-        self.p_exact, self.omega_exact, self.p_ghost = w.p[j], w.omega_body[j], g.p[j] if g is not None else None
-        if g is not None:
-            self.ghost_error = {"t": float(w.t[j]), "angle": float(g.angle_error[j]), "omega": float(g.omega_error[j]),
-                                "energy": float(g.energy_drift[j]), "L": float(g.L_drift[j]),
-                                "p_norm": float(g.p_norm_error[j])}
-        self._trace_due |= self.polhode.add(chunk.polhode[j])
+        self.omega_exact = w.omega_body[j]
         if finite := bool(np.all(np.isfinite(chunk.arrows[j]))):  # never send a non-finite point
             self.arrow_points = chunk.arrows[j]
             set_array(self.arrows, "points", self.arrow_points)
         self.arrows.visible = finite
-        set_pose(self.exact_frame, wxyz=self.p_exact)
+        # with a ghost both bodies are drawn at its sample instant, so that the two poses compare directly
+        set_pose(self.exact_frame, wxyz=w.p[j])
         self.ghost_frame.visible = self.labels["ghost"].visible = g is not None
         if g is not None:
-            set_pose(self.ghost_frame, wxyz=self.p_ghost)
-        tip = self.arrow_points[1, 1]  # the ω label at its arrow's tip (ω . L = 2E > 0: the upper half)
+            self.ghost_error = {"t": float(w.t[j]), **g.errors(j)}
+            set_pose(self.ghost_frame, wxyz=g.p[j])
+        tip = self.arrow_points[1, 1]  # ω . L = 2E > 0: in the upper half
         if shown := bool(np.any(tip != self.arrow_points[1, 0])):
             set_pose(self.labels["omega"], position=tip)
         self.labels["omega"].visible = shown
-        # the polhode and its marker every 0.05 s of wall time, not in a frame that sends a plot; at once when
-        # the clock stands (the first frame of a motion, paused)
+        # the polhode every 0.05 s of wall time, not in a frame that sends a plot; at once when the clock stands
+        self._trace_due |= self.polhode.add(chunk.polhode[j])
         if self._trace_due and (not self.playback.playing or self.sim_time == 0.0 or (
                 self.refresh_due is None and time.monotonic() - self._traced >= _TRACE_PERIOD)):
             self._traced, self._trace_due = time.monotonic(), False
             self.polhode.flush()
+
+    def info_text(self, start: FreeBodyStart) -> str:
+        """The motion's constants (Markdown), sent when they change."""
+        g = start.geometry
+        lines = [f"**Motion**: {start.motion}; plots show the last {self.window:.3g} s",
+                 "**Principal moments** " + ", ".join(significant(float(m), 3) for m in g.moments) + " kg m²"]
+        if g.L_norm > 0:
+            lines.append(f"**E** = {significant(g.energy)} J, **|L|** = {significant(g.L_norm)} kg m²/s (constant); "
+                         + start.polhode.description)
+        return "  \n".join(lines)
 
     def readout_lines(self) -> list[str]:
         ghost, e, r = f"**Ghost** {self.config.ghost_text()}", self.ghost_error, INVARIANT_ROUND_OFF
@@ -367,4 +316,4 @@ class FreeBodyScene(SimulationScene):
             return [f"{ghost}: stopped (see the notice)"]
         drifts = ", ".join(f"{name} {one_digit(e[key], r)}" for name, key in
                            (("|ΔE|/E", "energy"), ("|Δ|L||/|L|", "L"), ("||p| − 1|", "p_norm")))
-        return [f"{ghost}: angle error {e['angle']:.1e} rad, {drifts}" + (f" (< {r:.0e}: round-off)" * ("<" in drifts))]
+        return [f"{ghost}: angle error {e['angle']:.1e} rad, {drifts}" + f" (< {r:.0e}: round-off)" * ("<" in drifts)]

@@ -242,6 +242,7 @@ class FreeBodyStart:
     geometry : :class:`core.rigid_body.MomentumGeometry` (momentum sphere, energy ellipsoid)
     L_global : (3,) the constant angular momentum, global frame: ``(0, 0, |L|)`` to round-off (kg m^2/s)
     polhode : :class:`PolhodeClass`
+    body : the name of the :class:`FreeBodyShape` it was started from ("" for a bare inertia tensor)
     """
 
     inertia: np.ndarray
@@ -251,29 +252,43 @@ class FreeBodyStart:
     geometry: MomentumGeometry
     L_global: np.ndarray
     polhode: PolhodeClass
+    body: str = ""
 
     @property
     def state0(self) -> np.ndarray:
         """(7,) ``(p0, omega_body0)``: the state of :class:`core.rigid_body.FreeBodyModel` at t = 0."""
         return np.concatenate([self.p0, self.omega_body0])
 
+    @property
+    def motion(self) -> str:
+        """The motion in a few words (plain text): the solution's kind and the period of ``omega_body``."""
+        period, kind = float(self.solution.period), self.solution.kind
+        if 0.0 < period < math.inf:
+            return f"{kind}, ω period {period:.3g} s"
+        if period > 0.0:
+            return "on the separatrix (ω period infinite)"
+        return f"{'steady rotation' if kind == 'steady' else 'at rest'}, ω constant"
 
-def free_body_start(inertia: Any, omega_body0: Any) -> FreeBodyStart:
-    """The motion from ``omega_body0`` (3,) (body frame, rad/s) with ``L = A(p0) I omega_body0`` along +Z.
+
+def free_body_start(body: FreeBodyShape | Any, omega_body0: Any) -> FreeBodyStart:
+    """The motion of ``body`` (a :class:`FreeBodyShape` or an inertia tensor (3, 3) about the centre of mass,
+    kg m^2) from ``omega_body0`` (3,) (body frame, rad/s) with ``L = A(p0) I omega_body0`` along +Z.
 
     Raises
     ------
     ValueError
         For a bad inertia tensor (:func:`core.rigid_body.principal_axes`) or ``omega_body0``.
     """
-    J = _inertia(inertia)
+    shape = body if isinstance(body, FreeBodyShape) else None
+    J = _inertia(shape.inertia if shape is not None else body)
     w0 = _vec(omega_body0, "omega_body0")
     p0 = euler_parameters_momentum_up(J, w0)
     solution = free_body_solution(J, w0, p0)
     L_global = angular_momentum_global(J, w0, p0)
     for a in (J, w0, p0, L_global):
         a.setflags(write=False)
-    return FreeBodyStart(J, w0, p0, solution, momentum_geometry(J, w0), L_global, polhode_class(solution))
+    return FreeBodyStart(J, w0, p0, solution, momentum_geometry(J, w0), L_global, polhode_class(solution),
+                         shape.name if shape is not None else "")
 
 
 # -- the polhode ---------------------------------------------------------------------------------------
@@ -394,6 +409,12 @@ class GhostComparison:
     L_drift: np.ndarray
     p_norm_error: np.ndarray
     final_state: np.ndarray
+
+    def errors(self, j: int) -> dict[str, float]:
+        """Sample ``j``'s errors: ``angle`` (rad), ``omega`` (rad/s), ``energy``, ``L`` (relative drifts),
+        ``p_norm``."""
+        return {"angle": float(self.angle_error[j]), "omega": float(self.omega_error[j]),
+                "energy": float(self.energy_drift[j]), "L": float(self.L_drift[j]), "p_norm": float(self.p_norm_error[j])}
 
 
 @dataclass(frozen=True)

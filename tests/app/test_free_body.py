@@ -282,7 +282,7 @@ def test_readout_after_the_flip_preset_explains_the_flip(free):
             want = preset_omega(name, inertia)
             wait_until(lambda: scene.setup is not None and scene.setup.body == body
                        and np.allclose(scene.setup.omega_body0, want)
-                       and scene.info.content == scene.setup.readout)
+                       and scene.info.content == scene.info_text(scene.setup))
             info = scene.info.content
             if body == BODIES[2]:  # two equal moments
                 assert "no intermediate axis and no flip" in info and "Dzhanibekov" not in info, info

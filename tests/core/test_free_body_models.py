@@ -121,6 +121,7 @@ def test_momentum_up_turns_L_onto_z():
     np.testing.assert_allclose(matrix_from_euler_parameters(p) @ [0.0, 0.0, -1.0], [0.0, 0.0, 1.0], atol=1e-15)
     start = free_body_start(J, [1.0, 2.0, 3.0])
     np.testing.assert_allclose(start.L_global[:2], 0.0, atol=1e-13)
+    assert start.body == "" and free_body_start(free_body_shape("T-handle"), [1.0, 2.0, 3.0]).body == "T-handle"
     assert start.state0.shape == (7,) and start.polhode.kind == start.solution.kind == "asymmetric"
 
 
