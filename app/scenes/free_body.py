@@ -20,7 +20,7 @@ import numpy as np
 from app.controls import Choice, Slider
 from app.nodes import set_array, set_pose
 from app.readout import one_digit, significant
-from app.scenes._plots import Legend, Table, log10_floor, window_seconds
+from app.scenes._plots import Table, log10_floor, window_seconds
 from app.scenes._shapes import arrow_segments, ellipsoid_wireframe, parts_mesh
 from app.scenes._simulation import PlotSpec, SimulationScene
 from app.scenes._trail import SphereTrail
@@ -168,7 +168,7 @@ class FreeBodyScene(SimulationScene):
         "the separatrix and the body flips (the Dzhanibekov effect).\n"
         "- Plots: the exact ω_body(t), the ghost's error and its drift of E, |L| and |p| − 1, "
         "over at least two periods of ω; drifts at or below 10 machine epsilons are round-off "
-        "and drawn on the grey round-off line. *Download CSV* exports the samples of the window."
+        "and drawn on the dashed grey round-off line. *Download CSV* exports the samples of the window."
     )
     # look a little right of the body so the GUI panel does not cover the ghost
     camera_position: ClassVar[tuple[float, float, float]] = (4.4, 0.85, 1.85)
@@ -214,15 +214,14 @@ class FreeBodyScene(SimulationScene):
         self.labels = {key: self.add_label(f"{root}/label_{key}", text, position=position, anchor=anchor,
                                            scale=_LABEL_SCALE) for key, text, position, anchor in (
             ("exact", "exact solution", _EXACT_POS + (0.0, 0.0, -0.95), "top-center"),
-            ("ghost", "ghost\n" + _DEFAULT.ghost_text(), _GHOST_POS + (0.0, 0.0, _ARROW_LENGTH + 0.08), "bottom-center"),
+            ("ghost", "ghost\n" + _DEFAULT.ghost_text(), _GHOST_POS + (0, 0, _ARROW_LENGTH + 0.08), "bottom-center"),
             ("sphere", "momentum sphere\n(body frame)", _SPHERE_POS + (0.0, 0.0, _SPHERE_RADIUS + 0.12),
              "bottom-center"),
             ("L", "L", _EXACT_POS + (0.0, 0.0, _ARROW_LENGTH + 0.08), "bottom-center"),
             ("omega", "ω", (0.0, 0.0, 0.0), "bottom-left"))}
 
     def build_controls(self) -> None:
-        self.legend = Legend(self.target.gui, (_EXACT, _GHOST, _L, _OMEGA, _GHOST_L, _POLHODE, _ELLIPSOID),
-                             presenter=self.presenter)
+        self.legend = self.add_legend((_EXACT, _GHOST, _L, _OMEGA, _GHOST_L, _POLHODE, _ELLIPSOID))
         self.add_playback()
         self.info = self.add_readout("")  # the motion's constants (sent when they change)
         self.controls.add(Choice("body", "Body", options=BODIES, default=_DEFAULT.body))
@@ -242,19 +241,17 @@ class FreeBodyScene(SimulationScene):
         # is drawn on the grey round-off line (it would jump between a few eps and exact zeros, a square wave)
         floor, ghost = math.log10(INVARIANT_ROUND_OFF), (lambda inputs: inputs.ghost)
         return [
-            PlotSpec("omega", "exact ω_body(t) (body frame)", (("ω_x (rad/s)", "#dc2626"), ("ω_y (rad/s)", "#16a34a"),
-                     ("ω_z (rad/s)", "#2563eb")), lambda t, c: (c[:, 4], c[:, 5], c[:, 6])),
+            PlotSpec("omega", "exact ω_body(t) (body frame)", (("ω_x (rad/s)", "#dc2626"),
+                     ("ω_y (rad/s)", "#16a34a"), ("ω_z (rad/s)", "#2563eb")), lambda t, c: tuple(c[:, 4:7].T)),
             PlotSpec("error", "ghost error vs exact (log10)", (("log10 angle error (rad)", "#b45309"),
-                     ("log10 |ω error| (rad/s)", "#7c3aed")), lambda t, c: (log10_floor(c[:, 18]), log10_floor(c[:, 19])),
+                     ("log10 |ω error| (rad/s)", "#7c3aed")), lambda t, c: tuple(log10_floor(c[:, 18:20]).T),
                      shown=ghost),
-            PlotSpec("drift", "ghost drift of invariants (log10; the grey line is round-off)",
+            PlotSpec("drift", "ghost drift of invariants (log10; the dashed grey line is round-off)",
                      (("log10 |ΔE|/E", "#0f766e"), ("log10 |Δ|L||/|L|", "#1f2937"), ("log10 ||p|-1|", "#be185d"),
-                      (f"round-off (10 ε = {INVARIANT_ROUND_OFF:.1e})", "#9ca3af")),
-                     lambda t, c: (*np.maximum(log10_floor(c[:, 20:23]), floor).T, np.full(t.size, floor)), shown=ghost),
+                      (f"round-off (10 ε = {INVARIANT_ROUND_OFF:.1e})", "#9ca3af", {"dash": [6, 4], "width": 1})),
+                     lambda t, c: (*np.maximum(log10_floor(c[:, 20:23]), floor).T, np.full(t.size, floor)),
+                     shown=ghost),
         ]
-
-    def on_presenter(self, on: bool) -> None:
-        self.legend.set_presenter(on)
 
     # -- the motion -------------------------------------------------------------------------------------
     def on_configure(self, inputs: Inputs) -> None:

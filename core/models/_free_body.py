@@ -414,7 +414,8 @@ class GhostComparison:
         """Sample ``j``'s errors: ``angle`` (rad), ``omega`` (rad/s), ``energy``, ``L`` (relative drifts),
         ``p_norm``."""
         return {"angle": float(self.angle_error[j]), "omega": float(self.omega_error[j]),
-                "energy": float(self.energy_drift[j]), "L": float(self.L_drift[j]), "p_norm": float(self.p_norm_error[j])}
+                "energy": float(self.energy_drift[j]), "L": float(self.L_drift[j]),
+                "p_norm": float(self.p_norm_error[j])}
 
 
 @dataclass(frozen=True)
