@@ -52,7 +52,8 @@ from app.controls import Button, Choice, Text, Toggle
 from app.gate import Gate, RefusedValue, client_request_path
 from app.panel import ControlPanel
 from app.scenes import discover_scenes, discovery_errors
-from app.scenes.base import Scene, SceneContext, aim_camera, plot_text_css
+from app.scenes.base import (NORMAL_PANEL_PX, PRESENTER_PANEL_PX, Scene, SceneContext, aim_camera,
+                             presenter_css)
 from app.jobs import make_executor
 from app.loop_thread import install as install_loop_events
 from core._warm import running_for as warm_up_running_for
@@ -93,6 +94,10 @@ _MAX_DT = 0.1
 #: View for scenes that do not declare ``camera_position`` / ``camera_look_at``.
 DEFAULT_CAMERA_POSITION = (3.2, -4.2, 2.6)
 DEFAULT_CAMERA_LOOK_AT = (0.0, 0.0, 0.3)
+#: Seconds after a browser joins, or a scene is shown, at which the page is asked to draw again: viser
+#: 1.1.1's page registers a 3-D label (its glyphs) after the frame that mounted it and asks for no new
+#: frame, so without a later redraw a fresh page showed no labels until something moved.
+_REDRAW_AFTER = (0.3, 1.0, 2.0, 4.0, 8.0)
 #: Thread switch interval while an app runs (s): a background job holding the
 #: GIL delays the loop thread by at most about this much (Python's default is 5 ms).
 SWITCH_INTERVAL = 0.0005
@@ -207,7 +212,9 @@ class Session:
         self.gate = Gate.for_gui(target.gui, on_refused=self._on_refused)
         self.controls = ControlPanel(target.gui, self.gate, self.notify_client)
         self._chooser: Any = None
-        self._plot_css: Any = None  # the plots' title and legend sizes (presenter view), an HTML element
+        self._plot_css: Any = None  # presenter view's style sheet (controls, plot titles), an HTML element
+        self._redraw_node: Any = None  # an empty hidden frame whose visibility flips to make pages redraw
+        self._redraws: list[float] = []  # monotonic times of the coming redraws
 
     # -- notices ---------------------------------------------------------
     def notify(self, title: str, body: str, level: str = "info") -> None:
@@ -320,7 +327,10 @@ class Session:
                        hint="Large labels, thick arrows and large readouts for a projector."),
                 order=-999.0,
             )
-            self._plot_css = gui.add_html(plot_text_css(self.presenter), order=-998.0)
+            self._plot_css = gui.add_html(presenter_css(self.presenter), order=-998.0)
+            if self.presenter:
+                self._set_panel_width()
+            self._redraw_node = self.target.scene.add_frame("/_rigidlab_redraw", show_axes=False, visible=False)
             with gui.add_folder("Share", order=1e6, expand_by_default=False):
                 self.controls.add(Button("copy_state", "Copy state",
                                          hint="The scene's parameters as a short string and a link"))
@@ -395,6 +405,7 @@ class Session:
                 self.controls.set("state_out", "")
                 self._share_html.content = ""
             self._guard(f"framing scene '{name}'", lambda: self._frame_camera(name))
+            self.redraw_soon()
             return True
 
     def _frame_camera(self, name: str) -> None:
@@ -416,9 +427,35 @@ class Session:
             if self._chooser is not None:
                 self.controls.set("presenter", self.presenter)
             if self._plot_css is not None:
-                self._plot_css.content = plot_text_css(self.presenter)
+                self._plot_css.content = presenter_css(self.presenter)
+                self._set_panel_width()
             for name, scene in self.scenes.items():
                 self._guard(f"presenter view of '{name}'", lambda scene=scene: scene.set_presenter(self.presenter))
+
+    def _set_panel_width(self) -> None:
+        """The control panel's width for the view (:data:`PRESENTER_PANEL_PX` in presenter view)."""
+        self.target.gui.main_panel.set_width(PRESENTER_PANEL_PX if self.presenter else NORMAL_PANEL_PX)
+
+    def redraw_soon(self) -> None:
+        """Ask this audience's pages to draw again at :data:`_REDRAW_AFTER` seconds from now (any thread): a
+        page that joined, or a scene just shown, then shows its 3-D labels without waiting for a change."""
+        now = time.monotonic()
+        with self.lock:
+            self._redraws = sorted({*self._redraws, *(now + s for s in _REDRAW_AFTER)})
+
+    def _redraw_due(self) -> None:
+        """Flip the hidden redraw node if a redraw is due (loop thread): a visibility change makes viser's
+        page compute visibilities again and draw a frame, in which its label renderer builds the glyphs
+        of labels it registered since (and asks for further frames until they are drawn)."""
+        if not self._redraws or self._redraw_node is None:
+            return
+        now = time.monotonic()
+        with self.lock:
+            due = [t for t in self._redraws if t <= now]
+            if not due:
+                return
+            self._redraws = [t for t in self._redraws if t > now]
+        self._redraw_node.visible = not self._redraw_node.visible
 
     def active_scene(self) -> Scene | None:
         with self.run_lock:
@@ -449,6 +486,7 @@ class Session:
             for key, _, client in clicks:
                 self._guard(f"Share: {key.replace('_', ' ')}", lambda key=key, client=client: self._share(key, client))
             self._finish_loads()
+            self._guard("redrawing the page", self._redraw_due)
             name = self.active_name
             if name is None:
                 return
@@ -765,6 +803,8 @@ class RigidlabApp:
             return
         link_state = self._link_state(client.client_id)
         if self.mode != "per-client":
+            if self._shared is not None:
+                self._shared.redraw_soon()  # the new page's labels (see Session.redraw_soon)
             if link_state is not None:
                 _send_notice(
                     client, "State link not applied",

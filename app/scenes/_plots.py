@@ -14,6 +14,13 @@ periods, within a cap); :class:`Legend` is the panel's colour key of a
 scene's arrows and curves (an HTML panel that grows in presenter view, as
 readouts do); :class:`PlotRefresh` spreads the refresh of several plots over
 consecutive frames at a rate a reader can follow.
+
+Axes that mean something (used by :meth:`app.scenes.base.Scene.show_series`,
+which a scene calls to send a plot's data): :func:`axis_offset` and
+:func:`offset_label` / :func:`label_with_offset` draw a flat series as
+``y - offset`` with the offset in its label, :func:`y_limits` gives y limits
+that follow the data, and :func:`round_off_level` / :func:`drift_title` label
+a drift plot whose values are round-off.
 """
 
 from __future__ import annotations
@@ -21,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import html
 import math
+import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -34,7 +42,13 @@ __all__ = [
     "Legend",
     "PlotRefresh",
     "Table",
+    "axis_offset",
+    "drift_title",
     "format_rows",
+    "label_with_offset",
+    "offset_label",
+    "round_off_level",
+    "y_limits",
     "hex_color",
     "log10_floor",
     "window_seconds",
@@ -281,3 +295,168 @@ class PlotRefresh:
             self._queue = list(self.names)
             self._since = 0.0
         return self._queue.pop(0) if self._queue else None
+
+
+# -- axes that mean something -------------------------------------------------------------------------------
+#: A series is drawn as an offset (``y - offset``) when its spread is below this fraction of its magnitude:
+#: uPlot's own ticks of such a series all print the same number ("26.886" on every tick of a flat energy).
+OFFSET_SPREAD = 1e-3
+#: Values at most this many units of round-off (``ROUND_OFF_ULPS * eps * scale``) are "round-off level".
+ROUND_OFF_ULPS = 64.0
+
+
+def _finite(values: Any) -> np.ndarray:
+    a = np.asarray(values, dtype=float).ravel()
+    return a[np.isfinite(a)]
+
+
+def axis_offset(values: Any, *, spread: float = OFFSET_SPREAD) -> float:
+    """The offset a plot subtracts from ``values`` so that its ticks differ: 0.0 unless the spread
+    (max - min) of the finite values is below ``spread`` times their largest magnitude.
+
+    The offset is the mid-range rounded to one decimal below the spread's leading digit, so it prints
+    short ("26.886") and the remainders ``values - offset`` are a few spreads at most. A flat non-zero
+    series (spread 0) gets its value (to 12 significant digits) as offset.
+
+    Parameters
+    ----------
+    values : array_like, any shape
+        The plotted values (NaN and inf are ignored).
+    spread : float, keyword-only
+        Largest relative spread that is still drawn without an offset (positive).
+
+    Raises
+    ------
+    ValueError
+        If ``spread`` is not positive.
+    """
+    if not (spread > 0.0):
+        raise ValueError(f"spread: expected a positive fraction, got {spread!r}")
+    a = _finite(values)
+    if a.size == 0:
+        return 0.0
+    lo, hi = float(a.min()), float(a.max())
+    size = max(abs(lo), abs(hi))
+    if size == 0.0 or hi - lo >= spread * size:
+        return 0.0
+    mid = 0.5 * (lo + hi)
+    if hi == lo:
+        return float(f"{mid:.12g}")
+    decimals = max(0, -1 - math.floor(math.log10(hi - lo)))
+    return float(round(mid, decimals)) if decimals < 16 else mid
+
+
+def offset_label(name: str, offset: float, unit: str = "") -> str:
+    """A series or axis label that states its offset: ``"E − 26.886 (J)"`` (``"E (J)"`` for offset 0)."""
+    unit_text = f" ({unit})" if unit else ""
+    if offset == 0.0:
+        return f"{name}{unit_text}"
+    sign = "\u2212" if offset > 0 else "+"
+    return f"{name} {sign} {abs(offset):.12g}{unit_text}"
+
+
+def label_with_offset(label: str, offset: float) -> str:
+    """A series label with its offset, the unit kept last: ``"E (J)"`` and 26.886 give ``"E − 26.886 (J)"``."""
+    match = re.fullmatch(r"(.*?)\s*\(([^()]*)\)", label)
+    if match is None:
+        return offset_label(label, offset)
+    return offset_label(match.group(1), offset, match.group(2))
+
+
+def _nice_step(span: float) -> float:
+    """A 1-2-5 step of about a twentieth of ``span`` (> 0): the limits are rounded out to it."""
+    raw = span / 20.0
+    power = 10.0 ** math.floor(math.log10(raw))
+    for m in (1.0, 2.0, 5.0, 10.0):
+        if raw <= m * power:
+            return m * power
+    return 10.0 * power  # pragma: no cover - (the loop ends at 10)
+
+
+def y_limits(values: Any, *, min_span: float = 0.0, pad: float = 0.08,
+             include: tuple[float, ...] = ()) -> tuple[float, float]:
+    """y-axis limits that follow the data: the finite values' range (and the numbers in ``include``),
+    padded by ``pad`` of the span on each side and rounded out to a 1-2-5 tick step.
+
+    A span below ``min_span`` is widened to ``min_span`` about the data's middle (a flat lean angle gets a
+    few degrees, not 0-100); a flat series with ``min_span`` 0 gets a span of 1e-6 of its magnitude (1 at 0).
+    Without finite values the limits are ``(-1, 1)`` (or ``min_span`` about 0).
+
+    Parameters
+    ----------
+    values : array_like, any shape
+        The plotted values (NaN and inf ignored), in the plot's units (after any offset).
+    min_span : float, keyword-only
+        Smallest span of the limits (>= 0).
+    pad : float, keyword-only
+        Margin above and below the data, as a fraction of their span (>= 0).
+    include : tuple of float, keyword-only
+        Values the limits always contain (a bound drawn as a line, 0).
+
+    Returns
+    -------
+    (lo, hi) : floats with ``lo < hi``.
+
+    Raises
+    ------
+    ValueError
+        If ``min_span`` or ``pad`` is negative or not finite.
+    """
+    if not (math.isfinite(min_span) and min_span >= 0.0):
+        raise ValueError(f"min_span: expected a finite number >= 0, got {min_span!r}")
+    if not (math.isfinite(pad) and pad >= 0.0):
+        raise ValueError(f"pad: expected a finite number >= 0, got {pad!r}")
+    a = np.concatenate([_finite(values), _finite(include)])
+    if a.size == 0:
+        half = 0.5 * min_span if min_span > 0.0 else 1.0
+        return -half, half
+    lo, hi = float(a.min()), float(a.max())
+    span = hi - lo
+    floor_span = min_span if min_span > 0.0 else (1e-6 * max(abs(lo), abs(hi)) or 1.0)
+    if span < floor_span:
+        mid = 0.5 * (lo + hi)
+        lo, hi = mid - 0.5 * floor_span, mid + 0.5 * floor_span
+        span = floor_span
+    else:
+        lo, hi = lo - pad * span, hi + pad * span
+        span = hi - lo
+    step = _nice_step(span)
+    lo_r, hi_r = math.floor(lo / step) * step, math.ceil(hi / step) * step
+    if not (hi_r > lo_r):  # steps below the values' resolution
+        return lo, hi
+    return lo_r, hi_r
+
+
+def round_off_level(values: Any, *, scale: float, ulps: float = ROUND_OFF_ULPS) -> bool:
+    """Whether every finite value is at round-off level: ``|v| <= ulps * eps * |scale|`` (float64 eps).
+
+    ``scale`` is the size of the quantity the values are errors of (an energy's magnitude, 1 for a unit
+    quaternion's norm); a drift plot whose values pass says so (:func:`drift_title`) instead of showing
+    square-wave round-off as if it were a trend. No finite value: False.
+
+    Raises
+    ------
+    ValueError
+        If ``scale`` is not finite or ``ulps`` is not positive.
+    """
+    if not math.isfinite(scale):
+        raise ValueError(f"scale: expected a finite number, got {scale!r}")
+    if not (ulps > 0.0):
+        raise ValueError(f"ulps: expected a positive number, got {ulps!r}")
+    a = _finite(values)
+    if a.size == 0:
+        return False
+    return bool(np.max(np.abs(a)) <= ulps * np.finfo(float).eps * max(abs(scale), np.finfo(float).tiny))
+
+
+def drift_title(title: str, values: Any, *, scale: float, log10: bool = False,
+                ulps: float = ROUND_OFF_ULPS) -> str:
+    """The title of a drift plot: ``title``, plus "— round-off level (≤ 64 ε)" when the drift is
+    (:func:`round_off_level`). ``log10``: the values are ``log10 |drift|`` (as the log plots draw them,
+    :func:`log10_floor`)."""
+    a = np.asarray(values, dtype=float)
+    if log10:
+        a = 10.0 ** a
+    if round_off_level(a, scale=scale, ulps=ulps):
+        return f"{title} \u2014 round-off level (\u2264 {ulps:g} \u03b5)"
+    return title

@@ -61,10 +61,12 @@ from app.controls import Button
 from app.gate import Gate
 from app.panel import ControlPanel, NotifyClient
 from app.readout import PRESENTER_FONT_SCALE, Readout
+from app.scenes._plots import axis_offset, drift_title, label_with_offset, offset_label, y_limits
 from app.jobs import make_executor
 from app.nodes import set_array
 
-__all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE", "aim_camera"]
+__all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE", "aim_camera",
+           "presenter_css"]
 
 _log = logging.getLogger(__name__)
 
@@ -116,6 +118,53 @@ def plot_text_css(presenter: bool) -> str:
     legend = PRESENTER_FONT_SCALE * 0.7 / 0.875
     return (f"<style>.uplot .u-title{{font-size:{title:.2f}em !important;line-height:1.3 !important}}"
             f".uplot .u-legend{{font-size:{legend:.2f}em !important}}</style>")
+
+
+#: Presenter view: the control panel's width (px; viser's "large" control width is 384 px) and the font
+#: size (px) of its controls' text: slider and field labels, inputs, dropdowns, buttons, folder and tab
+#: titles, slider marks (11-12 px in the normal view).
+PRESENTER_PANEL_PX = 560
+NORMAL_PANEL_PX = 384
+PRESENTER_CONTROL_PX = 16
+
+
+def presenter_css(presenter: bool) -> str:
+    """The session's style sheet (HTML) for presenter view: every control of the panel at
+    :data:`PRESENTER_CONTROL_PX` and the plots' titles and legends grown (:func:`plot_text_css`); empty
+    in the normal view.
+
+    viser sizes a control's text in em of the panel's font or with Mantine's ``xs`` size (0.75 rem), so
+    the sheet sets both the controls' boxes and their text; the panel's width is set apart
+    (:data:`PRESENTER_PANEL_PX`, ``gui.main_panel.set_width``).
+    """
+    if not presenter:
+        return ""
+    px = PRESENTER_CONTROL_PX
+    controls = (
+        # labels of rows (sliders, fields, dropdowns, checkboxes), folder titles, tab titles
+        "label, .mantine-Text-root, .mantine-Checkbox-label, .mantine-Tabs-tab, .mantine-Tabs-tabLabel, "
+        "[role=tab], legend, .mantine-Fieldset-legend"
+    )
+    boxes = (
+        ".mantine-Input-input, .mantine-NumberInput-input, .mantine-TextInput-input, .mantine-Select-input, "
+        ".mantine-Textarea-input, .mantine-Select-option, .mantine-Combobox-option"
+    )
+    return (
+        "<style>"
+        f":root{{--mantine-font-size-xs:{px}px;--mantine-font-size-sm:{px}px;"
+        f"--input-height-xs:{round(px * 2.0)}px;--input-height-sm:{round(px * 2.1)}px}}"
+        f"{controls}{{font-size:{px}px !important;line-height:1.35 !important}}"
+        f"{boxes}{{font-size:{px}px !important;min-height:{round(px * 1.9)}px !important;"
+        f"height:auto !important}}"
+        f".mantine-Button-root{{font-size:{px}px !important;height:auto !important;"
+        f"min-height:{round(px * 2.1)}px !important;padding-top:0.2em;padding-bottom:0.2em}}"
+        f".mantine-Button-label, .mantine-Button-inner{{font-size:{px}px !important}}"
+        f".mantine-Slider-markLabel{{font-size:{round(px * 0.8)}px !important}}"
+        f".mantine-Slider-thumb{{width:{round(px * 1.1)}px;height:{round(px * 1.1)}px}}"
+        ".mantine-Tooltip-tooltip{font-size:15px !important}"
+        "</style>"
+        + plot_text_css(True)
+    )
 
 
 @dataclasses.dataclass
@@ -187,6 +236,9 @@ class Scene:
     #: ``None`` means the app's default view.
     camera_position: ClassVar[tuple[float, float, float] | None] = None
     camera_look_at: ClassVar[tuple[float, float, float] | None] = None
+    #: Whether the scene shows plots or tables in :meth:`plot_area`: its folder then has a "Controls" and a
+    #: "Plots" tab (:meth:`make_folder`). A scene without plots sets False.
+    has_plots: ClassVar[bool] = True
 
     def __init__(self, target: Any, notify: Notify, *, context: SceneContext | None = None) -> None:
         self.target = target
@@ -202,6 +254,9 @@ class Scene:
         self._paused_version = -1
         self._logged_errors: set[str] = set()
         self._gui_folder: Any = None
+        self._tabs: Any = None
+        self._plot_tab: Any = None
+        self._plot_axes: dict[int, tuple] = {}
         self._labels: list[tuple[Any, float]] = []
         self._arrows: list[tuple[Any, float, float, float]] = []
         self._lines: list[tuple[Any, float]] = []
@@ -427,19 +482,38 @@ class Scene:
         return self.root_frame
 
     def make_folder(self) -> Any:
-        """Create the scene's GUI folder (with its "What you see" section)."""
+        """Create the scene's GUI folder (with its "What you see" section); returns the container the
+        scene's controls go in (a context manager).
+
+        A scene with plots (:attr:`has_plots`) gets two tabs at the top of its folder, "Controls" (returned
+        here) and "Plots" (:meth:`plot_area`): at 1600 x 900 a click on "Plots" shows the plots at the top
+        of the panel, beside the 3-D view, instead of some 1400 px down a scrolling panel. A scene without
+        plots keeps one plain folder.
+        """
         gui = self.target.gui
         self._gui_folder = gui.add_folder(self.title)
-        if self.help:
+        controls = self._gui_folder
+        if self.has_plots:
             with self._gui_folder:
+                self._tabs = gui.add_tab_group()
+                controls = self._tabs.add_tab("Controls")
+                self._plot_tab = self._tabs.add_tab("Plots")
+        if self.help:
+            with controls:
                 with gui.add_folder("What you see", expand_by_default=False):
                     self.help_readout = self.add_readout(self.help)
-        return self._gui_folder
+        return controls
 
     def plot_area(self) -> Any:
         """The GUI container a scene's plots and tables go in (a context manager): every scene calls this
-        instead of making its own "Plots" folder, so the page's layout of plots (beside the 3-D view) is
-        decided here, once."""
+        instead of making its own "Plots" folder, so the page's layout of plots is decided here, once.
+
+        In a scene with :attr:`has_plots` (the default) it is the "Plots" tab of the scene's folder (see
+        :meth:`make_folder`); otherwise, or before :meth:`make_folder`, a "Plots" folder in the current
+        container.
+        """
+        if self._plot_tab is not None:
+            return self._plot_tab
         return self.target.gui.add_folder("Plots")
 
     def add_ground_grid(
@@ -530,6 +604,67 @@ class Scene:
             set_array(handle, "points", points)
         if handle.visible != (points is not None):
             handle.visible = points is not None
+
+    def show_series(self, plot: Any, x: Any, ys: Any, *, title: str | None = None, unit: str = "",
+                    min_span: float = 0.0, include: tuple[float, ...] = (), offset: bool = True,
+                    drift_scale: float | None = None, log10: bool = False) -> None:
+        """Send new data to a plot made with :meth:`add_plot`, with axes that mean something.
+
+        * **offset notation** -- a series whose spread is tiny beside its value (an energy that stays
+          26.886 J) is drawn as ``y - offset`` (:func:`app.scenes._plots.axis_offset`); the series'
+          legend labels and the title say so ("E − 26.886 (J)"), and the ticks differ;
+        * **limits that follow the data** -- the y range is the data's (:func:`~app.scenes._plots.y_limits`,
+          at least ``min_span`` wide, containing ``include``), kept while the data stay inside it and
+          fill at least 40 % of it, so it does not jitter every refresh;
+        * **round-off** -- with ``drift_scale`` (the size of the quantity the series is an error of; ``log10``:
+          the series are ``log10 |error|``) the title says "round-off level" when every value is
+          (:func:`~app.scenes._plots.drift_title`).
+
+        Parameters
+        ----------
+        plot : the handle :meth:`add_plot` returned
+        x : (n,) the x values
+        ys : sequence of (n,) arrays, one per series after x (in the plot's order)
+        title : str or None, keyword-only
+            The plot's title without the notes above (None: the title is left as it is).
+        unit : str, keyword-only
+            Unit of the y values, for the offset's label.
+        min_span : float, keyword-only
+            Smallest span of the y range (in the y unit).
+        include : tuple of float, keyword-only
+            y values the range always contains (a bound drawn as a line, 0).
+        offset : bool, keyword-only
+            Whether a flat series may be drawn with an offset (False: as it is; never for ``log10``).
+        drift_scale, log10 : keyword-only
+            See above.
+        """
+        columns = [np.asarray(y, dtype=float) for y in ys]
+        values = np.concatenate([c.ravel() for c in columns]) if columns else np.zeros(0)
+        off = axis_offset(values) if offset and not log10 else 0.0
+        shown = [c - off for c in columns]
+        key = id(plot)
+        labels, old_off, old_lim, old_title = self._plot_axes.get(key) or (
+            tuple(str(s.get("label", "")) for s in plot.series), None, None, None)
+        finite = values[np.isfinite(values)] - off
+        lim = old_lim
+        if lim is None or finite.size == 0 or finite.min() < lim[0] or finite.max() > lim[1] or (
+                lim[1] - lim[0] > max(min_span, 0.0) and finite.max() - finite.min() < 0.4 * (lim[1] - lim[0])) \
+                or old_off != off:
+            lim = y_limits(finite, min_span=min_span, include=tuple(v - off for v in include))
+        plot.data = (np.asarray(x, dtype=float), *shown)
+        if old_off != off:
+            plot.series = tuple(
+                s if k == 0 else {**s, "label": label_with_offset(labels[k], off)} for k, s in enumerate(plot.series))
+        if lim != old_lim:
+            plot.scales = {**(plot.scales or {}), "y": {"auto": False, "range": (float(lim[0]), float(lim[1]))}}
+        text = old_title
+        if title is not None:
+            text = title if drift_scale is None else drift_title(title, values, scale=drift_scale, log10=log10)
+            if off:
+                text = f"{text} \u2014 shown as {offset_label('y', off, unit)}"
+            if text != old_title:
+                plot.title = text
+        self._plot_axes[key] = (labels, off, lim, text)
 
     def add_readout(self, content: str = "", **kwargs: Any) -> Readout:
         """A text panel in the current GUI folder (sent only when it changes)."""

@@ -10,7 +10,8 @@ import pytest
 
 from app.readout import PRESENTER_FONT_SCALE
 from app.scenes import discover_scenes
-from app.scenes.base import PLOT_FONT_PX, PLOT_Y_AXIS_PX, plot_axes, plot_padding, plot_text_css
+from app.scenes.base import (PLOT_FONT_PX, PLOT_Y_AXIS_PX, PRESENTER_CONTROL_PX, plot_axes, plot_padding,
+                             plot_text_css, presenter_css)
 from tests.helpers import send_value, wait_until
 
 SCENES = list(discover_scenes())
@@ -62,10 +63,14 @@ def test_plot_titles_and_legends_grow_in_presenter_view(running_app: Any) -> Non
     css = plot_text_css(True)
     assert f".uplot .u-title{{font-size:{PRESENTER_FONT_SCALE:.2f}em !important" in css
     assert ".uplot .u-legend{font-size:1.16em !important}" in css  # 0.7 em scaled as the title's 0.875
+    # the session's sheet carries it in presenter view, with the controls' sizes
+    assert presenter_css(False) == ""
+    sheet = presenter_css(True)
+    assert css in sheet and f"font-size:{PRESENTER_CONTROL_PX}px !important" in sheet
     app = running_app(scene="cam_follower")
     session = app.session_for()
     assert session._plot_css.content == ""
     assert send_value(session, "presenter", True)
-    assert wait_until(lambda: session._plot_css.content == css, 10.0)
+    assert wait_until(lambda: session._plot_css.content == sheet, 10.0)
     assert send_value(session, "presenter", False)
     assert wait_until(lambda: session._plot_css.content == "", 10.0)
