@@ -130,6 +130,44 @@ def _copy_button(label: str, text: str) -> str:
     )
 
 
+#: The page's guard of a slider's number box (JavaScript run once per page, from an HTML element): viser's box
+#: sends nothing for text that is not a number ("nan", "abc", an emptied box) and then stayed blank, the
+#: value in use shown nowhere. On leaving such a box the guard puts the slider's value back in it and shows
+#: a notice saying what was refused and which value is in use.
+_SLIDER_BOX_GUARD_JS = """(function(){
+if (window.rigidlabBoxGuard) return; window.rigidlabBoxGuard = true;
+var typed = new WeakMap();
+document.addEventListener('keydown', function(ev){ var t = ev.target;
+  if (t instanceof HTMLInputElement && ev.key.length === 1) typed.set(t, (typed.get(t) || '') + ev.key); }, true);
+document.addEventListener('focusin', function(ev){ if (ev.target instanceof HTMLInputElement) typed.set(ev.target, ''); }, true);
+document.addEventListener('focusout', function(ev){
+  var box = ev.target; if (!(box instanceof HTMLInputElement)) return;
+  var row = box.closest('.mantine-Flex-root'); if (!row) return;
+  var thumb = row.querySelector('[role=slider]'); if (!thumb) return;
+  var text = box.value.trim(); if (text !== '' && isFinite(Number(text))) return;
+  var inUse = thumb.getAttribute('aria-valuenow'); if (inUse === null) return;
+  var setter = Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, 'value').set;
+  setter.call(box, inUse); box.dispatchEvent(new Event('input', {bubbles: true}));
+  var outer = row.parentElement && row.parentElement.closest('.mantine-Flex-root');
+  var label = (outer || row).querySelector('label');
+  var got = typed.get(box) || text;
+  var note = document.createElement('div'); note.className = 'rigidlab-notice'; note.setAttribute('role', 'alert');
+  note.style.cssText = 'position:fixed;top:1em;left:50%;transform:translateX(-50%);z-index:10000;max-width:32em;' +
+    'background:#fff;border-left:4px solid #fab005;box-shadow:0 2px 10px rgba(0,0,0,.2);padding:.6em 1em;' +
+    'font:14px system-ui,sans-serif;border-radius:4px';
+  note.textContent = 'Refused: ' + (label ? label.textContent : 'value') + ' \u2014 expected a number, got ' +
+    (got ? JSON.stringify(got) : 'an empty box') + '. Showing the value in use, ' + inUse + '.';
+  document.body.appendChild(note); setTimeout(function(){ note.remove(); }, 8000);
+}, true);
+})()"""
+
+
+def _page_script(js: str) -> str:
+    """HTML that runs ``js`` once in the page (viser's HTML element sets inner HTML: an image that fails to
+    load runs its ``onerror``)."""
+    return f"<img alt='' src='data:,' style='display:none' onerror=\"{html.escape(js, quote=True)}\">"
+
+
 _LOAD_CHECKER: concurrent.futures.ThreadPoolExecutor | None = None
 _LOAD_CHECKER_LOCK = threading.Lock()
 
@@ -328,6 +366,7 @@ class Session:
                 order=-999.0,
             )
             self._plot_css = gui.add_html(presenter_css(self.presenter), order=-998.0)
+            gui.add_html(_page_script(_SLIDER_BOX_GUARD_JS), order=-997.0)
             if self.presenter:
                 self._set_panel_width()
             self._redraw_node = self.target.scene.add_frame("/_rigidlab_redraw", show_axes=False, visible=False)

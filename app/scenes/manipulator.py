@@ -60,6 +60,8 @@ _LINK_RADIUS = 0.05
 _INITIAL_DEG = (30.0, 45.0, 60.0)
 _READOUT_PERIOD = 0.1  # s: shortest time between readout refreshes (poses go at the loop rate)
 
+#: While "Animate joints" sweeps, the joint sliders are set to the drawn angles this often (s).
+_SLIDER_FOLLOW_PERIOD = 0.1
 # Joint sweep of "animate joints": amplitude (deg) and frequency (Hz) per joint.
 _SWEEP_AMPLITUDE_DEG = (150.0, 70.0, 170.0)
 _SWEEP_FREQUENCY_HZ = (0.07, 0.11, 0.17)
@@ -183,6 +185,7 @@ class ManipulatorScene(Scene):
         self.geometry = geometry
         # State owned by update() (the session loop thread).
         self._time = 0.0
+        self._slider_time = 0.0
         self._sweep_start = np.radians(_INITIAL_DEG)
         self._readout_period = float(readout_period)
         self._readout_time = -math.inf
@@ -339,6 +342,12 @@ class ManipulatorScene(Scene):
                     slider.disabled = True
             self._time += dt
             angles = joint_sweep(self._time, self._sweep_start)
+            self._slider_time += dt
+            if self._slider_time >= _SLIDER_FOLLOW_PERIOD:
+                # the (disabled) sliders follow the sweep, a few times a second: they show the angles drawn
+                self._slider_time = 0.0
+                self.controls.set_many({f"theta{k + 1}": round(wrap_deg(math.degrees(a)), 1)
+                                        for k, a in enumerate(angles)})
         else:
             if self._was_animating:
                 for slider in self.gui.joint_sliders:

@@ -52,7 +52,7 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app.controls import Choice, Slider, Toggle
+from app.controls import Choice, Refused, Slider, Toggle, describe
 from app.nodes import set_pose
 from app.scenes._bodies import Parts, PartsView, Placed
 from app.scenes._plots import Legend
@@ -788,6 +788,43 @@ _STATUS_TEXT = {"stable": "stable (damped)", "neutral": "neutral (undamped)", "u
                 "mirrored": "**unstable**: decays, its mirror grows", "rigid": "rigid"}
 
 
+@dataclasses.dataclass(frozen=True)
+class ModeChoice(Choice):
+    """The mode picker: a dropdown whose options are the rows of the modes table.
+
+    The value (in the state, in ``controls.value("mode")``) stays the mode number, ``"1"`` to ``"12"``; the
+    dropdown shows each number as its row ("2 · 1.234 Hz · ξ 0.02 · neutral", :func:`mode_row`), which the
+    scene writes into :attr:`rows` when a new solution is shown. A browser may send either form.
+    """
+
+    rows: dict = dataclasses.field(default_factory=dict, compare=False, kw_only=True)
+
+    def _number(self, raw: Any) -> str | None:
+        if not isinstance(raw, str):
+            return None
+        head = raw.split("\u00b7", 1)[0].strip()
+        return head if head in self.options else None
+
+    def check(self, raw: Any) -> str:
+        if self._number(raw) is None:
+            raise Refused(f"expected a mode number 1 to {len(self.options)} (a row of the table), got {describe(raw)}")
+        return raw
+
+    def parse(self, value: Any) -> Any:
+        number = self._number(value)
+        return value if number is None else number
+
+    def display(self, value: Any) -> Any:
+        return self.rows.get(value, value)
+
+
+def mode_row(solution: Solution, number: int) -> str:
+    """Mode ``number`` (1-based) as one line of the table: "2 · 1.234 Hz · ξ 0.02 · neutral"."""
+    i = solution.groups[number - 1][0]
+    return (f"{number} \u00b7 {_sig(float(solution.frequency_hz[i]))} Hz \u00b7 "
+            f"\u03be {_xi_text(float(solution.damping_ratio[i]))} \u00b7 {_STATUS_TEXT[solution.status(i)].replace('*', '')}")
+
+
 def modes_table(solution: Solution, selected: int) -> str:
     """The table of modes (Markdown), the ``selected`` (1-based) row in bold."""
     ev = solution.eigenvalues
@@ -1113,8 +1150,9 @@ class ModesScene(Scene):
                 for spec, _ in PARAMETERS:
                     self.controls.add(spec)
             with gui.add_folder("Mode"):
-                self.controls.add(Choice("mode", "Mode", options=MODE_OPTIONS, default=_DEFAULTS["mode"],
-                                         hint="The mode animated (numbers as in the table)"))
+                self.controls.add(ModeChoice("mode", "Mode", options=MODE_OPTIONS, default=_DEFAULTS["mode"],
+                                             hint="The mode animated: a row of the table (number · frequency · "
+                                                  "damping ratio ξ · stability)"))
                 self.controls.add(Slider("amplitude", "Amplitude", min=0.02, max=1.0, step=0.01,
                                          default=_DEFAULTS["amplitude"],
                                          hint="Largest displacement: times the model's size (m) for a "
@@ -1126,12 +1164,13 @@ class ModesScene(Scene):
                 self.controls.add(Toggle("show_ghost", "Equilibrium ghost", default=_DEFAULTS["show_ghost"]))
             table = self.add_readout("")
             info = self.add_readout("")
-            with gui.add_folder("Complex plane"):
-                plane = gui.add_html("")
-            with gui.add_folder("Sweep over the spin") as sweep_folder:
-                progress = gui.add_progress_bar(0.0, animated=True, visible=False)
-                sweep_caption = self.add_readout("")
-                sweep_plot = gui.add_html("")
+            with self.plot_area():  # the "Plots" tab: the complex plane and the sweep beside the 3-D view
+                with gui.add_folder("Complex plane"):
+                    plane = gui.add_html("")
+                with gui.add_folder("Sweep over the spin") as sweep_folder:
+                    progress = gui.add_progress_bar(0.0, animated=True, visible=False)
+                    sweep_caption = self.add_readout("")
+                    sweep_plot = gui.add_html("")
             with gui.add_folder("Export"):
                 self.add_download("download_csv", "Modes (CSV)", "modes.csv", self.csv_bytes,
                                   hint="One row per eigenvalue: s, ω_n, f, ξ, flags and the real shape")
@@ -1229,6 +1268,16 @@ class ModesScene(Scene):
             has_sweep = model in (ROTOR, TOP)
             if self.gui.sweep_folder.visible != has_sweep:
                 self.gui.sweep_folder.visible = has_sweep
+            button = handles["download_sweep"]
+            if button.visible != has_sweep:  # no sweep, no button (it offered a file it could not make)
+                button.visible = has_sweep
+            self._sync_sweep_button()
+
+    def _sync_sweep_button(self) -> None:
+        """"Sweep (CSV)" is enabled only while a sweep is shown (it is hidden for models without one)."""
+        button = self.controls.handles.get("download_sweep")
+        if button is not None and button.disabled != (self.sweep is None):
+            button.disabled = self.sweep is None
 
     def _request(self, want: tuple[Params, int, float]) -> bool:
         """Show ``want`` from the caches, or submit the job that computes it.
@@ -1476,13 +1525,22 @@ class ModesScene(Scene):
             return
         count = max(1, min(len(solution.groups), MAX_MODES))
         handle = self.controls.handles["mode"]
-        options = MODE_OPTIONS[:count]
+        spec = self.controls.specs["mode"]
+        numbers = MODE_OPTIONS[:count]
+        rows = {n: mode_row(solution, int(n)) for n in numbers} if solution.groups else {n: n for n in numbers}
+        options = tuple(rows[n] for n in numbers)
         if tuple(handle.options) != options:
-            if handle.value not in options:
+            value = self.controls.value("mode")
+            if value not in numbers:
                 if solution.params != self.params:
                     return  # shown while the controls move on: the next solution sets the list
-                self.controls.set("mode", options[-1])
-            handle.options = options
+                value = numbers[-1]
+            spec.rows.clear()
+            spec.rows.update(rows)
+            handle.options = options  # (viser moves a value not in the options to the first one)
+            self.controls.set("mode", value)
+            if handle.value != rows[value]:
+                handle.value = rows[value]
 
     def _send_plane(self) -> None:
         if self.solution is not None and self.clip is not None:
@@ -1522,6 +1580,7 @@ class ModesScene(Scene):
             if self.sweep is not outcome:
                 self._stage(self._send_sweep)  # staged first: see _show
                 self.sweep = outcome
+                self._sync_sweep_button()
             return
         if run is None and key not in self._sweep_errors:
             run = self._run = _SweepRun(key, self.executor)
@@ -1529,6 +1588,7 @@ class ModesScene(Scene):
             self.gui.sweep_caption.content = f"Computing {run.total} spins in the background…"
             self.gui.sweep_plot.content = ""
             self.sweep = None
+            self._sync_sweep_button()
         if run is not None:
             self._set_progress(100.0 * run.done / max(run.total, 1))
 

@@ -209,6 +209,12 @@ def test_animation_sweeps_then_hands_back_to_the_sliders(make_scene) -> None:
         assert all(np.isfinite(scene.solid_frames[k].wxyz).all() for k in range(3))
     assert all(slider.disabled for slider in scene.gui.joint_sliders)
     expected = np.degrees(joint_sweep(30 * DT, np.radians([30.0, 45.0, 60.0])))
+    # the (disabled) sliders follow the sweep, within the angles of the last ~0.1 s
+    shown = np.array([slider.value for slider in scene.gui.joint_sliders])
+    assert not np.allclose(shown, [30.0, 45.0, 60.0])
+    recent = [[round(wrap_deg(a), 1) for a in np.degrees(joint_sweep(n * DT, np.radians([30.0, 45.0, 60.0])))]
+              for n in range(30 - 7, 31)]  # the frames of the last 0.1 s
+    assert any(np.allclose(shown, angles, atol=0.051) for angles in recent), (shown, recent)
     np.testing.assert_allclose(np.degrees(scene.joint_angles), expected, atol=1e-9)
     # Smooth: consecutive frames differ, but by small rotations (q ~ -q).
     steps = [min(np.linalg.norm(b - a), np.linalg.norm(b + a)) for a, b in zip(poses, poses[1:])]

@@ -205,8 +205,11 @@ def test_moving_a_parameter_updates_the_frequency_table(modes):
     expected = np.sqrt(g_l * np.array([2 - math.sqrt(2), 2 + math.sqrt(2)]))  # omega^2 = g/l (2 -+ sqrt 2)
     np.testing.assert_allclose(solution.omega_n[[g[0] for g in solution.groups]], expected, rtol=1e-9)
     np.testing.assert_allclose([float(r[2]) for r in table_rows(scene)], expected, rtol=1e-3)  # as shown
-    # the mode dropdown offers the modes there are
-    assert tuple(scene.controls.handles["mode"].options) == MODE_OPTIONS[:2]
+    # the mode dropdown offers the modes there are, each as its row of the table (number · f · ξ · stability)
+    options = tuple(scene.controls.handles["mode"].options)
+    assert tuple(o.split(" \u00b7 ")[0] for o in options) == MODE_OPTIONS[:2]
+    for option, row in zip(options, table_rows(scene)):
+        assert option.split(" \u00b7 ")[1] == f"{row[1]} Hz" and "\u03be" in option
 
 
 def test_a_mode_beyond_the_models_is_the_last_one(modes):
@@ -214,7 +217,13 @@ def test_a_mode_beyond_the_models_is_the_last_one(modes):
     wait_for(scene, model=CHAIN, n_links=3)
     assert send_value(scene, "mode", "12")  # in the dropdown's declared range, not this model's
     wait_for(scene, mode=3)
-    wait_until(lambda: scene.controls.value("mode") == "3" and scene.controls.handles["mode"].value == "3")
+    wait_until(lambda: scene.controls.value("mode") == "3"
+               and scene.controls.handles["mode"].value.startswith("3 \u00b7 "))
+    # a row of the dropdown, as the page sends it, picks its mode
+    row = scene.controls.handles["mode"].options[0]
+    assert send_value(scene, "mode", row)
+    wait_for(scene, mode=1)
+    assert scene.controls.value("mode") == "1" and scene.state()["values"]["mode"] == "1"
     assert scene.paused_error is None
 
 
