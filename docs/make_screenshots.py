@@ -5,10 +5,14 @@ same launch options as the browser tests: Debian's /usr/bin/chromium with
 software WebGL), shows each scene in turn and saves ``docs/img/<scene>.png``
 (1200 x 750, palette PNG, well under 300 kB).
 
+With ``--views normal presenter`` it writes ``docs/img/<scene>-<view>.png``
+instead, at 1600 x 900 (a projector's page), one per view.
+
 Usage::
 
     .venv/bin/python docs/make_screenshots.py            # every scene
     .venv/bin/python docs/make_screenshots.py sandbox    # only some
+    .venv/bin/python docs/make_screenshots.py --views normal presenter sandbox manipulator modes
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ from pathlib import Path
 CHROMIUM_PATH = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
 VIEWPORT = {"width": 1200, "height": 750}
+WIDE = {"width": 1600, "height": 900}
+VIEWS = ("normal", "presenter")
 OUT_DIR = Path(__file__).resolve().parent / "img"
 MAX_BYTES = 300_000
 
@@ -64,7 +70,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*", help="scene names (default: all)")
     parser.add_argument("--settle", type=float, default=2.0, help="seconds to let a scene render")
+    parser.add_argument("--views", nargs="+", choices=VIEWS, default=None,
+                        help="write <scene>-<view>.png at 1600 x 900 for these views")
     args = parser.parse_args(argv)
+    viewport = WIDE if args.views else VIEWPORT
 
     app = create_app(port=0)
     names = args.scenes or list(app.scene_names)
@@ -79,19 +88,22 @@ def main(argv: list[str] | None = None) -> int:
             browser = playwright.chromium.launch(
                 executable_path=CHROMIUM_PATH, args=CHROMIUM_ARGS, headless=True
             )
-            page = browser.new_page(viewport=VIEWPORT)
-            page.goto(app.url)
-            page.wait_for_selector("canvas")
-            app.wait_for_client(set(), timeout=30.0)
+            page = browser.new_page(viewport=viewport)
+            page.goto(app.url, timeout=120_000)
+            page.wait_for_selector("canvas", state="attached", timeout=120_000)
+            app.wait_for_client(set(), timeout=120.0)
             _close_webgl_notice(page)
-            for name in names:
-                app.switch_scene(name)
-                page.mouse.move(5, VIEWPORT["height"] - 5)  # no hover highlight
-                time.sleep(args.settle)
-                png = _compress(page.screenshot())
-                path = OUT_DIR / f"{name}.png"
-                path.write_bytes(png)
-                print(f"{path.relative_to(OUT_DIR.parent.parent)}: {len(png) / 1000:.0f} kB")
+            for view in args.views or [None]:
+                if view is not None:
+                    app.session_for().set_presenter(view == "presenter")
+                for name in names:
+                    app.switch_scene(name)
+                    page.mouse.move(viewport["width"] // 2, viewport["height"] - 5)  # no hover highlight
+                    time.sleep(args.settle)
+                    png = _compress(page.screenshot(timeout=300_000))
+                    path = OUT_DIR / (f"{name}.png" if view is None else f"{name}-{view}.png")
+                    path.write_bytes(png)
+                    print(f"{path.relative_to(OUT_DIR.parent.parent)}: {len(png) / 1000:.0f} kB")
             browser.close()
     finally:
         app.stop()

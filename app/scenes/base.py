@@ -120,6 +120,8 @@ def plot_text_css(presenter: bool) -> str:
             f".uplot .u-legend{{font-size:{legend:.2f}em !important}}</style>")
 
 
+#: Width (px) of the panel of a scene's plots (:meth:`Scene.plot_area`), normal and presenter view.
+PLOT_PANEL_PX, PRESENTER_PLOT_PANEL_PX = 420, 500
 #: Presenter view: the control panel's width (px; viser's "large" control width is 384 px) and the font
 #: size (px) of its controls' text: slider and field labels, inputs, dropdowns, buttons, folder and tab
 #: titles, slider marks (11-12 px in the normal view).
@@ -236,9 +238,6 @@ class Scene:
     #: ``None`` means the app's default view.
     camera_position: ClassVar[tuple[float, float, float] | None] = None
     camera_look_at: ClassVar[tuple[float, float, float] | None] = None
-    #: Whether the scene shows plots or tables in :meth:`plot_area`: its folder then has a "Controls" and a
-    #: "Plots" tab (:meth:`make_folder`). A scene without plots sets False.
-    has_plots: ClassVar[bool] = True
 
     def __init__(self, target: Any, notify: Notify, *, context: SceneContext | None = None) -> None:
         self.target = target
@@ -254,7 +253,7 @@ class Scene:
         self._paused_version = -1
         self._logged_errors: set[str] = set()
         self._gui_folder: Any = None
-        self._tabs: Any = None
+        self._plot_panel: Any = None
         self._plot_tab: Any = None
         self._plot_axes: dict[int, tuple] = {}
         self._labels: list[tuple[Any, float]] = []
@@ -340,6 +339,8 @@ class Scene:
             root.visible = active
         if self._gui_folder is not None:
             self._gui_folder.visible = active
+        if self._plot_panel is not None and self._plot_panel.visible != active:
+            self._plot_panel.visible = active
         if active and self._labels:
             self._resend_labels()
 
@@ -370,6 +371,8 @@ class Scene:
             root.remove()
         if self._gui_folder is not None:
             self._gui_folder.remove()
+        if self._plot_panel is not None:
+            self._plot_panel.remove()
         if self.context.owns_executor:
             self.executor.shutdown(wait=False, cancel_futures=True)
 
@@ -390,6 +393,8 @@ class Scene:
             handle.thickness = thickness * line_scale
         for readout in self._readouts:
             readout.set_presenter(on)
+        if self._plot_panel is not None:
+            self._plot_panel.set_width(PRESENTER_PLOT_PANEL_PX if on else PLOT_PANEL_PX)
         axes, padding = plot_axes(on), plot_padding(on)
         for plot in self._plots:
             plot.axes = axes
@@ -482,39 +487,33 @@ class Scene:
         return self.root_frame
 
     def make_folder(self) -> Any:
-        """Create the scene's GUI folder (with its "What you see" section); returns the container the
-        scene's controls go in (a context manager).
-
-        A scene with plots (:attr:`has_plots`) gets two tabs at the top of its folder, "Controls" (returned
-        here) and "Plots" (:meth:`plot_area`): at 1600 x 900 a click on "Plots" shows the plots at the top
-        of the panel, beside the 3-D view, instead of some 1400 px down a scrolling panel. A scene without
-        plots keeps one plain folder.
-        """
+        """Create the scene's GUI folder (with its "What you see" section)."""
         gui = self.target.gui
         self._gui_folder = gui.add_folder(self.title)
-        controls = self._gui_folder
-        if self.has_plots:
-            with self._gui_folder:
-                self._tabs = gui.add_tab_group()
-                controls = self._tabs.add_tab("Controls")
-                self._plot_tab = self._tabs.add_tab("Plots")
         if self.help:
-            with controls:
+            with self._gui_folder:
                 with gui.add_folder("What you see", expand_by_default=False):
                     self.help_readout = self.add_readout(self.help)
-        return controls
+        return self._gui_folder
 
     def plot_area(self) -> Any:
         """The GUI container a scene's plots and tables go in (a context manager): every scene calls this
         instead of making its own "Plots" folder, so the page's layout of plots is decided here, once.
 
-        In a scene with :attr:`has_plots` (the default) it is the "Plots" tab of the scene's folder (see
-        :meth:`make_folder`); otherwise, or before :meth:`make_folder`, a "Plots" folder in the current
-        container.
+        The plots go in a panel of their own, docked at the left edge of the page
+        (``gui.add_panel().dock_left()``, :data:`PLOT_PANEL_PX` wide, :data:`PRESENTER_PLOT_PANEL_PX` in
+        presenter view): the 3-D view sits between it and the control panel, so at 1600 x 900 a plot and the
+        scene are seen together, without scrolling (the gyroscope's plots were some 1400 px down the
+        control panel). The panel is made at the first call and shown only while the scene is
+        (:meth:`set_active`); a scene that never calls this has none.
         """
-        if self._plot_tab is not None:
-            return self._plot_tab
-        return self.target.gui.add_folder("Plots")
+        if self._plot_tab is None:
+            gui = self.target.gui
+            self._plot_panel = gui.add_panel()
+            self._plot_tab = self._plot_panel.add_tab(f"{self.title}: plots")
+            self._plot_panel.dock_left()
+            self._plot_panel.set_width(PRESENTER_PLOT_PANEL_PX if self.presenter else PLOT_PANEL_PX)
+        return self._plot_tab
 
     def add_ground_grid(
         self,

@@ -154,7 +154,6 @@ class ManipulatorScene(Scene):
     name: ClassVar[str] = "manipulator"
     title: ClassVar[str] = "Manipulator (Fig. 8.3)"
     order: ClassVar[int] = 20
-    has_plots: ClassVar[bool] = False
     help: ClassVar[str] = (
         "Three links (the chapter's bodies 2-4) turned by joints 1-3 about the axes a1, a2, a3.\n\n"
         "- **Solid links** with their frames: successive relative rotations A = A21 A32 A43, "

@@ -1083,6 +1083,7 @@ class ModesScene(Scene):
         self.solution: Solution | None = None  # shown
         self.clip: Clip | None = None  # shown
         self.sweep: SweepOutcome | None = None  # shown
+        self._framing: tuple[str, int] | None = None  # (model, mode) the cameras were aimed at
         self.sim_time = 0.0  # display seconds since the clip was shown
         self.solves = 0  # jobs finished
         self.jobs_submitted = 0
@@ -1164,7 +1165,7 @@ class ModesScene(Scene):
                 self.controls.add(Toggle("show_ghost", "Equilibrium ghost", default=_DEFAULTS["show_ghost"]))
             table = self.add_readout("")
             info = self.add_readout("")
-            with self.plot_area():  # the "Plots" tab: the complex plane and the sweep beside the 3-D view
+            with self.plot_area():  # the plots panel: the complex plane and the sweep beside the 3-D view
                 with gui.add_folder("Complex plane"):
                     plane = gui.add_html("")
                 with gui.add_folder("Sweep over the spin") as sweep_folder:
@@ -1381,6 +1382,10 @@ class ModesScene(Scene):
         if new_solution and solution.params.sweep_field is not None:
             self._stage(self._send_sweep)
         self.solution, self.clip = solution, clip
+        framing = (solution.params.model, clip.mode)
+        if framing != self._framing:  # a new model or mode: a camera that shows its motion
+            self._framing = framing
+            self.reframe()
         self._phase = 0.0
         self.sim_time = 0.0
         self._drawn = None
@@ -1390,6 +1395,13 @@ class ModesScene(Scene):
             self._draw(clip.still)
             self._label()
         return True
+
+    def camera_view(self) -> tuple[tuple[float, float, float], tuple[float, float, float]] | None:
+        """The view of the mode shown: the default view turned to look across its motion (:func:`mode_camera`)."""
+        clip = self.clip
+        if clip is None:
+            return super().camera_view()
+        return mode_camera(clip.positions, self.camera_position, self.camera_look_at)
 
     def _stage(self, fn: Callable[[], None]) -> None:
         if fn not in self._staged:
@@ -1631,6 +1643,50 @@ class ModesScene(Scene):
         if self.sweep is None:
             raise ValueError("no sweep for this model (the rotor and the top have one), or it is not done yet")
         return self.sweep.csv.encode()
+
+
+def mode_camera(positions: Any, position: Any, look_at: Any) -> tuple[tuple[float, float, float],
+                                                                        tuple[float, float, float]]:
+    """A camera ``(position, look_at)`` that shows a mode's motion: the default view turned about the
+    vertical through ``look_at`` until the camera looks perpendicular to the motion.
+
+    The motion's principal directions are those of the bodies' displacements over the clip (SVD of
+    ``positions`` minus their mean). A motion along one line (a pendulum's swing) is seen square on; a
+    motion in a vertical plane is seen along the plane's normal. The distance and the elevation of the
+    default view are kept. A motion that is vertical, in a horizontal plane, or that moves no body's centre
+    (a spin) keeps the default view, which shows it already.
+
+    Parameters
+    ----------
+    positions : (m, n, 3) body positions over the clip (display coordinates, metres)
+    position, look_at : (3,) the default camera position and target (metres)
+    """
+    p = np.asarray(positions, dtype=float)
+    default = tuple(float(v) for v in position), tuple(float(v) for v in look_at)
+    x = (p - p.mean(axis=0)).reshape(-1, 3)
+    if x.size == 0 or not np.all(np.isfinite(x)) or np.abs(x).max() < 1e-9:
+        return default
+    _, sv, vt = np.linalg.svd(x, full_matrices=False)
+    up = np.array([0.0, 0.0, 1.0])
+    if sv.size > 1 and sv[1] > 0.5 * sv[0]:
+        along = np.cross(vt[2], up)  # the horizontal direction in the plane of the motion
+    else:
+        along = vt[0] * np.array([1.0, 1.0, 0.0])
+    if np.linalg.norm(along) < 0.3:  # vertical motion, or a horizontal plane: the default view shows it
+        return default
+    along = along / np.linalg.norm(along)
+    offset = np.asarray(position, dtype=float) - np.asarray(look_at, dtype=float)
+    distance = float(np.linalg.norm(offset))
+    horizontal = float(np.hypot(offset[0], offset[1]))
+    if distance == 0.0 or horizontal == 0.0:
+        return default
+    elevation = math.asin(offset[2] / distance)
+    side = np.array([-along[1], along[0]])  # horizontal, perpendicular to the motion
+    if side @ offset[:2] < 0.0:
+        side = -side  # the side the default camera is on
+    new = np.asarray(look_at, dtype=float) + distance * np.array(
+        [math.cos(elevation) * side[0], math.cos(elevation) * side[1], math.sin(elevation)])
+    return tuple(float(v) for v in new), default[1]
 
 
 def _label_position(model: str, anchor: tuple[float, float, float]) -> tuple[float, float, float]:

@@ -98,7 +98,6 @@ class SandboxScene(Scene):
     name: ClassVar[str] = "sandbox"
     title: ClassVar[str] = "Rotation sandbox"
     order: ClassVar[int] = 10
-    has_plots: ClassVar[bool] = False
     help: ClassVar[str] = (
         "One body, one orientation, every representation of the chapter.\n\n"
         "- **Body**: red nose along x<sub>b</sub>, blue fin along z<sub>b</sub>; frame axes red x, "

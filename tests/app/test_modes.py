@@ -547,3 +547,34 @@ def test_a_dragged_slider_is_solved_one_value_after_another(modes):
     # one job at a time, each for the value the slider had when the last one was done
     assert 1 <= scene.jobs_submitted - submitted <= 7
     assert scene.paused_error is None
+
+
+def test_the_camera_looks_across_a_modes_motion():
+    """The spherical rod's mode 2 swung along the default camera's line of sight: the scene's camera for a
+    mode looks perpendicular to the bodies' principal displacement, at the default distance and elevation."""
+    from app.scenes.modes import ModesScene, mode_camera
+
+    position, look_at = np.array(ModesScene.camera_position), np.array(ModesScene.camera_look_at)
+    sight = (look_at - position) / np.linalg.norm(look_at - position)
+    t = np.linspace(0.0, 2.0 * np.pi, 40)
+    centre = look_at + np.array([0.1, -0.2, 0.0])
+    swing = np.array([sight[0], sight[1], 0.0]) / np.hypot(sight[0], sight[1])  # along the line of sight
+    positions = (centre + 0.3 * np.sin(t)[:, None] * swing)[:, None, :]  # (m, 1, 3)
+    new_position, new_look_at = mode_camera(positions, position, look_at)
+    new_position = np.array(new_position)
+    assert np.allclose(new_look_at, look_at)
+    new_sight = look_at - new_position
+    assert abs(new_sight @ swing) < 1e-9 * np.linalg.norm(new_sight)  # square on to the swing
+    assert np.linalg.norm(new_sight) == pytest.approx(np.linalg.norm(look_at - position), rel=1e-12)
+    assert new_position[2] == pytest.approx(position[2], rel=1e-12)  # same elevation
+    # a motion in a vertical plane is seen along the plane's normal
+    normal = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+    in_plane = np.cross(normal, [0.0, 0.0, 1.0])
+    circle = (centre + 0.3 * np.cos(t)[:, None] * in_plane + 0.3 * np.sin(t)[:, None] * np.array([0, 0, 1.0]))
+    p2, _ = mode_camera(circle[:, None, :], position, look_at)
+    assert abs((look_at - np.array(p2)) @ in_plane) < 1e-9
+    # a spin (no centre moves) and a vertical motion keep the default view
+    still = np.repeat(centre[None, None, :], 10, axis=0)
+    assert mode_camera(still, position, look_at) == (tuple(position), tuple(look_at))
+    bounce = (centre + 0.3 * np.sin(t)[:, None] * np.array([0.0, 0.0, 1.0]))[:, None, :]
+    assert mode_camera(bounce, position, look_at) == (tuple(position), tuple(look_at))
