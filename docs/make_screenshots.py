@@ -12,7 +12,7 @@ Usage::
 
     .venv/bin/python docs/make_screenshots.py            # every scene
     .venv/bin/python docs/make_screenshots.py sandbox    # only some
-    .venv/bin/python docs/make_screenshots.py --views normal presenter sandbox manipulator modes
+    .venv/bin/python docs/make_screenshots.py sandbox manipulator modes --views normal presenter
 """
 
 from __future__ import annotations

@@ -16,7 +16,12 @@ scene:
 * **presenter view** -- labels, arrows, lines, readouts and plots made
   with :meth:`add_label`, :meth:`add_arrows`, :meth:`add_lines`,
   :meth:`add_readout` and :meth:`add_plot` grow together when presenter
-  view is on;
+  view is on (the session's :func:`presenter_css` grows the panel's controls);
+* **plots beside the scene** -- plots made inside ``with self.plot_area():``
+  go in a panel docked at the left of the page, shown with the scene; data
+  sent with :meth:`show_series` get axes that mean something (offset
+  notation for a flat series, y limits that follow the data, drift plots
+  labelled as round-off);
 * **help and export** -- the class attribute :attr:`help` becomes a "What you
   see" section; :meth:`add_download` a button that sends a file to the
   browser that clicked it;
