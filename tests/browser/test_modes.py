@@ -9,6 +9,8 @@ that the page's table of modes shows the new frequencies.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -58,7 +60,7 @@ def test_choosing_a_mode_in_the_page_animates_it(modes_page) -> None:
     select = _row(page, "Mode").locator("input").first
     select.scroll_into_view_if_needed()
     select.click()
-    page.get_by_role("option", name="2", exact=True).click()
+    page.get_by_role("option", name=re.compile("^2 \u00b7 ")).click()  # the table's row of mode 2
     wait_until(lambda: scene.controls.value("mode") == "2")
     wait_until(lambda: scene.clip is not None and scene.clip.mode == 2, timeout=60.0)
     solution = scene.solution
