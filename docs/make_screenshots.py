@@ -100,6 +100,8 @@ def main(argv: list[str] | None = None) -> int:
                     app.switch_scene(name)
                     page.mouse.move(viewport["width"] // 2, viewport["height"] - 5)  # no hover highlight
                     time.sleep(args.settle)
+                    page.evaluate("() => document.querySelectorAll('.mantine-Notification-root').forEach("
+                                  "n => { if (n.textContent.includes('Software WebGL')) n.remove(); })")
                     png = _compress(page.screenshot(timeout=300_000))
                     path = OUT_DIR / (f"{name}.png" if view is None else f"{name}-{view}.png")
                     path.write_bytes(png)

@@ -167,6 +167,8 @@ def presenter_css(presenter: bool) -> str:
         f"min-height:{round(px * 2.1)}px !important;padding-top:0.2em;padding-bottom:0.2em}}"
         f".mantine-Button-label, .mantine-Button-inner{{font-size:{px}px !important}}"
         f".mantine-Slider-markLabel{{font-size:{round(px * 0.8)}px !important}}"
+        # a folder's title: viser draws it as a Paper, the first child of the folder's Paper
+        f".mantine-Paper-root > .mantine-Paper-root:first-child{{font-size:{px}px !important}}"
         f".mantine-Slider-thumb{{width:{round(px * 1.1)}px;height:{round(px * 1.1)}px}}"
         ".mantine-Tooltip-tooltip{font-size:15px !important}"
         "</style>"

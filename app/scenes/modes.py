@@ -1163,9 +1163,9 @@ class ModesScene(Scene):
                                          hint="One period of the mode takes this long on screen"))
                 self.controls.add(Toggle("animate", "Animate", default=_DEFAULTS["animate"]))
                 self.controls.add(Toggle("show_ghost", "Equilibrium ghost", default=_DEFAULTS["show_ghost"]))
-            table = self.add_readout("")
             info = self.add_readout("")
-            with self.plot_area():  # the plots panel: the complex plane and the sweep beside the 3-D view
+            with self.plot_area():  # the plots panel: the table, the complex plane and the sweep beside the 3-D view
+                table = self.add_readout("")
                 with gui.add_folder("Complex plane"):
                     plane = gui.add_html("")
                 with gui.add_folder("Sweep over the spin") as sweep_folder:
