@@ -97,7 +97,8 @@ DEFAULT_CAMERA_LOOK_AT = (0.0, 0.0, 0.3)
 #: Seconds after a browser joins, or a scene is shown, at which the page is asked to draw again: viser
 #: 1.1.1's page registers a 3-D label (its glyphs) after the frame that mounted it and asks for no new
 #: frame, so without a later redraw a fresh page showed no labels until something moved.
-_REDRAW_AFTER = (0.3, 1.0, 2.0, 4.0, 8.0)
+#: (A page under load mounts its labels late: the redraws go on, sparser, for a minute.)
+_REDRAW_AFTER = (0.3, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0)
 #: Thread switch interval while an app runs (s): a background job holding the
 #: GIL delays the loop thread by at most about this much (Python's default is 5 ms).
 SWITCH_INTERVAL = 0.0005
