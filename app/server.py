@@ -496,6 +496,9 @@ class Session:
                 return
             self._redraws = [t for t in self._redraws if t > now]
         self._redraw_node.visible = not self._redraw_node.visible
+        scene = self.scenes.get(self.active_name) if self.active_name is not None else None
+        if scene is not None:
+            scene.nudge_labels()  # (an even number of nudges: the sizes end where they were)
 
     def active_scene(self) -> Scene | None:
         with self.run_lock:

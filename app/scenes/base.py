@@ -264,6 +264,7 @@ class Scene:
         self._plot_tab: Any = None
         self._plot_axes: dict[int, tuple] = {}
         self._labels: list[tuple[Any, float]] = []
+        self._label_nudge = False
         self._arrows: list[tuple[Any, float, float, float]] = []
         self._lines: list[tuple[Any, float]] = []
         self._readouts: list[Readout] = []
@@ -370,6 +371,22 @@ class Scene:
             self._labels_due -= 1
             if self._labels_due == 0:
                 self._resend_labels()
+
+    def nudge_labels(self) -> None:
+        """Make viser's page rebuild the glyphs of this scene's labels (loop thread; the session calls it a
+        few times after a browser joins or the scene is shown, with a redraw).
+
+        viser 1.1.1's page builds a label's glyphs in a frame after it registered the label, and a fresh
+        page often drew none (the sandbox opened without labels in 5 of 5 loads) until a label changed: a
+        change of its font size gives its group a new build. The size moves by a relative 1e-12 and back at
+        the next call (nothing a reader or a test sees).
+        """
+        self._label_nudge = not self._label_nudge
+        f = (PRESENTER_LABEL_SCALE if self.presenter else 1.0) * (1.0 + 1e-12 * self._label_nudge)
+        if self._labels:
+            with self.target.atomic():
+                for handle, base in self._labels:
+                    handle.font_screen_scale = base * f
 
     def close(self) -> None:
         self.controls.remove_all()
