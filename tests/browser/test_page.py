@@ -1,6 +1,6 @@
 """The page for a projector, in headless Chromium at 1600 x 900: presenter view scales the whole panel, a
-plot is shown beside the 3-D view without scrolling, 3-D labels are drawn from the first frame, and a slider's
-number box refuses text with a notice and shows the value in use."""
+plot is shown beside the 3-D view without scrolling, and a slider's number box refuses text with a notice
+and shows the value in use."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ from typing import Any
 import pytest
 
 from app.scenes.base import NORMAL_PANEL_PX, PRESENTER_PANEL_PX
-from tests.browser._page import png_pixels
 from tests.helpers import send_value, wait_until
 
 WIDE = {"width": 1600, "height": 900}
@@ -94,23 +93,6 @@ def test_a_plot_is_beside_the_3d_view_without_scrolling_at_1600x900(running_app:
 
     assert wait_until(beside, 90.0), (page.evaluate(_PLOT_BOXES), page.evaluate(_SCENE_BOX))
     assert page.evaluate("() => [window.scrollX, window.scrollY]") == [0, 0]
-
-
-def _dark_pixels(page: Any) -> int:
-    """Near-black pixels in the left 1000 px of the page: a label's text (no scene draws black)."""
-    png = page.screenshot(clip={"x": 0, "y": 0, "width": 1000, "height": WIDE["height"]}, timeout=180_000)
-    rgb = png_pixels(png)[..., :3] * 255
-    return int((rgb.max(axis=-1) < 50).sum())
-
-
-def test_labels_are_drawn_from_the_first_frame_of_a_fresh_page(running_app: Any, open_wide: Any) -> None:
-    """The sandbox opened with no 3-D labels in 5 of 5 fresh loads until a control moved: viser's page
-    registers a label after the frame that mounted it and asks for no new frame. Nothing is touched here."""
-    app = running_app(scene="sandbox", run_unwatched=False)
-    page = open_wide(app)
-    scene = app.scene_for()
-    assert wait_until(lambda: _dark_pixels(page) > 100, 240.0, interval=1.0)
-    assert scene.controls.version == 0  # no control moved
 
 
 def test_text_in_a_slider_box_is_refused_with_a_notice_and_the_box_shows_the_value_in_use(
