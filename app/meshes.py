@@ -14,7 +14,8 @@ import functools
 import numpy as np
 import trimesh
 
-__all__ = ["body_parts", "ring", "pins", "pedestal", "spinning_top", "Mesh"]
+__all__ = ["body_parts", "box", "cylinder_z", "extrude", "helix_tube", "pack", "pedestal", "pins", "ring",
+           "spinning_top", "triangulate", "Mesh"]
 
 Mesh = tuple[np.ndarray, np.ndarray]
 
@@ -29,12 +30,16 @@ def _z_to_x(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     return trimesh.Trimesh(mesh.vertices[:, [2, 0, 1]], mesh.faces, process=False)
 
 
-def _pack(mesh: trimesh.Trimesh) -> Mesh:
+def pack(mesh: trimesh.Trimesh) -> Mesh:
+    """``(vertices (n, 3) float32, faces (m, 3) uint32)`` of ``mesh``, read-only, for ``add_mesh_simple``."""
     vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
     faces = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
     vertices.setflags(write=False)
     faces.setflags(write=False)
     return vertices, faces
+
+
+_pack = pack
 
 
 @functools.lru_cache(maxsize=None)
@@ -58,7 +63,7 @@ def body_parts(length: float = 1.0) -> dict[str, Mesh]:
     nose.apply_translation((0.5 * s, 0.0, 0.0))
     fin = trimesh.creation.box(extents=(0.3 * s, 0.05 * s, 0.22 * s))
     fin.apply_translation((-0.3 * s, 0.0, 0.12 * s + 0.11 * s))
-    return {"hull": _pack(hull), "nose": _pack(nose), "fin": _pack(fin)}
+    return {"hull": pack(hull), "nose": pack(nose), "fin": pack(fin)}
 
 
 @functools.lru_cache(maxsize=None)
@@ -72,7 +77,7 @@ def ring(radius: float, tube: float) -> Mesh:
         major_radius=float(radius), minor_radius=float(tube),
         major_sections=96, minor_sections=16,
     )
-    return _pack(mesh)
+    return pack(mesh)
 
 
 @functools.lru_cache(maxsize=None)
@@ -124,3 +129,114 @@ def pedestal(height: float, *, radius: float = 0.25, post: float = 0.035) -> Mes
     foot = trimesh.creation.cylinder(radius=float(radius), height=0.05, sections=32).apply_translation(
         (0.0, 0.0, 0.025 - h))
     return _pack(trimesh.util.concatenate([column, foot]))
+
+
+def _cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """z component of the cross product of plane vectors (..., 2)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _signed_area(p: np.ndarray) -> float:
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def triangulate(points: np.ndarray) -> np.ndarray:
+    """Triangles (n - 2, 3) of a simple counter-clockwise polygon ``points`` (n, 2), by ear clipping.
+
+    Raises
+    ------
+    ValueError
+        For a polygon without an ear (not simple).
+    """
+    idx = list(range(points.shape[0]))
+    triangles = []
+    while len(idx) > 3:
+        m = len(idx)
+        poly = points[idx]
+        prev, nxt = np.roll(poly, 1, axis=0), np.roll(poly, -1, axis=0)
+        convex = _cross2(poly - prev, nxt - poly) > 0
+        for k in np.flatnonzero(convex):
+            a, b, c = poly[k - 1], poly[k], poly[(k + 1) % m]
+            others = np.delete(np.arange(m), [(k - 1) % m, k, (k + 1) % m])
+            p = poly[others][~convex[others]]  # only reflex vertices can lie inside an ear
+            if p.size:
+                d1 = _cross2(b - a, p - a)
+                d2 = _cross2(c - b, p - b)
+                d3 = _cross2(a - c, p - c)
+                if np.any((d1 >= 0) & (d2 >= 0) & (d3 >= 0)):
+                    continue
+            triangles.append((idx[(k - 1) % m], idx[k], idx[(k + 1) % m]))
+            del idx[k]
+            break
+        else:
+            raise ValueError("points: expected a simple polygon, got one without an ear")
+    triangles.append(tuple(idx))
+    return np.array(triangles, dtype=np.int64)
+
+
+def extrude(contour: np.ndarray, z0: float, z1: float) -> trimesh.Trimesh:
+    """The prism over the closed plane curve ``contour`` (n, 2) from z0 to z1, outward faces.
+
+    The caps are fans from the origin where the contour is star-shaped about it
+    (a cam about its shaft), else ear-clipped (:func:`triangulate`); either way the
+    mesh has ``4 n + 2`` vertices and ``4 n`` faces (padded with an unused vertex
+    and degenerate faces), so a new contour of ``n`` points replaces the buffers in place.
+    """
+    ccw = contour if _signed_area(contour) > 0 else contour[::-1]
+    n = ccw.shape[0]
+    i = np.arange(n)
+    j = (i + 1) % n
+    side_v = np.concatenate([np.column_stack([ccw, np.full(n, z0)]), np.column_stack([ccw, np.full(n, z1)])])
+    side_f = np.concatenate([np.column_stack([i, j, n + j]), np.column_stack([i, n + j, n + i])])
+    top_v = np.vstack([np.column_stack([ccw, np.full(n, z1)]), [0.0, 0.0, z1]])
+    angle = np.unwrap(np.arctan2(ccw[:, 1], ccw[:, 0]))
+    if np.all(np.diff(angle) > 0) and angle[-1] - angle[0] < 2 * np.pi:
+        top_f = np.column_stack([np.full(n, n), i, j])
+    else:
+        top_f = np.vstack([triangulate(ccw), np.full((2, 3), n)])
+    bottom_v = top_v.copy()
+    bottom_v[:, 2] = z0
+    offset = side_v.shape[0]
+    vertices = np.concatenate([side_v, top_v, bottom_v])
+    faces = np.concatenate([side_f, top_f + offset, top_f[:, ::-1] + offset + top_v.shape[0]])
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
+def box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trimesh.Trimesh:
+    """The axis-aligned box from corner ``lo`` to corner ``hi`` (m)."""
+    lo_a, hi_a = np.array(lo, dtype=float), np.array(hi, dtype=float)
+    return trimesh.creation.box(extents=hi_a - lo_a,
+                                transform=trimesh.transformations.translation_matrix((lo_a + hi_a) / 2))
+
+
+def cylinder_z(radius: float, z0: float, z1: float, sections: int = 32) -> trimesh.Trimesh:
+    """A cylinder of ``radius`` on the z axis from ``z0`` to ``z1`` (m)."""
+    return trimesh.creation.cylinder(radius=radius, segment=np.array([[0.0, 0.0, z0], [0.0, 0.0, z1]]),
+                                     sections=sections)
+
+
+def helix_tube(length: float, wire_radius: float, *, radius: float, turns: int, points_per_turn: int = 36,
+               sides: int = 6) -> Mesh:
+    """A coil spring: a wire of ``wire_radius`` along a helix of ``radius`` and ``turns`` about +z, from z = 0
+    up to ``length`` (m); ``sides`` vertices around the wire, float32 vertices and uint32 faces.
+
+    Drawn with a scale along z of (current length) / ``length``, a spring follows its ends with one position
+    and one scale per frame; built at the middle of its travel, the wire's section stays near round.
+    """
+    n = turns * points_per_turn + 1
+    u = np.linspace(0.0, 1.0, n)
+    x, y = radius * np.cos(2.0 * np.pi * turns * u), radius * np.sin(2.0 * np.pi * turns * u)
+    centre = np.column_stack([x, y, length * u])
+    tangent = np.gradient(centre, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    radial = np.column_stack([x, y, np.zeros(n)]) / radius
+    normal = np.cross(tangent, radial)
+    phi = np.arange(sides) * (2.0 * np.pi / sides)
+    ring_ = np.cos(phi)[None, :, None] * radial[:, None, :] + np.sin(phi)[None, :, None] * normal[:, None, :]
+    vertices = (centre[:, None, :] + wire_radius * ring_).reshape(-1, 3).astype(np.float32)
+    i = np.arange(n - 1)[:, None] * sides
+    j = np.arange(sides)[None, :]
+    a, b, c, d = i + j, i + (j + 1) % sides, i + sides + j, i + sides + (j + 1) % sides
+    faces = np.concatenate([np.stack([a, c, b], axis=-1).reshape(-1, 3), np.stack([b, c, d], axis=-1).reshape(-1, 3)])
+    return vertices, faces.astype(np.uint32)

@@ -87,6 +87,11 @@ class PlotSpec:
         ``|y|`` is below 0.01 or from 1e5 on, and say so in the title
         (``"... [×1e-09]"``): uPlot writes tick labels with at most three
         decimals, so a drift of 1e-9 would read "0" at every tick
+    x : ``x(t, columns) -> (n,) array``: the x values (None: ``t``), e.g. an
+        angle for a plot over one period
+    per_chunk : True: the plot shows the whole chunk drawn (its table: one
+        period of a periodic motion, one revolution of a run), sent again
+        only when the chunk's table changes; False: the plotted window
     """
 
     name: str
@@ -97,6 +102,8 @@ class PlotSpec:
     x_label: str = "t (s)"
     aspect: float = 1.6
     rescale: bool = False
+    x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+    per_chunk: bool = False
 
 
 def power_of_ten(series: Sequence[np.ndarray]) -> int:
@@ -177,6 +184,7 @@ class SimulationScene(PlaybackRequests, Scene):
         self._specs: tuple[PlotSpec, ...] = ()
         self._refresh = PlotRefresh(("readout",), self.refresh_period)
         self._plot_window: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros((0, 0)))
+        self._chunk_plotted: dict[str, Any] = {}  # per-chunk plot -> the table it shows
         self._drawn: tuple | None = None
         self._refreshed_time = -1.0
         self._reported: set[str] = set()
@@ -244,6 +252,14 @@ class SimulationScene(PlaybackRequests, Scene):
     def end_notice(self, chunk: Any) -> tuple[str, str]:
         """Title and text of the notice when the motion ends itself (a final chunk)."""
         return "The motion ended", f"{getattr(chunk, 'end', '')}. Press Reset or change a control."
+
+    def on_error(self, error: BaseException) -> bool:
+        """Hook: a chunk's job raised ``error``; True when the scene handled it (no notice, the clock runs on)."""
+        return False
+
+    def time_text(self) -> str:
+        """Hook: the readout's first line (the time shown)."""
+        return f"**t** = {self.display_time:.2f} s"
 
     def background(self) -> None:
         """Hook: once per frame after the clock moved, for side jobs (modes, sweeps) on ``self.executor``."""
@@ -379,11 +395,12 @@ class SimulationScene(PlaybackRequests, Scene):
         error = self.timeline.error
         if error is not None and "error" not in self._reported:
             self._reported.add("error")
-            self._error_paused = self.playback.playing  # (a clock paused by hand stays paused)
-            self.playback.set_playing(False)
-            self.notify(f"{self.title}: motion stopped",
-                        f"{type(error).__name__}: {error}. The motion stops at t = {self.sim_time:.2f} s; "
-                        "change a control to run it again.", "warning")
+            if not self.on_error(error):
+                self._error_paused = self.playback.playing  # (a clock paused by hand stays paused)
+                self.playback.set_playing(False)
+                self.notify(f"{self.title}: motion stopped",
+                            f"{type(error).__name__}: {error}. The motion stops at t = {self.sim_time:.2f} s; "
+                            "change a control to run it again.", "warning")
         self.background()
         if chunk is not None:
             self._frame(chunk, dt)
@@ -462,6 +479,12 @@ class SimulationScene(PlaybackRequests, Scene):
         if spec.shown is not None and not spec.shown(self.config):
             return
         t, columns = self._plot_window
+        if spec.per_chunk:
+            table = self.last_chunk.table
+            if self._chunk_plotted.get(what) is table:
+                return
+            self._chunk_plotted[what] = table
+            t, columns = table.t, table.columns
         if t.size == 0:
             return
         series = tuple(np.asarray(y, dtype=float) for y in spec.data(t, columns))
@@ -474,14 +497,14 @@ class SimulationScene(PlaybackRequests, Scene):
         handle = self.plot_handles[what]
         if handle.title != title:
             handle.title = title
-        self.set_plot_data(handle, (t, *series))
+        self.set_plot_data(handle, (t if spec.x is None else spec.x(t, columns), *series))
 
     def set_plot_data(self, handle: Any, data: tuple) -> None:
         """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page)."""
         handle.data = tuple(np.asarray(a, dtype=float) for a in data)
 
     def readout_text(self) -> str:
-        lines = [f"**t** = {self.display_time:.2f} s"]
+        lines = [self.time_text()]
         rate = self.rate_text()
         if rate is not None:
             lines.append(rate)
