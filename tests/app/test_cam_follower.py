@@ -536,7 +536,7 @@ def test_every_cam_and_follower_gives_a_closed_mesh_and_finite_tables():
 
 
 def test_extruded_contours_are_closed_with_outward_faces():
-    from app.scenes.cam_follower import _extrude
+    from app.meshes import extrude as _extrude
 
     # star-shaped about the origin (fan caps) and a C shape that is not (ear clipping)
     t = np.linspace(0, 2 * math.pi, 200, endpoint=False)
@@ -569,16 +569,13 @@ def test_nothing_is_computed_on_the_loop_and_the_frames_go_on(bare_scene):
         scene.frame(1 / 60)
     assert scene.revolution is None and scene.paused_error is None  # waiting for the job
     executor.open.set()
-    wait_until(lambda: scene._job is not None and scene._job[1].done())
-    for _ in range(10):
-        scene.frame(1 / 60)
-    assert scene.revolution is not None
+    wait_until(lambda: (scene.frame(1 / 60), scene.revolution is not None)[1], interval=0.0)
     # a stalled loop advances the cam by at most 0.1 s of wall time
-    angle = scene._angle
+    before = scene.sim_time
     scene.frame(30.0)
     turn = scene.controls.value("turn_seconds")
-    step = (scene._angle - angle) % (2 * math.pi)
-    assert 0 < step <= 2 * math.pi * 0.1 / turn + 1e-12
+    period = 2 * math.pi / scene.revolution.speed
+    assert 0 < scene.sim_time - before <= period * 0.1 / turn + 1e-12
 
 
 def test_labels_are_framed_left_of_the_panel_and_do_not_overlap(bare_scene):
