@@ -289,3 +289,36 @@ def test_a_display_control_draws_the_sample_again_while_paused(make_bare_scene) 
     scene.frame(1 / 60)
     assert len(scene.drawn) == drawn + 1 and scene.drawn[-1] == scene.drawn[-2]
     assert scene.sim_time == scene.drawn[-1][0] or scene.sim_time - scene.drawn[-1][0] < 1 / 60
+class _PeriodToy(_Toy):
+    """The toy with a plot of the chunk drawn (x from its table) and the failures handled by the scene."""
+
+    name: ClassVar[str] = "period_toy"
+    handled: ClassVar[list] = []
+
+    def plots(self) -> list[PlotSpec]:
+        return [PlotSpec("period", "x over the chunk", (("x (m)", "#2563eb"),), lambda t, c: (c[:, 0],),
+                         x=lambda t, c: t - t[0], per_chunk=True)]
+
+    def on_error(self, error: BaseException) -> bool:
+        self.handled.append(error)
+        return True
+
+    def time_text(self) -> str:
+        return f"**phase** = {self.display_time % 1.0:.2f}"
+
+
+def test_a_per_chunk_plot_shows_the_whole_chunk_drawn_and_a_scene_may_handle_errors(make_bare_scene) -> None:
+    scene, notices = make_bare_scene(_PeriodToy)
+    _play_until(scene, 1.5)  # in chunk 1
+    wait_until(lambda: (scene.frame(1 / 60), scene.plot_handles["period"].data[0].size == 61)[1], timeout=60.0,
+               interval=0.0)
+    x, y = scene.plot_handles["period"].data
+    chunk = scene.last_chunk
+    np.testing.assert_allclose(x, chunk.t - chunk.t[0], atol=1e-12)  # the whole chunk, ahead of the clock too
+    np.testing.assert_array_equal(y, chunk.x)
+    assert scene.readout_text().startswith("**phase** = ")
+    scene.controls.apply({"amplitude": -0.5})
+    wait_until(lambda: (scene.frame(1 / 60), scene.handled)[1], timeout=60.0, interval=0.0)
+    scene.frame(1 / 60)
+    assert scene.playing and not any("motion stopped" in n[0] for n in notices)  # handled: no notice, no pause
+    assert len(scene.handled) == 1 and "amplitude" in str(scene.handled[0])
