@@ -37,7 +37,7 @@ from app.controls import Choice, Slider, Toggle
 from app.meshes import box, cylinder_z, extrude, helix_tube, pack
 from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from app.readout import significant
-from app.scenes._plots import Legend, Table, format_rows
+from app.scenes._plots import Table, format_rows
 from app.scenes._simulation import PlotSpec, SimulationScene
 from app.scenes.base import PRESENTER_LINE_SCALE
 from core import ArgumentError
@@ -450,7 +450,7 @@ class CamFollowerScene(SimulationScene):
         self.index = 0  # closed-form table row drawn
         self._pending: list[str] = []  # meshes, info, marks, closed-form plots: one per frame
         self._angle: float | None = None  # a loaded cam angle (rad), applied at the next frame
-        self._arrow_sent, self._thrown, self._folder = (0.0, True), False, None
+        self._arrow_sent, self._thrown, self._folder, self._reconfigure = (0.0, True), False, None, False
 
     compliant = property(lambda self: bool(self.config is not None and self.config.compliant))
 
@@ -509,12 +509,12 @@ class CamFollowerScene(SimulationScene):
 
     def build_controls(self) -> None:
         d = Inputs()
-        self.legend = Legend(self.target.gui, (
+        self.legend = self.add_legend((
             (_FORCE_COLOR, "N n: force of the cam on the follower (N > 0)"),
             (_PULL_COLOR, "N < 0: the contact would have to pull (separation interval)"),
             (_NORMAL_COLOR, "common normal at the contact point (hidden in flight)"),
             (_POINT_COLOR, "contact point (in flight: the cam's point nearest the follower)"),
-        ), "Drawn on the cam (arrow length saturates):", presenter=self.presenter)
+        ), "Drawn on the cam (arrow length saturates):")
         self.status = self.add_readout("Computing the cam…")
         self.info = self.add_readout("")
         add = self.controls.add
@@ -575,7 +575,7 @@ class CamFollowerScene(SimulationScene):
         super().set_plot_data(handle, data)
 
     def on_presenter(self, on: bool) -> None:
-        self.legend.set_presenter(on)
+        super().on_presenter(on)
         self._send_spring_mesh()
 
     @property
@@ -626,6 +626,7 @@ class CamFollowerScene(SimulationScene):
             kept = dataclasses.asdict(self.revolution.inputs if self.revolution is not None else Inputs())
             self.notify("Cam refused", f"{error}. Keeping the values in use (the controls are set back).", "warning")
             self.controls.set_many({k: v for k, v in kept.items() if k != "compliant"})
+            self._reconfigure = True
             return True
         if self.compliant:
             self._stop_run(f"{error}. Showing the closed form again; turn the compliant contact on to try again.")
@@ -636,6 +637,7 @@ class CamFollowerScene(SimulationScene):
         self._thrown = True
         self.notify("Compliant run stopped", text, "warning")
         self.controls.set("compliant", False)
+        self._reconfigure = True
 
     # -- the clock --------------------------------------------------------------------------------
     def on_configure(self, inputs: Inputs) -> None:
@@ -647,6 +649,9 @@ class CamFollowerScene(SimulationScene):
         super().update(min(max(dt, 0.0), 0.1))  # a stalled loop advances the cam by at most 0.1 s of wall time
 
     def on_frame(self, changed: set[str]) -> None:
+        if self._reconfigure:  # the scene set controls back (a refused cam, a stopped run)
+            self._reconfigure = False
+            self.configure(self.inputs)
         self.playback.set_playing(bool(self.controls.value("animate")))
         self.playback.set_time_scale(self.timeline.chunk_time / float(self.controls.value("turn_seconds")))
         if self._angle is not None and not self.compliant:  # a loaded angle, on the table's grid

@@ -95,6 +95,7 @@ def cam_app(running_app):
 def pause(scene) -> None:
     """Stop the cam (as the page's checkbox does) and wait until the readout shows the angle drawn."""
     assert send_value(scene, "animate", False)
+    wait_until(lambda: not scene.playing)  # (the clock stands from this frame on; the readout follows)
     wait_until(lambda: scene.drawn_revision == scene.revision
                and f"**θ** = {math.degrees(scene.cam_angle):.2f}°" in scene.gui.readout.content)
 
