@@ -658,7 +658,7 @@ class CamFollowerScene(SimulationScene):
             i = round((self._angle % (2.0 * math.pi)) / _STEP) % REVOLUTION_SAMPLES
             self.local_time = self.sim_time = i * self.timeline.chunk_time / REVOLUTION_SAMPLES
             self._angle, self._drawn = None, None
-        if "show_contact" in changed:
+        if bool(self.controls.value("show_contact")) != self.contact_frame.visible:  # (a click or a loaded state)
             self._drawn = None
         if self._pending:
             with self.target.atomic():
