@@ -641,7 +641,7 @@ class CamFollowerScene(SimulationScene):
 
     # -- the clock --------------------------------------------------------------------------------
     def on_configure(self, inputs: Inputs) -> None:
-        self.timeline.chunk_time = 2.0 * math.pi / inputs.speed  # a chunk is a revolution
+        self.timeline.chunk_time = self.window = 2.0 * math.pi / inputs.speed  # a chunk (and the history) is a turn
         self.run_chunk, self._thrown = None, False
         self._pending.append("info")  # (its advice follows the toggle)
 
