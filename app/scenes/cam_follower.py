@@ -554,10 +554,10 @@ class CamFollowerScene(SimulationScene):
         angle, compliant = (lambda t, c: c[:, 0]), (lambda inputs: inputs.compliant)
         return [PlotSpec("run_lift", "compliant run: lift (mm)", (("cam under it (mm)", "#2266dd"),
                          ("follower (mm)", "#9633c8")), lambda t, c: (c[:, 1], c[:, 2]), compliant, "θ (deg)", 1.7,
-                         angle, per_chunk=True),
+                         x=angle, per_chunk=True),
                 PlotSpec("run_force", "compliant run: force N (N)", (("closed form (N)", "#888888"),
                          (_RUN_FORCE_LABEL, "#d97706")), lambda t, c: (c[:, 3], c[:, 4]), compliant, "θ (deg)", 1.7,
-                         angle, per_chunk=True)]
+                         x=angle, per_chunk=True)]
 
     @property
     def gui(self) -> SimpleNamespace:
