@@ -26,6 +26,7 @@ points update, so a line node is not culled by stale bounds.
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -33,7 +34,8 @@ import trimesh
 
 from app.nodes import set_array, set_pose, wxyz_z_to
 
-__all__ = ["ChunkedTrail", "SphereTrail", "StickHead", "extend_trail", "trail_segments", "FAR_SEGMENTS"]
+__all__ = ["ChunkedTrail", "SampledTrack", "SphereTrail", "StickHead", "curve_pieces", "extend_trail", "sampled_curve",
+           "trail_segments", "FAR_SEGMENTS"]
 
 Vec = tuple[float, float, float]
 
@@ -486,3 +488,129 @@ class SphereTrail:
         newest = self.trail.newest
         if newest is not None:
             set_pose(self.marker, position=newest)
+
+
+def curve_pieces(samples: list[np.ndarray], q2: np.ndarray, *, turn: float = math.radians(3.0),
+                 most: int = 8) -> list[np.ndarray]:
+    """The points that draw a sampled curve from its last sample to the next one ``q2``, ending with ``q2``.
+
+    ``samples``: up to two samples before ``q2`` (equally spaced in time, oldest first). When the chord to
+    ``q2`` turns by more than ``turn`` (rad) from the chord before, it is cut into equal steps of time on
+    the parabola through the three samples, ``q(s) = q1 + s (q2 - q0) / 2 + s^2 (q2 - 2 q1 + q0) / 2`` (``s``
+    from 0 at ``q1`` to 1 at ``q2``; its error is third order in the time step), so that each piece turns
+    by about ``turn``, at most ``most`` pieces: a curve between coarse samples, not a polygon of chords.
+    """
+    if len(samples) < 2:
+        return [q2]
+    q0, q1 = samples[-2], samples[-1]
+    a, b = q1 - q0, q2 - q1
+    la, lb = math.sqrt(float(a @ a)), math.sqrt(float(b @ b))
+    if la == 0.0 or lb == 0.0:
+        return [q2]
+    angle = math.acos(min(max(float(a @ b) / (la * lb), -1.0), 1.0))
+    pieces = min(most, math.ceil(angle / turn - 1e-9))
+    if pieces <= 1:
+        return [q2]
+    slope, bend = 0.5 * (q2 - q0), 0.5 * (q2 - 2.0 * q1 + q0)
+    return [q1 + (i / pieces) * slope + (i / pieces) ** 2 * bend for i in range(1, pieces)] + [q2]
+
+
+def sampled_curve(t: np.ndarray, points: np.ndarray, *, before: np.ndarray | None = None,
+                  t_before: float = -math.inf) -> tuple[np.ndarray, np.ndarray]:
+    """The points that draw a curve through samples: ``(curve (m, 3), start (n + 1,))``, read-only.
+
+    Sample ``i`` (time ``t[i]``, point ``points[i]``) extends the curve by
+    ``curve[start[i]:start[i + 1]]``, the :func:`curve_pieces` from the two
+    samples before it (``before`` (<= 2, 3): the last samples of the chunk
+    before, the newest at ``t_before``). A sample at or before the time of
+    the one before (a chunk's first, which ends the chunk before) adds none.
+    Formed once per chunk of samples (off the loop thread); a frame only
+    slices it (:class:`SampledTrack`).
+    """
+    samples = [] if before is None else list(np.asarray(before, dtype=float)[-2:])
+    last = float(t_before)
+    parts: list[np.ndarray] = []
+    start = [0]
+    for ti, q in zip(np.asarray(t, dtype=float).tolist(), np.asarray(points, dtype=float)):
+        if ti > last:
+            parts.extend(curve_pieces(samples, q))
+            samples = [*samples[-1:], q]
+            last = ti
+        start.append(len(parts))
+    curve = np.array(parts, dtype=float).reshape(-1, 3)
+    starts = np.array(start, dtype=np.intp)
+    for a in (curve, starts):
+        a.setflags(write=False)
+    return curve, starts
+
+
+class SampledTrack:
+    """A track that a moving point leaves, up to that point in every frame: a :class:`ChunkedTrail` and a
+    :class:`StickHead`, fed with the :func:`sampled_curve` points of the samples a clock passes.
+
+    :meth:`follow` adds the points of the samples passed since the last call
+    (the rest of the chunk before, when the clock crossed into the next one)
+    and runs the head on to the point drawn; :meth:`draw` sends the trail's
+    newest chunk every ``period`` wall seconds and the head's poses.
+
+    Parameters
+    ----------
+    scene, name, color, thickness, capacity, min_step :
+        As :class:`ChunkedTrail` (``{name}/trail``); ``**kwargs`` go to both.
+    head_length, head_count :
+        The head's sticks (:class:`StickHead`, ``{name}/head``).
+    period : float
+        Wall seconds between the trail's flushes.
+    """
+
+    def __init__(self, scene: Any, name: str, color: Any, *, thickness: float, capacity: int, min_step: float,
+                 head_length: float, head_count: int, period: float = 0.1, **kwargs: Any) -> None:
+        self.trail = ChunkedTrail(scene, f"{name}/trail", color, thickness=thickness, capacity=capacity,
+                                  min_step=min_step, **kwargs)
+        self.head = StickHead(scene, f"{name}/head", color, thickness=thickness, length=head_length,
+                              count=head_count, **kwargs)
+        self.period = float(period)
+        self._fed: tuple[Any, int, int] | None = None  # (chunk key, samples fed, samples in it)
+        self._flushed = -math.inf
+
+    @property
+    def visible(self) -> bool:
+        return self.trail.visible
+
+    @visible.setter
+    def visible(self, visible: bool) -> None:
+        self.trail.visible = visible
+        self.head.visible = visible
+
+    def clear(self) -> None:
+        self.trail.clear()
+        self.head.clear()
+        self._fed = None
+
+    def _add(self, curve: np.ndarray, start: np.ndarray, i0: int, i1: int) -> None:
+        for q in curve[start[i0]:start[i1]].tolist():
+            self.trail.add(q)
+            self.head.add(q)
+
+    def follow(self, key: Any, curve: np.ndarray, start: np.ndarray, j: int, point: Any,
+               previous: tuple[Any, np.ndarray, np.ndarray] | None = None) -> None:
+        """The clock is at sample ``j`` of chunk ``key`` (its :func:`sampled_curve` ``curve``, ``start``)
+        and the point drawn is ``point`` (3,); ``previous``: ``(key, curve, start)`` of the chunk before."""
+        fed = self._fed
+        if fed is not None and previous is not None and fed[0] == previous[0] and fed[1] < fed[2]:
+            self._add(previous[1], previous[2], fed[1], fed[2])  # the rest of the chunk before
+        i0 = fed[1] if fed is not None and fed[0] == key else 0
+        if j + 1 > i0:
+            self._add(curve, start, i0, j + 1)
+        self._fed = (key, max(i0, j + 1), start.size - 1)
+        self.head.add(point)
+
+    def draw(self) -> None:
+        """Send what changed (inside ``target.atomic()``, every frame the point moves)."""
+        if not self.visible:
+            return
+        now = time.monotonic()
+        if self.trail.pending and now - self._flushed >= self.period:
+            self.trail.flush()
+            self._flushed = now
+        self.head.draw()

@@ -67,9 +67,11 @@ from ._pendulum import MAX_LINKS, ROD_RADIUS_RATIO, ReducedChainMotion, pendulum
 from ._rolling_disk import (
     FLAT_LEAN,
     RollingDiskMotion,
+    RollingDiskRun,
     rolling_disk,
     rolling_disk_critical_spin,
     rolling_disk_reference,
+    rolling_disk_run,
 )
 from ._top import HeavyTop, heavy_top
 from ._vibration import (
@@ -152,6 +154,7 @@ __all__ = [
     "Linkage",
     "LinkageInfo",
     "LinkageMotion",
+    "RollingDiskRun",
     "SliderCrank",
     "SpatialDoublePendulum",
     "heavy_top",
@@ -162,6 +165,7 @@ __all__ = [
     "rolling_disk_reference",
     "linkage",
     "linkage_motion",
+    "rolling_disk_run",
     "slider_crank",
     "spatial_double_pendulum",
 ]

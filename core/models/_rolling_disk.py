@@ -13,22 +13,32 @@ Euler angles ``(psi, theta, phi)``: heading ``psi`` about +z, lean
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from core._validation import output_times, real_number
-from core.rotations import euler_parameters_from_euler_angles
+from core._validation import float_array, output_times, real_number, short_repr
+from core.rotations import (
+    GimbalLockWarning,
+    euler_angle_rates_from_omega,
+    euler_angles_from_euler_parameters,
+    euler_parameters_from_euler_angles,
+    rotate_vector,
+)
 
 __all__ = [
     "FLAT_LEAN",
     "RollingDiskMotion",
+    "RollingDiskRun",
     "rolling_disk",
     "rolling_disk_critical_spin",
     "rolling_disk_reference",
+    "rolling_disk_run",
 ]
 
 #: Lean (rad) at which :func:`rolling_disk_reference` stops: the disk has
@@ -394,3 +404,215 @@ def rolling_disk_reference(
         orientation=orientation, centre=centre, velocity=velocity, omega=omega, contact_point=centre - R * f3,
         normal_force=normal, energy=energy,
     )
+
+
+@dataclass(frozen=True)
+class RollingDiskRun:
+    """A run of the :func:`rolling_disk` System (:func:`rolling_disk_run`); read-only arrays.
+
+    Attributes
+    ----------
+    t : (n,) ndarray
+        Output times (s), n >= 1; the run may end before the last time
+        asked for (see ``end``).
+    q : (n, 7) ndarray
+        Centre (global, m) and Euler parameters (theta0, theta1, theta2,
+        theta3), scalar first.
+    v : (n, 6) ndarray
+        Centre's velocity (global, m/s) and omega_body (body frame, rad/s).
+    contact_point : (n, 3) ndarray
+        The rim's point on the ground (global, m).
+    contact_force : (n, 3) ndarray
+        The ground's force on the disk at that point (global, N).
+    normal_force : (n,) ndarray
+        Its normal component, the contact's independent multiplier (N, Eq. 8.107).
+    energy : (n,) ndarray
+        Kinetic plus gravitational energy (J).
+    residual_position, residual_velocity : (n,) ndarray
+        max |C| (m) and max |dC/dt| (m/s) of the contact constraints (Eqs. 8.90-8.94).
+    lean, lean_rate, heading_rate : (n,) ndarray
+        theta (rad), theta_dot and psi_dot (rad/s) of the module's ``"ZXY"``
+        angles (Eq. 8.8 inverted for the rates).
+    spin : (n,) ndarray
+        omega_2, the angular velocity along the symmetry axis (rad/s).
+    speed : (n,) ndarray
+        Speed of the centre (m/s).
+    end : str
+        Why the run ended at ``t[-1]`` before the last time asked for
+        ("" when it did not): the disk left the ground (the normal force
+        reached zero, Eq. 8.107), fell flat (its lean reached the limit,
+        or the contact lost rank, Eq. 8.109), or the integrator stopped.
+    final_state : Any
+        The state at ``t[-1]`` that a run continues from (``initial`` of
+        :func:`rolling_disk_run`); picklable.
+    n_steps, n_rhs : int
+        Integrator steps and right-hand-side evaluations.
+    """
+
+    t: np.ndarray
+    q: np.ndarray = field(repr=False)
+    v: np.ndarray = field(repr=False)
+    contact_point: np.ndarray = field(repr=False)
+    contact_force: np.ndarray = field(repr=False)
+    normal_force: np.ndarray = field(repr=False)
+    energy: np.ndarray = field(repr=False)
+    residual_position: np.ndarray = field(repr=False)
+    residual_velocity: np.ndarray = field(repr=False)
+    lean: np.ndarray = field(repr=False)
+    lean_rate: np.ndarray = field(repr=False)
+    heading_rate: np.ndarray = field(repr=False)
+    spin: np.ndarray = field(repr=False)
+    speed: np.ndarray = field(repr=False)
+    end: str
+    final_state: Any = field(repr=False)
+    n_steps: int = 0
+    n_rhs: int = 0
+
+    @property
+    def final(self) -> bool:
+        """The motion ended at ``t[-1]`` (a separation, a fall or a failed run)."""
+        return bool(self.end)
+
+
+def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: Any = None, rtol: float = 1e-6,
+                     atol: float = 1e-8, lean_limit: float = FLAT_LEAN, pieces: int = 20) -> RollingDiskRun:
+    """Run the :func:`rolling_disk` System over the output times ``t`` (DOP853) until the disk cannot go on.
+
+    The run stops where the disk leaves the ground (the normal force, the
+    contact's multiplier, reaches zero: a constraint cannot pull, Eq. 8.107;
+    ``on_separation="stop"``), ends at the last sample before its lean
+    reaches ``lean_limit`` (the disk lies down), and, when the System's run
+    fails (the contact constraints lose rank as the disk lies flat, Eq.
+    8.109, or the integrator gives up), is run again in ``pieces`` pieces
+    and ends after the last piece that worked. ``end`` says which.
+    Positions and velocities are projected onto the constraints after every
+    step (the residuals stay at round-off). The System is not changed.
+
+    Parameters
+    ----------
+    system, disk, contact :
+        As :func:`rolling_disk` returns them.
+    t : (n,) array_like
+        Increasing output times (s), at least two; from the System's state
+        time, or from ``initial``'s.
+    initial : RollingDiskRun.final_state or None, keyword-only
+        Continue the run that ended there (its time, positions, velocities
+        and contact) instead of starting from the System's state.
+    rtol, atol : float, keyword-only
+        DOP853's tolerances (atol in the state's units).
+    lean_limit : float, keyword-only
+        |lean| (rad) at which the disk counts as fallen, <= ``FLAT_LEAN``
+        keeps it clear of the contact's loss of rank at pi / 2.
+    pieces : int, keyword-only
+        Pieces of a failed run's second try.
+
+    Returns
+    -------
+    RollingDiskRun
+
+    Raises
+    ------
+    ValueError
+        For bad times, or when not even the first piece of a failed run
+        works, or the motion leaves the finite range.
+    """
+    from core.contact import ContactError
+    from core.integrators import IntegrationError
+    from core.multibody import AssemblyError, SingularSystemError
+
+    times = float_array(t, "t", expected="output times (s)").reshape(-1)
+    if times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+        raise ValueError(f"t: expected at least two finite, increasing times (s), got {short_repr(t)}")
+    limit = real_number(lean_limit, "lean_limit", expected="a lean (rad) in (0, pi / 2)")
+    if not 0.0 < limit < 0.5 * math.pi:
+        raise ValueError(f"lean_limit: expected a lean (rad) in (0, pi / 2), got {limit!r}")
+    errors = (ContactError, SingularSystemError, IntegrationError, AssemblyError)
+    options = {"method": "DOP853", "rtol": rtol, "atol": atol, "on_separation": "stop"}
+    start = system.state
+    if initial is not None:
+        system.set_state(dataclasses.replace(start, t=float(initial.t), q=np.array(initial.q, dtype=float),
+                                             v=np.array(initial.v, dtype=float)))
+    try:
+        trajs, end = _disk_pieces(system, times, options, errors, pieces)
+    finally:
+        system.set_state(start)
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "q", "v", "omega", "energy", "res_p", "res_v",
+                                                           "point", "force", "normal")}
+    for j, traj in enumerate(trajs):
+        s = slice(1 if j else 0, None)
+        history = traj.contact(contact)
+        for key, a in (("t", traj.t), ("q", traj.q), ("v", traj.v), ("omega", traj.omega(disk)),
+                       ("energy", traj.energy), ("res_p", traj.residual_position),
+                       ("res_v", traj.residual_velocity), ("point", history.point), ("force", history.force),
+                       ("normal", history.normal_force)):
+            parts[key].append(np.asarray(a)[s])
+    out = {k: np.concatenate(v) for k, v in parts.items()}
+    P = out["q"][:, 3:7]
+    with warnings.catch_warnings():  # past the limit the angles near their singularity; cut off below
+        warnings.simplefilter("ignore", GimbalLockWarning)
+        angles = euler_angles_from_euler_parameters(P / np.linalg.norm(P, axis=1)[:, None], "ZXY")
+    flat = np.flatnonzero(np.abs(angles[:, 1]) >= limit)  # (psi, theta, phi): theta is the lean
+    if flat.size:
+        n = max(int(flat[0]), 1)
+        end = f"the disk fell flat at t = {out['t'][n - 1]:.3f} s (its lean reached {math.degrees(limit):.0f}°)"
+        out = {key: a[:n] for key, a in out.items()}
+        angles = angles[:n]
+    rates = euler_angle_rates_from_omega(angles, out["omega"], "ZXY", tol=1e-9)  # d(psi, theta, phi)/dt
+    axis = rotate_vector(out["q"][:, 3:7], np.array([0.0, 1.0, 0.0]))
+    fields = {"q": out["q"], "v": out["v"], "contact_point": out["point"], "contact_force": out["force"],
+              "normal_force": out["normal"], "energy": out["energy"], "residual_position": out["res_p"],
+              "residual_velocity": out["res_v"], "lean": angles[:, 1], "lean_rate": rates[:, 1],
+              "heading_rate": rates[:, 0], "spin": np.einsum("ij,ij->i", out["omega"], axis),
+              "speed": np.linalg.norm(out["v"][:, :3], axis=1)}
+    for name, a in fields.items():
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name}: the motion left the finite range near t = {times[0]:.3g} s")
+        a.setflags(write=False)
+    out["t"].setflags(write=False)
+    final_state = _DiskState(float(out["t"][-1]), np.array(out["q"][-1]), np.array(out["v"][-1]))
+    return RollingDiskRun(t=out["t"], **fields, end=end, final_state=final_state,
+                          n_steps=sum(int(tr.n_steps) for tr in trajs), n_rhs=sum(int(tr.n_rhs) for tr in trajs))
+
+
+@dataclass(frozen=True)
+class _DiskState:
+    """Where a run ended: time (s), q (7,), v (6,) (picklable, free of the System)."""
+
+    t: float
+    q: np.ndarray
+    v: np.ndarray
+
+
+def _disk_pieces(system: Any, times: np.ndarray, options: dict, errors: tuple, pieces: int) -> tuple[list, str]:
+    """The trajectories of a run over ``times`` and why it ended early ("" if not); see :func:`rolling_disk_run`."""
+
+    def separated(traj: Any) -> str:
+        return (f"the disk left the ground at t = {traj.separations[-1].t:.3f} s: the normal force reached zero "
+                "and a contact constraint cannot pull (Eq. 8.107)")
+
+    start = system.state
+    try:
+        traj = system.simulate(times, **options)
+    except errors as exc:
+        failure: Exception = exc
+    else:
+        return [traj], separated(traj) if traj.status == "separated" else ""
+    trajs: list[Any] = []
+    step = max(1, (times.size - 1) // max(int(pieces), 1))
+    i = 0
+    while i < times.size - 1:
+        try:
+            traj = system.simulate(times[i: i + step + 1], **options)
+        except errors:
+            break
+        trajs.append(traj)
+        if traj.status == "separated":
+            return trajs, separated(traj)
+        system.set_state(traj.state(-1))
+        i += step
+    system.set_state(start)
+    if not trajs:
+        raise ValueError(f"t: the run cannot start at t = {times[0]:.3f} s: {type(failure).__name__}: {failure}")
+    if isinstance(failure, errors[0]) and "rank" in str(failure):
+        return trajs, f"the disk lay down flat near t = {times[i]:.3f} s: its contact constraints lose rank there (Eq. 8.109)"
+    return trajs, f"the run stopped near t = {times[i]:.3f} s: {type(failure).__name__}: {failure}"

@@ -97,7 +97,7 @@ def test_upright_above_the_critical_spin_stays_upright(disk):
     # the linearized wobble about upright keeps a 1 deg lean below 1.7 deg
     # (the reduced equations give 1.67); 3 deg is far from any fall
     assert lean.max() < 3.0 and lean.min() > -3.0
-    assert "**above** it" in scene.gui.info.content
+    assert "**above** it" in scene.info.content
 
 
 def test_upright_below_the_critical_spin_leans_over(disk):
@@ -110,7 +110,7 @@ def test_upright_below_the_critical_spin_leans_over(disk):
     lean = np.degrees(data[:, 8])
     # the lean grows like sinh(6.3 t) from 1 deg; the reduced equations reach 51 deg
     assert lean.max() > 20.0
-    assert "**below** it" in scene.gui.info.content
+    assert "**below** it" in scene.info.content
 
 
 def test_energy_is_conserved_within_the_integrator_tolerance(disk):
@@ -263,11 +263,10 @@ def test_the_force_arrow_is_the_contact_force_at_the_contact_point(disk):
         wxyz = np.array(scene.force_frame.wxyz)
         points = np.array(scene.force_arrow.points)
         at = np.array(scene.point.position)
-    # the sample drawn (interpolated as the scene does)
-    x = (t - chunk.t[0]) / (chunk.t[1] - chunk.t[0])
-    j = min(int(x), chunk.t.size - 2)
-    row = chunk.frames[j] + (x - j) * (chunk.frames[j + 1] - chunk.frames[j])
-    force, point = row[10:13], row[7:10]
+    # the sample drawn: the layer draws the sample at or before the clock
+    j = scene.sample_index(chunk)
+    assert chunk.t[j] <= t + 1e-9 and (j == chunk.t.size - 1 or chunk.t[j + 1] > t)
+    force, point = chunk.frames[j, 10:13], chunk.frames[j, 7:10]
     np.testing.assert_allclose(at[:2], point[:2], atol=1e-6)  # the arrow's frame sits on the contact point
     direction = matrix_from_euler_parameters(wxyz)[:, 2]
     np.testing.assert_allclose(direction, force / np.linalg.norm(force), atol=1e-5)
@@ -287,13 +286,13 @@ def stop_without_spin(scene):
 
 def run_until_stopped(scene):
     run_until(scene, 2.0)
-    wait_until(lambda: scene.ended and not scene.playing)
+    wait_until(lambda: scene.ended)  # the clock holds at the end
 
 
 def test_leaving_the_ground_stops_the_clock_with_a_notice(disk):
     app, scene = disk
     stop_without_spin(scene)
-    assert "left the ground" in scene.ended
+    assert "left the ground" in scene.last_chunk.end
     assert notices_with(app, "Rolling disk stopped")
     t_end = scene.sim_time
     data = csv_rows(scene)
@@ -378,14 +377,14 @@ def test_radius_scales_the_disk_and_the_critical_spin(disk):
     assert scene.track_head.length == pytest.approx(0.06)
     assert np.asarray(scene.track_head.tip.points)[0, 1, 2] == pytest.approx(0.06)
     critical = rolling_disk_critical_spin(0.2)
-    assert f"{critical:.2f} rad/s" in scene.gui.info.content
+    assert f"{critical:.2f} rad/s" in scene.info.content
     # the view is scaled with the disk (twice the default radius: twice as far, about the origin)
     camera = app.server.initial_camera
     np.testing.assert_allclose(camera.position, 2.0 * np.array(RollingDiskScene.camera_position), rtol=1e-6)
     np.testing.assert_allclose(camera.look_at, 2.0 * np.array(RollingDiskScene.camera_look_at), rtol=1e-6)
     assert send_value(scene, "contact", SLIDING)
     wait_for_model(scene, rolling=False)
-    assert f"{rolling_disk_critical_spin(0.2, rolling=False):.2f} rad/s" in scene.gui.info.content
+    assert f"{rolling_disk_critical_spin(0.2, rolling=False):.2f} rad/s" in scene.info.content
 
 
 
@@ -413,14 +412,24 @@ def test_a_preset_whose_values_are_set_starts_again(disk):
 
 @pytest.mark.parametrize("name", PRESETS)
 def test_presets_set_their_values(name):
-    for contact in CONTACTS:
-        inputs = preset_inputs(name, radius=0.05, mass=0.5, contact=contact)
-        assert inputs.radius == 0.05 and inputs.mass == 0.5
-        model = Model.from_inputs(inputs)  # within the controls' ranges
-        if name.startswith("Upright"):
-            factor = 2.0 if "2 ×" in name else 0.7
-            critical = rolling_disk_critical_spin(0.05, rolling=contact == ROLLING)
-            assert model.spin == pytest.approx(factor * critical, abs=0.005) and model.rolling == (contact == ROLLING)
+    inputs = preset_inputs(name, radius=0.05, mass=0.5)
+    assert inputs.radius == 0.05 and inputs.mass == 0.5 and inputs.contact in CONTACTS
+    model = Model.from_inputs(inputs)  # within the controls' ranges
+    if name.startswith("Upright"):  # every preset sets its contact: the upright ones roll
+        factor = 2.0 if "2 ×" in name else 0.7
+        critical = rolling_disk_critical_spin(0.05, rolling=True)
+        assert model.spin == pytest.approx(factor * critical, abs=0.005) and model.rolling
+
+
+def test_an_upright_preset_after_the_sliding_coin_rolls(disk):
+    # the upright presets set the contact too: after "Sliding coin" they do not keep sliding (critical 9.90 rad/s)
+    app, scene = disk
+    click(scene, "preset_3")
+    wait_for_model(scene, rolling=False, after=0.0)
+    click(scene, "preset_0")
+    wait_for_model(scene, rolling=True, spin=round(2.0 * rolling_disk_critical_spin(0.1), 2), after=0.0)
+    assert scene.controls.value("contact") == ROLLING and scene.model.spin == pytest.approx(11.44)
+    assert "5.72 rad/s" in scene.info.content
 
 
 def test_the_scene_computes_only_while_shown(disk):
@@ -460,17 +469,16 @@ def test_chunks_continue_the_system_and_a_fall_ends_them():
     assert c1.energy0 == c0.energy0
     with pytest.raises(ValueError, match="chunk 2 continues from chunk 1"):
         _compute_chunk(model, 2, c0)
-    # a frictionless disk without spin falls flat: the run ends before the contact loses rank
+    # a frictionless disk without spin falls flat: the run ends before the contact loses rank (the layer asks
+    # for no chunk after a final one)
     flat = Model.from_inputs(Inputs(lean_deg=20.0, spin=0.0, contact=SLIDING))
     f0 = _compute_chunk(flat, 0, None)
     assert f0.final and ("flat" in f0.end) and f0.t[-1] < 0.5
-    f1 = _compute_chunk(flat, 1, f0)  # after the end, the last sample is held
-    assert f1.final and np.all(f1.t == f0.t[-1]) and np.all(f1.frames == f0.frames[-1])
 
 
-def test_chunks_carry_the_tracks_pieces_and_the_plotted_series():
+def test_chunks_carry_the_tracks_pieces_and_the_plotted_columns():
     # a frame only slices these: the track's points (the contact point's samples lifted over the ground, with
-    # the pieces between sharply turning samples) and the plotted series, formed by the chunk job
+    # the pieces between sharply turning samples) and the table the plots and the CSV read, formed by the job
     model = Model.from_inputs(Inputs(radius=0.03, lean_deg=20.0, spin=10.0))  # a small coin's loops
     c0 = _compute_chunk(model, 0, None)
     c1 = _compute_chunk(model, 1, c0)
@@ -489,17 +497,17 @@ def test_chunks_carry_the_tracks_pieces_and_the_plotted_series():
         assert chunk.track_start[-1] == chunk.track.shape[0] and np.all(np.diff(chunk.track_start) >= 0)
         assert np.all(np.diff(chunk.track_start)[1:] >= 1)  # every sample after the first adds its own point
     assert c0.track_start[1] == 1 and c1.track_start[1] == 0  # chunk 1's first sample was drawn with chunk 0
-    for chunk in (c0, c1):
-        columns, series = chunk.table.columns, chunk.plots.columns
-        np.testing.assert_array_equal(chunk.plots.t, chunk.table.t)
-        np.testing.assert_array_equal(series[:, 0], np.degrees(columns[:, 7]))
-        with np.errstate(divide="ignore"):  # (E - E0 = 0 at t = 0: the log plots' floor)
-            drift = np.maximum(np.log10(np.abs(columns[:, 8] - c0.energy0)), -17.0)
-        np.testing.assert_array_equal(series[:, 1], drift)
-        np.testing.assert_array_equal(series[:, 4], columns[:, 11])
-    # a chunk after the motion ended holds its last sample and adds no track
-    flat = Model.from_inputs(Inputs(lean_deg=20.0, spin=0.0, contact=SLIDING))
-    f0 = _compute_chunk(flat, 0, None)
-    f1 = _compute_chunk(flat, 1, f0)
-    assert f1.track.shape == (0, 3) and np.all(f1.track_start == 0)
-    np.testing.assert_array_equal(f1.plots.columns, f0.plots.columns[-1:])
+    for chunk in (c0, c1):  # the table is core's run (the CSV's columns)
+        run, columns = chunk.run, chunk.table.columns
+        np.testing.assert_array_equal(chunk.table.t, run.t)
+        np.testing.assert_array_equal(columns[:, :7], run.q)
+        np.testing.assert_array_equal(columns[:, 7:], np.column_stack([run.lean, run.energy, run.residual_position,
+                                                                       run.residual_velocity, run.normal_force]))
+    # the plotted series, from those columns
+    scene_plots = {spec.name: spec for spec in RollingDiskScene.plots(type("S", (), {"energy0": c0.energy0})())}
+    columns = c1.table.columns
+    (lean,) = scene_plots["lean"].data(c1.t, columns)
+    np.testing.assert_array_equal(lean, np.degrees(columns[:, 7]))
+    (drift,) = scene_plots["energy"].data(c1.t, columns)
+    with np.errstate(divide="ignore"):  # (E - E0 = 0 at t = 0: the log plots' floor)
+        np.testing.assert_array_equal(drift, np.maximum(np.log10(np.abs(columns[:, 8] - c0.energy0)), -17.0))

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from app.scenes.rolling_disk import _WINDOW, SLIDING, RollingDiskScene
+from app.scenes.rolling_disk import SLIDING, RollingDiskScene
 from core.rotations import matrix_from_euler_parameters
 from tests.browser._page import drawn_fraction, png_pixels
 from tests.helpers import wait_until
@@ -46,16 +46,16 @@ def test_lean_slider_from_the_page_changes_the_pose_and_the_plot(scene_page) -> 
     page.get_by_role("button", name="Pause", exact=True).click()
     wait_until(lambda: not scene.playing)
     paused_at = scene.sim_time
-    wait_until(lambda: scene.gui.plot_lean.data[0].size > 2
-               and 0.0 <= paused_at - scene.gui.plot_lean.data[0][-1] < 0.1,
+    wait_until(lambda: scene.plot_handles["lean"].data[0].size > 2
+               and 0.0 <= paused_at - scene.plot_handles["lean"].data[0][-1] < 0.1,
                timeout=30.0)
-    t_plot, lean_plot = scene.gui.plot_lean.data
-    if paused_at <= _WINDOW:  # the plot still starts at t = 0, at the slider's lean
+    t_plot, lean_plot = scene.plot_handles["lean"].data
+    if paused_at <= scene.window:  # the plot still starts at t = 0, at the slider's lean
         assert t_plot[0] == 0.0 and math.isclose(float(lean_plot[0]), 10.0, abs_tol=1e-9)
     else:  # a slow machine played past the window: it spans one window back from its last sample
         # (the window was taken at the last refresh, up to a refresh period before the pause; its first
         # and last samples are each within a sample spacing of its ends)
-        assert 0.0 <= t_plot[0] - (t_plot[-1] - _WINDOW) < 0.2
+        assert 0.0 <= t_plot[0] - (t_plot[-1] - scene.window) < 0.2
     thumb = _slider_thumb(page, "Lean (deg)")
     wait_until(lambda: thumb.get_attribute("aria-valuenow") == "10")
     page.wait_for_timeout(800)  # a few frames of the software renderer
@@ -71,8 +71,8 @@ def test_lean_slider_from_the_page_changes_the_pose_and_the_plot(scene_page) -> 
                            - math.sin(math.radians(60.0))) < 1e-6, timeout=30.0)
     np.testing.assert_allclose(np.array(scene.disk.position)[2], 0.1 * math.cos(math.radians(60.0)), atol=1e-6)
     # the lean plot starts again, at the new lean
-    wait_until(lambda: math.isclose(float(scene.gui.plot_lean.data[1][0]), 60.0, abs_tol=1e-9), timeout=30.0)
-    assert scene.gui.plot_lean.data[0][-1] == 0.0
+    wait_until(lambda: math.isclose(float(scene.plot_handles["lean"].data[1][0]), 60.0, abs_tol=1e-9), timeout=30.0)
+    assert scene.plot_handles["lean"].data[0][-1] == 0.0
     page.wait_for_timeout(800)
     after = _view(page.screenshot())
     changed = np.any(np.abs(after - before) > 0.05, axis=-1)
@@ -81,7 +81,7 @@ def test_lean_slider_from_the_page_changes_the_pose_and_the_plot(scene_page) -> 
     # playing again, the lean plot grows from t = 0
     page.get_by_role("button", name="Play", exact=True).click()
     wait_until(lambda: scene.playing and scene.sim_time > 0.3, timeout=60.0)
-    wait_until(lambda: scene.gui.plot_lean.data[0][-1] > 0.2, timeout=30.0)
+    wait_until(lambda: scene.plot_handles["lean"].data[0][-1] > 0.2, timeout=30.0)
     assert drawn_fraction(page.locator("canvas").first.screenshot()) > 0.01
 
 
@@ -99,7 +99,7 @@ def test_preset_and_contact_from_the_page(running_app, open_page) -> None:
     ).locator("input").first
     wait_until(lambda: select.input_value() == SLIDING, timeout=30.0)
     # the sliding disk's critical spin is sqrt(g / R)
-    wait_until(lambda: "√(g / R)" in scene.gui.info.content)
+    wait_until(lambda: "√(g / R)" in scene.info.content)
     wait_until(lambda: scene.drawn_model == scene.model and scene.sim_time > 0.2, timeout=60.0)
     title = page.locator(".u-title", has_text="normal force N").first
     title.scroll_into_view_if_needed()
