@@ -19,7 +19,7 @@ import math
 import re
 from typing import Any
 
-__all__ = ["Readout", "markdown_to_html", "one_digit", "significant", "PRESENTER_FONT_SCALE", "PRESENTER_TABLE_SCALE"]
+__all__ = ["Readout", "markdown_to_html", "one_digit", "relation", "significant", "PRESENTER_FONT_SCALE", "PRESENTER_TABLE_SCALE"]
 
 #: Font size of readouts in presenter view, relative to the panel's.
 PRESENTER_FONT_SCALE = 1.45
@@ -52,6 +52,12 @@ def one_digit(x: float, floor: float = 0.0) -> str:
     if x == 0.0 or abs(x) < floor:
         return f"< {floor:.0e}" if floor > 0.0 else "0"
     return f"{abs(x):.0e}"
+
+
+def relation(x: float, floor: float = 0.0) -> str:
+    """``= 3e-12`` for a residual, ``< 1e-15`` at round-off (below ``floor``; :func:`one_digit`)."""
+    text = one_digit(x, floor)
+    return text if text.startswith("<") else f"= {text}"
 
 
 @functools.lru_cache(maxsize=4096)

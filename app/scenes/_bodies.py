@@ -28,11 +28,11 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from app.nodes import set_array, set_arrays
+from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
-__all__ = ["Parts", "Placed", "PartsView", "add_body_meshes", "body_point", "ring_mesh", "rod_mesh", "saturating_arrows",
-           "spring_polyline"]
+__all__ = ["ForceArrow", "Parts", "Placed", "PartsView", "add_body_meshes", "add_disk", "body_point", "disk_meshes",
+           "ring_mesh", "rod_mesh", "saturating_arrows", "spring_polyline"]
 
 #: Coils of a spring drawn as a zigzag (segments = 2 coils + 2 straight ends).
 SPRING_COILS = 8
@@ -364,3 +364,66 @@ class PartsView:
             segments = placed.springs.shape[2]
             self._springs[: n_s * segments] = placed.springs[i].reshape(-1, 2, 3)
             set_array(self.springs, "points", self._springs)
+
+
+def disk_meshes(*, thickness: float = 0.06, sections: int = 72) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    """A unit disk (radius 1, ``thickness`` thick, its axis along body y, centred) and a marker stripe across
+    both faces from the centre to the rim along body +x, which shows the spin from either side (a coin, a
+    wheel); scale both by the radius."""
+    disk = trimesh.creation.cylinder(radius=1.0, height=thickness, sections=sections)
+    disk.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [1.0, 0.0, 0.0]))
+    stripe = trimesh.creation.box(extents=(0.92, 1.25 * thickness, 0.16))
+    stripe.apply_translation([0.5, 0.0, 0.0])
+    return disk, stripe
+
+
+def add_disk(scene: Any, name: str, *, color: Any, marker_color: Any, radius: float, opacity: float = 1.0,
+             position: Any = (0.0, 0.0, 0.0)) -> tuple[Any, Any, Any]:
+    """A frame ``name`` holding :func:`disk_meshes` (``{name}/mesh``, ``{name}/marker``) of ``radius`` (m):
+    ``(frame, mesh, marker)``; the meshes' ``scale`` is the radius."""
+    disk, stripe = disk_meshes()
+    frame = scene.add_frame(name, show_axes=False, position=tuple(position))
+    mesh = scene.add_mesh_simple(f"{name}/mesh", disk.vertices, disk.faces, color=color, opacity=opacity, scale=radius)
+    marker = scene.add_mesh_simple(f"{name}/marker", stripe.vertices, stripe.faces, color=marker_color, scale=radius)
+    return frame, mesh, marker
+
+
+class ForceArrow:
+    """A force drawn at a point: an arrow along +z of its own frame (``{name}``, posed by the caller's
+    parent frame at the point), turned by that frame's orientation every frame and of length
+    ``scale |F| / (|F| + reference)`` (saturating: a large force stays in view), whose points are sent only
+    when the length changed by more than ``resend`` of itself (a pose reaches the page with the other poses
+    of its frame; new points a page frame later).
+
+    Parameters
+    ----------
+    scene : app.scenes.base.Scene
+        Its radii grow in presenter view (:meth:`~app.scenes.base.Scene.add_arrows`).
+    name, color :
+        Path of the frame (the arrow is ``{name}/arrow``) and RGB colour.
+    sizes : dict
+        ``shaft_radius``, ``head_radius``, ``head_length`` (m) at scale 1 (:meth:`resize`).
+    """
+
+    def __init__(self, scene: Any, name: str, color: Any, *, sizes: dict[str, float], resend: float = 0.02) -> None:
+        self.scene, self.sizes, self.resend, self.length = scene, dict(sizes), float(resend), 0.0
+        self.frame = scene.target.scene.add_frame(name, show_axes=False)
+        self.arrow = scene.add_arrows(f"{name}/arrow", np.zeros((1, 2, 3), np.float32), color, **sizes)
+
+    def resize(self, scale: float) -> None:
+        """Shaft and head ``scale`` times their sizes at scale 1 (a body of another size)."""
+        self.scene.resize_arrows(self.arrow, **{k: scale * v for k, v in self.sizes.items()})
+
+    def show(self, force: Sequence[float] | None, *, scale: float = 1.0, reference: float = 1.0) -> None:
+        """Draw ``force`` (3,) (None: hide the arrow); call inside ``target.atomic()``."""
+        if self.frame.visible != (force is not None):
+            self.frame.visible = force is not None
+        if force is None:
+            return
+        fx, fy, fz = (float(x) for x in force)
+        magnitude = math.sqrt(fx * fx + fy * fy + fz * fz)
+        length = scale * magnitude / (magnitude + reference)
+        set_pose(self.frame, wxyz=wxyz_z_to((fx, fy, fz), magnitude))
+        if abs(length - self.length) > self.resend * self.length or (length == 0.0) != (self.length == 0.0):
+            self.length = length
+            set_array(self.arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))

@@ -570,8 +570,15 @@ class SampledTrack:
         self.head = StickHead(scene, f"{name}/head", color, thickness=thickness, length=head_length,
                               count=head_count, **kwargs)
         self.period = float(period)
+        self._base = (float(head_length), float(min_step))
         self._fed: tuple[Any, int, int] | None = None  # (chunk key, samples fed, samples in it)
         self._flushed = -math.inf
+
+    def scale(self, s: float) -> None:
+        """Sticks and the trail's least step ``s`` times those given (a body of another size: a small coin's
+        track stays a curve); the head forgets its points."""
+        self.head.set_length(s * self._base[0])
+        self.trail.min_step = s * self._base[1]
 
     @property
     def visible(self) -> bool:
@@ -597,7 +604,7 @@ class SampledTrack:
         """The clock is at sample ``j`` of chunk ``key`` (its :func:`sampled_curve` ``curve``, ``start``)
         and the point drawn is ``point`` (3,); ``previous``: ``(key, curve, start)`` of the chunk before."""
         fed = self._fed
-        if fed is not None and previous is not None and fed[0] == previous[0] and fed[1] < fed[2]:
+        if fed is not None and previous is not None and fed[0] == previous[0] != key and fed[1] < fed[2]:
             self._add(previous[1], previous[2], fed[1], fed[2])  # the rest of the chunk before
         i0 = fed[1] if fed is not None and fed[0] == key else 0
         if j + 1 > i0:

@@ -1,21 +1,11 @@
 """Rolling disk scene: a coin (Euler's disk) on the ground, rolling without slip or sliding.
 
-The disk of :func:`core.models.rolling_disk`: a thin uniform disk whose rim
-(a :class:`core.contact.Torus` of minor radius zero) touches the ground's
-:class:`core.contact.Plane` through ``System.add_contact``. The initial
-lean, spin and heading rate, the contact model, the radius and the mass are
-the scene's controls; the readout compares the spin with the critical
-upright spin of :func:`core.models.rolling_disk_critical_spin`.
-
-A :class:`~app.scenes._simulation.SimulationScene`: the layer owns the
-clock, the chunk timeline, the end of the motion, plots and CSV. Each chunk
-(0.5 s, 30 samples) is one call of :func:`core.models.rolling_disk_run` in a
-worker process, continued from the chunk before's ``final_state``; core
-finds where the disk leaves the ground, falls flat or the run fails (its
-``end``: the layer's final chunk). The chunk also forms the contact point's
-track (:func:`app.scenes._trail.sampled_curve`), which a frame only slices:
-:class:`app.scenes._trail.SampledTrack` draws it up to the contact point in
-every page frame.
+The disk of :func:`core.models.rolling_disk` on a :class:`SimulationScene`: each chunk (0.5 s, 30
+samples) is one call of :func:`core.models.rolling_disk_run` in a worker process, continued from the
+chunk before's ``final_state``; core says where the disk leaves the ground, falls flat or the run fails
+(the layer's final chunk). The chunk also forms the contact point's track
+(:func:`app.scenes._trail.sampled_curve`), which :class:`app.scenes._trail.SampledTrack` draws up to the
+contact point in every page frame; a frame only slices arrays.
 """
 
 from __future__ import annotations
@@ -32,18 +22,18 @@ import numpy as np
 import trimesh
 
 from app.controls import Choice, Slider, Toggle
-from app.nodes import set_array, set_pose, wxyz_z_to
-from app.readout import one_digit, significant
+from app.nodes import set_pose
+from app.readout import one_digit, relation, significant
+from app.scenes._bodies import ForceArrow, add_disk
 from app.scenes._plots import Legend, Table, log10_floor
 from app.scenes._simulation import PlotSpec, SimulationScene, job
 from app.scenes._trail import SampledTrack, curve_pieces as track_pieces, sampled_curve
-from core.models import FLAT_LEAN, rolling_disk, rolling_disk_critical_spin, rolling_disk_run
+from core.models import rolling_disk, rolling_disk_critical_spin, rolling_disk_run
 
 __all__ = ["CONTACTS", "CSV_HEADER", "Inputs", "Model", "PRESETS", "ROLLING", "RTOL", "RollingDiskScene", "SLIDING",
            "preset_inputs", "track_pieces"]
 
-ROLLING = "Rolling without slip"
-SLIDING = "Frictionless sliding"
+ROLLING, SLIDING = "Rolling without slip", "Frictionless sliding"
 CONTACTS = (ROLLING, SLIDING)
 PRESETS = ("Upright, 2 × critical spin", "Upright, 0.7 × critical spin", "Leaning coin, circling", "Sliding coin")
 #: DOP853's tolerances: the energy drifts by about 1e-7 of E over 3 s (the default disk).
@@ -84,8 +74,7 @@ def preset_inputs(name: str, *, radius: float = _DEFAULT.radius, mass: float = _
         spin = (2.0 if name == PRESETS[0] else 0.7) * rolling_disk_critical_spin(radius, gravity=_GRAVITY)
         return Inputs(1.0, round(spin, 2), 0.0, ROLLING, radius, mass)
     if name in PRESETS[2:]:
-        return Inputs(20.0, 10.0, 0.0, ROLLING, radius, mass) if name == PRESETS[2] else Inputs(
-            10.0, 15.0, 0.0, SLIDING, radius, mass)
+        return Inputs(*((20.0, 10.0, 0.0, ROLLING) if name == PRESETS[2] else (10.0, 15.0, 0.0, SLIDING)), radius, mass)
     raise ValueError(f"name: expected one of {list(PRESETS)}, got {name!r}")
 
 
@@ -103,22 +92,13 @@ class Model:
 
     @classmethod
     def from_inputs(cls, inputs: Inputs) -> Model:
-        """The model of ``inputs``; ValueError (naming the argument) for what core would refuse."""
+        """The model of ``inputs``; ValueError naming the argument for a contact or radius core refuses (the
+        controls' ranges keep the others in)."""
         if inputs.contact not in CONTACTS:
             raise ValueError(f"contact: expected one of {list(CONTACTS)}, got {inputs.contact!r}")
-        model = cls(float(inputs.radius), float(inputs.mass), math.radians(inputs.lean_deg), float(inputs.spin),
-                    float(inputs.heading_rate), inputs.contact == ROLLING)
-        if not (math.isfinite(model.mass) and model.mass > 0.0):
-            raise ValueError(f"mass: expected a finite number > 0 (kg), got {model.mass!r}")
-        if not abs(model.lean) < FLAT_LEAN:
-            raise ValueError(f"lean: expected |lean| < {math.degrees(FLAT_LEAN):.1f}°, got {inputs.lean_deg!r}°")
-        rolling_disk_critical_spin(model.radius, rolling=model.rolling, gravity=_GRAVITY)  # checks the radius
-        return model
-
-    @property
-    def critical_spin(self) -> float:
-        """Critical upright spin (rad/s): sqrt(g / (3 R)) rolling, sqrt(g / R) sliding."""
-        return rolling_disk_critical_spin(self.radius, rolling=self.rolling, gravity=_GRAVITY)
+        rolling_disk_critical_spin(inputs.radius, gravity=_GRAVITY)  # checks the radius
+        return cls(float(inputs.radius), float(inputs.mass), math.radians(inputs.lean_deg), float(inputs.spin),
+                   float(inputs.heading_rate), inputs.contact == ROLLING)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,16 +109,15 @@ class _Chunk:
     model: Model
     run: Any  # core.models.RollingDiskRun
     table: Table  # t and the CSV columns: centre, p, lean, E, max |C|, max |dC/dt|, N
-    frames: np.ndarray  # (n, 13) centre, p, contact point, contact force on the disk
     track: np.ndarray  # (m, 3) and (n + 1,): app.scenes._trail.sampled_curve of the contact point
     track_start: np.ndarray
     energy0: float  # J at t = 0
     cpu_seconds: float
     worker: int  # pid of the process that computed it
 
-    t = property(lambda self: self.run.t)
-    end = property(lambda self: self.run.end)
-    final = property(lambda self: self.run.final)
+    t, end, final = (property(lambda self, a=a: getattr(self.run, a)) for a in ("t", "end", "final"))
+    frames = property(lambda self: np.column_stack([self.run.q, self.run.contact_point, self.run.contact_force]),
+                      doc="(n, 13) centre, p, contact point, contact force on the disk")
 
 
 @functools.lru_cache(maxsize=8)
@@ -156,36 +135,13 @@ def _compute_chunk(model: Model, k: int, previous: _Chunk | None) -> _Chunk:
         raise ValueError(f"previous: chunk {k} continues from chunk {k - 1}, which was not given")
     run = rolling_disk_run(*pickle.loads(_built(model)), np.linspace(k * _CHUNK, (k + 1) * _CHUNK, _SAMPLES + 1),
                            initial=None if previous is None else previous.run.final_state, rtol=RTOL, atol=ATOL)
-    frames = np.column_stack([run.q, run.contact_point, run.contact_force])
-    before = None if previous is None else previous.frames[-2:, 7:10] + (0.0, 0.0, _LIFT)
+    before = None if previous is None else previous.run.contact_point[-2:] + (0.0, 0.0, _LIFT)
     track, start = sampled_curve(run.t, run.contact_point + (0.0, 0.0, _LIFT), before=before,
                                  t_before=-math.inf if previous is None else float(previous.t[-1]))
     table = Table.build(run.t, np.column_stack([run.q, run.lean, run.energy, run.residual_position,
                                                 run.residual_velocity, run.normal_force]))
-    frames.setflags(write=False)
-    return _Chunk(k, model, run, table, frames, track, start, previous.energy0 if previous else float(run.energy[0]),
+    return _Chunk(k, model, run, table, track, start, previous.energy0 if previous else float(run.energy[0]),
                   time.thread_time() - cpu0, os.getpid())
-
-
-def _disk_meshes() -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
-    """The unit disk (axis along body y, 6 % thick) and its marker stripe from the centre along body +x."""
-    disk = trimesh.creation.cylinder(radius=1.0, height=0.06, sections=72)
-    disk.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [1.0, 0.0, 0.0]))
-    stripe = trimesh.creation.box(extents=(0.92, 0.075, 0.16))
-    stripe.apply_translation([0.5, 0.0, 0.0])
-    return disk, stripe
-
-
-def _arrow_sizes(radius: float) -> dict[str, float]:
-    """The force arrow's shaft and head (m), in proportion to the disk (3.5 / 9 / 20 mm for 0.1 m)."""
-    s = radius / _DEFAULT.radius
-    return {"shaft_radius": 0.0035 * s, "head_radius": 0.009 * s, "head_length": 0.02 * s}
-
-
-def _relation(x: float, floor: float) -> str:
-    """``= 3e-12`` for a residual, ``< 1e-15`` at round-off (below ``floor``)."""
-    text = one_digit(x, floor)
-    return text if text.startswith("<") else f"= {text}"
 
 
 class RollingDiskScene(SimulationScene):
@@ -238,11 +194,10 @@ class RollingDiskScene(SimulationScene):
         self.energy0 = math.nan
         self._j = 0  # the sample drawn of last_chunk
         self._scale = _DEFAULT.radius  # the radius the disk is drawn at
-        self._arrow_length = 0.0  # m, as sent
 
     def camera_view(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """The class's view scaled by the disk's radius (about the origin, where *Follow* keeps the disk)."""
-        s = (self.model.radius if self.model is not None else _DEFAULT.radius) / _DEFAULT.radius
+        s = getattr(self.model, "radius", _DEFAULT.radius) / _DEFAULT.radius
         return tuple(s * x for x in self.camera_position), tuple(s * x for x in self.camera_look_at)  # type: ignore
 
     def job(self, inputs: Inputs, segment: Any) -> Any:
@@ -258,23 +213,16 @@ class RollingDiskScene(SimulationScene):
         self.path = SampledTrack(self, f"{root}/ground/track", _TRACK_COLOR, thickness=3.0, thickness_units="screen",
                                  capacity=1000, min_step=0.002, head_length=0.03, head_count=64)
         self.track, self.track_head = self.path.trail, self.path.head
-        ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
         self.point = scene.add_frame(f"{root}/ground/point", show_axes=False)
-        self.point_mesh = scene.add_mesh_simple(f"{root}/ground/point/mesh", ball.vertices.astype(np.float32),
-                                                ball.faces.astype(np.uint32), color=_POINT_COLOR,
-                                                scale=_POINT_RADIUS * _DEFAULT.radius)
-        # the arrow points along +z of its frame at the contact point: the frame's pose turns it
-        self.force_frame = scene.add_frame(f"{root}/ground/point/force", show_axes=False)
-        self.force_arrow = self.add_arrows(f"{root}/ground/point/force/arrow", np.zeros((1, 2, 3), np.float32),
-                                           _FORCE_COLOR, **_arrow_sizes(_DEFAULT.radius))
-        self.disk = scene.add_frame(f"{root}/disk", show_axes=False, position=(0.0, 0.0, _DEFAULT.radius))
-        disk, stripe = _disk_meshes()
-        self.disk_mesh = scene.add_mesh_simple(f"{root}/disk/mesh", disk.vertices.astype(np.float32),
-                                               disk.faces.astype(np.uint32), color=_DISK_COLOR, opacity=0.8,
-                                               scale=_DEFAULT.radius)  # translucent: the arrow shows through
-        self.disk_marker = scene.add_mesh_simple(f"{root}/disk/marker", stripe.vertices.astype(np.float32),
-                                                 stripe.faces.astype(np.uint32), color=_MARKER_COLOR,
-                                                 scale=_DEFAULT.radius)
+        ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        self.point_mesh = scene.add_mesh_simple(f"{root}/ground/point/mesh", ball.vertices, ball.faces,
+                                                color=_POINT_COLOR, scale=_POINT_RADIUS * _DEFAULT.radius)
+        self.force = ForceArrow(self, f"{root}/ground/point/force", _FORCE_COLOR,  # for R = 0.1 m; with R
+                                sizes={"shaft_radius": 0.0035, "head_radius": 0.009, "head_length": 0.02})
+        self.force_frame, self.force_arrow = self.force.frame, self.force.arrow
+        self.disk, self.disk_mesh, self.disk_marker = add_disk(  # translucent: the force arrow shows through
+            scene, f"{root}/disk", color=_DISK_COLOR, marker_color=_MARKER_COLOR, radius=_DEFAULT.radius, opacity=0.8,
+            position=(0.0, 0.0, _DEFAULT.radius))
         self.point_label = self.add_label(f"{root}/ground/point/label", "contact point", anchor="top-left",
                                           scale=1.2)
 
@@ -303,8 +251,7 @@ class RollingDiskScene(SimulationScene):
             c.add(Slider("mass", "Mass m (kg)", min=0.01, max=5.0, step=0.01, default=_DEFAULT.mass,
                          hint="Mass of the disk (the motion does not depend on it; forces and energy do)"))
         with gui.add_folder("Show"):
-            c.add(Toggle("follow", "Follow the disk", default=True,
-                         hint="Keep the disk in view: the ground moves under it"))
+            c.add(Toggle("follow", "Follow the disk", default=True, hint="Keep the disk in view: the ground moves"))
             c.add(Toggle("show_track", "Track", default=True))
             c.add(Toggle("show_force", "Contact force arrow", default=True))
 
@@ -328,16 +275,10 @@ class RollingDiskScene(SimulationScene):
         values = self.controls.values()
         return dataclasses.asdict(preset_inputs(name, radius=values["radius"], mass=values["mass"]))
 
-    def values_refusal(self, values: dict[str, Any]) -> str | None:
-        try:
-            Model.from_inputs(self.Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)}))
-        except ValueError as exc:
-            return f"invalid disk parameters: {exc}"
-        return None
-
     def on_configure(self, inputs: Inputs) -> None:
         model = self.model = Model.from_inputs(inputs)
-        critical, rolling = model.critical_spin, model.rolling
+        rolling = model.rolling
+        critical = rolling_disk_critical_spin(model.radius, rolling=rolling, gravity=_GRAVITY)
         verdict = ("**above** it: upright motion is stable (a small lean wobbles)" if abs(model.spin) > critical
                    else "**below** it: upright motion is unstable (a small lean grows)")
         where = (f"rolling at R ω = {significant(critical * model.radius, 3)} m/s" if rolling else
@@ -348,11 +289,11 @@ class RollingDiskScene(SimulationScene):
             f"{significant(abs(model.spin) / critical, 3)} × critical: {verdict}.")
         if model.radius != self._scale:
             self.reframe()
-            self.path.head.set_length(0.03 * model.radius / _DEFAULT.radius)  # a small coin's track: no polygon
-            self.path.trail.min_step = 0.002 * model.radius / _DEFAULT.radius
+            self.path.scale(model.radius / _DEFAULT.radius)
 
     def on_restart(self) -> None:
         self.path.clear()
+        self.last_drawn = None
 
     def on_frame(self, changed: set[str]) -> None:
         if changed & {"follow", "show_track", "show_force"}:
@@ -364,77 +305,51 @@ class RollingDiskScene(SimulationScene):
 
     # -- a frame -----------------------------------------------------------------------------------
     def draw(self, chunk: _Chunk, j: int) -> None:
-        previous, self._j = self.last_drawn, j
-        self.last_drawn = chunk
-        self.energy0 = chunk.energy0
-        value = self.controls.value
-        follow, show_track, show_force = value("follow"), value("show_track"), value("show_force")
-        cx, cy, cz, p0, p1, p2, p3, px, py, pz, fx, fy, fz = chunk.frames[j].tolist()
+        previous, self.last_drawn, self._j, self.energy0 = self.last_drawn, chunk, j, chunk.energy0
+        follow, show_track, show_force = (self.controls.value(k) for k in ("follow", "show_track", "show_force"))
+        run = chunk.run
+        (cx, cy, cz, p0, p1, p2, p3), (px, py, pz), force = run.q[j].tolist(), run.contact_point[j].tolist(), \
+            run.contact_force[j].tolist()
         pz += _LIFT
-        before = None if previous is None else (previous.k, previous.track, previous.track_start)
-        self.path.follow(chunk.k, chunk.track, chunk.track_start, j, (px, py, pz),
-                         before if previous is not None and previous.k == chunk.k - 1 else None)
+        before = (previous.k, previous.track, previous.track_start) if previous is not None else None
+        self.path.follow(chunk.k, chunk.track, chunk.track_start, j, (px, py, pz), before)
         ox, oy = (cx, cy) if follow else (0.0, 0.0)
         radius = chunk.model.radius
         if radius != self._scale:
             self._scale = self.disk_mesh.scale = self.disk_marker.scale = radius
             self.point_mesh.scale = _POINT_RADIUS * radius
-            self.resize_arrows(self.force_arrow, **_arrow_sizes(radius))
+            self.force.resize(radius / _DEFAULT.radius)
         set_pose(self.disk, position=(cx - ox, cy - oy, cz), wxyz=(p0, p1, p2, p3))
         set_pose(self.ground, position=(-ox, -oy, 0.0))
         set_pose(self.grid, position=(-math.fmod(ox, _GRID_SECTION), -math.fmod(oy, _GRID_SECTION), 0.0))
         set_pose(self.point, position=(px, py, pz))
         self.path.visible = show_track
         self.path.draw()
-        if self.force_frame.visible != show_force:
-            self.force_frame.visible = show_force
-        if show_force:
-            magnitude = math.sqrt(fx * fx + fy * fy + fz * fz)
-            length = _ARROW_RADII * radius * magnitude / (magnitude + chunk.model.mass * _GRAVITY)
-            set_pose(self.force_frame, wxyz=wxyz_z_to((fx, fy, fz), magnitude))
-            if abs(length - self._arrow_length) > 0.02 * self._arrow_length or (length == 0) != (
-                    self._arrow_length == 0):  # sent when it changed by 2 %
-                self._arrow_length = length
-                set_array(self.force_arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))
+        self.force.show(force if show_force else None, scale=_ARROW_RADII * radius,
+                        reference=chunk.model.mass * _GRAVITY)
 
     last_drawn: _Chunk | None = None
 
     # -- read by tests and notebooks ---------------------------------------------------------------
-    @property
-    def drawn_model(self) -> Model | None:
-        """The model of the chunk drawn last."""
-        return None if self.last_chunk is None else self.last_chunk.model
-
-    @property
-    def columns(self) -> np.ndarray:
-        """(12,) the CSV columns (after t) at the sample drawn (NaN before a chunk is drawn)."""
-        return np.full(12, math.nan) if self.last_chunk is None else self.last_chunk.table.columns[self._j]
-
-    @property
-    def rates(self) -> np.ndarray:
-        """(4,) lean rate, spin, heading rate (rad/s) and speed (m/s) at the sample drawn."""
-        if self.last_chunk is None:
-            return np.full(4, math.nan)
-        run, j = self.last_chunk.run, self._j
-        return np.array([run.lean_rate[j], run.spin[j], run.heading_rate[j], run.speed[j]])
-
-    centre = property(lambda self: np.array(self.last_chunk.frames[self._j, 0:3]), doc="(3,) centre drawn (m)")
-    contact_point = property(lambda self: np.array(self.last_chunk.frames[self._j, 7:10]),
+    drawn_model = property(lambda self: getattr(self.last_chunk, "model", None), doc="model of the chunk drawn")
+    columns = property(lambda self: self.last_chunk.table.columns[self._j], doc="(12,) CSV columns drawn (after t)")
+    centre = property(lambda self: np.array(self.last_chunk.run.q[self._j, :3]), doc="(3,) centre drawn (m)")
+    contact_point = property(lambda self: np.array(self.last_chunk.run.contact_point[self._j]),
                              doc="(3,) the contact point drawn (global, m)")
     track_points = property(lambda self: self.track.points, doc="(n, 3) the track drawn, oldest first")
 
     def readout_lines(self) -> list[str]:
         if self.model is None or self.last_chunk is None:
             return []
-        c, chunk = self.columns, self.last_chunk
-        lean_rate, spin, heading_rate, speed = self.rates.tolist()
+        c, chunk, j = self.columns, self.last_chunk, self._j
+        spin, heading_rate, speed = (float(a[j]) for a in (chunk.run.spin, chunk.run.heading_rate, chunk.run.speed))
         radius, energy = self.model.radius, float(c[_ENERGY])
         lines = [
             f"**lean** θ = {math.degrees(float(c[_LEAN])):.2f}° · **spin** ω2 = {significant(spin, 3)} rad/s · "
             f"dψ/dt = {significant(heading_rate, 3)} rad/s · speed {significant(speed, 3)} m/s",
             f"**N** = {significant(float(c[_NORMAL]), 4)} N · **E** = {significant(energy, 6)} J, E − E0 = "
-            f"{one_digit(energy - self.energy0)} J · **max |C|** {_relation(float(c[_RES_P]), _RESIDUAL_FLOOR * radius)}"
-            f" m, max |dC/dt| {_relation(float(c[_RES_V]), _RESIDUAL_FLOOR * max(speed, radius * abs(spin), 1e-3))} m/s",
+            f"{one_digit(energy - self.energy0)} J · **max |C|** {relation(float(c[_RES_P]), _RESIDUAL_FLOOR * radius)}"
+            f" m, max |dC/dt| {relation(float(c[_RES_V]), _RESIDUAL_FLOOR * max(speed, radius * abs(spin), 1e-3))} m/s",
         ]
         if chunk.run.n_rhs:
             lines.append(f"DOP853 rtol {RTOL:.0e}: {chunk.run.n_steps} steps, {chunk.run.n_rhs} right sides, "
