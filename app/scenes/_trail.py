@@ -515,20 +515,21 @@ def curve_pieces(samples: list[np.ndarray], q2: np.ndarray, *, turn: float = mat
     return [q1 + (i / pieces) * slope + (i / pieces) ** 2 * bend for i in range(1, pieces)] + [q2]
 
 
-def sampled_curve(t: np.ndarray, points: np.ndarray, *, before: np.ndarray | None = None,
-                  t_before: float = -math.inf) -> tuple[np.ndarray, np.ndarray]:
+def sampled_curve(t: np.ndarray, points: np.ndarray, *, before: tuple[float, np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """The points that draw a curve through samples: ``(curve (m, 3), start (n + 1,))``, read-only.
 
     Sample ``i`` (time ``t[i]``, point ``points[i]``) extends the curve by
     ``curve[start[i]:start[i + 1]]``, the :func:`curve_pieces` from the two
-    samples before it (``before`` (<= 2, 3): the last samples of the chunk
-    before, the newest at ``t_before``). A sample at or before the time of
-    the one before (a chunk's first, which ends the chunk before) adds none.
+    samples before it (``before = (t_before, points (<= 2, 3))``: the last
+    samples of the chunk before, the newest at ``t_before``). A sample at or
+    before the time of the one before (a chunk's first, which ends the chunk
+    before) adds none.
     Formed once per chunk of samples (off the loop thread); a frame only
     slices it (:class:`SampledTrack`).
     """
-    samples = [] if before is None else list(np.asarray(before, dtype=float)[-2:])
-    last = float(t_before)
+    samples = [] if before is None else list(np.asarray(before[1], dtype=float)[-2:])
+    last = -math.inf if before is None else float(before[0])
     parts: list[np.ndarray] = []
     start = [0]
     for ti, q in zip(np.asarray(t, dtype=float).tolist(), np.asarray(points, dtype=float)):

@@ -28,13 +28,12 @@ from app.scenes._bodies import ForceArrow, add_disk
 from app.scenes._plots import Legend, Table, log10_floor
 from app.scenes._simulation import PlotSpec, SimulationScene, job
 from app.scenes._trail import SampledTrack, curve_pieces as track_pieces, sampled_curve
-from core.models import rolling_disk, rolling_disk_critical_spin, rolling_disk_run
+from core.models import RollingDisk, rolling_disk_critical_spin, rolling_disk_run
 
 __all__ = ["CONTACTS", "CSV_HEADER", "Inputs", "Model", "PRESETS", "ROLLING", "RTOL", "RollingDiskScene", "SLIDING",
            "preset_inputs", "track_pieces"]
 
-ROLLING, SLIDING = "Rolling without slip", "Frictionless sliding"
-CONTACTS = (ROLLING, SLIDING)
+ROLLING, SLIDING = CONTACTS = ("Rolling without slip", "Frictionless sliding")
 PRESETS = ("Upright, 2 × critical spin", "Upright, 0.7 × critical spin", "Leaning coin, circling", "Sliding coin")
 #: DOP853's tolerances: the energy drifts by about 1e-7 of E over 3 s (the default disk).
 RTOL, ATOL = 1e-6, 1e-8
@@ -43,12 +42,14 @@ CSV_HEADER = ("t (s),x (m),y (m),z (m),p0,p1,p2,p3,lean (rad),E (J),max |C| (m),
 _GRAVITY = 9.81
 _CHUNK, _SAMPLES = 0.5, 30  # s of simulated time per chunk, samples per chunk (plus its start)
 _LIFT = 0.0015  # m: the track and the contact point above the ground, so the grid does not cover them
-_RESIDUAL_FLOOR = 1e-14  # of the disk's size (m) or speed (m/s): residuals below are round-off, read "< ..."
+_FLOOR = 1e-14  # of the disk's size (m) or speed (m/s): residuals below are round-off, read "< ..."
 _GRID_SECTION = 0.25  # m: the grid repeats with this period (a shift by it is invisible)
 _ARROW_RADII = 3.0  # the force arrow: length 3 R |F| / (|F| + m g) from the contact point
 _DISK_COLOR, _MARKER_COLOR = (196, 170, 110), (70, 45, 30)  # brass; dark stripe across the face: the spin
 _TRACK_COLOR, _FORCE_COLOR, _POINT_COLOR = (0, 150, 140), (225, 95, 0), (40, 40, 48)
 _POINT_RADIUS = 0.07  # of the disk's radius
+_LEGEND = ((_DISK_COLOR, "disk (dark stripe: the spin)"), (_TRACK_COLOR, "track of the contact point on the ground"),
+           (_FORCE_COLOR, "ground's force on the disk, at the contact point"))
 _LEAN, _ENERGY, _RES_P, _RES_V, _NORMAL = 7, 8, 9, 10, 11  # columns of a chunk's table (after t)
 
 
@@ -64,10 +65,7 @@ class Inputs:
     mass: float = 1.0
 
 
-_DEFAULT = Inputs()
-
-
-def preset_inputs(name: str, *, radius: float = _DEFAULT.radius, mass: float = _DEFAULT.mass) -> Inputs:
+def preset_inputs(name: str, *, radius: float = Inputs.radius, mass: float = Inputs.mass) -> Inputs:
     """Control values of preset ``name`` for a disk of ``radius`` (m) and ``mass`` (kg); every preset sets
     its contact model (the upright ones roll, at a multiple of the rolling critical spin)."""
     if name in PRESETS[:2]:
@@ -79,26 +77,16 @@ def preset_inputs(name: str, *, radius: float = _DEFAULT.radius, mass: float = _
 
 
 @dataclasses.dataclass(frozen=True)
-class Model:
-    """What a chunk job needs (picklable, hashable): R (m), m (kg), lean (rad), spin and heading rate
-    (rad/s), rolling (True) or frictionless sliding."""
-
-    radius: float
-    mass: float
-    lean: float
-    spin: float
-    heading_rate: float
-    rolling: bool
+class Model(RollingDisk):
+    """What a chunk job needs: core's disk (picklable, hashable; it checks its values)."""
 
     @classmethod
     def from_inputs(cls, inputs: Inputs) -> Model:
-        """The model of ``inputs``; ValueError naming the argument for a contact or radius core refuses (the
-        controls' ranges keep the others in)."""
+        """The model of ``inputs`` (ValueError naming the argument)."""
         if inputs.contact not in CONTACTS:
             raise ValueError(f"contact: expected one of {list(CONTACTS)}, got {inputs.contact!r}")
-        rolling_disk_critical_spin(inputs.radius, gravity=_GRAVITY)  # checks the radius
         return cls(float(inputs.radius), float(inputs.mass), math.radians(inputs.lean_deg), float(inputs.spin),
-                   float(inputs.heading_rate), inputs.contact == ROLLING)
+                   float(inputs.heading_rate), inputs.contact == ROLLING, gravity=_GRAVITY)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,8 +112,7 @@ class _Chunk:
 def _built(model: Model) -> bytes:
     """The System, disk and contact of ``model``, pickled: built (placed, contact searched, assembled) once
     per model in each worker process; each chunk loads a fresh copy (about 1 ms)."""
-    return pickle.dumps(rolling_disk(model.radius, model.mass, model.lean, model.spin, model.rolling,
-                                     heading_rate=model.heading_rate, gravity=_GRAVITY))
+    return pickle.dumps(model.system())
 
 
 def _compute_chunk(model: Model, k: int, previous: _Chunk | None) -> _Chunk:
@@ -135,9 +122,8 @@ def _compute_chunk(model: Model, k: int, previous: _Chunk | None) -> _Chunk:
         raise ValueError(f"previous: chunk {k} continues from chunk {k - 1}, which was not given")
     run = rolling_disk_run(*pickle.loads(_built(model)), np.linspace(k * _CHUNK, (k + 1) * _CHUNK, _SAMPLES + 1),
                            initial=None if previous is None else previous.run.final_state, rtol=RTOL, atol=ATOL)
-    before = None if previous is None else previous.run.contact_point[-2:] + (0.0, 0.0, _LIFT)
-    track, start = sampled_curve(run.t, run.contact_point + (0.0, 0.0, _LIFT), before=before,
-                                 t_before=-math.inf if previous is None else float(previous.t[-1]))
+    before = previous and (float(previous.t[-1]), previous.run.contact_point[-2:] + (0.0, 0.0, _LIFT))
+    track, start = sampled_curve(run.t, run.contact_point + (0.0, 0.0, _LIFT), before=before)
     table = Table.build(run.t, np.column_stack([run.q, run.lean, run.energy, run.residual_position,
                                                 run.residual_velocity, run.normal_force]))
     return _Chunk(k, model, run, table, track, start, previous.energy0 if previous else float(run.energy[0]),
@@ -188,22 +174,18 @@ class RollingDiskScene(SimulationScene):
     chunks_kept = 24
     csv_header = CSV_HEADER
 
-    def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
-        super().__init__(target, notify, context=context)
-        self.model: Model | None = None
-        self.energy0 = math.nan
-        self._j = 0  # the sample drawn of last_chunk
-        self._scale = _DEFAULT.radius  # the radius the disk is drawn at
+    model: Model | None = None  # the model in use (loop thread)
+    last_drawn: _Chunk | None = None  # the chunk drawn last, its sample _j, and the radius the disk is drawn at
+    energy0, _j, _scale = math.nan, 0, Inputs.radius
 
     def camera_view(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """The class's view scaled by the disk's radius (about the origin, where *Follow* keeps the disk)."""
-        s = getattr(self.model, "radius", _DEFAULT.radius) / _DEFAULT.radius
+        s = getattr(self.model, "radius", Inputs.radius) / Inputs.radius
         return tuple(s * x for x in self.camera_position), tuple(s * x for x in self.camera_look_at)  # type: ignore
 
     def job(self, inputs: Inputs, segment: Any) -> Any:
         return job(_compute_chunk, Model.from_inputs(inputs))
 
-    # -- building ----------------------------------------------------------------------------------
     def build_nodes(self) -> None:
         scene, root = self.target.scene, self.root
         self.grid = self.add_ground_grid(width=4.0, height=4.0, position=(0.0, 0.0, 0.0), cell_size=0.05,
@@ -216,39 +198,34 @@ class RollingDiskScene(SimulationScene):
         self.point = scene.add_frame(f"{root}/ground/point", show_axes=False)
         ball = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
         self.point_mesh = scene.add_mesh_simple(f"{root}/ground/point/mesh", ball.vertices, ball.faces,
-                                                color=_POINT_COLOR, scale=_POINT_RADIUS * _DEFAULT.radius)
+                                                color=_POINT_COLOR, scale=_POINT_RADIUS * Inputs.radius)
         self.force = ForceArrow(self, f"{root}/ground/point/force", _FORCE_COLOR,  # for R = 0.1 m; with R
                                 sizes={"shaft_radius": 0.0035, "head_radius": 0.009, "head_length": 0.02})
         self.force_frame, self.force_arrow = self.force.frame, self.force.arrow
         self.disk, self.disk_mesh, self.disk_marker = add_disk(  # translucent: the force arrow shows through
-            scene, f"{root}/disk", color=_DISK_COLOR, marker_color=_MARKER_COLOR, radius=_DEFAULT.radius, opacity=0.8,
-            position=(0.0, 0.0, _DEFAULT.radius))
-        self.point_label = self.add_label(f"{root}/ground/point/label", "contact point", anchor="top-left",
-                                          scale=1.2)
+            scene, f"{root}/disk", color=_DISK_COLOR, marker_color=_MARKER_COLOR, radius=Inputs.radius, opacity=0.8,
+            position=(0.0, 0.0, Inputs.radius))
+        self.point_label = self.add_label(f"{root}/ground/point/label", "contact point", anchor="top-left", scale=1.2)
 
     def build_controls(self) -> None:
-        self.legend = Legend(self.target.gui, (
-            (_DISK_COLOR, "disk (dark stripe: the spin)"),
-            (_TRACK_COLOR, "track of the contact point on the ground"),
-            (_FORCE_COLOR, "ground's force on the disk, at the contact point"),
-        ), "Colours:", presenter=self.presenter)
+        self.legend = Legend(self.target.gui, _LEGEND, "Colours:", presenter=self.presenter)
         self.add_playback()
         self.info = self.add_readout("")
         self.add_presets()
         c, gui = self.controls, self.target.gui
         with gui.add_folder("Initial state (t = 0)"):
-            c.add(Slider("lean_deg", "Lean (deg)", min=0.0, max=60.0, step=0.5, default=_DEFAULT.lean_deg,
+            c.add(Slider("lean_deg", "Lean (deg)", min=0.0, max=60.0, step=0.5, default=Inputs.lean_deg,
                          hint="Initial lean θ from upright (the symmetry axis rises by θ)"))
-            c.add(Slider("spin", "Spin ω2 (rad/s)", min=-60.0, max=60.0, step=0.01, default=_DEFAULT.spin,
+            c.add(Slider("spin", "Spin ω2 (rad/s)", min=-60.0, max=60.0, step=0.01, default=Inputs.spin,
                          hint="Initial angular velocity about the disk's axis; positive rolls it along +x"))
             c.add(Slider("heading_rate", "Heading rate dψ/dt (rad/s)", min=-10.0, max=10.0, step=0.01,
-                         default=_DEFAULT.heading_rate, hint="Initial turning rate about the vertical"))
+                         default=Inputs.heading_rate, hint="Initial turning rate about the vertical"))
         with gui.add_folder("Disk and contact"):
-            c.add(Choice("contact", "Contact", options=CONTACTS, default=_DEFAULT.contact,
+            c.add(Choice("contact", "Contact", options=CONTACTS, default=Inputs.contact,
                          hint="Rolling without slip, or sliding on a frictionless ground"))
-            c.add(Slider("radius", "Radius R (m)", min=0.03, max=0.3, step=0.005, default=_DEFAULT.radius,
+            c.add(Slider("radius", "Radius R (m)", min=0.03, max=0.3, step=0.005, default=Inputs.radius,
                          hint="Radius of the thin uniform disk"))
-            c.add(Slider("mass", "Mass m (kg)", min=0.01, max=5.0, step=0.01, default=_DEFAULT.mass,
+            c.add(Slider("mass", "Mass m (kg)", min=0.01, max=5.0, step=0.01, default=Inputs.mass,
                          hint="Mass of the disk (the motion does not depend on it; forces and energy do)"))
         with gui.add_folder("Show"):
             c.add(Toggle("follow", "Follow the disk", default=True, hint="Keep the disk in view: the ground moves"))
@@ -270,15 +247,13 @@ class RollingDiskScene(SimulationScene):
     def on_presenter(self, on: bool) -> None:
         self.legend.set_presenter(on)
 
-    # -- the motion --------------------------------------------------------------------------------
     def preset_values(self, name: str) -> dict[str, Any]:
         values = self.controls.values()
         return dataclasses.asdict(preset_inputs(name, radius=values["radius"], mass=values["mass"]))
 
     def on_configure(self, inputs: Inputs) -> None:
         model = self.model = Model.from_inputs(inputs)
-        rolling = model.rolling
-        critical = rolling_disk_critical_spin(model.radius, rolling=rolling, gravity=_GRAVITY)
+        rolling, critical = model.rolling, model.critical_spin
         verdict = ("**above** it: upright motion is stable (a small lean wobbles)" if abs(model.spin) > critical
                    else "**below** it: upright motion is unstable (a small lean grows)")
         where = (f"rolling at R ω = {significant(critical * model.radius, 3)} m/s" if rolling else
@@ -289,7 +264,7 @@ class RollingDiskScene(SimulationScene):
             f"{significant(abs(model.spin) / critical, 3)} × critical: {verdict}.")
         if model.radius != self._scale:
             self.reframe()
-            self.path.scale(model.radius / _DEFAULT.radius)
+            self.path.scale(model.radius / Inputs.radius)
 
     def on_restart(self) -> None:
         self.path.clear()
@@ -303,22 +278,19 @@ class RollingDiskScene(SimulationScene):
         return "Rolling disk stopped", f"{chunk.end[0].upper()}{chunk.end[1:]}. " \
                                        "Change a control, pick a preset or press Reset."
 
-    # -- a frame -----------------------------------------------------------------------------------
     def draw(self, chunk: _Chunk, j: int) -> None:
         previous, self.last_drawn, self._j, self.energy0 = self.last_drawn, chunk, j, chunk.energy0
         follow, show_track, show_force = (self.controls.value(k) for k in ("follow", "show_track", "show_force"))
-        run = chunk.run
-        (cx, cy, cz, p0, p1, p2, p3), (px, py, pz), force = run.q[j].tolist(), run.contact_point[j].tolist(), \
-            run.contact_force[j].tolist()
-        pz += _LIFT
-        before = (previous.k, previous.track, previous.track_start) if previous is not None else None
-        self.path.follow(chunk.k, chunk.track, chunk.track_start, j, (px, py, pz), before)
+        (cx, cy, cz, p0, p1, p2, p3), (px, py, pz), force = (a[j].tolist() for a in (
+            chunk.run.q, chunk.run.contact_point + (0.0, 0.0, _LIFT), chunk.run.contact_force))
+        self.path.follow(chunk.k, chunk.track, chunk.track_start, j, (px, py, pz), previous and (
+            previous.k, previous.track, previous.track_start))
         ox, oy = (cx, cy) if follow else (0.0, 0.0)
         radius = chunk.model.radius
         if radius != self._scale:
             self._scale = self.disk_mesh.scale = self.disk_marker.scale = radius
             self.point_mesh.scale = _POINT_RADIUS * radius
-            self.force.resize(radius / _DEFAULT.radius)
+            self.force.resize(radius / Inputs.radius)
         set_pose(self.disk, position=(cx - ox, cy - oy, cz), wxyz=(p0, p1, p2, p3))
         set_pose(self.ground, position=(-ox, -oy, 0.0))
         set_pose(self.grid, position=(-math.fmod(ox, _GRID_SECTION), -math.fmod(oy, _GRID_SECTION), 0.0))
@@ -328,9 +300,6 @@ class RollingDiskScene(SimulationScene):
         self.force.show(force if show_force else None, scale=_ARROW_RADII * radius,
                         reference=chunk.model.mass * _GRAVITY)
 
-    last_drawn: _Chunk | None = None
-
-    # -- read by tests and notebooks ---------------------------------------------------------------
     drawn_model = property(lambda self: getattr(self.last_chunk, "model", None), doc="model of the chunk drawn")
     columns = property(lambda self: self.last_chunk.table.columns[self._j], doc="(12,) CSV columns drawn (after t)")
     centre = property(lambda self: np.array(self.last_chunk.run.q[self._j, :3]), doc="(3,) centre drawn (m)")
@@ -348,8 +317,8 @@ class RollingDiskScene(SimulationScene):
             f"**lean** θ = {math.degrees(float(c[_LEAN])):.2f}° · **spin** ω2 = {significant(spin, 3)} rad/s · "
             f"dψ/dt = {significant(heading_rate, 3)} rad/s · speed {significant(speed, 3)} m/s",
             f"**N** = {significant(float(c[_NORMAL]), 4)} N · **E** = {significant(energy, 6)} J, E − E0 = "
-            f"{one_digit(energy - self.energy0)} J · **max |C|** {relation(float(c[_RES_P]), _RESIDUAL_FLOOR * radius)}"
-            f" m, max |dC/dt| {relation(float(c[_RES_V]), _RESIDUAL_FLOOR * max(speed, radius * abs(spin), 1e-3))} m/s",
+            f"{one_digit(energy - self.energy0)} J · **max |C|** {relation(float(c[_RES_P]), _FLOOR * radius)} m, "
+            f"max |dC/dt| {relation(float(c[_RES_V]), _FLOOR * max(speed, radius * abs(spin), 1e-3))} m/s",
         ]
         if chunk.run.n_rhs:
             lines.append(f"DOP853 rtol {RTOL:.0e}: {chunk.run.n_steps} steps, {chunk.run.n_rhs} right sides, "

@@ -66,6 +66,7 @@ from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial
 from ._pendulum import MAX_LINKS, ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
 from ._rolling_disk import (
     FLAT_LEAN,
+    RollingDisk,
     RollingDiskMotion,
     RollingDiskRun,
     rolling_disk,
@@ -149,6 +150,7 @@ __all__ = [
     "CamTouch",
     "HeavyTop",
     "ReducedChainMotion",
+    "RollingDisk",
     "RollingDiskMotion",
     "LINKAGE_KINDS",
     "Linkage",

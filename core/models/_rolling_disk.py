@@ -33,6 +33,7 @@ from core.rotations import (
 
 __all__ = [
     "FLAT_LEAN",
+    "RollingDisk",
     "RollingDiskMotion",
     "RollingDiskRun",
     "rolling_disk",
@@ -614,5 +615,60 @@ def _disk_pieces(system: Any, times: np.ndarray, options: dict, errors: tuple, p
     if not trajs:
         raise ValueError(f"t: the run cannot start at t = {times[0]:.3f} s: {type(failure).__name__}: {failure}")
     if isinstance(failure, errors[0]) and "rank" in str(failure):
-        return trajs, f"the disk lay down flat near t = {times[i]:.3f} s: its contact constraints lose rank there (Eq. 8.109)"
+        return trajs, (f"the disk lay down flat near t = {times[i]:.3f} s: its contact constraints lose rank "
+                       "there (Eq. 8.109)")
     return trajs, f"the run stopped near t = {times[i]:.3f} s: {type(failure).__name__}: {failure}"
+
+
+@dataclass(frozen=True)
+class RollingDisk:
+    """The thin disk's parameters and initial state (frozen, picklable): :func:`rolling_disk` of them.
+
+    Attributes
+    ----------
+    radius, mass : float
+        R (m) and m (kg), > 0.
+    lean : float
+        Initial lean (rad), ``|lean| < FLAT_LEAN``.
+    spin : float
+        Initial omega_2 about the symmetry axis (rad/s).
+    heading_rate : float
+        Initial heading rate about +z (rad/s).
+    rolling : bool
+        Rolling without slip (True) or frictionless sliding.
+    lean_rate, gravity : float
+        Initial lean rate (rad/s); g (m/s^2) along -z, >= 0.
+
+    Raises
+    ------
+    ValueError
+        Naming the first argument :func:`rolling_disk` refuses.
+    """
+
+    radius: float = 0.1
+    mass: float = 1.0
+    lean: float = 0.0
+    spin: float = 20.0
+    heading_rate: float = 0.0
+    rolling: bool = True
+    lean_rate: float = 0.0
+    gravity: float = 9.81
+
+    def __post_init__(self) -> None:
+        _disk_arguments(self.radius, self.mass, self.lean, self.spin, self.rolling, self.heading_rate, self.gravity)
+        real_number(self.lean_rate, "lean_rate", expected="a finite lean rate (rad/s)")
+
+    @property
+    def critical_spin(self) -> float:
+        """The spin above which the upright disk is stable (rad/s): :func:`rolling_disk_critical_spin`."""
+        return rolling_disk_critical_spin(self.radius, rolling=self.rolling, gravity=self.gravity)
+
+    def system(self) -> tuple[Any, Any, Any]:
+        """``(System, Body, Contact)``: :func:`rolling_disk` of these parameters, assembled."""
+        return rolling_disk(self.radius, self.mass, self.lean, self.spin, self.rolling, heading_rate=self.heading_rate,
+                            lean_rate=self.lean_rate, gravity=self.gravity)
+
+    def run(self, t: Any, *, initial: Any = None, **options: Any) -> RollingDiskRun:
+        """:func:`rolling_disk_run` of a fresh :meth:`system` over ``t`` (from ``initial``; ``options``:
+        rtol, atol, lean_limit, pieces)."""
+        return rolling_disk_run(*self.system(), t, initial=initial, **options)

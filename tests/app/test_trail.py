@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from app.scenes._trail import ChunkedTrail, extend_trail, trail_segments
+from app.scenes._trail import ChunkedTrail, SampledTrack, extend_trail, sampled_curve, trail_segments
 from tests.app._wire import Recorder
 from tests.helpers import wait_until
 
@@ -187,3 +187,33 @@ def test_a_flush_sends_the_newest_chunk_with_its_unused_segments_on_the_newest_p
             rest = newest[trail._count:]
             np.testing.assert_allclose(rest, np.broadcast_to(points[i], rest.shape), rtol=1e-6)
     np.testing.assert_array_equal(trail.newest, points[-1])
+
+
+# -- sampled_curve and SampledTrack: a track fed with the samples a clock passes ---------------------------
+
+
+def test_a_sampled_track_adds_each_sample_once_across_frames_and_chunks(server) -> None:
+    # two chunks of a circle's samples (the second's first sample ends the first), drawn frame by frame: a frame
+    # that draws the same chunk again, or the same sample, adds nothing; crossing into the next chunk adds the
+    # rest of the chunk before first
+    u = np.linspace(0.0, 1.0, 11)
+    circle = np.column_stack([np.cos(u), np.sin(u), np.zeros_like(u)])
+    first = sampled_curve(u[:6], circle[:6])
+    second = sampled_curve(u[5:], circle[5:], before=(float(u[5]), circle[4:6]))
+    assert second[1][1] == 0  # (its first sample was drawn with the first chunk)
+    track = SampledTrack(_Owner(server), "/sampled", (0, 150, 140), thickness=2.0, capacity=100, min_step=1e-6,
+                         head_length=0.05, head_count=8)
+    for j in (0, 1, 1, 3, 3, 4):  # (the clock skips sample 2 and stops at sample 3)
+        track.follow("a", *first, j, circle[j])
+    with server.atomic():
+        track.draw()
+    np.testing.assert_allclose(track.trail.points, first[0][:first[1][5]], atol=1e-6)
+    track.follow("b", *second, 2, circle[7], previous=("a", *first))
+    track.follow("b", *second, 2, circle[7], previous=("b", *second))
+    expected = np.concatenate([first[0], second[0][:second[1][3]]])
+    np.testing.assert_allclose(track.trail.points, expected, atol=1e-6)
+    # the curve through the samples: each sample point on it, in order
+    for q in circle[:8]:
+        assert np.min(np.linalg.norm(track.trail.points - q, axis=1)) < 1e-6
+    track.clear()
+    assert track.trail.points.shape == (0, 3)
