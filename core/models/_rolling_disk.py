@@ -13,7 +13,6 @@ Euler angles ``(psi, theta, phi)``: heading ``psi`` about +z, lean
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -443,9 +442,10 @@ class RollingDiskRun:
         ("" when it did not): the disk left the ground (the normal force
         reached zero, Eq. 8.107), fell flat (its lean reached the limit,
         or the contact lost rank, Eq. 8.109), or the integrator stopped.
-    final_state : Any
-        The state at ``t[-1]`` that a run continues from (``initial`` of
-        :func:`rolling_disk_run`); picklable.
+    final_state : core.multibody.RunState
+        The state at ``t[-1]`` (positions, velocities, the contact's
+        surface parameters and model): ``initial`` of a run that continues
+        this one; picklable, free of the System.
     n_steps, n_rhs : int
         Integrator steps and right-hand-side evaluations.
     """
@@ -496,9 +496,11 @@ def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: A
     t : (n,) array_like
         Increasing output times (s), at least two; from the System's state
         time, or from ``initial``'s.
-    initial : RollingDiskRun.final_state or None, keyword-only
-        Continue the run that ended there (its time, positions, velocities
-        and contact) instead of starting from the System's state.
+    initial : RunState or None, keyword-only
+        Continue the run that ended there (``RollingDiskRun.final_state`` or
+        a trajectory's ``final_state``: time, positions, velocities, the
+        contact's warm start) instead of starting from the System's state
+        (``System.simulate(t, initial=...)``).
     rtol, atol : float, keyword-only
         DOP853's tolerances (atol in the state's units).
     lean_limit : float, keyword-only
@@ -529,14 +531,7 @@ def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: A
         raise ValueError(f"lean_limit: expected a lean (rad) in (0, pi / 2), got {limit!r}")
     errors = (ContactError, SingularSystemError, IntegrationError, AssemblyError)
     options = {"method": "DOP853", "rtol": rtol, "atol": atol, "on_separation": "stop"}
-    start = system.state
-    if initial is not None:
-        system.set_state(dataclasses.replace(start, t=float(initial.t), q=np.array(initial.q, dtype=float),
-                                             v=np.array(initial.v, dtype=float)))
-    try:
-        trajs, end = _disk_pieces(system, times, options, errors, pieces)
-    finally:
-        system.set_state(start)
+    trajs, end = _disk_pieces(system, times, options, errors, pieces, initial)
     parts: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "q", "v", "omega", "energy", "res_p", "res_v",
                                                            "point", "force", "normal")}
     for j, traj in enumerate(trajs):
@@ -570,30 +565,23 @@ def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: A
             raise ValueError(f"{name}: the motion left the finite range near t = {times[0]:.3g} s")
         a.setflags(write=False)
     out["t"].setflags(write=False)
-    final_state = _DiskState(float(out["t"][-1]), np.array(out["q"][-1]), np.array(out["v"][-1]))
+    t_end = float(out["t"][-1])
+    last = next(tr for tr in reversed(trajs) if tr.t[0] <= t_end)
+    final_state = last.run_state(int(np.searchsorted(last.t, t_end)))
     return RollingDiskRun(t=out["t"], **fields, end=end, final_state=final_state,
                           n_steps=sum(int(tr.n_steps) for tr in trajs), n_rhs=sum(int(tr.n_rhs) for tr in trajs))
 
 
-@dataclass(frozen=True)
-class _DiskState:
-    """Where a run ended: time (s), q (7,), v (6,) (picklable, free of the System)."""
-
-    t: float
-    q: np.ndarray
-    v: np.ndarray
-
-
-def _disk_pieces(system: Any, times: np.ndarray, options: dict, errors: tuple, pieces: int) -> tuple[list, str]:
+def _disk_pieces(system: Any, times: np.ndarray, options: dict, errors: tuple, pieces: int,
+                 initial: Any) -> tuple[list, str]:
     """The trajectories of a run over ``times`` and why it ended early ("" if not); see :func:`rolling_disk_run`."""
 
     def separated(traj: Any) -> str:
         return (f"the disk left the ground at t = {traj.separations[-1].t:.3f} s: the normal force reached zero "
                 "and a contact constraint cannot pull (Eq. 8.107)")
 
-    start = system.state
     try:
-        traj = system.simulate(times, **options)
+        traj = system.simulate(times, initial=initial, **options)
     except errors as exc:
         failure: Exception = exc
     else:
@@ -603,15 +591,14 @@ def _disk_pieces(system: Any, times: np.ndarray, options: dict, errors: tuple, p
     i = 0
     while i < times.size - 1:
         try:
-            traj = system.simulate(times[i: i + step + 1], **options)
+            traj = system.simulate(times[i: i + step + 1], initial=initial, **options)
         except errors:
             break
         trajs.append(traj)
         if traj.status == "separated":
             return trajs, separated(traj)
-        system.set_state(traj.state(-1))
+        initial = traj.final_state
         i += step
-    system.set_state(start)
     if not trajs:
         raise ValueError(f"t: the run cannot start at t = {times[0]:.3f} s: {type(failure).__name__}: {failure}")
     if isinstance(failure, errors[0]) and "rank" in str(failure):
