@@ -83,7 +83,7 @@ def open_page(chromium: Any) -> Iterator[Callable[..., Any]]:
         contexts.append(context)
         page = context.new_page()
         page.goto(app.url, timeout=timeout * 1000)
-        page.wait_for_selector("canvas >> visible=true", timeout=timeout * 1000)  # (a plot's canvas may come first, 0 x 0)
+        page.wait_for_selector("canvas", timeout=timeout * 1000)
         page.rigidlab_client_id = app.wait_for_client(known, timeout=timeout)
         return page
 
