@@ -450,10 +450,6 @@ class SimulationScene(PlaybackRequests, Scene):
             if due is not None:
                 self._refresh_one(due)
 
-    def redraw(self) -> None:
-        """Draw the sample shown again at the next frame, paused too (a display option changed)."""
-        self._drawn = None
-
     def sample_index(self, chunk: Any) -> int:
         """The sample of ``chunk`` at or just before the clock."""
         n = int(chunk.t.size)

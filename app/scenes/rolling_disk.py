@@ -25,7 +25,7 @@ from app.controls import Choice, Slider, Toggle
 from app.nodes import set_pose
 from app.readout import one_digit, relation, significant
 from app.scenes._bodies import ForceArrow, add_disk
-from app.scenes._plots import Legend, Table, log10_floor
+from app.scenes._plots import Table, log10_floor
 from app.scenes._simulation import PlotSpec, SimulationScene, job
 from app.scenes._trail import SampledTrack, curve_pieces as track_pieces, sampled_curve
 from core.models import RollingDisk, rolling_disk_critical_spin, rolling_disk_run
@@ -208,7 +208,7 @@ class RollingDiskScene(SimulationScene):
         self.point_label = self.add_label(f"{root}/ground/point/label", "contact point", anchor="top-left", scale=1.2)
 
     def build_controls(self) -> None:
-        self.legend = Legend(self.target.gui, _LEGEND, "Colours:", presenter=self.presenter)
+        self.legend = self.add_legend(_LEGEND, "Colours:")
         self.add_playback()
         self.info = self.add_readout("")
         self.add_presets()
@@ -244,8 +244,8 @@ class RollingDiskScene(SimulationScene):
                      lambda t, c: (c[:, _NORMAL], np.full_like(t, self.config.mass * _GRAVITY))),
         ]
 
-    def on_presenter(self, on: bool) -> None:
-        self.legend.set_presenter(on)
+    def check_inputs(self, inputs: Inputs) -> None:
+        Model.from_inputs(inputs)  # (core's checks; the controls' ranges keep the values in)
 
     def preset_values(self, name: str) -> dict[str, Any]:
         values = self.controls.values()
@@ -269,10 +269,6 @@ class RollingDiskScene(SimulationScene):
     def on_restart(self) -> None:
         self.path.clear()
         self.last_drawn = None
-
-    def on_frame(self, changed: set[str]) -> None:
-        if changed & {"follow", "show_track", "show_force"}:
-            self.redraw()
 
     def end_notice(self, chunk: _Chunk) -> tuple[str, str]:
         return "Rolling disk stopped", f"{chunk.end[0].upper()}{chunk.end[1:]}. " \

@@ -322,16 +322,3 @@ def test_a_per_chunk_plot_shows_the_whole_chunk_drawn_and_a_scene_may_handle_err
     scene.frame(1 / 60)
     assert scene.playing and not any("motion stopped" in n[0] for n in notices)  # handled: no notice, no pause
     assert len(scene.handled) == 1 and "amplitude" in str(scene.handled[0])
-
-
-def test_redraw_draws_the_sample_shown_again_while_paused(make_bare_scene) -> None:
-    scene, _ = make_bare_scene(_Toy)
-    _play_until(scene, 0.5)
-    scene.playback.set_playing(False)
-    scene.frame(1 / 60)
-    drawn = len(scene.drawn)
-    _run(scene, 0.1)
-    assert len(scene.drawn) == drawn  # paused: the poses are on the page
-    scene.redraw()  # (a display option changed)
-    scene.frame(1 / 60)
-    assert len(scene.drawn) == drawn + 1 and scene.drawn[-1] == scene.drawn[-2]
