@@ -169,19 +169,21 @@ def test_the_disk_track_reaches_the_contact_point_in_every_page_frame(running_sc
     app, scene = running_scene(RollingDiskScene)
     recorder = Recorder(app.url)
     try:
+        # the default motion first goes half a metre from the origin, where the preset's run starts
+        wait_until(lambda: np.linalg.norm(scene.centre[:2]) > 0.5, timeout=120.0)
         click(scene, "preset_0")  # upright, twice the critical spin: it rolls away at 1.14 m/s
         wait_until(lambda: scene.model is not None and math.isclose(scene.model.lean, math.radians(1.0))
                    and scene.drawn_model == scene.model and scene.sim_time > 0.1, timeout=120.0)
-        with app.session_for().run_lock:  # the contact point of the preset's run, as sent
-            point_name, sent = scene.point.name, np.array(scene.point.position)
-        # the preset's run is on the page from the message that carries it (the recorder receives the frames
-        # drawn before the preset a while after them on a loaded machine: counting messages is not enough)
+        ground_name = f"{scene.root}/ground"
+        # the preset's run is on the page from the first ground pose near the origin (the recorder receives the
+        # frames drawn before the preset a while after them on a loaded machine: counting messages is not enough;
+        # viser may replace an unsent pose by a newer one, so no one pose is sure to arrive)
         start: list[int] = []
 
         def preset_reached() -> bool:
             for i, (m, _) in enumerate(recorder.received()):
-                if (m.get("type") == "SetPositionMessage" and m.get("name") == point_name
-                        and np.allclose(m["position"], sent, rtol=0.0, atol=1e-9)):
+                if (m.get("type") == "SetPositionMessage" and m.get("name") == ground_name
+                        and np.linalg.norm(np.asarray(m["position"], dtype=float)[:2]) < 0.25):
                     start.append(i)
                     return True
             return False
