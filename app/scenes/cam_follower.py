@@ -450,7 +450,7 @@ class CamFollowerScene(SimulationScene):
         self.index = 0  # closed-form table row drawn
         self._pending: list[str] = []  # meshes, info, marks, closed-form plots: one per frame
         self._angle: float | None = None  # a loaded cam angle (rad), applied at the next frame
-        self._arrow_sent, self._thrown, self._folder, self._reconfigure = (0.0, True), False, None, False
+        self._arrow_sent, self._thrown, self._reconfigure = (0.0, True), False, False
 
     compliant = property(lambda self: bool(self.config is not None and self.config.compliant))
 
@@ -545,10 +545,6 @@ class CamFollowerScene(SimulationScene):
                                                      ({"label": "θ (deg)"}, *series), title=title,
                                                      scales={"x": {"time": False}}, aspect=1.7)
                                  for name, (title, series, _) in _CLOSED_PLOTS.items()}
-
-    def plot_area(self) -> Any:  # one "Plots" folder: the closed form's plots (ours) and the run's (the layer's)
-        self._folder = self._folder or super().plot_area()
-        return self._folder
 
     def plots(self) -> list[PlotSpec]:
         angle, compliant = (lambda t, c: c[:, 0]), (lambda inputs: inputs.compliant)
