@@ -886,6 +886,26 @@ class WhippleRide:
     end: str
     final_state: Any = field(default=None, repr=False)
 
+    @property
+    def poses(self) -> np.ndarray:
+        """(n, 4, 7) per body (the System's order) its centre of mass ``R`` (m) and Euler parameters
+        (scalar first), as sampled: consecutive samples' parameters are continuous (no sign flip)."""
+        n = self.t.size
+        return np.concatenate([self.q[:, :12].reshape(n, 4, 3), self.q[:, 12:].reshape(n, 4, 4)], axis=2)
+
+    @property
+    def contact_points(self) -> np.ndarray:
+        """(n, 2, 3) rear and front contact points (m); where a contact is not known (a ride that could
+        not start), the ground point below the wheel's centre."""
+        points = np.stack([self.rear_contact, self.front_contact], axis=1)
+        below = self.poses[:, [0, 3], :3] * np.array([1.0, 1.0, 0.0])
+        return np.where(np.isfinite(points), points, below)
+
+    @property
+    def rear_speed(self) -> np.ndarray:
+        """(n,) speed of the rear wheel's centre (m/s)."""
+        return np.linalg.norm(self.v[:, 0:3], axis=1)
+
 
 def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_limit: float = WHIPPLE_FALL_LEAN,
                  rtol: float = RIDE_RTOL, atol: float = RIDE_ATOL, piece: float = 0.25,
@@ -1002,3 +1022,157 @@ def _run_state_of(system: Any):
 
     st = system.state
     return RunState(st.t, st.q, st.v)
+
+
+# ------------------------------------------------------------------ a ride in stretches, and the modes over speed
+def whipple_ride_from(speed: float, t: Any, *, initial: Any = None, impulse: float = 0.0,
+                      parameters: Any = "meijaard2007", lean_limit: float = WHIPPLE_FALL_LEAN,
+                      rtol: float = RIDE_RTOL, atol: float = RIDE_ATOL) -> WhippleRide:
+    """A stretch of a ride of a new :func:`whipple_bicycle` at ``speed``: from upright, or from ``initial``,
+    pushed by ``impulse`` at the start.
+
+    A viewer computes a ride stretch by stretch, each from the last one's
+    ``final_state`` (``initial=ride.final_state``: the continuation, contact
+    warm starts included), and a push from any sample shown
+    (``initial=RunState(t[j], q[j], v[j])``, ``impulse=P``: the velocities
+    jump by :func:`whipple_push`). The System is a fresh copy of the cached
+    build each time (nothing is kept between calls).
+
+    Parameters
+    ----------
+    speed : float
+        Forward speed of the bicycle built (m/s).
+    t : (n,) array_like
+        Increasing output times (s), ``t[0]`` = the start's time (0 for upright, else ``initial.t``).
+    initial : RunState or None, keyword-only
+        The state to start from (None: upright and straight at ``speed``, ``t = 0``). A state without
+        contact parameters (made from a sample) is put into the System, whose contacts then start from
+        the upright run's points.
+    impulse : float, keyword-only
+        Lateral push at the start (N s, positive to the right; :func:`whipple_push`).
+    parameters, lean_limit, rtol, atol :
+        As :func:`whipple_ride`.
+
+    Returns
+    -------
+    WhippleRide
+        Its ``end`` text gives times on the same clock as ``t``.
+    """
+    from core.multibody import RunState
+
+    P = real_number(impulse, "impulse", expected="a finite impulse (N s)")
+    if initial is not None and not isinstance(initial, RunState):
+        raise ArgumentError("initial", f"initial: expected a RunState or None, got {short_repr(initial)}")
+    system = whipple_bicycle(speed, parameters)
+    if initial is not None and (P != 0.0 or initial.contact_parameters is None):
+        system.set_state(dataclasses.replace(system.state, t=initial.t, q=np.asarray(initial.q),
+                                             v=np.asarray(initial.v)))
+        initial = None
+    if P != 0.0:
+        system.set_state(whipple_push(system, P))
+    return whipple_ride(system, t, parameters=parameters, lean_limit=lean_limit, rtol=rtol, atol=atol,
+                        initial=initial)
+
+
+def whipple_modes_at(speed: float, parameters: Any = "meijaard2007") -> tuple[WhippleMode, ...]:
+    """:func:`whipple_modes` of the bicycle linearized at ``speed`` (m/s), from :func:`whipple_speed_model`
+    (two linearizations per parameter set and process, then one eigenvalue problem a speed; Eqs. 8.110-8.124)."""
+    return whipple_modes(whipple_speed_model(parameters).linear_model(speed), parameters)
+
+
+@dataclass(frozen=True)
+class WhippleSweep:
+    """The bicycle's four modes against speed, from the engine and from the paper's equations (read-only).
+
+    Columns follow :func:`whipple_modes`: weave (the pair: ``+Im`` first, or
+    the two largest real roots below the weave onset), weave, capsize,
+    castering.
+
+    Attributes
+    ----------
+    speeds : (n,) m/s, increasing.
+    eigenvalues : (n, 4) complex, the linearized System (:func:`whipple_modes_at`).
+    reference : (n, 4) complex, the paper's equations (:func:`whipple_bicycle_reference`).
+    stable_speeds : (v_w, v_c) m/s, where the engine's largest real part turns negative and positive
+        again (Brent on :func:`whipple_modes_at`, 1e-9 m/s); NaN if not crossed in ``speeds``.
+    reference_stable_speeds : (v_w, v_c) m/s, the same from the paper's equations (1e-14 m/s).
+    """
+
+    speeds: np.ndarray
+    eigenvalues: np.ndarray = field(repr=False)
+    reference: np.ndarray = field(repr=False)
+    stable_speeds: tuple[float, float]
+    reference_stable_speeds: tuple[float, float]
+
+    def curves(self, *, engine: bool = False) -> dict[str, np.ndarray]:
+        """(n,) series of the paper's figure: ``"weave"`` and ``"weave_2"`` (real parts; equal when
+        oscillating), ``"weave_frequency"`` (``Im s`` > 0, NaN while real), ``"capsize"``, ``"castering"``
+        (real parts, 1/s); of the paper's equations, or of the engine with ``engine=True``."""
+        s = self.eigenvalues if engine else self.reference
+        return {"weave": s[:, 0].real, "weave_2": s[:, 1].real,
+                "weave_frequency": np.where(s[:, 0].imag > 0, s[:, 0].imag, np.nan),
+                "capsize": s[:, 2].real, "castering": s[:, 3].real}
+
+
+def _ordered(s: Any) -> np.ndarray:
+    """Four eigenvalues in :func:`whipple_modes`' order (weave +Im, weave, capsize, castering)."""
+    order = {name: i for i, name in enumerate(WHIPPLE_MODE_NAMES)}
+    pairs = sorted(zip(whipple_mode_names(s), np.asarray(s, dtype=complex)),
+                   key=lambda m: (order[m[0]], -m[1].imag, -m[1].real))
+    return np.array([x for _, x in pairs])
+
+
+def _crossings(speeds: np.ndarray, largest: np.ndarray, f: Any, xtol: float) -> tuple[float, float]:
+    """(first speed where ``f`` turns <= 0, the next where it turns > 0) by Brent between grid speeds."""
+    out = [math.nan, math.nan]
+    for i in range(speeds.size - 1):
+        a, b = largest[i], largest[i + 1]
+        if (a > 0) != (b > 0):
+            root = brentq(f, speeds[i], speeds[i + 1], xtol=xtol, rtol=4 * np.finfo(float).eps, maxiter=200)
+            if a > 0 and math.isnan(out[0]):
+                out[0] = float(root)
+            elif a <= 0 and not math.isnan(out[0]) and math.isnan(out[1]):
+                out[1] = float(root)
+    return out[0], out[1]
+
+
+def whipple_sweep(speeds: Any = np.linspace(0.0, 10.0, 101), parameters: Any = "meijaard2007") -> WhippleSweep:
+    """Eigenvalues against speed, the paper's figure: the linearized System and the paper's equations.
+
+    Each speed costs one eigenvalue problem of :func:`whipple_speed_model`
+    and one of the paper's ``A`` (about 5 ms together); the self-stable
+    band, where every real part is negative, by Brent's method on each.
+
+    Parameters
+    ----------
+    speeds : (n,) array_like
+        At least two increasing forward speeds (m/s).
+    parameters : str or WhippleParameters
+
+    Returns
+    -------
+    WhippleSweep
+    """
+    v = float_array(speeds, "speeds", expected="increasing speeds (m/s)").reshape(-1)
+    if v.size < 2 or not np.all(np.isfinite(v)) or np.any(np.diff(v) <= 0):
+        raise ArgumentError("speeds", f"speeds: expected at least two finite, increasing speeds (m/s), "
+                                      f"got {short_repr(speeds)}")
+    ref = whipple_bicycle_reference(parameters)
+    engine = np.array([[m.eigenvalue for m in whipple_modes_at(x, parameters)] for x in v])
+    paper = np.array([_ordered(ref.eigenvalues(x)) for x in v])
+
+    def top(x: float) -> float:
+        return max(m.eigenvalue.real for m in whipple_modes_at(x, parameters))
+
+    def top_ref(x: float) -> float:
+        return float(np.max(ref.eigenvalues(x).real))
+
+    band = _crossings(v, engine.real.max(axis=1), top, 1e-9)
+    band_ref = _crossings(v, paper.real.max(axis=1), top_ref, 1e-14)
+    return WhippleSweep(_read_only(v), _read_only_c(engine), _read_only_c(paper), band, band_ref)
+
+
+def _read_only_c(a: np.ndarray) -> np.ndarray:
+    out = np.array(a, dtype=complex)
+    out.setflags(write=False)
+    return out
