@@ -10,12 +10,15 @@ generating them once per process is enough, whatever the number of clients.
 from __future__ import annotations
 
 import functools
+import math
+
+from typing import Any
 
 import numpy as np
 import trimesh
 
-__all__ = ["body_parts", "box", "cylinder_z", "extrude", "helix_tube", "pack", "pedestal", "pins", "ring",
-           "spinning_top", "triangulate", "Mesh"]
+__all__ = ["bicycle_meshes", "body_parts", "box", "cylinder_z", "extrude", "helix_tube", "pack",
+           "pedestal", "pins", "ring", "spinning_top", "spoked_wheel", "triangulate", "tube", "Mesh"]
 
 Mesh = tuple[np.ndarray, np.ndarray]
 
@@ -240,3 +243,54 @@ def helix_tube(length: float, wire_radius: float, *, radius: float, turns: int, 
     a, b, c, d = i + j, i + (j + 1) % sides, i + sides + j, i + sides + (j + 1) % sides
     faces = np.concatenate([np.stack([a, c, b], axis=-1).reshape(-1, 3), np.stack([b, c, d], axis=-1).reshape(-1, 3)])
     return vertices, faces.astype(np.uint32)
+
+def tube(a: object, b: object, radius: float, *, sections: int = 12) -> trimesh.Trimesh:
+    """A cylinder of ``radius`` from point ``a`` to point ``b`` (a trimesh, in the frame of the points;
+    concatenate several with ``trimesh.util.concatenate`` and pack them for ``add_mesh_simple``)."""
+    return trimesh.creation.cylinder(radius=float(radius), segment=np.array([a, b], dtype=float), sections=sections)
+
+
+def spoked_wheel(radius: float, *, tire: float = 0.018, spokes: int = 8,
+                 spoke_radius: float = 0.004) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    """``(wheel, marked spoke)`` of a wheel of outer ``radius`` (m) about its body origin, axle along +y:
+    a tire (torus of tube radius ``tire``), a hub and ``spokes - 1`` thin spokes, and apart (for another
+    colour, so that the wheel's turn shows) a thicker spoke along +x."""
+    turn = trimesh.transformations.rotation_matrix(math.pi / 2, [1, 0, 0])
+    rim = trimesh.creation.torus(radius - tire, tire, major_sections=64, minor_sections=10)
+    rim.apply_transform(turn)
+    parts = [rim, trimesh.creation.cylinder(radius=0.03, height=0.1, sections=16, transform=turn)]
+    for k in range(1, spokes):
+        a = 2 * math.pi * k / spokes
+        parts.append(tube((0, 0, 0), (radius * math.cos(a), 0, radius * math.sin(a)), spoke_radius))
+    return trimesh.util.concatenate(parts), tube((0, 0, 0), (radius - tire, 0, 0), 3 * spoke_radius)
+
+
+@functools.lru_cache(maxsize=4)  # one set per process, shared by every session: read them, never modify them
+def bicycle_meshes(p: Any) -> dict[str, trimesh.Trimesh]:
+    """Meshes of a :func:`core.models.whipple_bicycle` of parameters ``p`` (``WhippleParameters``), each in
+    its body's frame (origin at the body's centre of mass, axes global in the upright reference
+    configuration: x forward, z up): ``"rear_wheel"``, ``"front_wheel"`` (with ``"rear_mark"``,
+    ``"front_mark"``: one marked spoke each), ``"frame"``, ``"rider"`` (on the frame) and ``"fork"``. The
+    frame's tubes, the rider and the handlebar are drawn at fixed places (m) for the benchmark's size."""
+    steer_point = lambda h: np.array([p.wheelbase + p.trail - h * math.tan(p.steer_axis_tilt), 0.0, h])  # noqa: E731
+    com_frame = np.array([p.frame_position[0], 0.0, -p.frame_position[1]])
+    com_fork = np.array([p.fork_position[0], 0.0, -p.fork_position[1]])
+    hub_r, hub_f = np.array([0.0, 0.0, p.rear_radius]), np.array([p.wheelbase, 0.0, p.front_radius])
+    bb, seat, bar, head_lo, head_hi = (0.42, 0.0, 0.28), (0.3, 0.0, 0.88), *map(steer_point, (0.98, 0.62, 0.86))
+    bb, seat = np.array(bb), np.array(seat)
+    frame = [tube(hub_r, bb, 0.014), tube(bb, seat, 0.02), tube(seat, head_hi, 0.018), tube(bb, head_lo, 0.022),
+             tube(hub_r, seat, 0.012), tube(head_lo, head_hi, 0.026)]
+    rider = [tube(seat + (0, 0, 0.05), (0.5, 0.0, 1.42), 0.13),
+             trimesh.creation.icosphere(subdivisions=2, radius=0.11).apply_translation((0.56, 0.0, 1.6))]
+    fork = [tube(head_lo - (0, 0, 0.02), bar, 0.016), tube(bar + (0, -0.28, 0), bar + (0, 0.28, 0), 0.014)]
+    for side in (-0.05, 0.05):
+        frame.append(tube(hub_r + (0, side, 0), bb + (0, side * 0.5, 0), 0.008))
+        fork.append(tube(head_lo + (0, side * 0.9, 0), hub_f + (0, side * 0.9, 0), 0.01))
+        knee = np.array([0.58, side * 2.2, 0.62])
+        rider += [tube(seat + (0, side * 2.2, 0.02), knee, 0.06), tube(knee, bb + (0.05, side * 3.3, 0.0), 0.045),
+                  tube((0.48, side * 3.5, 1.36), bar + (0.0, side * 4.8, 0.0), 0.035)]
+    (rear, rear_mark), (front, front_mark) = spoked_wheel(p.rear_radius), spoked_wheel(p.front_radius)
+    cat = trimesh.util.concatenate
+    return {"rear_wheel": rear, "rear_mark": rear_mark, "front_wheel": front, "front_mark": front_mark,
+            "frame": cat(frame).apply_translation(-com_frame), "rider": cat(rider).apply_translation(-com_frame),
+            "fork": cat(fork).apply_translation(-com_fork)}

@@ -19,7 +19,8 @@ import math
 import re
 from typing import Any
 
-__all__ = ["Readout", "markdown_to_html", "one_digit", "relation", "significant", "PRESENTER_FONT_SCALE", "PRESENTER_TABLE_SCALE"]
+__all__ = ["Readout", "markdown_to_html", "mode_table", "one_digit", "relation", "significant",
+           "PRESENTER_FONT_SCALE", "PRESENTER_TABLE_SCALE"]
 
 #: Font size of readouts in presenter view, relative to the panel's.
 PRESENTER_FONT_SCALE = 1.45
@@ -214,3 +215,25 @@ class Readout:
         if out != self._sent:
             self._sent = out
             self.handle.content = out
+
+
+def mode_table(title: str, modes: Any, *, shape: tuple[str, Any] | None = None) -> str:
+    """Markdown of modes: name, eigenvalue ``s`` (1/s), damped frequency ``Im s / 2 pi`` (Hz) and the time in
+    which the amplitude halves (``Re s < 0``: ``ln 2 / -Re s``) or doubles, under ``title``.
+
+    ``modes`` are ``(name, s)`` pairs; of a complex pair only the one with ``Im s > 0`` is a row.
+    ``shape``: ``(header, texts)``, one more column (one text per mode, in the order of ``modes``).
+    """
+    head, texts = shape if shape is not None else ("", None)
+    rows = [title, "", "| mode | s (1/s) | f (Hz) | ½ / ×2 in |" + (f" {head} |" if texts is not None else ""),
+            "|---|---|---|---|" + ("---|" if texts is not None else "")]
+    for i, (name, s) in enumerate(modes):
+        s = complex(s)
+        if s.imag < 0:
+            continue  # the pair is one row
+        when = (f"½ in {math.log(2) / -s.real:.2f} s" if s.real < 0 else
+                f"×2 in {math.log(2) / s.real:.2f} s" if s.real > 0 else "neutral")
+        eig = f"{s.real:+.3f} ± {s.imag:.3f}i" if s.imag > 0 else f"{s.real:+.3f}"
+        freq = f"{s.imag / (2 * math.pi):.3f}" if s.imag > 0 else "–"
+        rows.append(f"| {name} | {eig} | {freq} | {when} |" + (f" {texts[i]} |" if texts is not None else ""))
+    return "\n".join(rows)

@@ -104,6 +104,9 @@ class PlotSpec:
     rescale: bool = False
     x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     per_chunk: bool = False
+    #: None: uPlot's own y range; a number: the y axis follows the window's data, at least this tall (a flat
+    #: series gets a small axis about its value, not uPlot's 0-100)
+    y_span: float | None = None
 
 
 def power_of_ten(series: Sequence[np.ndarray]) -> int:
@@ -185,6 +188,7 @@ class SimulationScene(PlaybackRequests, Scene):
         self._refresh = PlotRefresh(("readout",), self.refresh_period)
         self._plot_window: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros((0, 0)))
         self._chunk_plotted: dict[str, Any] = {}  # per-chunk plot -> the table it shows
+        self._y_ranges: dict[int, list[float]] = {}
         self._drawn: tuple | None = None
         self._refreshed_time = -1.0
         self._reported: set[str] = set()
@@ -497,7 +501,24 @@ class SimulationScene(PlaybackRequests, Scene):
         handle = self.plot_handles[what]
         if handle.title != title:
             handle.title = title
+        if spec.y_span is not None:
+            self._follow_data(handle, series, spec.y_span)
         self.set_plot_data(handle, (t if spec.x is None else spec.x(t, columns), *series))
+
+    def _follow_data(self, handle: Any, series: Sequence[np.ndarray], span: float) -> None:
+        """Set the y range of ``handle`` to the finite values of ``series``, at least ``span`` tall and rounded
+        out to a tenth of its height (sent only when it changes)."""
+        values = np.concatenate([np.asarray(s, dtype=float).ravel() for s in series])
+        values = values[np.isfinite(values)]
+        if values.size == 0:
+            return
+        lo, hi = float(values.min()), float(values.max())
+        mid, half = 0.5 * (lo + hi), 0.5 * max(hi - lo, span) * 1.1
+        step = 10.0 ** math.floor(math.log10(2.0 * half)) / 10.0
+        y_range = [math.floor((mid - half) / step) * step, math.ceil((mid + half) / step) * step]
+        if self._y_ranges.get(id(handle)) != y_range:
+            self._y_ranges[id(handle)] = y_range
+            handle.scales = {"x": {"time": False}, "y": {"auto": False, "range": y_range}}
 
     def set_plot_data(self, handle: Any, data: tuple) -> None:
         """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page)."""

@@ -156,6 +156,14 @@ class Chart:
         self._items.append(f"<rect x='{_f(X)}' y='{_f(self.top)}' width='{_f(self.right - X)}' "
                            f"height='{_f(self.bottom - self.top)}' fill='{color}'/>")
 
+    def band(self, x0: float, x1: float, color: str) -> None:
+        """Shade ``x0 <= x <= x1`` over the chart's height (clipped to the x range; nothing if not finite)."""
+        if not (math.isfinite(x0) and math.isfinite(x1)) or x1 <= self.x0 or x0 >= self.x1:
+            return
+        X0, X1 = float(self.px(max(x0, self.x0))), float(self.px(min(x1, self.x1)))
+        self._items.append(f"<rect x='{_f(X0)}' y='{_f(self.top)}' width='{_f(X1 - X0)}' "
+                           f"height='{_f(self.bottom - self.top)}' fill='{color}'/>")
+
     def text(self, x: float, y: float, text: str, *, color: str = "#333", anchor: str = "start",
              dx: float = 0.0, dy: float = 0.0, scale: float = 1.0) -> None:
         X, Y = float(self.px(x)) + dx, float(self.py(y)) + dy

@@ -34,8 +34,8 @@ import trimesh
 
 from app.nodes import set_array, set_pose, wxyz_z_to
 
-__all__ = ["ChunkedTrail", "SampledTrack", "SphereTrail", "StickHead", "curve_pieces", "extend_trail", "sampled_curve",
-           "trail_segments", "FAR_SEGMENTS"]
+__all__ = ["ChunkedTrail", "HeadedTrail", "SampledTrack", "SphereTrail", "StickHead", "curve_pieces", "extend_trail",
+           "sampled_curve", "trail_segments", "FAR_SEGMENTS"]
 
 Vec = tuple[float, float, float]
 
@@ -622,3 +622,41 @@ class SampledTrack:
             self.trail.flush()
             self._flushed = now
         self.head.draw()
+
+
+class HeadedTrail:
+    """A traced curve up to a moving point: a :class:`ChunkedTrail` flushed every ``period`` s of wall time,
+    ended by a :class:`StickHead` of ``count`` sticks of ``length`` (m) placed by poses in every frame.
+
+    ``add(point)`` feeds both; ``draw(visible)`` (inside ``atomic()``) shows or hides them, sends the
+    trail's newest chunk when ``period`` s of wall time have passed and the head's poses; ``clear()``
+    empties both.
+    """
+
+    def __init__(self, scene: Any, name: str, color: Any, *, thickness: float, capacity: int, min_step: float,
+                 length: float, count: int, period: float = 0.1, **kwargs: Any) -> None:
+        self.trail = ChunkedTrail(scene, name, color, thickness=thickness, capacity=capacity, min_step=min_step,
+                                  **kwargs)
+        self.head = StickHead(scene, f"{name}_head", color, thickness=thickness, length=length, count=count,
+                              **kwargs)
+        self.period = float(period)
+        self._sent = -math.inf
+
+    def add(self, point: Any) -> None:
+        self.trail.add(point)
+        self.head.add(point)
+
+    def clear(self) -> None:
+        self.trail.clear()
+        self.head.clear()
+
+    def draw(self, visible: bool) -> None:
+        for part in (self.trail, self.head):
+            if part.visible != visible:
+                part.visible = visible
+        now = time.monotonic()
+        if visible and now - self._sent >= self.period and self.trail.pending:
+            self._sent = now
+            self.trail.flush()  # the newest chunk only
+        if visible:
+            self.head.draw()  # poses of the new sticks and of the tip

@@ -6,7 +6,7 @@ what the scene streams: the bodies' poses against the ride's lean, a push that
 the bicycle recovers from at 5 m/s and one it falls after at 2 m/s, the modes
 at the current speed against the paper's equations, the eigenvalue plot, the
 CSV export, refused input and the shareable state. The chunk job and the plot
-functions are also checked on their own.
+are also checked on their own (core's functions in tests/core).
 """
 
 from __future__ import annotations
@@ -23,19 +23,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.scenes.bicycle import (
-    CSV_HEADER,
-    PRESETS,
-    SWEEP_SPEEDS,
-    BicycleScene,
-    ModeRow,
-    Segment,
-    _compute_chunk,
-    _reference_job,
-    eigenvalue_svg,
-    stable_band,
-)
-from core.models import MEIJAARD_2007_EIGENVALUES, whipple_bicycle_reference
+from app.scenes.bicycle import CSV_HEADER, PRESETS, BicycleScene, _ride_chunk, eigenvalue_svg
+from core.models import MEIJAARD_2007_EIGENVALUES, whipple_bicycle_reference, whipple_modes_at, whipple_sweep
+from core.multibody import RunState
 from tests.helpers import click, send_value, wait_until
 
 RECOVERED = math.radians(1.0)  # |lean| below this: recovered
@@ -71,7 +61,7 @@ def test_first_ride_is_pushed_and_recovers(bicycle):
     t, lean = _window_leans(scene)
     assert np.max(np.abs(lean)) > math.radians(1.0)  # it did lean
     assert np.max(np.abs(lean)) < 0.2
-    assert abs(scene.lean) < RECOVERED and not scene.fallen
+    assert abs(scene.lean) < RECOVERED and not scene.ended
 
 
 def test_body_poses_follow_the_ride(bicycle):
@@ -106,24 +96,27 @@ def test_push_at_five_metres_a_second_recovers(bicycle):
     after = t > t_push
     assert np.max(np.abs(lean[after])) < 0.25
     # the weave has died out, the capsize mode (-0.32 /s) decays
-    assert abs(scene.lean) < 0.25 * np.max(np.abs(lean[after])) and not scene.fallen
+    assert abs(scene.lean) < 0.25 * np.max(np.abs(lean[after])) and not scene.ended
 
 
 def test_push_at_two_metres_a_second_falls(bicycle):
     app, scene = bicycle
     send_value(scene, "speed", 2.0)
-    wait_until(lambda: scene.segment.speed == 2.0, timeout=10.0)
-    click(scene, "push")
-    wait_until(lambda: scene.fallen, timeout=120.0)
+    wait_until(lambda: scene.config.speed == 2.0 and scene.sim_time > 1.0, timeout=60.0)
+    click(scene, "push")  # a push from the state shown: a segment that starts at the clock's time
+    wait_until(lambda: scene.ended, timeout=120.0)
     t, lean = _window_leans(scene)
     assert np.max(np.abs(lean)) > FALLEN
     assert notices_with(app, "The bicycle fell")
     t_fall = scene.sim_time
+    # the fall is told at the time the clock shows (it was told in the segment's own time)
+    assert scene.segment.index == 1 and scene.segment.t0 > 1.0
+    assert abs(float(scene.last_chunk.end.rsplit("t = ", 1)[1].split()[0]) - t_fall) < 0.03
     wait_until(lambda: scene.frames > 0 and scene.sim_time == t_fall)  # the clock holds after the fall
     click(scene, "push")  # a push after the fall asks for a reset
     wait_until(lambda: notices_with(app, "has fallen"))
     click(scene, "playback", "Reset")
-    wait_until(lambda: not scene.fallen and scene.sim_time < t_fall, timeout=10.0)
+    wait_until(lambda: not scene.ended and scene.sim_time < t_fall, timeout=10.0)
 
 
 def test_modes_at_the_current_speed_match_the_papers_equations(bicycle):
@@ -137,21 +130,22 @@ def test_modes_at_the_current_speed_match_the_papers_equations(bicycle):
         want = whipple_bicycle_reference().eigenvalues(speed)
         np.testing.assert_allclose(got, want, rtol=1e-9)
         # the table follows at the scene's next panel refresh
-        wait_until(lambda speed=speed: f"Modes at {speed:.2f} m/s" in scene.gui.modes_html.content, timeout=10.0)
-        assert "castering" in scene.gui.modes_html.content
-    assert "×2 in" in scene.gui.modes_html.content  # capsize is unstable at 7.5 m/s
-    wait_until(lambda: scene.reference is not None and "<polyline" in scene.gui.eigen_plot.content, timeout=60.0)
-    np.testing.assert_allclose(scene.reference.band, [MEIJAARD_2007_EIGENVALUES["weave_speed"],
-                                                      MEIJAARD_2007_EIGENVALUES["capsize_speed"]], atol=1e-10)
-    ET.fromstring(scene.gui.eigen_plot.content)  # well-formed SVG
+        wait_until(lambda speed=speed: f"Modes at {speed:.2f} m/s" in scene.modes_readout.content, timeout=10.0)
+        assert "castering" in scene.modes_readout.content
+    assert "×2 in" in scene.modes_readout.content  # capsize is unstable at 7.5 m/s
+    wait_until(lambda: scene.sweep is not None and "<polyline" in scene.eigen_plot.content, timeout=120.0)
+    np.testing.assert_allclose(scene.sweep.reference_stable_speeds, [MEIJAARD_2007_EIGENVALUES["weave_speed"],
+                                                                     MEIJAARD_2007_EIGENVALUES["capsize_speed"]],
+                               atol=1e-10)
+    ET.fromstring(scene.eigen_plot.content)  # well-formed SVG
 
 
 def test_presets_set_speed_and_push(bicycle):
     app, scene = bicycle
     for i, (name, (speed, impulse)) in enumerate(PRESETS.items()):
         click(scene, f"preset_{i}")
-        wait_until(lambda speed=speed, impulse=impulse: scene.segment.speed == speed
-                   and scene.segment.impulse == impulse and scene.segment.index == 0, timeout=10.0)
+        wait_until(lambda speed=speed, impulse=impulse: scene.config.speed == speed
+                   and scene.segment_push() == impulse and scene.segment.index == 0, timeout=10.0)
         assert scene.controls.value("speed") == speed
 
 
@@ -162,20 +156,20 @@ def test_reset_replays_the_start_of_the_ride(bicycle):
     for i in (names.index("Self-stable: 5 m/s, push"), names.index("Upright at 5 m/s")):
         speed, impulse = PRESETS[names[i]]
         click(scene, f"preset_{i}")
-        wait_until(lambda: scene.segment.impulse == impulse and scene.segment.index == 0 and scene.sim_time > 0.3,
+        wait_until(lambda: scene.segment_push() == impulse and scene.segment.index == 0 and scene.sim_time > 0.3,
                    timeout=60.0)
         click(scene, "push")  # a later push starts a new segment; Reset goes back to the first one
         wait_until(lambda: scene.segment.index == 1, timeout=10.0)
         pushes = scene.pushes
         click(scene, "playback", "Reset")
         wait_until(lambda: scene.segment.index == 0, timeout=10.0)
-        assert scene.segment.impulse == impulse and scene.segment.t0 == 0.0
+        assert scene.segment_push() == impulse and scene.segment.t0 == 0.0
         assert scene.pushes == pushes + (1 if impulse else 0)
     send_value(scene, "speed", 6.0)  # a new speed rides upright
-    wait_until(lambda: scene.segment.speed == 6.0, timeout=10.0)
+    wait_until(lambda: scene.config.speed == 6.0, timeout=10.0)
     click(scene, "playback", "Reset")
     wait_until(lambda: scene.segment.index == 0 and scene.sim_time < 0.2, timeout=10.0)
-    assert scene.segment.impulse == 0.0
+    assert scene.segment_push() == 0.0
 
 
 def test_refused_speed_keeps_the_ride(bicycle):
@@ -203,7 +197,7 @@ def test_csv_export_and_state(bicycle):
     assert state["values"]["speed"] == 6.5
     send_value(scene, "speed", 3.0)
     assert scene.load_state(state) == []
-    wait_until(lambda: scene.segment.speed == 6.5, timeout=10.0)
+    wait_until(lambda: scene.config.speed == 6.5, timeout=10.0)
 
 
 class _RecordingExecutor(concurrent.futures.Executor):
@@ -217,7 +211,7 @@ class _RecordingExecutor(concurrent.futures.Executor):
     def submit(self, fn, /, *args, **kwargs):  # type: ignore[no-untyped-def]
         inner = fn.func if isinstance(fn, functools.partial) else fn
         name = getattr(inner, "__name__", repr(inner))
-        if name == "_compute_chunk":
+        if name == "_ride_chunk":
             name = "chunk"
         with self._lock:
             self.names.append(name)
@@ -228,9 +222,9 @@ class _RecordingExecutor(concurrent.futures.Executor):
 
 
 def test_the_first_ride_goes_to_the_worker_before_the_curves_and_the_modes(make_bare_scene):
-    """The first two chunks of the ride are the first jobs: the paper's curves and the modes wait until the ride
-    has its next chunk in hand, and the eigenvalue dots after them; the modes still arrive (from the speed
-    model) and agree with the paper's equations."""
+    """The first two chunks of the ride are the first jobs: the modes wait until the ride has its next chunk
+    in hand, and the eigenvalues against speed after them; the modes still arrive (from the speed model)
+    and agree with the paper's equations."""
     executor = _RecordingExecutor()
     scene, _ = make_bare_scene(BicycleScene, executor)
 
@@ -240,64 +234,40 @@ def test_the_first_ride_goes_to_the_worker_before_the_curves_and_the_modes(make_
             return condition()
         wait_until(step, timeout=timeout, interval=1 / 60)
 
-    frames_until(lambda: scene.modes is not None and len(scene.sweep_points) >= 2)
+    frames_until(lambda: scene.modes is not None and scene.sweep is not None)
     names = list(executor.names)
     assert names[:2] == ["chunk", "chunk"], names
-    assert names.index("_reference_job") < names.index("_modes_job")
+    assert names.index("whipple_modes_at") < names.index("whipple_sweep")
     assert scene.sim_time > 0.0
     got = np.array(sorted((m.eigenvalue for m in scene.modes[1]), key=lambda s: (s.real, s.imag)))
     np.testing.assert_allclose(got, whipple_bicycle_reference().eigenvalues(5.0), rtol=1e-9)  # as the test above
 
 
-# ------------------------------------------------------------------ jobs and plot, on their own
-def test_chunks_continue_and_a_fall_holds():
-    pushed = Segment(0, 2.0, 0.0, impulse=40.0)
-    chunks = [_compute_chunk(pushed, 0, None)]
-    assert chunks[0].angles[3, 0] > 0  # pushed to the right: leans right
-    k = 1
-    while not chunks[-1].fallen and k < 12:
-        chunks.append(_compute_chunk(pushed, k, chunks[-1]))
-        k += 1
-    assert chunks[-1].fallen and "left the ground" in chunks[-1].end or "fell" in chunks[-1].end
+# ------------------------------------------------------------------ the job and the plot, on their own
+def test_chunks_continue_and_a_push_starts_from_a_sample():
+    chunks = [_ride_chunk(2.0, 0.0, None, 40.0, 0, None)]
+    assert chunks[0].ride.lean[3] > 0  # pushed to the right: leans right
+    while not chunks[-1].final and len(chunks) < 12:
+        chunks.append(_ride_chunk(2.0, 0.0, None, 40.0, len(chunks), chunks[-1]))
+    assert chunks[-1].final and ("left the ground" in chunks[-1].end or "fell" in chunks[-1].end)
     for a, b in zip(chunks, chunks[1:]):
-        assert b.t[0] == pytest.approx(a.t[-1])  # each chunk starts where the one before ended
-        np.testing.assert_allclose(b.states[0], a.states[-1], atol=1e-9)
-    still = _compute_chunk(pushed, k, chunks[-1])
-    np.testing.assert_array_equal(still.poses[0], chunks[-1].poses[-1])
-    # a segment from a displayed state continues it (no jump)
-    j = 10
-    state = chunks[0].states[j]
-    later = Segment(1, 2.0, float(chunks[0].t[j]), tuple(state[:28]), tuple(state[28:]))
-    cont = _compute_chunk(later, 0, None)
-    np.testing.assert_allclose(cont.angles[0], chunks[0].angles[j], atol=1e-12)
-    np.testing.assert_allclose(cont.angles[5], chunks[0].angles[j + 5], atol=1e-4)
+        assert b.t[0] == a.t[-1]  # each chunk starts where the one before ended, from its final state
+        np.testing.assert_allclose(b.ride.q[0], a.ride.q[-1], atol=1e-12)
+    j = 10  # a segment from a displayed sample continues it (no jump), on the display clock
+    c = chunks[0]
+    cont = _ride_chunk(2.0, float(c.t[j]), RunState(c.t[j], c.ride.q[j], c.ride.v[j]), 0.0, 0, None)
+    assert cont.t[0] == c.t[j]
+    np.testing.assert_allclose(cont.ride.lean[0], c.ride.lean[j], atol=1e-12)
+    np.testing.assert_allclose(cont.ride.steer[5], c.ride.steer[j + 5], atol=1e-4)
+    assert c.table.columns.shape == (c.t.size, 6)
 
 
-def test_reference_curves_and_band():
-    ref = _reference_job()
-    assert ref.curves.shape == (5, ref.speeds.size)
-    i5 = int(np.argmin(np.abs(ref.speeds - 5.0)))
-    want = MEIJAARD_2007_EIGENVALUES["eigenvalues"][5.0]
-    np.testing.assert_allclose(ref.curves[3, i5], want[3].real, atol=1e-12)  # capsize
-    np.testing.assert_allclose(ref.curves[4, i5], want[0].real, atol=1e-12)  # castering
-    np.testing.assert_allclose(ref.curves[2, i5], want[2].imag, atol=1e-12)  # weave frequency
-
-
-def _rows(speed: float) -> tuple[ModeRow, ...]:
-    from core.models import whipple_mode_names
-
-    s = whipple_bicycle_reference().eigenvalues(speed)
-    return tuple(ModeRow(n, complex(x), 1.0, 1.0) for x, n in zip(s, whipple_mode_names(s)))
-
-
-def test_stable_band_from_grid_points():
-    points = {v: _rows(v) for v in SWEEP_SPEEDS}
-    lo, hi = stable_band(points)
-    assert abs(lo - MEIJAARD_2007_EIGENVALUES["weave_speed"]) < 0.01
-    assert abs(hi - MEIJAARD_2007_EIGENVALUES["capsize_speed"]) < 0.02
-    assert stable_band({1.0: _rows(1.0)}) is None
-    svg = eigenvalue_svg(_reference_job(), points, (5.0, _rows(5.0)))
+def test_eigenvalue_plot():
+    sweep = whipple_sweep(np.linspace(0.0, 10.0, 41))
+    svg = eigenvalue_svg(sweep, (5.0, whipple_modes_at(5.0)))
     root = ET.fromstring(svg)
-    assert root.tag.endswith("svg")
-    assert svg.count("<circle") >= len(SWEEP_SPEEDS) * 2
-    assert "self-stable" in svg
+    assert root.tag.endswith("svg") and "self-stable" in svg
+    assert svg.count("<circle") >= 21 * 4
+    sizes = [float(e.get("font-size")) for e in root.iter() if e.get("font-size")]
+    assert min(sizes) >= 14.0  # px of the 340-px drawing (the panel is about as wide): readable
+    assert "<circle" not in eigenvalue_svg(None, None)

@@ -63,7 +63,7 @@ def _bicycle_page(running_app, open_page):
 def test_push_recovers_at_five_and_falls_at_two(running_app, open_page) -> None:
     _, page, scene = _bicycle_page(running_app, open_page)
     wait_until(lambda: scene.sim_time > 1.0, timeout=120.0)
-    assert scene.segment.speed == 5.0
+    assert scene.config.speed == 5.0
     pushes = scene.pushes
     _press(page, "Push")
     wait_until(lambda: scene.pushes == pushes + 1, timeout=30.0)
@@ -72,7 +72,7 @@ def test_push_recovers_at_five_and_falls_at_two(running_app, open_page) -> None:
     lean = _leans_since(scene, t_push)
     assert np.max(np.abs(lean)) > math.radians(1.0)  # the push made it lean
     assert np.max(np.abs(lean)) < 0.25
-    assert abs(scene.lean) < 0.25 * np.max(np.abs(lean)) and not scene.fallen  # weave gone, capsize decaying
+    assert abs(scene.lean) < 0.25 * np.max(np.abs(lean)) and not scene.ended  # weave gone, capsize decaying
     page.wait_for_timeout(800)
     upright = _view(page.screenshot())
 
@@ -81,12 +81,12 @@ def test_push_recovers_at_five_and_falls_at_two(running_app, open_page) -> None:
     page.keyboard.press("Home")  # 0 m/s
     for _ in range(20):  # step 0.1 m/s
         page.keyboard.press("ArrowRight")
-    wait_until(lambda: scene.controls.value("speed") == 2.0 and scene.segment.speed == 2.0, timeout=30.0)
+    wait_until(lambda: scene.controls.value("speed") == 2.0 and scene.config.speed == 2.0, timeout=30.0)
     wait_until(lambda: scene.sim_time > 0.2, timeout=60.0)
     pushes = scene.pushes
     _press(page, "Push")
     wait_until(lambda: scene.pushes == pushes + 1, timeout=30.0)
-    wait_until(lambda: scene.fallen, timeout=180.0)
+    wait_until(lambda: scene.ended, timeout=180.0)
     assert np.max(np.abs(_leans_since(scene, 0.0))) > FALLEN
     assert abs(scene.lean) > FALLEN
     page.wait_for_timeout(1500)  # the software renderer catches up with the last poses
@@ -98,8 +98,8 @@ def test_push_recovers_at_five_and_falls_at_two(running_app, open_page) -> None:
 
 def test_eigenvalue_plot_and_mode_table_are_on_the_page(running_app, open_page) -> None:
     _, page, scene = _bicycle_page(running_app, open_page)
-    wait_until(lambda: scene.modes is not None and scene.reference is not None, timeout=120.0)
-    wait_until(lambda: "self-stable" in scene.gui.eigen_plot.content, timeout=30.0)
+    wait_until(lambda: scene.modes is not None and scene.sweep is not None, timeout=120.0)
+    wait_until(lambda: "self-stable" in scene.eigen_plot.content, timeout=30.0)
     # read the page in one evaluation: the plot is replaced as the engine's dots arrive
     page.wait_for_function(
         """() => [...document.querySelectorAll('svg')].some(s => s.textContent.includes('speed v (m/s)')
@@ -109,3 +109,10 @@ def test_eigenvalue_plot_and_mode_table_are_on_the_page(running_app, open_page) 
         """() => [...document.querySelectorAll('table')].some(t => ['weave', 'capsize', 'castering']
                  .every(n => [...t.querySelectorAll('td')].some(td => td.textContent.trim() === n)))""",
         timeout=60_000)
+    # the figure's text is readable: at least 12 px on the page (it was 6-7 px)
+    sizes = page.evaluate("""() => [...document.querySelectorAll('svg text')].map(t => {
+        let s = t.ownerSVGElement; while (s.ownerSVGElement) s = s.ownerSVGElement;
+        if (!s.textContent.includes('speed v (m/s)')) return null;  // font px of the drawing, as rendered
+        return parseFloat(t.getAttribute('font-size')) * s.getBoundingClientRect().width / s.viewBox.baseVal.width;
+    }).filter(x => x !== null)""")
+    assert sizes and min(sizes) >= 12.0, sizes
