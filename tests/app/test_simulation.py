@@ -322,3 +322,27 @@ def test_a_per_chunk_plot_shows_the_whole_chunk_drawn_and_a_scene_may_handle_err
     scene.frame(1 / 60)
     assert scene.playing and not any("motion stopped" in n[0] for n in notices)  # handled: no notice, no pause
     assert len(scene.handled) == 1 and "amplitude" in str(scene.handled[0])
+
+
+class _FlatToy(_Toy):
+    def plots(self) -> list[PlotSpec]:
+        return [PlotSpec("x", "x(t)", (("x (m)", "#2563eb"),), lambda t, c: (c[:, 0],), y_span=1.0)]
+
+
+def test_a_plot_with_y_span_follows_its_data(make_bare_scene) -> None:
+    """A flat series gets an axis at least y_span tall about its value (uPlot's own range was 0-100)."""
+    scene, _ = make_bare_scene(_FlatToy)
+    scene.controls.apply({"amplitude": 0.0})
+    handle = scene.plot_handles["x"]
+
+    def y_range() -> list[float] | None:
+        scene.frame(1 / 60)
+        return (handle.scales or {}).get("y", {}).get("range")
+
+    wait_until(lambda: y_range() is not None and scene.sim_time > 0.5, timeout=60.0, interval=0.0)
+    lo, hi = y_range()
+    assert lo < 0.0 < hi and 1.0 <= hi - lo <= 1.5
+    scene.controls.apply({"amplitude": 4.0})
+    wait_until(lambda: (r := y_range()) is not None and r[0] <= -3.9 and r[1] >= 3.9, timeout=60.0, interval=0.0)
+    lo, hi = y_range()
+    assert -5.0 <= lo and hi <= 5.0  # the data's range (4 sin t), rounded out
