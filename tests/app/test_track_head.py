@@ -212,3 +212,28 @@ def test_the_disk_track_reaches_the_contact_point_in_every_page_frame(running_sc
         assert distance_to_segments(behind, segments).max() < 2e-3
         checked += 1
     assert checked >= 5
+
+
+def test_headed_trail_feeds_both_and_hides_both(server) -> None:
+    """HeadedTrail (the bicycle's wheel tracks): one point feeds the line ring and the sticks; hidden, neither
+    shows; the ring's newest chunk is sent at most once per period; clear empties both."""
+    from app.scenes._trail import HeadedTrail
+
+    track = HeadedTrail(_Owner(server), "/headed", (0, 150, 140), thickness=2.0, capacity=64, min_step=0.01,
+                        length=0.05, count=8, period=3600.0)
+    for x in np.linspace(0.0, 1.0, 101):
+        track.add((x, 0.0, 0.0))
+    with server.atomic():
+        track.draw(True)
+    assert track.trail.visible and track.head.visible
+    assert not track.trail.pending  # sent at the first draw
+    np.testing.assert_allclose(track.head.segments[-1][0], (1.0, 0.0, 0.0), atol=1e-12)  # the tip at the newest
+    track.add((1.1, 0.0, 0.0))
+    with server.atomic():
+        track.draw(True)
+    assert track.trail.pending  # within the period: not sent again
+    with server.atomic():
+        track.draw(False)
+    assert not track.trail.visible and not track.head.visible
+    track.clear()
+    assert track.trail.points.shape[0] == 0
