@@ -241,6 +241,11 @@ class SimulationScene(PlaybackRequests, Scene):
     def on_configure(self, inputs: Any) -> None:
         """Hook: the motion restarts with new ``inputs`` (visibility of nodes, label texts)."""
 
+    def initial_extra(self) -> Any:
+        """Hook: ``extra`` of the segment from t = 0 (e.g. the bicycle's push at the start; None by default).
+        A restart replays the chunks it holds only while inputs and this are the same."""
+        return None
+
     def on_restart(self) -> None:
         """Hook: the clock goes back to t = 0 (clear trails)."""
 
@@ -341,8 +346,8 @@ class SimulationScene(PlaybackRequests, Scene):
                 self.plot_handles[spec.name].visible = bool(spec.shown(inputs))
 
     def restart(self) -> None:
-        """The motion from t = 0 (chunks of the same inputs are reused)."""
-        self._start(Segment())
+        """The motion from t = 0 (chunks of the same inputs and :meth:`initial_extra` are reused)."""
+        self._start(Segment(extra=self.initial_extra()))
         self.sim_time = 0.0
         self.history.clear()
         self._refreshed_time = -1.0
@@ -357,7 +362,8 @@ class SimulationScene(PlaybackRequests, Scene):
     def _start(self, segment: Segment) -> None:
         # a restart of the motion the timeline holds (same inputs, from t = 0) replays its chunks (and stops
         # again where it failed); anything else starts a new timeline
-        replay = segment.index == 0 and self.segment.index == 0 and self._timeline_inputs == self.config
+        replay = (segment.index == 0 and self.segment.index == 0 and self._timeline_inputs == self.config
+                  and segment.extra == self.segment.extra)
         self.segment = segment
         if not replay:
             self.timeline.reset(self.job(self.config, segment))

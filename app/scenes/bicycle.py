@@ -162,8 +162,10 @@ class BicycleScene(SimulationScene):
 
     def segment_push(self, segment: Any = None) -> float:
         """The push (N s) the segment starts with (the segment shown by default)."""
-        segment = self.segment if segment is None else segment
-        return float(segment.extra) if segment.index else self.start_impulse
+        return float((self.segment if segment is None else segment).extra or 0.0)
+
+    def initial_extra(self) -> float:
+        return self.start_impulse
 
     def preset_values(self, name: str) -> dict[str, Any]:
         speed, self._next_impulse = PRESETS[name]

@@ -346,3 +346,31 @@ def test_a_plot_with_y_span_follows_its_data(make_bare_scene) -> None:
     wait_until(lambda: (r := y_range()) is not None and r[0] <= -3.9 and r[1] >= 3.9, timeout=60.0, interval=0.0)
     lo, hi = y_range()
     assert -5.0 <= lo and hi <= 5.0  # the data's range (4 sin t), rounded out
+
+
+class _ExtraToy(_Toy):
+    start_amplitude: float | None = None
+
+    def initial_extra(self) -> Any:
+        return self.start_amplitude
+
+    def job(self, inputs: _Inputs, segment: Any) -> Any:
+        start = segment.extra if segment.index == 0 else segment.start
+        return functools.partial(_toy_job, inputs, segment.t0, start)
+
+
+def test_a_restart_with_another_initial_extra_runs_it_anew(make_bare_scene) -> None:
+    """The segment from t = 0 carries initial_extra(); a restart replays the held chunks only while it is the same
+    (the bicycle's first push: a preset of the same speed and another push must not replay the last ride)."""
+    scene, _ = make_bare_scene(_ExtraToy)
+    _play_until(scene, 1.2)
+    scene.start_amplitude = 3.0
+    scene.restart()
+    assert scene.segment.extra == 3.0
+    _play_until(scene, 0.3)
+    t, x = scene.drawn[-1]
+    assert x == pytest.approx(3.0 * math.sin(t), abs=1e-14)
+    scene.restart()  # the same: replayed
+    _play_until(scene, 0.3)
+    t, x = scene.drawn[-1]
+    assert x == pytest.approx(3.0 * math.sin(t), abs=1e-14)
