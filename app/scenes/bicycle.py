@@ -35,7 +35,6 @@ _P = MEIJAARD_2007
 _CHUNK = 0.5  # s of ride per chunk
 _SAMPLES = 21  # samples per chunk (40 per second; frames interpolate)
 _RTOL, _ATOL = 1e-5, 1e-7  # DOP853 (a display: lean to about 1e-5 rad)
-_JOBS_AFTER = 1.0  # s shown after which the side jobs go to the workers even if the ride is not ahead
 _GRID_SECTION = 2.0  # m
 #: Presets: speed (m/s) and the push (N s) given at t = 0.
 PRESETS = {"Self-stable: 5 m/s, push": (5.0, 40.0), "Weave: 2 m/s, push": (2.0, 20.0),
@@ -78,9 +77,22 @@ def _ride_chunk(speed: float, t0: float, start: RunState | None, impulse: float,
     return RideChunk(k, ride, Table.build(ride.t, columns))
 
 
-def eigenvalue_svg(sweep: Any, current: tuple[float, tuple] | None, *, font: float = _CHART_FONT[0]) -> str:
+def eigenvalue_svg(sweep: Any, current: tuple[float, tuple] | None, *, font: float = _CHART_FONT[0],
+                   base: Chart | None = None) -> str:
     """The paper's figure: its equations (lines; weave Im s dashed), the System's eigenvalues (dots), the
-    self-stable band and the modes at the current speed (``current``: (v, core's modes), purple)."""
+    self-stable band and the modes at the current speed (``current``: (v, core's modes), purple). ``base``:
+    :func:`eigenvalue_chart` of ``sweep`` and ``font``, kept (the rest costs little)."""
+    chart = (base if base is not None else eigenvalue_chart(sweep, font)).copy()
+    if current is not None:
+        purple, s, v = hex_color(_CURRENT), np.array([m.eigenvalue for m in current[1]]), np.full(4, current[0])
+        chart.vline(current[0], purple, dash=None, width=1.5)
+        chart.points(v, s.real, purple, radius=4.5)
+        chart.points(v, np.where(s.imag > 0, s.imag, np.nan), purple, radius=4.5, hollow=True)
+    return chart.svg()
+
+
+def eigenvalue_chart(sweep: Any, font: float) -> Chart:
+    """The figure's axes, band, lines and dots of ``sweep`` (core's WhippleSweep, or None: the axes)."""
     chart = Chart((0.0, 10.0), (-10.0, 10.0), "speed v (m/s)", "eigenvalue s (1/s)", height=250, font=font)
     if sweep is not None:
         lo, hi = sweep.reference_stable_speeds
@@ -92,17 +104,10 @@ def eigenvalue_svg(sweep: Any, current: tuple[float, tuple] | None, *, font: flo
         for k, name in enumerate(("weave", "weave", "capsize", "castering")):
             chart.points(sweep.speeds[::2], sweep.eigenvalues[::2, k].real, hex_color(_MODE_COLORS[name]),
                          radius=2.4, stroke="#ffffff")
-    if current is not None:
-        purple, s, v = hex_color(_CURRENT), np.array([m.eigenvalue for m in current[1]]), np.full(4, current[0])
-        chart.vline(current[0], purple, dash=None, width=1.5)
-        chart.points(v, s.real, purple, radius=4.5)
-        chart.points(v, np.where(s.imag > 0, s.imag, np.nan), purple, radius=4.5, hollow=True)
-    return chart.svg()
+    return chart
 
 
-@dataclasses.dataclass(frozen=True)
-class _Inputs:
-    speed: float = 5.0  # m/s
+_Inputs = dataclasses.make_dataclass("_Inputs", [("speed", float, 5.0)], frozen=True)  # m/s: the ride's inputs
 
 
 class BicycleScene(SimulationScene):
@@ -147,14 +152,13 @@ class BicycleScene(SimulationScene):
         super().__init__(target, notify, context=context)
         self.start_impulse = 0.0  # the push the ride from t = 0 starts with (N s; Reset replays it)
         self._next_impulse: float | None = None  # for the next start (None: the slider's, for the first ride)
-        self.pushes = 0
-        self.lean = self.steer = 0.0
+        self.pushes, self.lean, self.steer = 0, 0.0, 0.0  # pushes given; lean, steer shown (rad)
         self.center = np.zeros(2)  # the world offset: the bicycle's place on the ground (m)
         self.modes: tuple[float, tuple] | None = None  # (speed, core's WhippleModes) at the current speed
         self.sweep: Any = None  # core's WhippleSweep (eigenvalues against speed)
         self._jobs: dict[str, Any] = {}
         self._drawn_segment: Any = None
-        self._chart_due = True
+        self._chart_due, self._base = True, (None, None)
 
     # -- what the layer asks -----------------------------------------------------------------
     def job(self, inputs: _Inputs, segment: Any) -> Any:
@@ -290,11 +294,13 @@ class BicycleScene(SimulationScene):
                     f"**Modes at {v:.2f} m/s** (the System linearized, Eqs. 8.110-8.131)",
                     [(m.name, m.eigenvalue) for m in modes],
                     shape=("φ : δ", [f"{abs(m.lean):.2f} : {abs(m.steer):.2f}" for m in modes]))
-            self.eigen_plot.content = eigenvalue_svg(self.sweep, self.modes, font=_CHART_FONT[self.presenter])
+            if self._base[0] != (key := (id(self.sweep), self.presenter)):  # built again when these change
+                self._base = (key, eigenvalue_chart(self.sweep, _CHART_FONT[self.presenter]))
+            self.eigen_plot.content = eigenvalue_svg(self.sweep, self.modes, base=self._base[1])
         timeline = self.timeline
         ahead = not timeline.busy and (timeline.ready(timeline.index(self.local_time) + 1) or self.ended
                                        or not self.playback.playing or timeline.error is not None)
-        if self._jobs or self.config is None or (not ahead and self.sim_time < _JOBS_AFTER):
+        if self._jobs or self.config is None or (not ahead and self.sim_time < 1.0):
             return
         speed = self.config.speed
         if self.modes is None or self.modes[0] != speed:

@@ -74,7 +74,7 @@ def test_push_recovers_at_five_and_falls_at_two(running_app, open_page) -> None:
     assert np.max(np.abs(lean)) < 0.25
     assert abs(scene.lean) < 0.25 * np.max(np.abs(lean)) and not scene.ended  # weave gone, capsize decaying
     page.wait_for_timeout(800)
-    upright = _view(page.screenshot())
+    upright = _view(page.screenshot(timeout=180_000))
 
     thumb = _slider_thumb(page, "Speed (m/s)")
     thumb.focus()
@@ -90,7 +90,7 @@ def test_push_recovers_at_five_and_falls_at_two(running_app, open_page) -> None:
     assert np.max(np.abs(_leans_since(scene, 0.0))) > FALLEN
     assert abs(scene.lean) > FALLEN
     page.wait_for_timeout(1500)  # the software renderer catches up with the last poses
-    fallen = _view(page.screenshot())
+    fallen = _view(page.screenshot(timeout=180_000))
     changed = np.any(np.abs(fallen - upright) > 0.05, axis=-1)
     assert changed.sum() > 2000, f"only {changed.sum()} pixels of the 3-D view changed"
     assert drawn_fraction(page.locator("canvas").first.screenshot()) > 0.01
