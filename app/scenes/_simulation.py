@@ -35,7 +35,8 @@ Segments
 --------
 A motion is one segment from t = 0 until the scene continues it from a state
 it reached (:meth:`continue_from`: the bicycle's push starts a new segment at
-the state shown, from core's ``final_state``); the clock runs on.
+the state shown, from core's ``final_state``); the clock runs on. The segment
+from t = 0 carries :meth:`initial_extra` (the bicycle's push at the start).
 
 Rate
 ----
