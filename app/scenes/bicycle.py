@@ -55,11 +55,11 @@ class RideChunk:
 
     k: int
     ride: WhippleRide
+    poses: np.ndarray  # (n, 4, 7) ride.poses, drawn (made on the executor)
+    contacts: np.ndarray  # (n, 2, 3) ride.contact_points
     table: Table  # lean, steer, yaw (deg), rear contact x, y (m), speed (m/s)
 
-    t = property(lambda self: self.ride.t)
-    final = property(lambda self: self.ride.fallen)
-    end = property(lambda self: self.ride.end)
+    t, final = property(lambda self: self.ride.t), property(lambda self: self.ride.fallen)
 
 
 def _ride_chunk(speed: float, t0: float, start: RunState | None, impulse: float, k: int,
@@ -74,7 +74,7 @@ def _ride_chunk(speed: float, t0: float, start: RunState | None, impulse: float,
     c = ride.contact_points
     columns = np.column_stack([np.degrees(np.stack([ride.lean, ride.steer, ride.yaw], axis=1)), c[:, 0, :2],
                                ride.rear_speed])
-    return RideChunk(k, ride, Table.build(ride.t, columns))
+    return RideChunk(k, ride, ride.poses, c, Table.build(ride.t, columns))
 
 
 def eigenvalue_svg(sweep: Any, current: tuple[float, tuple] | None, *, font: float = _CHART_FONT[0],
@@ -259,7 +259,7 @@ class BicycleScene(SimulationScene):
         w = 0.0 if t.size < 2 else min(max((self.sim_time - t[i]) / (t[i + 1] - t[i]), 0.0), 1.0)
         k = min(i + 1, t.size - 1)
         r = chunk.ride
-        pose, lean, steer, contacts = ((1 - w) * a[i] + w * a[k] for a in (r.poses, r.lean, r.steer, r.contact_points))
+        pose, lean, steer, contacts = ((1 - w) * a[i] + w * a[k] for a in (chunk.poses, r.lean, r.steer, chunk.contacts))
         self.lean, self.steer = float(lean), float(steer)
         self.center = center = 0.5 * (contacts[0, :2] + contacts[1, :2])
         shift = -(center - _GRID_SECTION * np.round(center / _GRID_SECTION))
@@ -312,7 +312,7 @@ class BicycleScene(SimulationScene):
         lines = [f"**v** = {self.config.speed:.2f} m/s · lean φ = {math.degrees(self.lean):+.2f}° · "
                  f"steer δ = {math.degrees(self.steer):+.2f}°"]
         if self.ended:
-            lines.append(f"**Fallen**: {self.last_chunk.end}.")
+            lines.append(f"**Fallen**: {self.last_chunk.ride.end}.")
         if self.sweep is None:
             return lines + ["*The eigenvalues against speed are being computed…*"]
         (pw, pc), (ew, ec) = self.sweep.reference_stable_speeds, self.sweep.stable_speeds
@@ -320,5 +320,5 @@ class BicycleScene(SimulationScene):
                         f"the System's eigenvalues (dots) cross zero at {ew:.4f} and {ec:.4f} m/s."]
 
     def end_notice(self, chunk: RideChunk) -> tuple[str, str]:
-        return "The bicycle fell", f"{chunk.end}. Press Reset, move the speed or choose a preset."
+        return "The bicycle fell", f"{chunk.ride.end}. Press Reset, move the speed or choose a preset."
 

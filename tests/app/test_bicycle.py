@@ -111,7 +111,7 @@ def test_push_at_two_metres_a_second_falls(bicycle):
     t_fall = scene.sim_time
     # the fall is told at the time the clock shows (it was told in the segment's own time)
     assert scene.segment.index == 1 and scene.segment.t0 >= 1.0
-    assert abs(float(scene.last_chunk.end.rsplit("t = ", 1)[1].split()[0]) - t_fall) < 0.03
+    assert abs(float(scene.last_chunk.ride.end.rsplit("t = ", 1)[1].split()[0]) - t_fall) < 0.03
     wait_until(lambda: scene.frames > 0 and scene.sim_time == t_fall)  # the clock holds after the fall
     click(scene, "push")  # a push after the fall asks for a reset
     wait_until(lambda: notices_with(app, "has fallen"))
@@ -249,7 +249,7 @@ def test_chunks_continue_and_a_push_starts_from_a_sample():
     assert chunks[0].ride.lean[3] > 0  # pushed to the right: leans right
     while not chunks[-1].final and len(chunks) < 12:
         chunks.append(_ride_chunk(2.0, 0.0, None, 40.0, len(chunks), chunks[-1]))
-    assert chunks[-1].final and ("left the ground" in chunks[-1].end or "fell" in chunks[-1].end)
+    assert chunks[-1].final and ("left the ground" in chunks[-1].ride.end or "fell" in chunks[-1].ride.end)
     for a, b in zip(chunks, chunks[1:]):
         assert b.t[0] == a.t[-1]  # each chunk starts where the one before ended, from its final state
         np.testing.assert_allclose(b.ride.q[0], a.ride.q[-1], atol=1e-12)
