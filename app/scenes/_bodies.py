@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
+from app.scenes._arrows import vertex_rgb
 from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
 __all__ = ["ForceArrow", "Parts", "Placed", "PartsView", "add_body_meshes", "add_disk", "body_point", "disk_meshes",
@@ -400,7 +401,7 @@ class ForceArrow:
     scene : app.scenes.base.Scene
         Its radii grow in presenter view (:meth:`~app.scenes.base.Scene.add_arrows`).
     name, color :
-        Path of the frame (the arrow is ``{name}/arrow``) and RGB colour.
+        Path of the frame (the arrow is ``{name}/arrow``) and RGB colour (sRGB, as drawn: :func:`~app.scenes._arrows.vertex_rgb`).
     sizes : dict
         ``shaft_radius``, ``head_radius``, ``head_length`` (m) at scale 1 (:meth:`resize`).
     """
@@ -408,7 +409,7 @@ class ForceArrow:
     def __init__(self, scene: Any, name: str, color: Any, *, sizes: dict[str, float], resend: float = 0.02) -> None:
         self.scene, self.sizes, self.resend, self.length = scene, dict(sizes), float(resend), 0.0
         self.frame = scene.target.scene.add_frame(name, show_axes=False)
-        self.arrow = scene.add_arrows(f"{name}/arrow", np.zeros((1, 2, 3), np.float32), color, **sizes)
+        self.arrow = scene.add_arrows(f"{name}/arrow", np.zeros((1, 2, 3), np.float32), vertex_rgb(color), **sizes)
 
     def resize(self, scale: float) -> None:
         """Shaft and head ``scale`` times their sizes at scale 1 (a body of another size)."""

@@ -37,6 +37,7 @@ from app.controls import Choice, Slider, Toggle
 from app.meshes import box, cylinder_z, extrude, helix_tube, pack
 from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from app.readout import significant
+from app.scenes._arrows import vertex_rgb
 from app.scenes._plots import Table, format_rows
 from app.scenes._simulation import PlotSpec, SimulationScene
 from app.scenes.base import PRESENTER_LINE_SCALE
@@ -496,7 +497,7 @@ class CamFollowerScene(SimulationScene):
                                           np.full((1, 2, 3), _NORMAL_COLOR, np.uint8), thickness=2.5,
                                           thickness_units="screen")
         self.arrow = self.add_arrows(f"{root}/contact/point/force", np.zeros((1, 2, 3), np.float32),
-                                     np.array([_FORCE_COLOR], np.uint8), shaft_radius=0.0016, head_radius=0.004,
+                                     vertex_rgb([_FORCE_COLOR]), shaft_radius=0.0016, head_radius=0.004,
                                      head_length=0.008)
         self.force_label = self.add_label(f"{root}/contact/label", "N", anchor="top-right", scale=1.3)
         self.labels = {
@@ -760,7 +761,7 @@ class CamFollowerScene(SimulationScene):
                 self._arrow_sent = (length, force >= 0.0)
                 ends = ((0.0, 0.0, -length), (0.0, 0.0, 0.0))  # N n ends at the contact point; N < 0 starts there
                 set_arrays(self.arrow, points=np.array([ends if force >= 0.0 else ends[::-1]], np.float32),
-                           colors=np.array([_FORCE_COLOR if force >= 0.0 else _PULL_COLOR], np.uint8))
+                           colors=vertex_rgb([_FORCE_COLOR if force >= 0.0 else _PULL_COLOR]))
             tail = self._arrow_sent[0]  # the label at the arrow's tail
             set_pose(self.force_label, position=(x - tail * nx, _Y_FRONT, z - tail * nz))
 

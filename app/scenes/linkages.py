@@ -22,6 +22,7 @@ from app import meshes
 from app.controls import Choice, Slider, Toggle
 from app.nodes import set_pose
 from app.readout import one_digit, significant
+from app.scenes._arrows import vertex_rgb
 from app.scenes._bodies import Parts, PartsView, Placed, add_body_meshes, saturating_arrows
 from app.scenes._plots import Table, log10_floor
 from app.scenes._simulation import PlotSpec, SimulationScene
@@ -215,8 +216,8 @@ class LinkagesScene(SimulationScene):
         self.ghost = add_body_meshes(scene, f"{m}/ghost_pivot/top", [(top["body"], _GHOST), (top["marker"], _GHOST)],
                                      opacity=0.4)
         arrow = dict(shaft_radius=0.016, head_radius=0.05, head_length=0.12, visible=False)
-        self.force_arrows = self.add_arrows(f"{m}/forces", np.zeros((1, 2, 3)), _FORCE, **arrow)
-        self.torque_arrow = self.add_arrows(f"{m}/torque", np.zeros((1, 2, 3)), _TORQUE, **arrow)
+        self.force_arrows = self.add_arrows(f"{m}/forces", np.zeros((1, 2, 3)), vertex_rgb(_FORCE), **arrow)
+        self.torque_arrow = self.add_arrows(f"{m}/torque", np.zeros((1, 2, 3)), vertex_rgb(_TORQUE), **arrow)
         self.labels = {key: self.add_label(f"{m}/label_{key}", text, position=position, anchor="top-center",
                                            scale=1.3, visible=False) for key, text, position in (
             ("top", "multibody top\n(spherical joint)", (0.0, 0.0, -0.55)),

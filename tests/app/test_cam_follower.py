@@ -25,6 +25,7 @@ import time
 import numpy as np
 import pytest
 
+from app.scenes._arrows import vertex_rgb
 from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
 from app.scenes.cam_follower import (
     CSV_HEADER,
@@ -243,7 +244,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
         assert scene.load_state(load) == []
     wait_until(lambda: scene.index == REVOLUTION_SAMPLES // 2)
     wait_until(lambda: "would have to pull" in scene.gui.readout.content)
-    assert scene.force < 0 and not np.array_equal(np.asarray(scene.arrow.colors)[0], [245, 140, 0])
+    assert scene.force < 0 and np.array_equal(np.asarray(scene.arrow.colors)[0], vertex_rgb((150, 60, 200)))
 
 
 @pytest.mark.parametrize(("key", "raw"), [("rpm", 1e308), ("rpm", math.nan), ("mass", -1.0), ("stiffness", "abc"),
