@@ -248,20 +248,16 @@ class Revolution:
 def compute_revolution(inputs: Inputs) -> Revolution:
     """Chunk 0 of the closed form of ``inputs`` (on the executor); :class:`CamRefused` for a cam core refuses."""
     inputs = dataclasses.replace(inputs, compliant=False)
-    cam, w, geometry = build_cam(inputs), inputs.speed, _geometry(inputs.geometry_key())
-    theta = np.arange(REVOLUTION_SAMPLES + 1) * _STEP
-    kin, touch, jump = cam.kinematics(theta), cam.touch_location(theta), float(cam.jump_speed())
-    force, at_jump = np.asarray(cam.contact_force(theta, w)), np.asarray(cam.contact_force(theta, jump))
-    arrays = [kin.lift, w * kin.dlift, w * w * kin.d2lift, force, at_jump, touch.point, touch.normal,
-              geometry.pitch_height + kin.lift]
+    rev = build_cam(inputs).revolution(inputs.speed, samples=REVOLUTION_SAMPLES)
+    geometry = _geometry(inputs.geometry_key())
+    arrays = [rev.lift, rev.velocity, rev.acceleration, rev.contact_force, rev.force_at_jump, rev.contact_point,
+              rev.contact_normal, geometry.pitch_height + rev.lift]
     if not all(np.all(np.isfinite(a)) for a in arrays):
         raise CamRefused("the closed form gave a non-finite value; choose other parameters")
-    t = theta / w
-    columns = np.column_stack([np.degrees(theta), 1000.0 * kin.lift, arrays[1], arrays[2], force, at_jump])
-    separations = cam.separation_intervals(w, samples=REVOLUTION_SAMPLES)
-    k = int(np.argmin(force))
-    return Revolution(0, t, Table.build(t, columns), inputs, w, jump, *arrays, separations,
-                      _separation_segments(geometry.contour, separations), (float(force[k]), float(theta[k])), geometry)
+    t = rev.theta / rev.speed
+    columns = np.column_stack([np.degrees(rev.theta), 1000.0 * rev.lift, *arrays[1:5]])
+    return Revolution(0, t, Table.build(t, columns), inputs, rev.speed, rev.jump_speed, *arrays, rev.separations,
+                      _separation_segments(geometry.contour, rev.separations), rev.min_force, geometry)
 
 
 def closed_form_chunk(inputs: Inputs, k: int, previous: Revolution | None) -> Revolution:
@@ -291,6 +287,7 @@ class RunChunk:
     separations: np.ndarray  # (m,) s: separations and gap openings
     landings: np.ndarray  # (m,) s: gap closings
     final_state: Any  # core's RunState to continue from
+    periodic: bool  # core's CamMotion.periodic: the next revolution repeats this one
 
     @property
     def t0(self) -> float:
@@ -309,7 +306,7 @@ def compute_chunk(inputs: Inputs, k: int, previous: RunChunk | None) -> RunChunk
         raise ValueError(f"previous: revolution {k} continues from revolution {k - 1}, which was not given")
     w = inputs.speed
     period = 2.0 * math.pi / w
-    if previous is not None and previous.separations.size == 0 and bool(np.all(previous.constraint)):
+    if previous is not None and previous.periodic:
         t = previous.t + period
         return dataclasses.replace(previous, k=k, t=t, theta=w * t, revolution=None,
                                    table=Table.build(t, previous.table.columns))
@@ -327,7 +324,7 @@ def compute_chunk(inputs: Inputs, k: int, previous: RunChunk | None) -> RunChunk
     return RunChunk(k, run.t, table, compute_revolution(inputs) if k == 0 else None, theta,
                     run.lift + _geometry(inputs.geometry_key()).pitch_height, run.lift, cam_lift, force, closed,
                     run.contact_point[:, [0, 2]], run.contact_normal[:, [0, 2]], run.gap, run.constraint,
-                    run.separations[:, 0], run.landings[:, 0], run.final_state)
+                    run.separations[:, 0], run.landings[:, 0], run.final_state, run.periodic)
 
 
 def run_plot_angles(chunk: RunChunk) -> np.ndarray:

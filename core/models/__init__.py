@@ -41,6 +41,7 @@ from ._cam import (
     CamKinematics,
     CamMotion,
     CamProfile,
+    CamRevolution,
     CamSystem,
     CamTouch,
 )
@@ -154,6 +155,7 @@ __all__ = [
     "CamKinematics",
     "CamMotion",
     "CamProfile",
+    "CamRevolution",
     "CamSystem",
     "CamTouch",
     "HeavyTop",

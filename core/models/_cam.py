@@ -38,6 +38,7 @@ __all__ = [
     "CamKinematics",
     "CamMotion",
     "CamProfile",
+    "CamRevolution",
     "CamSystem",
     "CamTouch",
 ]
@@ -243,6 +244,42 @@ class CamTouch(NamedTuple):
 
     point: np.ndarray
     normal: np.ndarray
+
+
+class CamRevolution(NamedTuple):
+    """One revolution of the closed-form motion at constant cam speed (:meth:`CamFollower.revolution`).
+
+    Rows ``i = 0 .. n`` at cam angles ``theta_i = 2 pi i / n`` (both ends included).
+
+    Attributes
+    ----------
+    speed, jump_speed : float
+        omega and :meth:`CamFollower.jump_speed` (rad/s).
+    theta : (n + 1,) rad
+    lift, velocity, acceleration : (n + 1,)
+        ``s`` (m), ``omega s'`` (m/s), ``omega^2 s''`` (m/s^2).
+    contact_force, force_at_jump : (n + 1,) N
+        :meth:`CamFollower.contact_force` at ``speed`` and at ``jump_speed`` (> 0 pressing).
+    contact_point, contact_normal : (n + 1, 2)
+        :meth:`CamFollower.touch_location` (m; unit), fixed profile plane.
+    separations : tuple of (float, float)
+        :meth:`CamFollower.separation_intervals` at ``speed`` (rad).
+    min_force : (float, float)
+        The smallest tabulated force (N) and its cam angle (rad).
+    """
+
+    speed: float
+    jump_speed: float
+    theta: np.ndarray
+    lift: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    contact_force: np.ndarray
+    force_at_jump: np.ndarray
+    contact_point: np.ndarray
+    contact_normal: np.ndarray
+    separations: tuple
+    min_force: tuple
 
 
 @dataclass(frozen=True)
@@ -893,6 +930,45 @@ class CamFollower:
             intervals.append((a, later[0] if later else end_roots[0] + _TWO_PI))
         return tuple(intervals)
 
+    def revolution(self, speed: float, *, samples: int = 1440) -> CamRevolution:
+        """The closed-form motion over one revolution at constant ``speed``, tabulated at ``samples + 1`` angles.
+
+        Lift, velocity ``omega s'`` and acceleration ``omega^2 s''`` from
+        :meth:`kinematics`, the contact force ``N`` at ``speed`` and at
+        :meth:`jump_speed` (:meth:`contact_force`), the contact point and
+        normal (:meth:`touch_location`) and the separation intervals
+        (:meth:`separation_intervals`, refined from the same ``samples``).
+        The motion is periodic: revolution ``k`` is this one at times
+        ``theta / omega + k 2 pi / omega``.
+
+        Parameters
+        ----------
+        speed : float
+            omega (rad/s), nonzero; its sign does not matter.
+        samples : int, keyword-only
+            Intervals per revolution (>= 8).
+
+        Returns
+        -------
+        CamRevolution
+        """
+        from core._validation import positive_integer
+
+        w = abs(real_number(speed, "speed", expected="a finite nonzero cam speed (rad/s)"))
+        if w == 0.0:
+            raise ArgumentError("speed", f"speed: expected a finite nonzero cam speed (rad/s), got {speed!r}")
+        n = positive_integer(samples, "samples")
+        if n < 8:
+            raise ArgumentError("samples", f"samples: expected an integer >= 8, got {n!r}")
+        theta = np.arange(n + 1) * (_TWO_PI / n)
+        kin, touch, jump = self.kinematics(theta), self.touch_location(theta), float(self.jump_speed())
+        force = np.asarray(self.contact_force(theta, w))
+        k = int(np.argmin(force))
+        return CamRevolution(w, jump, theta, np.asarray(kin.lift), w * np.asarray(kin.dlift),
+                             w * w * np.asarray(kin.d2lift), force, np.asarray(self.contact_force(theta, jump)),
+                             np.asarray(touch.point), np.asarray(touch.normal),
+                             self.separation_intervals(w, samples=n), (float(force[k]), float(theta[k])))
+
     def touch_location(self, theta: Any) -> CamTouch:
         """The contact point and common normal at cam angle ``theta`` in the fixed profile plane.
 
@@ -1376,6 +1452,14 @@ class CamMotion:
     contact_normal: np.ndarray | None = field(default=None, repr=False)  # (n, 3)
     constraint: np.ndarray | None = field(default=None, repr=False)  # (n,)
     final_state: Any = field(default=None, repr=False)
+
+    @property
+    def periodic(self) -> bool:
+        """True when the run is in its periodic steady state: the contact held in the constraint model at every
+        output and never separated, so the follower is driven by the cam alone (no degree of freedom of its
+        own) and the next revolution repeats this one a period later. A compliant stretch (after a
+        separation, or from the start) is not: its flight and bounces depend on the state it began in."""
+        return self.separations.size == 0 and self.constraint is not None and bool(np.all(self.constraint))
 
     def __reduce__(self):
         arrays = (self.t, self.cam_angle, self.lift, self.lift_rate, self.contact_force, self.contact_point, self.gap,

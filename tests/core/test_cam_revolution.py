@@ -1,0 +1,78 @@
+"""CamFollower.revolution (the closed-form table of one revolution) and CamMotion.periodic."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core import ArgumentError
+from core.models import CamFollower, CamProfile, CamRevolution
+
+TWO_PI = 2.0 * math.pi
+
+
+@pytest.mark.parametrize("cam", [
+    CamFollower(CamProfile.eccentric()),
+    CamFollower(CamProfile.rise_dwell_return(law="cycloidal"), follower="roller", roller_radius=0.01, offset=0.004),
+])
+def test_the_revolution_table_is_the_closed_forms_sampled(cam):
+    speed, n = 1.3 * cam.jump_speed(), 720
+    rev = cam.revolution(-speed, samples=n)  # the sign of the speed does not matter
+    assert isinstance(rev, CamRevolution) and rev.speed == speed and rev.jump_speed == cam.jump_speed()
+    np.testing.assert_allclose(rev.theta, np.arange(n + 1) * TWO_PI / n)
+    k = cam.kinematics(rev.theta)
+    np.testing.assert_array_equal(rev.lift, k.lift)
+    # velocity and acceleration are the lift's time derivatives at constant speed (central differences)
+    h = rev.theta[1] / speed
+    np.testing.assert_allclose(((rev.lift[2:] - rev.lift[:-2]) / (2 * h)), rev.velocity[1:-1],
+                               atol=2e-3 * np.abs(rev.velocity).max())
+    np.testing.assert_allclose(((rev.velocity[2:] - rev.velocity[:-2]) / (2 * h)), rev.acceleration[1:-1],
+                               atol=1e-2 * np.abs(rev.acceleration).max())  # (the jerk jumps at segment ends)
+    np.testing.assert_array_equal(rev.contact_force, cam.contact_force(rev.theta, speed))
+    np.testing.assert_array_equal(rev.force_at_jump, cam.contact_force(rev.theta, cam.jump_speed()))
+    assert rev.force_at_jump.min() == pytest.approx(0.0, abs=1e-3 * np.abs(rev.force_at_jump).max())
+    touch = cam.touch_location(rev.theta)
+    np.testing.assert_array_equal(rev.contact_point, touch.point)
+    np.testing.assert_array_equal(rev.contact_normal, touch.normal)
+    # above the jump speed the force turns negative over the separation intervals, and only there
+    assert rev.separations == cam.separation_intervals(speed, samples=n) and rev.separations
+    inside = np.zeros(n + 1, dtype=bool)
+    for a, b in rev.separations:
+        inside |= ((rev.theta - a) % TWO_PI) < (b - a)
+    np.testing.assert_array_equal(inside[:-1], rev.contact_force[:-1] < 0)
+    i = int(np.argmin(rev.contact_force))
+    assert rev.min_force == (rev.contact_force[i], rev.theta[i]) and rev.min_force[0] < 0
+    assert cam.revolution(0.9 * cam.jump_speed(), samples=n).separations == ()
+
+
+@pytest.mark.parametrize(("kwargs", "argument"), [({"speed": 0.0}, "speed"), ({"speed": math.nan}, "speed"),
+                                                  ({"speed": 10.0, "samples": 4}, "samples"),
+                                                  ({"speed": 10.0, "samples": 10.5}, "samples")])
+def test_the_revolution_refuses_a_bad_argument_by_name(kwargs, argument):
+    with pytest.raises(ArgumentError) as info:
+        CamFollower(CamProfile.eccentric()).revolution(**kwargs)
+    assert info.value.argument == argument and str(info.value).startswith(f"{argument}: expected")
+
+
+def test_a_run_on_the_cam_is_periodic_and_its_next_revolution_repeats_it():
+    cam = CamFollower(CamProfile.eccentric())
+    speed = 0.8 * cam.jump_speed()
+    period = TWO_PI / speed
+    first = cam.simulate(speed, np.linspace(0.0, period, 41), on_separation="compliant")
+    assert first.periodic
+    second = cam.simulate(speed, np.linspace(period, 2 * period, 41), on_separation="compliant",
+                          initial=first.final_state)
+    scale = np.abs(first.lift).max()
+    np.testing.assert_allclose(second.lift, first.lift, atol=1e-7 * scale)
+    np.testing.assert_allclose(second.contact_force, first.contact_force, rtol=1e-5, atol=1e-6)
+
+
+def test_a_run_that_leaves_the_cam_is_not_periodic():
+    cam = CamFollower(CamProfile.eccentric(), stiffness=200.0, preload=2.0)
+    speed = 1.2 * cam.jump_speed()
+    run = cam.simulate(speed, np.linspace(0.0, TWO_PI / speed, 121), on_separation="compliant")
+    assert run.separations.size > 0 and not run.periodic
+    compliant = cam.simulate(0.5 * cam.jump_speed(), np.linspace(0.0, 0.1, 11), model="compliant")
+    assert compliant.separations.size == 0 and not compliant.periodic  # never in the constraint model
