@@ -42,7 +42,7 @@ from app.scenes._plots import Table, format_rows
 from app.scenes._simulation import PlotSpec, SimulationScene
 from app.scenes.base import PRESENTER_LINE_SCALE
 from core import ArgumentError
-from core.models import CamFollower, CamProfile
+from core.models import CamFollower, CamProfile, smallest_convex_rise
 
 __all__ = ["CSV_HEADER", "CamFollowerScene", "CamRefused", "FOLLOWERS", "Inputs", "PROFILES", "REVOLUTION_SAMPLES",
            "RUN_SAMPLES", "Revolution", "RunChunk", "build_cam", "compute_chunk", "compute_revolution",
@@ -122,20 +122,12 @@ def build_cam(inputs: Inputs) -> CamFollower:
                                  f"{rise:g}°; the roller centre's path curves more sharply than the roller); use a "
                                  f"roller of at most {math.floor(largest * 2000.0) / 2.0:g} mm or a longer rise") from exc
         if exc.argument == "base_radius" and law:
-            fits = next((r for r in range(int(rise), int(_RISE_DEG[1]) + 1) if _builds((law, kind, float(r), roller,
-                                                                                         *rest))), None)
-            advice = f"a rise of at least {fits}° or " if fits is not None else ""
+            fits = math.ceil(math.degrees(smallest_convex_rise(BASE_RADIUS, LIFT, math.radians(DWELL_DEG), law)))
+            advice = f"a rise of at least {fits}° or " if fits <= _RISE_DEG[1] else ""
             raise CamRefused(f"Flat-faced follower: at rise = fall = {rise:g}° the cam would not be convex (its radius "
                              f"of curvature R_b + s + s″ turns negative, and a flat face would bridge the hollow); use "
                              f"{advice}the roller follower") from exc
         raise CamRefused(str(exc)) from exc
-
-
-def _builds(key: tuple) -> bool:
-    try:
-        return _cam(key) is not None
-    except ArgumentError:
-        return False
 
 
 @functools.lru_cache(maxsize=256)

@@ -44,6 +44,7 @@ from ._cam import (
     CamRevolution,
     CamSystem,
     CamTouch,
+    smallest_convex_rise,
 )
 from ._free_body import (
     FREE_BODY_NAMES,
@@ -158,6 +159,7 @@ __all__ = [
     "CamRevolution",
     "CamSystem",
     "CamTouch",
+    "smallest_convex_rise",
     "HeavyTop",
     "ReducedChainMotion",
     "RollingDisk",

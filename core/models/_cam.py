@@ -41,6 +41,7 @@ __all__ = [
     "CamRevolution",
     "CamSystem",
     "CamTouch",
+    "smallest_convex_rise",
 ]
 
 #: Displacement laws of :meth:`CamProfile.rise_dwell_return`.
@@ -1380,6 +1381,54 @@ class CamFollower:
             if hi > 1e6 * (prof.base_radius + prof.lift):
                 return math.inf
         return float(brentq(margin, lo, hi, xtol=1e-9))
+
+
+def smallest_convex_rise(base_radius: float, lift: float, dwell: float, law: str, *, xtol: float = 1e-9) -> float:
+    """The smallest rise = fall angle (rad) whose :meth:`CamProfile.rise_dwell_return` cam is convex.
+
+    A flat-faced follower needs ``R_b + s + s'' > 0`` at every cam angle
+    (:meth:`CamFollower.radius_of_curvature`); ``s'' = L f''(x) / rise^2``
+    shrinks as the rise lengthens, so the cam is convex above one rise
+    angle, found here by bisection to ``xtol`` (rad) between 0 and the
+    longest rise ``(2 pi - dwell) / 2`` (``rise + dwell + fall = 2 pi``).
+    A roller follower's cam may be undercut at any rise
+    (:meth:`CamFollower.largest_roller_radius`).
+
+    Parameters
+    ----------
+    base_radius, lift, dwell, law :
+        As in :meth:`CamProfile.rise_dwell_return` (m, m, rad).
+    xtol : float, keyword-only
+        Bracket width (rad), > 0; the returned angle is the bracket's convex end.
+
+    Returns
+    -------
+    float
+        The rise (rad); inf when even the longest rise leaves the cam concave.
+    """
+    b2 = _non_negative(dwell, "dwell", "rad")
+    if not b2 < _TWO_PI:
+        raise ArgumentError("dwell", f"dwell: expected less than 2 pi (room for a rise and a fall), got {b2!r} rad")
+    Rb, L, _, b2, _, law = _rise_dwell_return_fields(base_radius, lift, 1e-12, b2, 1e-12, law)
+    tol = _positive(xtol, "xtol", "rad")
+
+    def convex(rise: float) -> bool:
+        profile = CamProfile.rise_dwell_return(base_radius=Rb, lift=L, rise=rise, dwell=b2, fall=rise, law=law)
+        try:
+            CamFollower(profile, follower="flat")
+        except ArgumentError as exc:
+            if exc.argument != "base_radius":
+                raise
+            return False
+        return True
+
+    lo, hi = 0.0, (_TWO_PI - b2) / 2.0
+    if not convex(hi):
+        return math.inf
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if convex(mid) else (mid, hi)
+    return hi
 
 
 # ------------------------------------------------------------------ simulation on the multibody System

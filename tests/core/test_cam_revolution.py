@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from core import ArgumentError
-from core.models import CamFollower, CamProfile, CamRevolution
+from core.models import CamFollower, CamProfile, CamRevolution, smallest_convex_rise
 
 TWO_PI = 2.0 * math.pi
 
@@ -76,3 +76,29 @@ def test_a_run_that_leaves_the_cam_is_not_periodic():
     assert run.separations.size > 0 and not run.periodic
     compliant = cam.simulate(0.5 * cam.jump_speed(), np.linspace(0.0, 0.1, 11), model="compliant")
     assert compliant.separations.size == 0 and not compliant.periodic  # never in the constraint model
+
+
+@pytest.mark.parametrize("law", ["cycloidal", "harmonic", "345"])
+def test_the_smallest_convex_rise_is_where_a_flat_face_starts_to_fit(law):
+    base, lift, dwell = 0.02, 0.02, math.radians(30.0)
+    rise = smallest_convex_rise(base, lift, dwell, law)
+    assert 0.0 < rise < (TWO_PI - dwell) / 2
+
+    def flat(r):
+        profile = CamProfile.rise_dwell_return(base_radius=base, lift=lift, rise=r, dwell=dwell, fall=r, law=law)
+        return CamFollower(profile, follower="flat")
+
+    # accepted there, convex to the resolution of core's check (1025 samples per segment)
+    assert flat(rise).radius_of_curvature(np.linspace(0.0, TWO_PI, 4001)).min() > -1e-6 * base
+    with pytest.raises(ArgumentError) as info:
+        flat(rise - 1e-6)  # and refused just below
+    assert info.value.argument == "base_radius"
+
+
+def test_the_smallest_convex_rise_is_inf_when_no_rise_is_convex_and_refuses_bad_arguments():
+    assert smallest_convex_rise(0.001, 0.5, math.radians(300.0), "harmonic") == math.inf
+    for kwargs, argument in (({"dwell": TWO_PI}, "dwell"), ({"law": "square"}, "law"), ({"lift": -1.0}, "lift")):
+        args = {"base_radius": 0.02, "lift": 0.02, "dwell": 0.5, "law": "cycloidal"} | kwargs
+        with pytest.raises(ArgumentError) as info:
+            smallest_convex_rise(**args)
+        assert info.value.argument == argument
