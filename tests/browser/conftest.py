@@ -72,16 +72,23 @@ def chromium() -> Iterator[Any]:
         manager.stop()
 
 
+#: Seconds any wait on a page may take (Playwright's default is 30 s; a page on a machine at load 20 took longer).
+PAGE_TIMEOUT = 120.0
+
+
 @pytest.fixture
 def open_page(chromium: Any) -> Iterator[Callable[..., Any]]:
     """Factory ``open_page(app) -> Page`` (canvas shown, browser registered)."""
     contexts: list[Any] = []
 
-    def open_(app: Any, *, timeout: float = 30.0) -> Any:
+    def open_(app: Any, *, timeout: float = PAGE_TIMEOUT) -> Any:
         known = set(app.client_ids())
         context = chromium.new_context(viewport=VIEWPORT)
         contexts.append(context)
         page = context.new_page()
+        # one generous timeout for every wait on the page (a click waits for its element): a loaded machine
+        # makes the software-rendered page slower, not the test red
+        page.set_default_timeout(timeout * 1000)
         page.goto(app.url, timeout=timeout * 1000)
         page.wait_for_selector("canvas", timeout=timeout * 1000)
         page.rigidlab_client_id = app.wait_for_client(known, timeout=timeout)

@@ -49,7 +49,7 @@ def _settled_view(page, timeout: float = 20.0) -> np.ndarray:
 
 def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     _, page, scene = scene_page(LinkagesScene)
-    wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=30.0)
+    wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=120.0)
     assert drawn_instances(scene.rods) == 5
     page.get_by_role("button", name="Pause", exact=True).click()
     wait_until(lambda: not scene.playing)
@@ -61,12 +61,12 @@ def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     thumb.focus()
     page.keyboard.press("End")  # the slider's maximum: 10 links
     wait_until(lambda: scene.controls.value("n_links") == 10)
-    wait_until(lambda: drawn_instances(scene.rods) == 10 and scene.setup.model.n_links == 10, timeout=30.0)
+    wait_until(lambda: drawn_instances(scene.rods) == 10 and scene.setup.model.n_links == 10, timeout=120.0)
     page.wait_for_timeout(800)
     ten = _view(page.screenshot())
     thumb.focus()
     page.keyboard.press("Home")  # one link
-    wait_until(lambda: drawn_instances(scene.rods) == 1 and scene.setup.model.n_links == 1, timeout=30.0)
+    wait_until(lambda: drawn_instances(scene.rods) == 1 and scene.setup.model.n_links == 1, timeout=120.0)
     page.wait_for_timeout(800)
     one = _view(page.screenshot())
     # ten joints and arrows against one: many pixels of the 3-D view differ
@@ -78,7 +78,7 @@ def test_moving_n_changes_the_links_drawn(scene_page) -> None:
 
 def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
     _, page, scene = scene_page(LinkagesScene)
-    wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=30.0)
+    wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=120.0)
     page.get_by_role("button", name="Pause", exact=True).click()
     wait_until(lambda: not scene.playing)
     page.wait_for_timeout(300)
@@ -92,7 +92,7 @@ def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
     assert np.abs(still - held).max() < 0.05  # nothing moves while paused
 
     page.get_by_role("button", name="Play", exact=True).click()
-    wait_until(lambda: scene.playing and scene.sim_time > t_paused + 0.5, timeout=30.0)
+    wait_until(lambda: scene.playing and scene.sim_time > t_paused + 0.5, timeout=120.0)
     assert np.abs(np.asarray(scene.rods.batched_positions) - positions).max() > 0.01
     moved = _view(page.screenshot())
     changed = np.any(np.abs(moved - held) > 0.05, axis=-1)

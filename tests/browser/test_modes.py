@@ -106,7 +106,7 @@ def test_moving_a_parameter_slider_updates_the_frequency_table(modes_page) -> No
     wait_until(lambda: scene.controls.value("n_links") == 10)
     wait_until(lambda: scene.solution is not None and scene.solution.params.n_links == 10
                and scene.panel_current, timeout=60.0)
-    wait_until(lambda: len(_table_frequencies(page)) == 10, timeout=30.0)
+    wait_until(lambda: len(_table_frequencies(page)) == 10, timeout=120.0)
     shown = _table_frequencies(page)
     expected = [float(scene.solution.frequency_hz[g[0]]) for g in scene.solution.groups]
     np.testing.assert_allclose(shown, expected, rtol=1e-3)  # four significant digits

@@ -58,7 +58,7 @@ def test_typed_scientific_notation_reaches_the_scene_unchanged(running_app: Any,
     assert send_value(scene, "input", "Axis and angle")
     assert wait_until(lambda: scene.input == "Axis and angle")
     box = field(page, "Axis")
-    box.wait_for(state="visible", timeout=15000)
+    box.wait_for(state="visible")
     box.click()
     box.fill("0, 1e-3, 1")  # viser's own number box turned 1e-3 into -13
     box.press("Tab")
