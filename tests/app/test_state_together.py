@@ -63,7 +63,7 @@ def test_a_state_refused_together_gets_one_notice_through_the_share_panel(runnin
     assert send_value(session, "state_in", json.dumps({"scene": "gyroscope", "values": {"I": 2.0, "I3": 3.0}}))
     click(session, "load_state")
     assert wait_until(lambda: session.notices[-1][0] == "State loaded")
-    assert wait_until(lambda: scene.model.inputs.I == 2.0 and scene.model.inputs.I3 == 3.0)
+    assert wait_until(lambda: scene.config.I == 2.0 and scene.config.I3 == 3.0)
 
 
 def test_the_check_runs_off_the_loop(running_app, monkeypatch):

@@ -154,6 +154,7 @@ CALLS = [
     ("gy.nutation", gy.nutation, (ROTOR, S6), (1,)),
     ("gy.rotor_vectors", gy.rotor_vectors, (ROTOR, S6, V3), (1, 2)),
     ("gy.simulate", gy.simulate, (ROTOR, S6, T, V3), (1, 2, 3)),
+    ("gy.sample_motion", gy.sample_motion, (gy.RotorSetup(ROTOR, tuple(S6)), T), (1,)),
     ("gy.steady_precession_rates", gy.steady_precession_rates, (ROTOR, 0.8, 20.0), (1, 2)),
     ("gy.steady_precession_torque", gy.steady_precession_torque, (ROTOR, 0.8, 0.5, 20.0), (1, 2, 3)),
     ("gy.top_motion", gy.top_motion, (ROTOR, S6), (1,)),
