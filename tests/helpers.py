@@ -23,6 +23,17 @@ def wait_until(predicate: Callable[[], object], timeout: float = 20.0, *, interv
     raise AssertionError(f"condition not met within {timeout:g} s")
 
 
+def wait_for_frames(scene: object, n: int, timeout: float = 120.0) -> None:
+    """Wait until ``scene``'s loop has run ``n`` more frames (60 a second when the machine keeps up).
+
+    A check that something does *not* happen (a paused clock, an untouched
+    session) waits on the loop it would happen in, not on the clock: on a
+    loaded machine the wait grows with the loop, and the check keeps its meaning.
+    """
+    start = scene.frames
+    wait_until(lambda: scene.frames >= start + n, timeout)
+
+
 def process_group_gone(pgid: int) -> bool:
     """Whether no process of process group ``pgid`` is left (a server started in its own session)."""
     try:

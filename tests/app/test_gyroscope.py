@@ -23,20 +23,26 @@ from scipy.spatial.transform import Rotation
 
 from app.scenes._playback import MAX_SIM_STEP
 from app.scenes.gyroscope import (
+    _ARROW_LABELS,
+    _LABEL_SCALE,
     BODY_LABELS,
     CSV_HEADER,
     PRESETS,
     SLIDERS,
     GyroscopeScene,
     Inputs,
-    _ARROW_LABELS,
-    _LABEL_SCALE,
     preset_inputs,
 )
-from core.gyroscope import RotorParams, invariants, nutation, simulate, steady_precession_rates
+from core.gyroscope import (
+    RotorParams,
+    invariants,
+    nutation,
+    simulate,
+    steady_precession_rates,
+)
 from tests.app._views import Camera, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
-from tests.helpers import click, send_value, wait_until
+from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 
 @pytest.fixture
@@ -162,9 +168,9 @@ def test_pause_reset_and_chunk_cache(gyro):
     app, scene = gyro
     click(scene, "playback", "Pause")
     wait_until(lambda: not scene.playing)
-    time.sleep(0.1)
+    wait_for_frames(scene, 2)
     t_paused = scene.sim_time
-    time.sleep(0.3)
+    wait_for_frames(scene, 20)
     assert scene.sim_time == t_paused
     click(scene, "playback", "Play")
     wait_until(lambda: scene.playing)
@@ -233,7 +239,7 @@ def test_a_run_that_fails_while_paused_by_hand_stays_paused_after_a_slider(gyro)
     assert notices_with(app, "change a control to run it again")
     assert send_value(scene, "m_phi", 0.0)
     wait_until(lambda: scene.model.torques == (0.0, 0.0, 0.0))
-    time.sleep(0.3)
+    wait_for_frames(scene, 20)
     assert not scene.playing and scene.sim_time == 0.0
 
 
@@ -262,7 +268,7 @@ def test_per_client_sessions_are_isolated(per_client_scenes):
     wait_until(lambda: a.model is not None and b.model is not None)
     a.apply_preset("Cuspidal motion")
     wait_until(lambda: a.model.state0[5] == preset_inputs("Cuspidal motion").psi_dot0)
-    time.sleep(0.2)
+    wait_for_frames(b, 12)
     assert b.model.state0[5] == Inputs().psi_dot0  # the default, untouched
 
 

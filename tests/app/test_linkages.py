@@ -40,7 +40,7 @@ from app.scenes.linkages import (
 from core.models import pendulum_chain
 from tests.app._views import Camera, drawn_instances, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
-from tests.helpers import click, send_value, wait_until
+from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 
 @pytest.fixture
@@ -101,11 +101,11 @@ def test_play_advances_the_chain_and_pause_holds_it(linkages):
     assert np.abs(after - before).max() > 0.01
     click(scene, "playback", "Pause")
     wait_until(lambda: not scene.playing)
-    time.sleep(0.1)
+    wait_for_frames(scene, 2)
     t_paused = scene.sim_time
     with app.session_for().run_lock:
         paused = np.array(scene.rods.batched_positions)
-    time.sleep(0.3)
+    wait_for_frames(scene, 20)
     assert scene.sim_time == t_paused
     np.testing.assert_array_equal(np.asarray(scene.rods.batched_positions), paused)
     click(scene, "playback", "Play")
@@ -335,7 +335,7 @@ def test_per_client_sessions_are_isolated(per_client_scenes):
     wait_until(lambda: a.model is not None and b.model is not None)
     assert send_value(a, "preset", TOP)
     wait_until(lambda: a.model.preset == TOP)
-    time.sleep(0.2)
+    wait_for_frames(b, 12)
     assert b.model.preset == CHAIN
 
 

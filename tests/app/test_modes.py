@@ -38,7 +38,7 @@ from app.scenes.modes import (
 )
 from core.gyroscope import RotorParams, sleeping_top_critical_spin
 from core.rotations import rotate_vector
-from tests.helpers import send_value, wait_until
+from tests.helpers import send_value, wait_for_frames, wait_until
 
 #: Joint gap of the animated poses (float64, as computed). Every sample is
 #: projected onto C(q, t) = 0 by Newton's method until max |C| <= 1e-12; the
@@ -111,9 +111,7 @@ def test_choosing_a_mode_animates_it(modes):
     np.testing.assert_allclose(clip.t[-1] + clip.t[1], clip.period, rtol=1e-12)
     # the poses sent change from frame to frame (two seconds per period on screen)
     before = rod_poses(app, scene)
-    time.sleep(0.15)
-    after = rod_poses(app, scene)
-    assert np.abs(after[0] - before[0]).max() > 1e-3
+    wait_until(lambda: np.abs(rod_poses(app, scene)[0] - before[0]).max() > 1e-3)
     # they are the clip's samples, exactly (as float32)
     with app.session_for().run_lock:
         i = scene._drawn[1]
@@ -123,7 +121,7 @@ def test_choosing_a_mode_animates_it(modes):
     assert send_value(scene, "animate", False)
     wait_until(lambda: scene._drawn == (id(scene.clip), scene.clip.still))
     held = rod_poses(app, scene)
-    time.sleep(0.2)
+    wait_for_frames(scene, 12)
     np.testing.assert_array_equal(rod_poses(app, scene)[0], held[0])
     assert "animation off" in scene.gui.status.content
 
@@ -359,7 +357,7 @@ def test_eigen_solve_only_when_something_changed_and_the_scene_is_shown(modes):
     assert not scene.active and not scene.sweeping
     submitted, frames = scene.jobs_submitted, scene.frames
     assert send_value(scene, "spin", 123.0)
-    time.sleep(0.5)
+    wait_for_frames(app.scene_for(), 30)  # the shown scene's loop runs on
     assert scene.jobs_submitted == submitted and scene.frames == frames and not scene.sweeping
     app.switch_scene("modes")
     wait_for(scene, model=ROTOR, spin=123.0)

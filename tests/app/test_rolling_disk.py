@@ -17,7 +17,6 @@ import csv
 import io
 import math
 import os
-import time
 
 import numpy as np
 import pytest
@@ -38,7 +37,7 @@ from app.scenes.rolling_disk import (
 )
 from core.models import rolling_disk_critical_spin
 from core.rotations import matrix_from_euler_parameters
-from tests.helpers import click, send_value, wait_until
+from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 # simulated time runs at up to 4 s per second while the pool keeps up
 FAST = 4.0
@@ -318,7 +317,7 @@ def test_a_control_changed_after_the_disk_stopped_itself_plays_again(disk):
     scene.playback.set_playing(False)
     assert send_value(scene, "lean_deg", 20.0)
     wait_until(lambda: scene.model.lean == pytest.approx(math.radians(20.0)))
-    time.sleep(0.3)
+    wait_for_frames(scene, 20)
     assert not scene.playing and scene.sim_time == 0.0
 
 
@@ -439,9 +438,7 @@ def test_the_scene_computes_only_while_shown(disk):
     wait_until(lambda: app.scene_for().name == "sandbox")
     wait_until(lambda: not scene.timeline.busy, timeout=30.0)
     computed, frames = scene.chunks_computed, scene.frames
-    import time
-
-    time.sleep(1.5)
+    wait_for_frames(app.scene_for(), 90)  # the shown scene's loop runs on
     assert scene.frames == frames  # a hidden scene gets no frames
     assert scene.chunks_computed == computed
 

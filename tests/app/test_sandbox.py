@@ -26,13 +26,19 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from app.controls import format_vector
-from app.panels import SEQUENCES, export_document, gimbal_conditioning, gimbal_layout, orientation_views
+from app.panels import (
+    SEQUENCES,
+    export_document,
+    gimbal_conditioning,
+    gimbal_layout,
+    orientation_views,
+)
 from app.panels.angular_velocity import OMEGA_FRAMES
 from app.panels.gimbal import COND_LOCK, COND_WARN, gauge_fill, lock_state
 from app.panels.orientation import INPUTS
 from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
 from app.scenes.sandbox import PANELS, SandboxScene
-from tests.helpers import click, send_value, wait_until
+from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 TOL = 1e-9
 FD_TOL = 1e-6
@@ -865,7 +871,7 @@ def test_app_per_client_sandboxes_are_isolated(running_app: Any, ws_client: Any)
     client_a.set_gui_value(scene_a.controls.handles["euler1"], -120.0)
     expected = Rotation.from_euler("ZXZ", [-120.0, 40.0, 20.0], degrees=True).as_quat(scalar_first=True)
     assert wait_until(lambda: quat_equal(scene_a.body.frame.wxyz, expected))
-    time.sleep(0.1)
+    wait_for_frames(scene_b, 6)
     assert np.allclose(scene_b.body.frame.wxyz, before_b)
     assert scene_b.controls.value("euler1") == 30.0
 

@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import json
 import threading
-import time
 
 import pytest
 
-from tests.helpers import click, send_value, wait_until
+from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 # (scene, values each of which its control accepts, the scene's reason for refusing them together)
 CASES = [
@@ -56,7 +55,7 @@ def test_a_state_refused_together_gets_one_notice_through_the_share_panel(runnin
     assert text.startswith("Gyroscope (cardan rotor): the values from the pasted state are refused together: invalid rotor "
                            "parameters: ") and text.endswith("The values in use are kept.")
     # the scene saw no change: no second notice setting the sliders back
-    time.sleep(1.0)  # (60 frames of the loop)
+    wait_for_frames(scene, 60)
     assert len(session.notices) == count + 1, session.notices[count:]
     assert scene.controls.values() == before
     # a state the scene accepts together still loads
