@@ -13,10 +13,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.scenes.cam_follower import ECCENTRIC_RADIUS, ECCENTRICITY, FOLLOWERS, CamFollowerScene
-from tests.browser._page import drawn_fraction, png_pixels
+from app.scenes.cam_follower import (
+    ECCENTRIC_RADIUS,
+    ECCENTRICITY,
+    FOLLOWERS,
+    CamFollowerScene,
+)
+from tests.browser._page import settled_view, view_changed_from, wait_for_drawn_canvas
 from tests.helpers import wait_until
-
 
 _CLICK_MS = 120_000
 
@@ -26,12 +30,6 @@ def _row(page, label: str):
     return page.locator(f"label:text-is('{label}')").first.locator(
         "xpath=ancestor::div[contains(@class,'mantine-Flex-root')][1]"
     )
-
-
-def _view(png: bytes) -> np.ndarray:
-    """The 3-D view of a page screenshot: the part left of the control panel."""
-    pixels = png_pixels(png)[..., :3]
-    return pixels[:, : int(0.6 * pixels.shape[1])]
 
 
 def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_app, open_page) -> None:
@@ -45,18 +43,18 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     # (generous timeouts: the software renderer of a loaded machine can take seconds per frame)
     _row(page, "Turn the cam").locator("input[type='checkbox']").first.click(timeout=_CLICK_MS)
     wait_until(lambda: scene.controls.value("animate") is False)
-    page.wait_for_timeout(300)
 
     # the roller, chosen in the page's dropdown
     _row(page, "Follower").locator("input.mantine-Select-input").first.click(timeout=_CLICK_MS)
     page.get_by_role("option", name=FOLLOWERS[1], exact=True).click(timeout=_CLICK_MS)
     wait_until(lambda: scene.revolution.inputs.follower == FOLLOWERS[1] and scene.roller_mesh.visible, timeout=120.0)
     wait_until(lambda: not scene.controls.handles["roller_mm"].disabled)
-    page.wait_for_timeout(500)
+    frames = scene.frames
+    wait_until(lambda: scene.frames > frames + 1)  # a loop tick after the roller is drawn
     z_before = float(scene.follower_frame.position[2])
     theta = scene.cam_angle
     lift_before = np.array(scene.gui.plots["lift"].data[1])
-    view_before = _view(page.screenshot())
+    view_before = settled_view(page)
 
     thumb = _row(page, "Roller radius (mm)").get_by_role("slider").first
     wait_until(lambda: thumb.get_attribute("aria-disabled") != "true")
@@ -71,10 +69,7 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     r, R, e = 0.04, ECCENTRIC_RADIUS, ECCENTRICITY
     lift = np.sqrt((R + r) ** 2 - (e * np.sin(theta)) ** 2) - e * np.cos(theta) - (R + r - e)
     assert float(scene.follower_frame.position[2]) == pytest.approx(R + r - e + lift, abs=1e-14)
-    page.wait_for_timeout(800)  # a few frames of the software renderer
-    view_roller = _view(page.screenshot())
-    changed = np.any(np.abs(view_roller - view_before) > 0.05, axis=-1)
-    assert changed.sum() > 300, f"only {changed.sum()} pixels of the 3-D view changed"
+    view_changed_from(page, view_before, 300)
 
     # the cam speed past the jump speed: the force plot shades the separation interval
     force_before = np.array(scene.gui.plots["force"].data[1])
@@ -86,4 +81,4 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     assert not np.array_equal(np.asarray(scene.gui.plots["force"].data[1]), force_before)
     wait_until(lambda: "Separation" in scene.gui.info.content)
     page.get_by_text("jump speed = ", exact=False).first.wait_for(state="visible")
-    assert drawn_fraction(page.locator("canvas").first.screenshot()) > 0.01
+    wait_for_drawn_canvas(page)

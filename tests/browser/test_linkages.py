@@ -10,13 +10,19 @@ on the page with every plotted value below the projection's bound.
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
 from app.scenes.linkages import RESIDUAL_BOUND, LinkagesScene
 from tests.app._views import drawn_instances
-from tests.browser._page import drawn_fraction, png_pixels
+from tests.browser._page import (
+    changed_pixels,
+    next_frames,
+    settled_view,
+    view,
+    view_changed_from,
+    wait_for_drawn_canvas,
+)
 from tests.helpers import wait_until
 
 
@@ -28,25 +34,6 @@ def _slider_thumb(page, label: str):
     return row.get_by_role("slider").first
 
 
-def _view(png: bytes) -> np.ndarray:
-    """The 3-D view of a page screenshot: the part left of the control panel."""
-    pixels = png_pixels(png)[..., :3]
-    return pixels[:, : int(0.6 * pixels.shape[1])]
-
-
-def _settled_view(page, timeout: float = 20.0) -> np.ndarray:
-    """The 3-D view once two screenshots 0.3 s apart agree: a page on a loaded machine may still be drawing
-    frames the server sent before it paused."""
-    deadline = time.monotonic() + timeout
-    last = _view(page.screenshot())
-    while True:
-        page.wait_for_timeout(300)
-        now = _view(page.screenshot())
-        if np.abs(now - last).max() < 0.05 or time.monotonic() > deadline:
-            return now
-        last = now
-
-
 def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     _, page, scene = scene_page(LinkagesScene)
     wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=120.0)
@@ -55,25 +42,20 @@ def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     wait_until(lambda: not scene.playing)
     thumb = _slider_thumb(page, "N links")
     wait_until(lambda: thumb.get_attribute("aria-valuenow") == "5")
-    page.wait_for_timeout(800)  # a few frames of the software renderer
-    before = _view(page.screenshot())
+    before = settled_view(page)
 
     thumb.focus()
     page.keyboard.press("End")  # the slider's maximum: 10 links
     wait_until(lambda: scene.controls.value("n_links") == 10)
     wait_until(lambda: drawn_instances(scene.rods) == 10 and scene.setup.model.n_links == 10, timeout=120.0)
-    page.wait_for_timeout(800)
-    ten = _view(page.screenshot())
+    # ten joints and arrows against five, then one: many pixels of the 3-D view differ
+    view_changed_from(page, before, 300)
+    ten = settled_view(page)
     thumb.focus()
     page.keyboard.press("Home")  # one link
     wait_until(lambda: drawn_instances(scene.rods) == 1 and scene.setup.model.n_links == 1, timeout=120.0)
-    page.wait_for_timeout(800)
-    one = _view(page.screenshot())
-    # ten joints and arrows against one: many pixels of the 3-D view differ
-    for a, b in ((before, ten), (ten, one)):
-        changed = np.any(np.abs(a - b) > 0.05, axis=-1)
-        assert changed.sum() > 300, f"only {changed.sum()} pixels changed"
-    assert drawn_fraction(page.locator("canvas").first.screenshot()) > 0.01
+    view_changed_from(page, ten, 300)
+    wait_for_drawn_canvas(page)
 
 
 def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
@@ -81,22 +63,23 @@ def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
     wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=120.0)
     page.get_by_role("button", name="Pause", exact=True).click()
     wait_until(lambda: not scene.playing)
-    page.wait_for_timeout(300)
+    frames = scene.frames
+    wait_until(lambda: scene.frames > frames + 1)  # a loop tick after the pause
     t_paused = scene.sim_time
     positions = np.array(scene.rods.batched_positions)
-    held = _settled_view(page)
-    page.wait_for_timeout(500)
+    held = settled_view(page)
+    # half a second of loop ticks and a few page frames later, nothing has moved
+    frames = scene.frames
+    wait_until(lambda: scene.frames > frames + 30, timeout=120.0)
+    next_frames(page, 3)
     assert scene.sim_time == t_paused
     np.testing.assert_array_equal(np.asarray(scene.rods.batched_positions), positions)
-    still = _view(page.screenshot())
-    assert np.abs(still - held).max() < 0.05  # nothing moves while paused
+    assert changed_pixels(view(page), held) == 0  # nothing moves while paused
 
     page.get_by_role("button", name="Play", exact=True).click()
     wait_until(lambda: scene.playing and scene.sim_time > t_paused + 0.5, timeout=120.0)
     assert np.abs(np.asarray(scene.rods.batched_positions) - positions).max() > 0.01
-    moved = _view(page.screenshot())
-    changed = np.any(np.abs(moved - held) > 0.05, axis=-1)
-    assert changed.sum() > 200, f"only {changed.sum()} pixels of the 3-D view changed"
+    view_changed_from(page, held, 200)
 
 
 def test_residual_plot_stays_below_its_bound(scene_page) -> None:
@@ -107,7 +90,6 @@ def test_residual_plot_stays_below_its_bound(scene_page) -> None:
     # elements when its data changes)
     page.get_by_role("button", name="Pause", exact=True).click()
     wait_until(lambda: not scene.playing)
-    page.wait_for_timeout(1000)
     title = page.locator(".u-title", has_text="constraint residual (log10)").first
     title.wait_for(state="visible", timeout=30_000)
     title.scroll_into_view_if_needed()

@@ -15,7 +15,7 @@ import numpy as np
 
 from app.scenes.rolling_disk import SLIDING, RollingDiskScene
 from core.rotations import matrix_from_euler_parameters
-from tests.browser._page import drawn_fraction, png_pixels
+from tests.browser._page import settled_view, view_changed_from, wait_for_drawn_canvas
 from tests.helpers import wait_until
 
 
@@ -25,12 +25,6 @@ def _slider_thumb(page, label: str):
         "xpath=ancestor::div[contains(@class,'mantine-Flex-root')][1]"
     )
     return row.get_by_role("slider").first
-
-
-def _view(png: bytes) -> np.ndarray:
-    """The 3-D view of a page screenshot: the part left of the control panel."""
-    pixels = png_pixels(png)[..., :3]
-    return pixels[:, : int(0.6 * pixels.shape[1])]
 
 
 def _started(scene, lean_deg: float) -> bool:
@@ -58,8 +52,7 @@ def test_lean_slider_from_the_page_changes_the_pose_and_the_plot(scene_page) -> 
         assert 0.0 <= t_plot[0] - (t_plot[-1] - scene.window) < 0.2
     thumb = _slider_thumb(page, "Lean (deg)")
     wait_until(lambda: thumb.get_attribute("aria-valuenow") == "10")
-    page.wait_for_timeout(800)  # a few frames of the software renderer
-    before = _view(page.screenshot())
+    before = settled_view(page)  # the paused disk, drawn
 
     thumb.focus()
     page.keyboard.press("End")  # the slider's maximum: 60 deg
@@ -73,16 +66,13 @@ def test_lean_slider_from_the_page_changes_the_pose_and_the_plot(scene_page) -> 
     # the lean plot starts again, at the new lean
     wait_until(lambda: math.isclose(float(scene.plot_handles["lean"].data[1][0]), 60.0, abs_tol=1e-9), timeout=120.0)
     assert scene.plot_handles["lean"].data[0][-1] == 0.0
-    page.wait_for_timeout(800)
-    after = _view(page.screenshot())
-    changed = np.any(np.abs(after - before) > 0.05, axis=-1)
-    assert changed.sum() > 300, f"only {changed.sum()} pixels of the 3-D view changed"
+    view_changed_from(page, before, 300)
 
     # playing again, the lean plot grows from t = 0
     page.get_by_role("button", name="Play", exact=True).click()
     wait_until(lambda: scene.playing and scene.sim_time > 0.3, timeout=60.0)
     wait_until(lambda: scene.plot_handles["lean"].data[0][-1] > 0.2, timeout=120.0)
-    assert drawn_fraction(page.locator("canvas").first.screenshot()) > 0.01
+    wait_for_drawn_canvas(page)
 
 
 def test_preset_and_contact_from_the_page(running_app, open_page) -> None:

@@ -4,12 +4,14 @@ typed in scientific notation reaches the scene unchanged."""
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tests.browser._page import field
+from app.panel import TEXT_RESTORE_SECONDS
+from tests.browser._page import field, settled_view, view_changed_from
 from tests.helpers import send_value, wait_until
 
 
@@ -27,8 +29,11 @@ def test_euler_slider_from_page_turns_body(running_app: Any, open_page: Any) -> 
     # Render from one fixed camera before and after, so that only the scene
     # can make the images differ (arrow keys would also orbit the camera).
     camera = dict(wxyz=client.camera.wxyz.copy(), position=client.camera.position.copy(), fov=client.camera.fov)
-    page.wait_for_timeout(500)
-    before = client.get_render(375, 600, **camera, transport_format="png", timeout=30)
+
+    def render(_page: Any) -> np.ndarray:
+        return client.get_render(375, 600, **camera, transport_format="png", timeout=120)[..., :3] / 255.0
+
+    before = settled_view(page, render)
     pose_before = np.array(scene.body.frame.wxyz)
 
     thumb.focus()
@@ -42,13 +47,9 @@ def test_euler_slider_from_page_turns_body(running_app: Any, open_page: Any) -> 
     )
     assert not np.allclose(scene.body.frame.wxyz, pose_before)
 
-    page.wait_for_timeout(500)
-    after = client.get_render(375, 600, **camera, transport_format="png", timeout=30)
-    assert before.shape == after.shape
-    changed = np.any(np.abs(after[..., :3].astype(int) - before[..., :3].astype(int)) > 30, axis=-1)
     # Half a turn of the body and of the gimbal's outer ring moves thousands
-    # of pixels; a frozen or blank render changes none.
-    assert changed.mean() > 0.005, f"only {changed.mean():.3%} of the pixels changed"
+    # of pixels (0.5 % of the render: 1125) by more than 30 of 255; a frozen or blank render changes none.
+    view_changed_from(page, before, int(0.005 * 375 * 600), render, tol=30 / 255)
 
 
 def test_typed_scientific_notation_reaches_the_scene_unchanged(running_app: Any, open_page: Any) -> None:
@@ -63,5 +64,9 @@ def test_typed_scientific_notation_reaches_the_scene_unchanged(running_app: Any,
     box.fill("0, 1e-3, 1")  # viser's own number box turned 1e-3 into -13
     box.press("Tab")
     assert wait_until(lambda: scene.controls.value("axis") == (0.0, 1e-3, 1.0), 15.0)
-    page.wait_for_timeout(2000)  # past the panel's restore pause: nothing rewrites it
+    # past the panel's restore pause, and a loop tick after it: nothing rewrites the text
+    typed = time.monotonic()
+    assert wait_until(lambda: time.monotonic() - typed > TEXT_RESTORE_SECONDS)
+    frames = scene.frames
+    assert wait_until(lambda: scene.frames > frames + 1)
     assert box.input_value() == "0, 1e-3, 1"

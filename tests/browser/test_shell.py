@@ -19,13 +19,11 @@ def test_page_renders_and_chooser_switches_scenes(open_page: Any) -> None:
     try:
         page = open_page(app)
         client = app.server.get_clients()[page.rigidlab_client_id]
-        # A few frames for the software renderer, then an image of the 3-D
-        # view alone, rendered by the browser (no GUI panel, no notices on it).
-        page.wait_for_timeout(500)
-        image = client.get_render(375, 600, transport_format="jpeg", timeout=30).astype(float)
-        # A blank view has ~0 drawn pixels; the sandbox's body, axes, grid
-        # and gimbal rings cover about 4 % of it (measured), a hidden scene 0 %.
-        assert drawn_fraction(image) > 0.01
+        # Images of the 3-D view alone, rendered by the browser (no GUI panel, no notices on it), until the
+        # scene is drawn. A blank view has ~0 drawn pixels; the sandbox's body, axes, grid and gimbal rings
+        # cover about 4 % of it (measured), a hidden scene 0 %.
+        wait_until(lambda: drawn_fraction(client.get_render(375, 600, transport_format="jpeg", timeout=120)) > 0.01,
+                   timeout=120.0)
         session = app.session_for()
         sandbox = app.scene_for()
         choose_scene(page, OtherScene.title)
