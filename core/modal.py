@@ -514,6 +514,39 @@ class Modes:
         """True when no mode has ``Re(s) > STABILITY_TOL * scale``."""
         return bool(np.all(self.stable))
 
+    @property
+    def flexible(self) -> Modes:
+        """The vibration modes, each once, without the rigid-body modes, by ascending natural frequency.
+
+        One entry per mode: the ``Im s > 0`` member of each conjugate pair
+        (Eq. 8.121), each real non-zero eigenvalue of the state-space
+        problem (an overdamped or divergent motion), and, from the symmetric
+        problem (Eqs. 8.113-8.116), the ``Re s > 0`` root of a negative
+        stiffness (its ``-Re s`` twin has the same shape). Rigid-body (zero)
+        modes (:attr:`rigid`) are left out. Sorted by :attr:`omega_n`
+        (stable: equal ones keep their order), so ``modes.flexible.frequency_hz``
+        is the table of a modal analysis and ``modes.flexible.animate(system,
+        0, ...)`` shows the lowest one.
+
+        Returns
+        -------
+        Modes
+            A Modes holding those rows (same ``scale``, ``method`` and
+            ``embedding``; empty arrays when every mode is rigid).
+        """
+        ev = self.eigenvalues
+        tiny = STABILITY_TOL * self.scale
+        keep = ~self.rigid & (ev.imag >= -tiny)
+        if self.method == "symmetric":
+            keep &= (np.abs(ev.imag) > tiny) | (ev.real > 0.0)
+        else:
+            keep &= (ev.imag > tiny) | (np.abs(ev.imag) <= tiny)
+        idx = np.flatnonzero(keep)
+        idx = idx[np.argsort(self.omega_n[idx], kind="stable")]
+        return Modes(_ro(ev[idx]), _ro(self.complex_shapes[idx]), _ro(self.shapes[idx]), _ro(self.omega_n[idx]),
+                     _ro(self.damping_ratio[idx]), _ro(self.frequency_hz[idx]), _ro(self.stable[idx]),
+                     _ro(self.critical[idx]), _ro(self.rigid[idx]), self.scale, self.method, self.embedding)
+
     def _embedding(self, system: Any) -> Embedding:
         if self.embedding is None:
             raise ValueError("system: these modes come from a LinearModel built from matrices; body shapes need "

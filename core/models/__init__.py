@@ -67,6 +67,7 @@ from ._free_body import (
     polhode_class,
     spin_about_principal_axis,
 )
+from ._loaders import from_mjcf, from_urdf
 from ._linkage_motion import LINKAGE_KINDS, Linkage, LinkageInfo, LinkageMotion, linkage, linkage_motion
 from ._linkages import SliderCrank, SpatialDoublePendulum, slider_crank, spatial_double_pendulum
 from ._pendulum import MAX_LINKS, ROD_RADIUS_RATIO, ReducedChainMotion, pendulum_chain, pendulum_chain_reduced
@@ -93,6 +94,8 @@ from ._vibration import (
 )
 
 __all__ = [
+    "from_mjcf",
+    "from_urdf",
     "DiskRotor",
     "SphericalPendulum",
     "SteadyTop",

@@ -149,6 +149,24 @@ def _perpendicular(h: np.ndarray) -> np.ndarray:
     return f / np.linalg.norm(f)
 
 
+def _cylinder_moments(m: float, r: float, length: float) -> np.ndarray:
+    """Principal moments (J_x, J_y, J_z) of a uniform solid cylinder, axis z, about its centre of mass."""
+    side = m * (3.0 * r * r + length * length) / 12.0
+    return np.array([side, side, 0.5 * m * r * r])
+
+
+def _parameters_z_to(h: np.ndarray) -> np.ndarray:
+    """Euler parameters (scalar first) of the shortest rotation taking global z to the unit vector ``h``
+    (half a turn about global x when ``h`` is -z): ``theta0 = cos(phi/2)``, ``theta = sin(phi/2) n`` (Eq. 8.46)."""
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(h @ z)
+    if c < -1.0 + 1e-12:
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    # q = (1 + c, z x h) normalized: the half-angle form of the axis-angle parameters
+    q = np.concatenate([[1.0 + c], np.cross(z, h)])
+    return q / np.linalg.norm(q)
+
+
 def _check_run_limits(t: Any, method: Any, rtol: Any, stabilization: Any, baumgarte: Any, max_steps: Any,
                       adaptive: tuple[str, ...]) -> None:
     """Refuse the options of ``System.simulate`` that would make a run overflow or never end: ``baumgarte``
@@ -182,7 +200,8 @@ def _check_run_limits(t: Any, method: Any, rtol: Any, stabilization: Any, baumga
 class System:
     """A constrained multibody system in absolute coordinates (R, Euler parameters).
 
-    Items are added by kind: :meth:`add_body`, :meth:`add_joint`,
+    Items are added by kind: :meth:`add_body` (or, with the inertia of a
+    uniform solid, :meth:`add_rod`, :meth:`add_box`, :meth:`add_cylinder`), :meth:`add_joint`,
     :meth:`add_motor`, :meth:`add_spring_damper`,
     :meth:`add_rotational_spring_damper`, :meth:`add_force`,
     :meth:`add_torque`. Global points and axes are read in the System's
@@ -461,6 +480,116 @@ class System:
         self._bodies.append(body)
         self._changed()
         return body
+
+    def add_rod(self, name: str, start: Any, end: Any, mass: float, radius: float = 0.01) -> Body:
+        """Add a uniform solid rod (a circular cylinder) from ``start`` to ``end``, at rest.
+
+        The body's centre of mass is the midpoint, its z axis points from
+        ``start`` to ``end`` (the shortest rotation that takes global z there;
+        a rod along -z is turned half a turn about global x) and its principal
+        moments about the centre of mass are those of a solid cylinder of
+        length ``L = norm(end - start)`` and radius ``r``:
+        ``J_x = J_y = m (3 r^2 + L^2) / 12``, ``J_z = m r^2 / 2``. The
+        orientation is returned as Euler parameters (Eq. 8.46).
+
+        Parameters
+        ----------
+        name : str
+            Unique body name.
+        start, end : (3,) array_like
+            End points of the rod's axis, global (m), different points.
+        mass : float
+            kg, > 0.
+        radius : float
+            m, >= 0 (0: a slender rod, ``J_x = J_y = m L^2 / 12``, ``J_z = 0``).
+
+        Returns
+        -------
+        Body
+
+        Raises
+        ------
+        ValueError
+            Naming the argument: coincident end points, a mass that is not
+            > 0, a negative radius (and whatever :meth:`add_body` refuses).
+        """
+        a = _vector(start, "start")
+        b = _vector(end, "end")
+        d = b - a
+        length = float(np.linalg.norm(d))
+        if not length > 0.0:
+            raise ValueError(f"start, end: expected two different points, got {a.tolist()} twice")
+        r = _positive(radius, "radius", allow_zero=True, unit="m")
+        m = _positive(mass, "mass", allow_zero=False, unit="kg")
+        J = _cylinder_moments(m, r, length)
+        return self.add_body(name, mass=m, inertia=J, position=0.5 * (a + b), orientation=_parameters_z_to(d / length))
+
+    def add_box(self, name: str, center: Any, size: Any, mass: float, orientation: Any = (1.0, 0.0, 0.0, 0.0)
+                ) -> Body:
+        """Add a uniform solid box (cuboid), at rest.
+
+        Principal moments about the centre of mass, body axes along the
+        edges: ``J_x = m (b^2 + c^2) / 12``, ``J_y = m (a^2 + c^2) / 12``,
+        ``J_z = m (a^2 + b^2) / 12`` for edge lengths ``size = (a, b, c)``.
+
+        Parameters
+        ----------
+        name : str
+            Unique body name.
+        center : (3,) array_like
+            Centre of the box (its centre of mass), global (m).
+        size : (3,) array_like
+            Full edge lengths ``(a, b, c)`` along the body x, y, z axes (m), >= 0.
+        mass : float
+            kg, > 0.
+        orientation : (4,) array_like
+            Euler parameters (theta0, theta1, theta2, theta3) of the body
+            frame, scalar first (Eq. 8.48: ``A`` maps body to global).
+
+        Returns
+        -------
+        Body
+        """
+        c = _vector(center, "center")
+        abc = _vector(size, "size")
+        if np.any(abc < 0.0):
+            raise ValueError(f"size: expected edge lengths >= 0 (m), got {abc.tolist()}")
+        m = _positive(mass, "mass", allow_zero=False, unit="kg")
+        a2, b2, c2 = abc**2
+        J = m / 12.0 * np.array([b2 + c2, a2 + c2, a2 + b2])
+        return self.add_body(name, mass=m, inertia=J, position=c, orientation=orientation)
+
+    def add_cylinder(self, name: str, center: Any, axis: Any, radius: float, length: float, mass: float) -> Body:
+        """Add a uniform solid circular cylinder, at rest.
+
+        The body's z axis is ``axis`` (the shortest rotation from global z,
+        as in :meth:`add_rod`); principal moments about the centre of mass
+        ``J_x = J_y = m (3 r^2 + L^2) / 12``, ``J_z = m r^2 / 2``.
+
+        Parameters
+        ----------
+        name : str
+            Unique body name.
+        center : (3,) array_like
+            Centre of the cylinder (its centre of mass), global (m).
+        axis : (3,) array_like
+            Direction of the cylinder's axis, global (any nonzero length).
+        radius, length : float
+            m, >= 0.
+        mass : float
+            kg, > 0.
+
+        Returns
+        -------
+        Body
+        """
+        c = _vector(center, "center")
+        h = _unit_axis(axis, "axis")
+        r = _positive(radius, "radius", allow_zero=True, unit="m")
+        L = _positive(length, "length", allow_zero=True, unit="m")
+        m = _positive(mass, "mass", allow_zero=False, unit="kg")
+        return self.add_body(name, mass=m, inertia=_cylinder_moments(m, r, L), position=c,
+                             orientation=_parameters_z_to(h))
 
     # ------------------------------------------------------------- joints
     def add_joint(

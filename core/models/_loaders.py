@@ -1,0 +1,415 @@
+"""Model files: a :class:`~core.multibody.System` from a URDF (through ``yourdfpy``) or an MJCF (through MuJoCo).
+
+Both loaders build the System at one pose and at rest: every rigid group of
+links (links joined by fixed joints, or MuJoCo bodies without joints) becomes
+one body with the lumped mass, centre of mass and inertia tensor of its
+links (parallel-axis theorem), its frame the frame of the group's first
+link; every moving joint becomes a joint of the System at its global point
+and axis in that pose. A group fixed to the world becomes part of
+``system.ground``. The optional packages are imported only when a loader is
+called: ``pip install 'rigidlab[urdf]'`` (yourdfpy) or ``'rigidlab[mjcf]'``
+(mujoco).
+
+Every problem with a file is one ``ValueError`` that names the file and the
+element (and its line where the parser keeps it).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from core._validation import real_number, short_repr
+
+__all__ = ["from_mjcf", "from_urdf"]
+
+#: URDF joint types the loader turns into joints (``continuous`` is a revolute joint without limits).
+URDF_JOINT_KINDS = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic", "fixed": "fixed"}
+
+
+# --------------------------------------------------------------- lumping
+@dataclass
+class _Group:
+    """Links welded together: one body of the System."""
+
+    name: str
+    A: np.ndarray  # (3, 3) global orientation of the body frame (the first link's frame)
+    masses: list = field(default_factory=list)  # kg
+    centres: list = field(default_factory=list)  # (3,) global centres of mass
+    tensors: list = field(default_factory=list)  # (3, 3) global inertia tensors about their own centres
+    fixed_to_world: bool = False
+    body: Any = None
+
+    def add(self, m: float, c: np.ndarray, J_global: np.ndarray) -> None:
+        if m > 0.0 or np.any(J_global):
+            self.masses.append(float(m))
+            self.centres.append(np.asarray(c, dtype=float))
+            self.tensors.append(np.asarray(J_global, dtype=float))
+
+    def lumped(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """(mass, global centre of mass, inertia tensor about it in the body frame)."""
+        m = float(sum(self.masses))
+        if m <= 0.0:
+            return 0.0, np.zeros(3), np.zeros((3, 3))
+        c = sum(mi * ci for mi, ci in zip(self.masses, self.centres)) / m
+        J = np.zeros((3, 3))
+        for mi, ci, Ji in zip(self.masses, self.centres, self.tensors):
+            d = ci - c
+            J += Ji + mi * (float(d @ d) * np.eye(3) - np.outer(d, d))  # parallel-axis theorem
+        J_body = self.A.T @ J @ self.A
+        return m, c, 0.5 * (J_body + J_body.T)
+
+
+def _add_groups(system: Any, groups: list[_Group], where: Any) -> None:
+    """Add a body per moving group; ``where(group)`` names the file and element for an error."""
+    from core.rotations import euler_parameters_from_matrix
+
+    for g in groups:
+        if g.fixed_to_world:
+            g.body = system.ground
+            continue
+        m, c, J = g.lumped()
+        if not m > 0.0:
+            raise ValueError(f"{where(g)}: link {g.name!r} moves (a joint or a floating base carries it) but has no "
+                             "mass: give it (or a link fixed to it) an inertial with mass > 0")
+        p = euler_parameters_from_matrix(g.A)
+        try:
+            g.body = system.add_body(g.name, mass=m, inertia=J, position=c, orientation=p)
+        except ValueError as exc:
+            raise ValueError(f"{where(g)}: link {g.name!r}: {exc}") from None
+
+
+def _positions(joint_positions: Any, names: set[str], path: str) -> dict:
+    if joint_positions is None:
+        return {}
+    if not isinstance(joint_positions, dict):
+        raise ValueError(f"joint_positions: expected a dict joint name -> value or None, got "
+                         f"{short_repr(joint_positions)}")
+    unknown = sorted(set(joint_positions) - names)
+    if unknown:
+        raise ValueError(f"joint_positions: {path} has no moving joint named {unknown[0]!r} (moving joints: "
+                         f"{sorted(names)})")
+    return joint_positions
+
+
+def _check_path(path: Any) -> str:
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path: expected a file name, got {short_repr(path)}")
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ValueError(f"path: {path}: no such file")
+    return path
+
+
+# ------------------------------------------------------------------ URDF
+def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -9.81), joint_positions: Any = None,
+              degrees: bool = False):
+    """A System from a URDF file (parsed by ``yourdfpy``), at the given joint positions and at rest.
+
+    Each ``<link>`` with an ``<inertial>`` (``origin`` xyz/rpy, ``mass``,
+    the ``inertia`` tensor ixx ... izz about the centre of mass in the
+    inertial frame) contributes its mass; links joined by ``fixed`` joints
+    are lumped into one body (parallel-axis theorem), named after the first
+    of them and with its frame. ``revolute`` and ``continuous`` joints become
+    revolute joints, ``prismatic`` joints prismatic ones, at the joint
+    frame's origin and along its ``axis`` (global in the pose). Joint limits,
+    ``<dynamics>`` (damping, friction), ``<mimic>`` (the joint moves
+    independently), transmissions, visuals and collisions are ignored.
+    ``planar`` and ``floating`` joints are refused.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The URDF file.
+    fixed_base : bool, keyword-only
+        True (default): the root link (with every link fixed to it) is the
+        ground; False: it is a free body (a floating base; it needs mass).
+    gravity : (3,) array_like, keyword-only
+        Global gravitational acceleration (m/s^2), +Z up.
+    joint_positions : dict or None, keyword-only
+        Joint name -> position of a moving joint (rad for revolute and
+        continuous joints, m for prismatic ones); a joint not named is at 0
+        (the pose the file describes). The System is built in this pose.
+    degrees : bool, keyword-only
+        True: the positions of revolute and continuous joints are in degrees.
+
+    Returns
+    -------
+    System
+        Bodies named after their links, joints after the URDF joints, all
+        at rest.
+
+    Raises
+    ------
+    ValueError
+        One message naming the file and the element (and its line): a
+        missing file, malformed XML, a link that is the child of two joints
+        or a cycle of joints, a joint naming an unknown link, a ``planar``
+        or ``floating`` joint, a moving link without mass, an inertia that
+        is not a valid tensor, an unknown joint name in ``joint_positions``.
+    """
+    from core.multibody import System
+
+    path = _check_path(path)
+    if not isinstance(fixed_base, (bool, np.bool_)):
+        raise ValueError(f"fixed_base: expected True or False, got {short_repr(fixed_base)}")
+    if not isinstance(degrees, (bool, np.bool_)):
+        raise ValueError(f"degrees: expected True or False, got {short_repr(degrees)}")
+    try:
+        from lxml import etree
+        import yourdfpy
+    except ImportError:  # pragma: no cover - depends on the installation
+        raise ValueError("from_urdf: needs the optional package yourdfpy (pip install 'rigidlab[urdf]')") from None
+    try:
+        root = etree.parse(path, parser=etree.XMLParser(remove_blank_text=True)).getroot()
+    except etree.XMLSyntaxError as exc:
+        line = exc.lineno if exc.lineno is not None else "?"
+        raise ValueError(f"{path}:{line}: malformed XML: {exc.msg}") from None
+    if root.tag != "robot":
+        raise ValueError(f"{path}:{root.sourceline}: expected a URDF <robot> element, got <{root.tag}>")
+    lines = {("link", el.get("name")): el.sourceline for el in root.findall("link")}
+    lines.update({("joint", el.get("name")): el.sourceline for el in root.findall("joint")})
+    for el in root.findall("joint"):
+        name = el.get("name")
+        what = f"{path}:{el.sourceline}: <joint name={name!r}>"
+        if name is None:
+            raise ValueError(f"{path}:{el.sourceline}: <joint> without a name")
+        kind = el.get("type")
+        if kind not in URDF_JOINT_KINDS:
+            raise ValueError(f"{what}: joint type {kind!r} is not supported (supported: "
+                             f"{', '.join(URDF_JOINT_KINDS)})")
+        for tag in ("parent", "child"):
+            sub = el.find(tag)
+            if sub is None or sub.get("link") is None:
+                raise ValueError(f"{what}: expected a <{tag} link=...> element")
+    for el in root.findall("link"):
+        if el.get("name") is None:
+            raise ValueError(f"{path}:{el.sourceline}: <link> without a name")
+    try:
+        urdf = yourdfpy.URDF.load(path, build_scene_graph=False, build_collision_scene_graph=False,
+                                  load_meshes=False, load_collision_meshes=False)
+    except Exception as exc:  # yourdfpy raises what its parser meets
+        raise ValueError(f"{path}: yourdfpy could not read the URDF: {exc}") from None
+    robot = urdf.robot
+
+    def at(kind: str, name: str) -> str:
+        return f"{path}:{lines.get((kind, name), '?')}: <{kind} name={name!r}>"
+
+    links = {ln.name: ln for ln in robot.links}
+    if len(links) != len(robot.links):
+        seen = set()
+        for ln in robot.links:
+            if ln.name in seen:
+                raise ValueError(f"{at('link', ln.name)}: a second link of this name")
+            seen.add(ln.name)
+    parent_joint: dict[str, Any] = {}
+    children: dict[str, list] = {name: [] for name in links}
+    for jt in robot.joints:
+        for end in (jt.parent, jt.child):
+            if end not in links:
+                raise ValueError(f"{at('joint', jt.name)}: names link {end!r}, which the file does not define")
+        if jt.child in parent_joint:
+            other = parent_joint[jt.child]
+            raise ValueError(f"{at('joint', jt.name)}: link {jt.child!r} is already the child of joint {other.name!r} "
+                             f"(line {lines.get(('joint', other.name), '?')}): a URDF is a tree (closed loops "
+                             "are not supported)")
+        if jt.parent == jt.child:
+            raise ValueError(f"{at('joint', jt.name)}: joins link {jt.child!r} to itself")
+        parent_joint[jt.child] = jt
+        children[jt.parent].append(jt)
+    roots = [name for name in links if name not in parent_joint]
+    if not roots:
+        jt = robot.joints[0]
+        raise ValueError(f"{at('joint', jt.name)}: the joints form a cycle (no link is without a parent): a URDF "
+                         "is a tree (closed loops are not supported)")
+    if len(roots) > 1:
+        raise ValueError(f"{at('link', roots[1])}: not connected to the root link {roots[0]!r}: a URDF is one tree "
+                         f"(links without a parent joint: {roots})")
+    moving = {jt.name for jt in robot.joints if jt.type != "fixed"}
+    positions = _positions(joint_positions, moving, path)
+
+    # forward kinematics from the root, every link's global frame
+    T = {roots[0]: np.eye(4)}
+    group_of: dict[str, _Group] = {roots[0]: _Group(roots[0], np.eye(3), fixed_to_world=bool(fixed_base))}
+    groups = [group_of[roots[0]]]
+    order: list = []  # moving joints in tree order: (joint, point, axis)
+    stack = [roots[0]]
+    visited = set()
+    while stack:
+        name = stack.pop()
+        visited.add(name)
+        for jt in reversed(children[name]):
+            origin = np.eye(4) if jt.origin is None else np.asarray(jt.origin, dtype=float)
+            T_joint = T[name] @ origin
+            axis = np.array([1.0, 0.0, 0.0]) if jt.axis is None else np.asarray(jt.axis, dtype=float)
+            motion = np.eye(4)
+            if jt.type != "fixed":
+                if not np.all(np.isfinite(axis)) or not np.linalg.norm(axis) > 0.0:
+                    raise ValueError(f"{at('joint', jt.name)}: expected a nonzero <axis xyz=...>, got {axis.tolist()}")
+                axis = axis / np.linalg.norm(axis)
+                q = positions.get(jt.name, 0.0)
+                q = real_number(q, f"joint_positions[{jt.name!r}]", expected="a finite joint position")
+                if jt.type in ("revolute", "continuous"):
+                    if degrees:
+                        q = math.radians(q)
+                    from core.rotations import matrix_from_axis_angle
+
+                    motion[:3, :3] = matrix_from_axis_angle(axis, q)
+                else:
+                    motion[:3, 3] = q * axis
+            T[jt.child] = T_joint @ motion
+            if jt.type == "fixed":
+                group_of[jt.child] = group_of[name]
+            else:
+                g = _Group(jt.child, T[jt.child][:3, :3].copy())
+                group_of[jt.child] = g
+                groups.append(g)
+                order.append((jt, T_joint[:3, 3].copy(), T_joint[:3, :3] @ axis))
+            stack.append(jt.child)
+
+    for name, link in links.items():
+        inertial = link.inertial
+        if inertial is None or inertial.mass is None:
+            continue
+        m = float(inertial.mass)
+        I_in = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
+        if not (math.isfinite(m) and m >= 0.0 and np.all(np.isfinite(I_in))):
+            raise ValueError(f"{at('link', name)}: expected a finite mass >= 0 and a finite inertia, got mass {m!r}")
+        T_in = T[name] @ (np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float))
+        R_in = T_in[:3, :3]
+        group_of[name].add(m, T_in[:3, 3], R_in @ I_in @ R_in.T)
+
+    system = System(gravity=gravity)
+    _add_groups(system, groups, lambda g: at("link", g.name))
+    for jt, point, axis in order:
+        kind = URDF_JOINT_KINDS[jt.type]
+        bi, bj = group_of[jt.parent].body, group_of[jt.child].body
+        system.add_joint(kind, bi, bj, point=point, axis=axis, name=jt.name)
+    return system
+
+
+# ------------------------------------------------------------------ MJCF
+def from_mjcf(path: Any, *, joint_positions: Any = None, degrees: bool = False, gravity: Any = None):
+    """A System from an MJCF file (compiled by MuJoCo's own parser), at the given joint positions and at rest.
+
+    The kinematic tree of the compiled model: each MuJoCo body with its
+    inertial (``body_mass``, the principal moments ``body_inertia`` in the
+    frame ``body_ipos``/``body_iquat``, as MuJoCo computes them, from the
+    geoms when the file gives no ``<inertial>``) becomes a body; a body
+    without joints is lumped into its parent (parallel-axis theorem, the
+    world's: into the ground); ``hinge`` joints become revolute joints,
+    ``slide`` joints prismatic ones, ``ball`` joints spherical ones (at
+    MuJoCo's global anchor and axis ``xanchor``/``xaxis`` in the pose), a
+    ``free`` joint leaves its body free. Joint limits, ``stiffness``,
+    ``damping``, ``armature``, ``frictionloss``, actuators, tendons,
+    equality constraints and contacts are ignored.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The MJCF (or any file ``mujoco.MjModel.from_xml_path`` reads).
+    joint_positions : dict or None, keyword-only
+        Joint name -> MuJoCo ``qpos`` of that joint: an angle (rad) for a
+        hinge (counted as MuJoCo does, from the model's zero pose), a
+        displacement (m) for a slide, Euler parameters (4,) scalar first for
+        a ball, position and Euler parameters (7,) for a free joint. Joints
+        not named are at ``qpos0``, the pose of the file.
+    degrees : bool, keyword-only
+        True: hinge angles are in degrees.
+    gravity : (3,) array_like or None, keyword-only
+        Global gravitational acceleration (m/s^2); default the file's
+        (``<option gravity=...>``, MuJoCo's default ``(0, 0, -9.81)``).
+
+    Returns
+    -------
+    System
+        Bodies and joints named as in the file (``body<k>``/``joint<k>``
+        for unnamed ones), at rest.
+
+    Raises
+    ------
+    ValueError
+        One message naming the file and MuJoCo's element and line: a
+        missing file, malformed XML, an element MuJoCo refuses; a body with
+        more than one joint (join such bodies with one joint each), a moving
+        body without mass, an unknown joint name in ``joint_positions``.
+    """
+    from core.multibody import System
+
+    path = _check_path(path)
+    if not isinstance(degrees, (bool, np.bool_)):
+        raise ValueError(f"degrees: expected True or False, got {short_repr(degrees)}")
+    try:
+        import mujoco
+    except ImportError:  # pragma: no cover - depends on the installation
+        raise ValueError("from_mjcf: needs the optional package mujoco (pip install 'rigidlab[mjcf]')") from None
+    try:
+        model = mujoco.MjModel.from_xml_path(path)
+    except ValueError as exc:
+        text = " ".join(str(exc).split())
+        raise ValueError(f"{path}: MuJoCo could not load the model: {text}") from None
+    data = mujoco.MjData(model)
+
+    def body_name(b: int) -> str:
+        return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+
+    def joint_name(j: int) -> str:
+        return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+
+    kinds = {int(mujoco.mjtJoint.mjJNT_HINGE): "hinge", int(mujoco.mjtJoint.mjJNT_SLIDE): "slide",
+             int(mujoco.mjtJoint.mjJNT_BALL): "ball", int(mujoco.mjtJoint.mjJNT_FREE): "free"}
+    names = {joint_name(j): j for j in range(model.njnt)}
+    positions = _positions(joint_positions, set(names), path)
+    qpos = model.qpos0.copy()
+    sizes = {"hinge": 1, "slide": 1, "ball": 4, "free": 7}
+    for name, value in positions.items():
+        j = names[name]
+        kind = kinds[int(model.jnt_type[j])]
+        adr = int(model.jnt_qposadr[j])
+        val = np.asarray(value, dtype=float).reshape(-1) if not isinstance(value, (bool, np.bool_)) else None
+        if val is None or val.size != sizes[kind] or not np.all(np.isfinite(val)):
+            raise ValueError(f"joint_positions[{name!r}]: expected {sizes[kind]} finite number(s) for a {kind} joint, "
+                             f"got {short_repr(value)}")
+        if kind == "hinge" and degrees:
+            val = np.radians(val)
+        qpos[adr : adr + sizes[kind]] = val
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+
+    group_of: dict[int, _Group] = {0: _Group("world", np.eye(3), fixed_to_world=True)}
+    groups: list[_Group] = [group_of[0]]
+    joints = []  # (kind, parent group, child group, point, axis, name)
+    for b in range(1, model.nbody):
+        parent = int(model.body_parentid[b])
+        count = int(model.body_jntnum[b])
+        where = f"{path}: <body name={body_name(b)!r}>"
+        if count > 1:
+            listed = [joint_name(int(model.body_jntadr[b]) + k) for k in range(count)]
+            raise ValueError(f"{where}: has {count} joints {listed}; a body moves on one joint here (put each joint "
+                             "on its own body)")
+        A = data.xmat[b].reshape(3, 3).copy()
+        if count == 0:
+            g = group_of[parent]
+        else:
+            j = int(model.body_jntadr[b])
+            kind = kinds[int(model.jnt_type[j])]
+            g = _Group(body_name(b), A)
+            groups.append(g)
+            if kind != "free":
+                rl = {"hinge": "revolute", "slide": "prismatic", "ball": "spherical"}[kind]
+                joints.append((rl, group_of[parent], g, data.xanchor[j].copy(),
+                               None if kind == "ball" else data.xaxis[j].copy(), joint_name(j)))
+        group_of[b] = g
+        R_in = data.ximat[b].reshape(3, 3)
+        g.add(float(model.body_mass[b]), data.xipos[b].copy(), R_in @ np.diag(model.body_inertia[b]) @ R_in.T)
+
+    g_vec = model.opt.gravity.copy() if gravity is None else gravity
+    system = System(gravity=g_vec)
+    _add_groups(system, groups, lambda g: f"{path}: <body name={g.name!r}>")
+    for kind, gi, gj, point, axis, name in joints:
+        system.add_joint(kind, gi.body, gj.body, point=point, axis=axis, name=name)
+    return system
