@@ -64,6 +64,22 @@ class _Group:
         return m, c, 0.5 * (J_body + J_body.T)
 
 
+#: Principal moments of a link within ``SNAP_MOMENT * mass * (1 m)^2`` of zero count as zero: written files
+#: carry round-off such as ``ixx="-5.42101e-20"`` or moments ``(0, 0, 4e-18)`` for a point mass of 0.5 kg,
+#: which no mass distribution has (a negative moment, a broken triangle inequality); 1e-12 is 1e-6 of the
+#: moment of a 1 mm body.
+SNAP_MOMENT = 1e-12
+
+
+def _snap_round_off(J: np.ndarray, m: float) -> np.ndarray:
+    """The symmetric tensor ``J`` with principal moments of round-off size (``SNAP_MOMENT``) set to 0."""
+    w, V = np.linalg.eigh(J)
+    tiny = np.abs(w) <= SNAP_MOMENT * max(m, 0.0)
+    if np.any(tiny & (w != 0.0)):
+        return (V * np.where(tiny, 0.0, w)) @ V.T
+    return J
+
+
 def _add_groups(system: Any, groups: list[_Group], where: Any) -> None:
     """Add a body per moving group; ``where(group)`` names the file and element for an error."""
     from core.rotations import euler_parameters_from_matrix
@@ -171,6 +187,10 @@ def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -
         raise ValueError(f"{path}:{line}: malformed XML: {exc.msg}") from None
     if root.tag != "robot":
         raise ValueError(f"{path}:{root.sourceline}: expected a URDF <robot> element, got <{root.tag}>")
+    if root.get("name") is None:
+        raise ValueError(f"{path}:{root.sourceline}: <robot> without a name")
+    if not root.findall("link"):
+        raise ValueError(f"{path}:{root.sourceline}: <robot name={root.get('name')!r}> has no <link>")
     lines = {("link", el.get("name")): el.sourceline for el in root.findall("link")}
     lines.update({("joint", el.get("name")): el.sourceline for el in root.findall("joint")})
     for el in root.findall("joint"):
@@ -279,6 +299,7 @@ def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -
         I_in = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
         if not (math.isfinite(m) and m >= 0.0 and np.all(np.isfinite(I_in))):
             raise ValueError(f"{at('link', name)}: expected a finite mass >= 0 and a finite inertia, got mass {m!r}")
+        I_in = _snap_round_off(0.5 * (I_in + I_in.T), m)
         T_in = T[name] @ (np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float))
         R_in = T_in[:3, :3]
         group_of[name].add(m, T_in[:3, 3], R_in @ I_in @ R_in.T)

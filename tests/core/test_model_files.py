@@ -327,3 +327,52 @@ def test_mjcf_ball_free_and_slide_joints(tmp_path):
     assert [b.name for b in system.bodies] == ["float", "ball", "cart"]
     np.testing.assert_allclose(system.state.q[6:9], [1.25, 0.0, 0.0], atol=1e-15)
     assert system.bodies[0].mass == pytest.approx(2.0, rel=1e-12)
+
+
+# ------------------------------------------------------------------ real robots (optional)
+def _example_robot(relative):
+    """A URDF shipped by the PyPI package example-robot-data (Pinocchio's robot set: `pip install
+    'rigidlab[robots]'`), or a skip when it is not installed."""
+    from importlib import metadata
+
+    try:
+        dist = metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed (pip install 'rigidlab[robots]')")
+    path = Path(dist.locate_file(f"cmeel.prefix/share/example-robot-data/robots/{relative}"))
+    if not path.is_file():
+        pytest.skip(f"example-robot-data has no {relative}")
+    return path
+
+
+@pytest.mark.parametrize("relative", ["ur_description/urdf/ur5_robot.urdf", "panda_description/urdf/panda.urdf"])
+def test_real_robot_mass_matrix_equals_pinocchio_crba(relative):
+    pytest.importorskip("yourdfpy")
+    pinocchio = pytest.importorskip("pinocchio")
+    path = _example_robot(relative)
+    model = pinocchio.buildModelFromUrdf(str(path))
+    names = [model.names[j] for j in range(1, model.njoints)]
+    rng = np.random.default_rng(3)
+    values = rng.uniform(-1.0, 1.0, len(names))
+    is_prismatic = ["Prismatic" in model.joints[j].shortname() for j in range(1, model.njoints)]
+    values[is_prismatic] = 0.02  # the panda's fingers: 2 cm open
+    v = np.zeros(model.nv)
+    for k, j in enumerate(range(1, model.njoints)):
+        v[model.joints[j].idx_v] = values[k]
+    q = pinocchio.integrate(model, pinocchio.neutral(model), v)  # also for Pinocchio's (cos, sin) revolutes
+    data = model.createData()
+    upper = pinocchio.crba(model, data, q)
+    M_pin = np.triu(upper) + np.triu(upper, 1).T
+    order = [model.joints[j].idx_v for j in range(1, model.njoints)]
+    M_pin = M_pin[np.ix_(order, order)]
+
+    system = from_urdf(path)
+    assert {j.name for j in system.joints} == set(names)
+
+    def at(qq):
+        return from_urdf(path, joint_positions=dict(zip(names, qq)))
+
+    M = _joint_space_mass(at, names, values)
+    # as for the arm above: central differences leave ~1e-10 of the largest entry, Pinocchio's CRBA round-off
+    scale = float(np.max(np.abs(M_pin)))
+    assert np.max(np.abs(M - M_pin)) <= 1e-8 * scale
