@@ -276,6 +276,20 @@ def test_urdf_unknown_link_and_massless_moving_link(tmp_path):
         from_urdf(path)
 
 
+def test_urdf_round_off_moments_count_as_zero(tmp_path):
+    pytest.importorskip("yourdfpy")
+    point = ('<link name="b"><inertial><origin xyz="0 0 -1"/><mass value="0.5"/>'
+             '<inertia ixx="-5.42101e-20" iyy="-5.42101e-20" izz="4e-18" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+    system = from_urdf(_write(tmp_path, "point.urdf", _urdf(LINK.format("a"), point, _joint("j", "revolute", "a", "b"))))
+    assert np.all(system.bodies[0].inertia == 0.0)  # a point mass (as the file meant), not a refused tensor
+    real = point.replace("-5.42101e-20", "-1e-3")
+    with pytest.raises(ValueError, match=r"real\.urdf:4: <link name='b'>: link 'b': inertia: expected principal "
+                                         r"moments >= 0"):
+        from_urdf(_write(tmp_path, "real.urdf", _urdf(LINK.format("a"), real, _joint("j", "revolute", "a", "b"))))
+    with pytest.raises(ValueError, match=r"empty\.urdf:2: <robot> without a name"):
+        from_urdf(_write(tmp_path, "empty.urdf", '<?xml version="1.0"?>\n<robot>\n</robot>\n'))
+
+
 def test_urdf_bad_joint_positions():
     pytest.importorskip("yourdfpy")
     with pytest.raises(ValueError, match=r"joint_positions: .* has no moving joint named 'knee'"):
