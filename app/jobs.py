@@ -70,6 +70,45 @@ def _worker_start() -> None:
     gc.freeze()
 
 
+def _guard_thread_wakeup() -> None:
+    """Make the wake-up pipe of every ``ProcessPoolExecutor`` created from now on safe to close (idempotent).
+
+    A pool's manager thread closes the pool's wake-up pipe once the pool is
+    shut down and idle. At the interpreter's exit, ``concurrent.futures``
+    wakes every manager thread still running (``_python_exit``) without the
+    pool's lock: "closed?" and then a write to the pipe. A pool shut down
+    without waiting (the app's, when a worker process stops) has its
+    manager thread still running then, and when its close fell between the
+    two, the exit printed ``OSError: [Errno 9] Bad file descriptor`` (a
+    worker's shutdown in 1 of 4 churn soaks, issue 28; "handle is closed"
+    when the close came before the write's own check; a write into a
+    reused descriptor otherwise). CPython 3.12.8 and 3.13.1 give the pipe
+    its own lock, taken by ``close`` and ``wakeup`` (gh-125451); this gives
+    the same lock to the ``_ThreadWakeup`` of a Python without it (3.11).
+    The lock is taken inside the pool's (``shutdown``, ``submit``) and
+    never the other way round, and ``clear`` (the manager thread's, which
+    also closes) keeps going without it, as upstream.
+    """
+    wakeup_class = concurrent.futures.process._ThreadWakeup
+    if "_lock" in wakeup_class.__init__.__code__.co_names:  # upstream's lock, or this one
+        return
+
+    class _ThreadWakeup(wakeup_class):  # type: ignore[misc, valid-type]
+        def __init__(self) -> None:
+            self._lock = threading.Lock()
+            super().__init__()
+
+        def close(self) -> None:
+            with self._lock:
+                super().close()
+
+        def wakeup(self) -> None:
+            with self._lock:
+                super().wakeup()
+
+    concurrent.futures.process._ThreadWakeup = _ThreadWakeup  # type: ignore[attr-defined]
+
+
 def make_executor(
     *, processes: bool = False, preload: Iterable[str] = (), name: str = "rigidlab-worker"
 ) -> concurrent.futures.Executor:
@@ -90,6 +129,7 @@ def make_executor(
     """
     if not processes:
         return concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix=name)
+    _guard_thread_wakeup()  # (its pools are shut down without waiting)
     # The workers' numerical kernels run one BLAS thread each: the cores are
     # shared with the loop. The fork server, started at the first submit,
     # inherits this environment before it imports numpy.

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import concurrent.futures
+import threading
 import time
 
 import pytest
 
 from app.jobs import ChunkTimeline, make_executor
 from tests.app import _jobs
+from tests.helpers import wait_until
 
 
 @pytest.fixture(scope="module")
@@ -157,3 +159,60 @@ def test_jobs_that_do_not_pickle_by_name_are_not_shared() -> None:
     assert _job_key(_jobs.square, (2.0,), {}) == _job_key(_jobs.square, (2.0,), {})
     assert _job_key(_jobs.square, (2.0,), {}) != _job_key(_jobs.square, (3.0,), {})
     assert _job_key(lambda x: x, (2.0,), {}) is None
+
+
+class _WatchedLock:
+    """A lock that tells when a thread had to wait for it (``contended``)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.contended = threading.Event()
+
+    def __enter__(self) -> None:
+        if not self._lock.acquire(blocking=False):
+            self.contended.set()
+            self._lock.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self._lock.release()
+
+
+def test_a_pool_wakeup_is_not_closed_under_a_write() -> None:
+    """The interpreter's exit wakes a pool's manager thread while that thread closes the wake-up pipe
+    (issue 28: ``OSError: [Errno 9] Bad file descriptor`` when a worker process stopped): the close waits
+    for the write."""
+    from concurrent.futures import process
+
+    from app.jobs import _guard_thread_wakeup
+
+    _guard_thread_wakeup()  # (as make_executor(processes=True) does)
+    wakeup = process._ThreadWakeup()
+    wakeup._lock = lock = _WatchedLock()
+    writing, release = threading.Event(), threading.Event()
+    send = wakeup._writer.send_bytes
+
+    def preempted_send(buf: bytes) -> None:  # the exit's write, held between its "closed?" and the write
+        writing.set()
+        release.wait(timeout=60.0)
+        send(buf)
+
+    wakeup._writer.send_bytes = preempted_send
+    errors: list[BaseException] = []
+
+    def wake() -> None:
+        try:
+            wakeup.wakeup()
+        except OSError as exc:
+            errors.append(exc)
+
+    waker = threading.Thread(target=wake)
+    waker.start()
+    assert writing.wait(timeout=60.0)
+    closer = threading.Thread(target=wakeup.close)
+    closer.start()
+    wait_until(lambda: lock.contended.is_set() or not closer.is_alive(), timeout=60.0)
+    release.set()
+    waker.join(timeout=60.0)
+    closer.join(timeout=60.0)
+    assert errors == []
+    assert wakeup._closed
