@@ -3,8 +3,16 @@
 from __future__ import annotations
 
 import os
+import re
+import signal
+import subprocess
+import sys
+import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def wait_until(predicate: Callable[[], object], timeout: float = 20.0, *, interval: float = 0.02) -> bool:
@@ -41,6 +49,60 @@ def process_group_gone(pgid: int) -> bool:
     except ProcessLookupError:
         return True
     return False
+
+
+class ProcessOutput:
+    """A subprocess's output (stdout, with stderr merged into it), read line by line by a thread, in order."""
+
+    def __init__(self, process: subprocess.Popen) -> None:
+        self.lines: list[str] = []
+        self._lock = threading.Lock()
+        threading.Thread(target=self._read, args=(process,), daemon=True).start()
+
+    def _read(self, process: subprocess.Popen) -> None:
+        assert process.stdout is not None
+        for line in process.stdout:
+            with self._lock:
+                self.lines.append(line.rstrip("\n"))
+
+    def text(self) -> str:
+        with self._lock:
+            return "\n".join(self.lines)
+
+    def count(self, pattern: str) -> int:
+        """Lines matching the regular expression ``pattern`` (``^`` and ``$`` match at each line)."""
+        return len(re.findall(pattern, self.text(), flags=re.MULTILINE))
+
+
+def start_serving(*serve_args: str) -> tuple[subprocess.Popen, ProcessOutput]:
+    """Start ``python -m app.cli serve *serve_args`` from the repository; the process and its output.
+
+    Stop it with :func:`stop_serving` (in a ``finally``).
+    """
+    process = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", *serve_args], cwd=ROOT,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return process, ProcessOutput(process)
+
+
+def stop_serving(process: subprocess.Popen) -> None:
+    """Stop a server started by :func:`start_serving` as Ctrl-C does (SIGINT); killed if it still runs 30 s
+    later."""
+    process.send_signal(signal.SIGINT)
+    try:
+        process.wait(timeout=30.0)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait(timeout=10.0)
+
+
+#: Lines of a server's output that report a failure: a traceback, an exception's name (``OSError: ...``),
+#: an "Exception ignored" note of the interpreter, or a record logged at level ERROR or CRITICAL.
+FAILURE_LINE = r"Traceback|\w*(Error|Exception)\b|^(\[\w+( \d+)?\] )?(ERROR|CRITICAL) "
+
+
+def failure_lines(text: str) -> list[str]:
+    """The lines of ``text`` that match :data:`FAILURE_LINE`."""
+    return [line for line in text.splitlines() if re.search(FAILURE_LINE, line)]
 
 
 def send_value(owner: object, key: str, raw: object, *, timeout: float = 10.0) -> bool:
