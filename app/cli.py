@@ -244,7 +244,8 @@ def _serve(args: argparse.Namespace) -> int:
 
 def _serve_spare(args: argparse.Namespace, state: dict | None) -> int:
     """A spare worker of :mod:`app.supervisor`: import everything and start the process pool, then wait for the
-    supervisor's ``start I/N`` line on stdin and serve as worker I of N (end of input: exit quietly).
+    supervisor's message ``start I/N`` on the control socket (``--control-fd``), which carries the listening
+    socket of slot I, and serve as worker I of N on it (end of input: exit quietly).
 
     A worker started cold spends most of its start (9 s of imports and 11 s of the fork server's preload on a
     busy 2-core machine) before it listens; a spare listens within a second of the line.
@@ -254,27 +255,35 @@ def _serve_spare(args: argparse.Namespace, state: dict | None) -> int:
 
     previous = _stop_signals_as_interrupt()
     executor = None
-    try:  # (a supervisor that is gone closes the pipe: end of input)
+    listening = None
+    control = socket.socket(fileno=args.control_fd)
+    try:  # (a supervisor that is gone closes its end: end of input)
         classes = discover_scenes()
         executor = make_executor(processes=True, preload=[cls.__module__ for cls in classes.values()])
         print(f"rigidlab: spare worker ready (pid {os.getpid()})", flush=True)
-        line = sys.stdin.readline().split()
-        if len(line) != 2 or line[0] != "start":
+        message, fds, _, _ = socket.recv_fds(control, 64, 1)
+        listening = [socket.socket(fileno=fd) for fd in fds]
+        line = message.decode("ascii", "replace").split()
+        if len(line) != 2 or line[0] != "start" or len(listening) != 1:
             raise KeyboardInterrupt  # the supervisor is gone (end of input)
         worker = _worker_index(line[1])
     except (KeyboardInterrupt, argparse.ArgumentTypeError):
         if executor is not None:
             executor.shutdown(wait=False, cancel_futures=True)
+        for sock in listening or ():
+            sock.close()
         return 0
     finally:
+        control.close()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
-    return _run_app(args, state, worker, executor=executor)
+    return _run_app(args, state, worker, executor=executor, sock=listening[0])
 
 
 def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, int] | None, *,
-             executor=None) -> int:
-    """Build the app and serve until Ctrl-C or SIGTERM (``worker``: as worker I of N of a supervisor)."""
+             executor=None, sock: socket.socket | None = None) -> int:
+    """Build the app and serve until Ctrl-C or SIGTERM (``worker``: as worker I of N of a supervisor, on its
+    slot's listening socket ``sock``, or ``--listen-fd``'s)."""
     from app.server import create_app
 
     # SIGTERM stops the app from here on: viser answers on the port while create_app is still building the
@@ -285,12 +294,13 @@ def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, in
     # the compiled kernels, compiled in a child process (once per machine; later starts only load numba's
     # cache) from the start, while the first page loads; a scene's job that needs them meanwhile waits for it
     warm = _warm_kernels() if worker is None else None
+    if sock is None and args.listen_fd is not None:
+        sock = socket.socket(fileno=args.listen_fd)
     try:
         try:
             app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
-                             presenter=args.present, state=state, reuse_port=worker is not None,
-                             executor=executor)
-            executor = None  # the app's now
+                             presenter=args.present, state=state, sock=sock, executor=executor)
+            executor = sock = None  # the app's now
         except ValueError as exc:
             print(f"rigidlab serve: {exc}", file=sys.stderr)
             return 2
@@ -326,6 +336,8 @@ def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, in
             app.stop()
         if executor is not None:  # (create_app failed)
             executor.shutdown(wait=False, cancel_futures=True)
+        if sock is not None:
+            sock.close()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     return 0
@@ -436,6 +448,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "them (default: one per core); shared mode is one process")
     serve.add_argument("--worker-index", type=_worker_index, default=None, help=argparse.SUPPRESS)
     serve.add_argument("--spare", action="store_true", help=argparse.SUPPRESS)  # app.supervisor's spare worker
+    # app.supervisor's: a worker's listening socket, a spare's control socket (inherited file descriptors)
+    serve.add_argument("--listen-fd", type=int, default=None, help=argparse.SUPPRESS)
+    serve.add_argument("--control-fd", type=int, default=None, help=argparse.SUPPRESS)
     serve.add_argument("--present", action="store_true",
                        help="start in presenter view (large labels, thick arrows, large readouts)")
     serve.add_argument("--state", default=None, metavar="FILE",

@@ -32,17 +32,19 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
+import contextlib
 import dataclasses
 import html
 import inspect
 import json
 import logging
 import math
+import socket
 import threading
 import time
 import traceback
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, Literal
 
 import viser
@@ -1041,29 +1043,30 @@ def _drop_undecodable_messages() -> None:
     _infra._message_consumer = _message_consumer
 
 
-def _listen_with_reuse_port() -> None:
-    """Make viser's websocket server listen with ``SO_REUSEPORT`` in this process (idempotent).
+@contextlib.contextmanager
+def _listening_on(sock: socket.socket) -> Iterator[None]:
+    """While inside, a viser server started in this process serves on the listening socket ``sock``.
 
     viser 1.1.1 starts ``websockets.asyncio.server.serve(handler, host,
-    port, ...)`` without a way to pass socket options; ``serve`` forwards
-    extra keywords to ``loop.create_server``, so a subclass that adds
-    ``reuse_port=True`` is installed in its place. Only worker processes
-    call this (``create_app(reuse_port=True)``).
+    port, ...)`` without a way to pass a socket; ``serve`` forwards extra
+    keywords to ``loop.create_server``, so a subclass that passes ``sock``
+    instead of the host and port stands in for it while the
+    ``ViserServer`` starts (its constructor returns once it serves). The
+    per-client workers of :mod:`app.supervisor` serve on their slot's socket.
     """
     import websockets.asyncio.server as ws_server
 
     original = ws_server.serve
-    if getattr(original, "rigidlab_reuse_port", False):
-        return
 
     class serve(original):  # type: ignore[misc, valid-type]
-        rigidlab_reuse_port = True
-
-        def __init__(self, *args: Any, **kwargs: Any) -> None:
-            kwargs.setdefault("reuse_port", True)
-            super().__init__(*args, **kwargs)
+        def __init__(self, handler: Any, host: Any = None, port: Any = None, **kwargs: Any) -> None:
+            super().__init__(handler, sock=sock, **kwargs)
 
     ws_server.serve = serve
+    try:
+        yield
+    finally:
+        ws_server.serve = original
 
 
 def create_app(
@@ -1076,7 +1079,7 @@ def create_app(
     run_unwatched: bool = False,
     presenter: bool = False,
     state: dict[str, Any] | None = None,
-    reuse_port: bool = False,
+    sock: socket.socket | None = None,
     executor: concurrent.futures.Executor | None = None,
 ) -> RigidlabApp:
     """Start a viser server with every registered scene and the session loop.
@@ -1102,10 +1105,11 @@ def create_app(
         Start in presenter view (large labels, thick arrows, large readouts).
     state : dict or None
         A scene state (:mod:`app.state`) every session starts from.
-    reuse_port : bool
-        Listen with ``SO_REUSEPORT``: several processes share ``port`` and
-        the kernel spreads connections over them (the per-client workers of
-        :mod:`app.supervisor`). The port must then be given (not 0).
+    sock : socket.socket or None
+        Serve on this listening socket instead of binding ``host:port``
+        (the app owns it from then on): the per-client workers of
+        :mod:`app.supervisor`, whose sockets share one port with
+        ``SO_REUSEPORT``.
     executor : concurrent.futures.Executor or None
         The background executor, made beforehand with
         ``app.jobs.make_executor(processes=True, preload=...)`` (a spare
@@ -1144,16 +1148,13 @@ def create_app(
     elif scene not in scene_classes:
         raise ValueError(f"scene: expected one of {list(scene_classes)}, got {scene!r}")
 
-    if reuse_port:
-        if not port:
-            raise ValueError("port: reuse_port shares a given port; expected a port from 1 to 65535, got 0")
-        _listen_with_reuse_port()
     _drop_undecodable_messages()
     if executor is None:
         executor = make_executor(processes=True, preload=[cls.__module__ for cls in scene_classes.values()])
     install_loop_events()  # the loop thread's writes wake viser's event loop thread-safely (app/loop_thread.py)
     try:
-        server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)
+        with _listening_on(sock) if sock is not None else contextlib.nullcontext():
+            server = viser.ViserServer(host=host, port=port, label="rigidlab", verbose=False)
     except BaseException:
         executor.shutdown(wait=False, cancel_futures=True)
         raise

@@ -1,29 +1,38 @@
 """Per-client mode on every core: one port served by N worker processes.
 
 ``rigidlab serve --mode per-client --workers N`` starts this supervisor. It
-reserves the port, starts N copies of ``rigidlab serve`` (each a whole app:
-viser server, session loop, process pool) that all listen on that port with
-``SO_REUSEPORT``, and watches them:
+opens N listening sockets on the port, one per worker slot, all with
+``SO_REUSEPORT``, starts N copies of ``rigidlab serve`` (each a whole app:
+viser server, session loop, process pool), hands each its slot's socket,
+and watches them:
 
 * **Balancing** is the kernel's: with ``SO_REUSEPORT`` every new TCP
   connection goes to one of the listening sockets (a hash of the addresses,
   so spread evenly over many browsers, not in turn). A browser's page and
   its websocket may reach different workers; its session lives in the
   worker that holds its websocket. Nothing in between copies bytes.
+* **The sockets are the supervisor's**: it keeps every slot's socket open,
+  so a worker that dies takes none with it. Connections the kernel queued
+  on the dead worker's socket, and those it hands that slot meanwhile, wait
+  in the socket's queue for the worker's replacement, which accepts them.
+  (When the worker held the socket alone, its death closed it and the
+  kernel reset every connection queued there: 1 in 4 browsers that
+  connected right after a SIGKILL.) A slot left stopped has its socket
+  closed, so the kernel spreads the connections over the other slots.
 * **Isolation**: a worker is a separate process; a crash takes its own
-  browsers' sessions only. Its listening socket closes with it, so the
-  kernel no longer hands it connections: the viser client reconnects on its
-  own (or on reload) and lands on a live worker, with a new session.
+  browsers' sessions only: the viser client reconnects on its own (or on
+  reload), with a new session.
 * **Reporting and restarts**: a worker that ends unexpectedly is reported
   (exit status or signal) and replaced at once by a **spare**: a process
-  that has imported the app and started its process pool, and waits (not
-  listening) for the line ``start I/N`` on its stdin; it then listens within
-  a second, where a worker started cold took 19-25 s on a busy 2-core
-  machine (imports, then the fork server's preload). A new spare starts once
-  every worker serves. Without a spare (two ends in a row, or a spare that
-  keeps failing) the worker is started cold. A worker that fails again
-  within :data:`CRASH_WINDOW` seconds of its start three times in a row is
-  left stopped, with a message.
+  that has imported the app and started its process pool, and waits (no
+  socket) for the message ``start I/N`` on its control socket, which
+  carries the slot's listening socket; it then listens within a second,
+  where a worker started cold took 19-25 s on a busy 2-core machine
+  (imports, then the fork server's preload). A new spare starts once every
+  worker serves. Without a spare (two ends in a row, or a spare that keeps
+  failing) the worker is started cold (its slot's connections wait that
+  long). A worker that fails again within :data:`CRASH_WINDOW` seconds of
+  its start three times in a row is left stopped, with a message.
 
 Shared mode stays one process: its state is one. Beyond one machine, the
 same workers sit behind a standard reverse proxy (docs/app.md, docs/nginx.conf).
@@ -77,12 +86,15 @@ def reuse_port_supported() -> bool:
     return True
 
 
-def reserve_port(host: str, port: int) -> socket.socket:
-    """A bound, not listening ``SO_REUSEPORT`` socket on ``host:port`` (port 0: a free one).
+#: Connections a slot's socket queues while no worker accepts them (a replacement starting).
+BACKLOG = 128
 
-    It keeps the port for the workers (they bind with ``SO_REUSEPORT`` too)
-    and never receives connections: the kernel balances only over listening
-    sockets.
+
+def listening_sockets(host: str, port: int, count: int) -> list[socket.socket]:
+    """``count`` listening ``SO_REUSEPORT`` sockets on ``host:port`` (port 0: one free port for all).
+
+    The kernel spreads new connections over them; one is handed to each
+    worker slot (see the module docstring).
 
     Raises
     ------
@@ -91,21 +103,28 @@ def reserve_port(host: str, port: int) -> socket.socket:
         cannot be bound.
     """
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
+    sockets: list[socket.socket] = []
     try:
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
-        sock.bind((host, port))
+        for _ in range(count):
+            sock = socket.socket(family, socket.SOCK_STREAM)
+            sockets.append(sock)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+            sock.bind((host, port))
+            port = sock.getsockname()[1]  # (port 0: the others share the one the first got)
+            sock.listen(BACKLOG)
     except BaseException:
-        sock.close()
+        for sock in sockets:
+            sock.close()
         raise
-    return sock
+    return sockets
 
 
 @dataclass
 class _Worker:
-    """One worker slot: its process, when it started and how often it failed to start."""
+    """One worker slot: its listening socket, its process, when it started and how often it failed to start."""
 
     index: int
+    sock: socket.socket
     process: subprocess.Popen | None = None
     started: float = 0.0
     failed_starts: int = 0
@@ -124,14 +143,16 @@ def _exit_text(code: int) -> str:
 class Supervisor:
     """Starts, watches and stops the worker processes of one port (see the module docstring)."""
 
-    def __init__(self, worker_args: Sequence[str], count: int, *, out: TextIO = sys.stdout) -> None:
+    def __init__(self, worker_args: Sequence[str], sockets: Sequence[socket.socket], *,
+                 out: TextIO = sys.stdout) -> None:
         self.worker_args = list(worker_args)
-        self.workers = [_Worker(i) for i in range(count)]
+        self.workers = [_Worker(i, sock) for i, sock in enumerate(sockets)]
         self.out = out
         self._print_lock = threading.Lock()
         self._stop = threading.Event()
         self._slots = threading.Lock()  # held while the watcher starts processes, and by stop
         self.spare: subprocess.Popen | None = None  # a warm process waiting to replace a worker
+        self.spare_control: socket.socket | None = None  # the supervisor's end of the spare's control socket
         self.spare_ready = threading.Event()
         self.failed_spares = 0
 
@@ -141,7 +162,7 @@ class Supervisor:
 
     def _command(self, worker: _Worker) -> list[str]:
         return [sys.executable, "-m", "app.cli", "serve", *self.worker_args,
-                "--worker-index", f"{worker.index + 1}/{len(self.workers)}"]
+                "--worker-index", f"{worker.index + 1}/{len(self.workers)}", "--listen-fd", str(worker.sock.fileno())]
 
     def _popen(self, command: list[str], **kwargs) -> subprocess.Popen:
         env = dict(os.environ, PYTHONUNBUFFERED="1")
@@ -155,31 +176,47 @@ class Supervisor:
         return process
 
     def start(self, worker: _Worker) -> None:
-        """Start ``worker`` cold (a new process)."""
+        """Start ``worker`` cold (a new process, given the slot's socket)."""
         worker.ready.clear()
-        worker.process = self._popen(self._command(worker))
+        worker.process = self._popen(self._command(worker), pass_fds=(worker.sock.fileno(),))
         worker.started = time.monotonic()
 
     def start_spare(self) -> None:
-        """Start a spare worker (see the module docstring)."""
+        """Start a spare worker (see the module docstring); its control socket is a socket pair's end."""
         self.spare_ready.clear()
-        command = [sys.executable, "-m", "app.cli", "serve", *self.worker_args, "--spare"]
-        self.spare = self._popen(command, stdin=subprocess.PIPE)
+        ours, theirs = socket.socketpair()
+        with theirs:  # (the spare's copy is its own; closing ours tells it that the supervisor is gone)
+            command = [sys.executable, "-m", "app.cli", "serve", *self.worker_args, "--spare",
+                       "--control-fd", str(theirs.fileno())]
+            try:
+                self.spare = self._popen(command, pass_fds=(theirs.fileno(),))
+            except BaseException:
+                ours.close()
+                raise
+        self.spare_control = ours
+
+    def _close_spare_control(self) -> None:
+        control, self.spare_control = self.spare_control, None
+        if control is not None:
+            control.close()
 
     def replace(self, worker: _Worker) -> bool:
-        """Hand ``worker``'s slot to the spare; False if there is none (or it cannot take it)."""
+        """Hand ``worker``'s slot (its socket) to the spare; False if there is none (or it cannot take it)."""
         spare, self.spare = self.spare, None
-        if spare is None or spare.poll() is not None:
-            return False
-        worker.ready.clear()
-        worker.process = spare
-        worker.started = time.monotonic()
-        try:
-            assert spare.stdin is not None
-            spare.stdin.write(f"start {worker.index + 1}/{len(self.workers)}\n")
-            spare.stdin.flush()
-        except OSError:  # it ended meanwhile: reported as that worker's end at the next look
-            return True
+        control, self.spare_control = self.spare_control, None
+        with contextlib.ExitStack() as closing:
+            if control is not None:
+                closing.callback(control.close)  # (the message stays queued for the spare)
+            if spare is None or control is None or spare.poll() is not None:
+                if spare is not None:  # it ended: what is left of its process group goes with it
+                    _end_group(spare)
+                return False
+            worker.ready.clear()
+            worker.process = spare
+            worker.started = time.monotonic()
+            with contextlib.suppress(OSError):  # it ended meanwhile: reported as that worker's end at the next look
+                socket.send_fds(control, [f"start {worker.index + 1}/{len(self.workers)}".encode()],
+                                [worker.sock.fileno()])
         return True
 
     def _owner(self, process: subprocess.Popen) -> _Worker | None:
@@ -238,6 +275,7 @@ class Supervisor:
                 worker.failed_starts = 0
             if worker.failed_starts >= MAX_FAILED_STARTS:
                 worker.stopped = True
+                worker.sock.close()  # the kernel hands its share of the connections to the other slots
                 self.say(f"rigidlab: worker {worker.index + 1} failed {MAX_FAILED_STARTS} times within "
                          f"{CRASH_WINDOW:g} s of starting; it stays stopped (see its output above)")
                 continue
@@ -258,6 +296,7 @@ class Supervisor:
         spare = self.spare
         if spare is not None and spare.poll() is not None:
             self.spare = None
+            self._close_spare_control()
             _end_group(spare)
             self.failed_spares += 1
             self.say(f"rigidlab: the spare worker (pid {spare.pid}) {_exit_text(spare.returncode)}"
@@ -277,6 +316,7 @@ class Supervisor:
         with self._slots:  # (the watcher starts nothing from here on)
             running = [w.process for w in self.workers if w.process is not None and w.process.poll() is None]
             spare, self.spare = self.spare, None
+            self._close_spare_control()
         if spare is not None:  # it holds nothing: killed with its process group (interrupted in its imports, it
             _end_group(spare)  # printed a KeyboardInterrupt traceback)
             with contextlib.suppress(subprocess.TimeoutExpired, KeyboardInterrupt):
@@ -335,15 +375,17 @@ def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str
               "use --workers 1", file=err)
         return 2
     try:
-        reservation = reserve_port(host, port)
+        sockets = listening_sockets(host, port, count)
     except OSError as exc:
         print(f"rigidlab serve: cannot listen on {host}:{port}: {exc.strerror or exc}; choose another "
               "with --port (--port 0 picks a free one)", file=err)
         return 2
-    with reservation:
-        bound = reservation.getsockname()[1]
+    with contextlib.ExitStack() as closing:
+        for sock in sockets:
+            closing.enter_context(sock)  # closed after the workers stopped (a stopped slot's already is)
+        bound = sockets[0].getsockname()[1]
         args = ["--host", host, "--port", str(bound), "--mode", "per-client", *worker_args]
-        supervisor = Supervisor(args, count, out=out)
+        supervisor = Supervisor(args, sockets, out=out)
         stop_signal = threading.Event()
         main = threading.current_thread() is threading.main_thread()
         previous = signal.signal(signal.SIGTERM, lambda *_: stop_signal.set()) if main else None

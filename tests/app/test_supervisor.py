@@ -2,20 +2,26 @@
 
 The multi-worker test starts the real command in a subprocess: two workers
 share one port, plain websocket clients connect until both workers hold
-browsers, one worker is killed by SIGKILL, and the other keeps serving its
-browsers and takes new ones while the supervisor reports the loss and the
-warm spare worker takes the dead one's place (listening on the port).
+browsers, one worker is killed by SIGKILL while a dozen browsers connect at
+once (every one is served: those the kernel hands the dead worker's slot
+wait in its socket's queue for the replacement), and the other keeps
+serving its browsers and takes new ones while the supervisor reports the
+loss and the warm spare worker takes the dead one's place (listening on the
+port).
 """
 
 from __future__ import annotations
 
+import asyncio
+import os
 import re
-import subprocess
+import signal
 
 import pytest
 
 from app import cli
 from app.supervisor import reuse_port_supported
+from app.wire import SUBPROTOCOL, camera_message
 from tests.app.conftest import WsClient
 from tests.helpers import ProcessOutput, failure_lines, process_group_gone, start_serving, stop_serving, wait_until
 
@@ -46,6 +52,32 @@ def _listening_pids(port: int) -> set[int]:
         if any(link.startswith("socket:[") and link[8:-1] in inodes for link in links):
             pids.add(int(pid))
     return pids
+
+
+#: Browsers that connect at once right after a worker is killed (all must be served).
+RIGHT_AFTER_KILL = 12
+
+
+async def _connect_at_once(url: str, count: int, *, frames: int = 5) -> list[BaseException | None]:
+    """Open ``count`` websockets at once, as browsers: each registers and receives ``frames`` frames; the
+    failure of each (None: served)."""
+    import websockets
+    from websockets.exceptions import WebSocketException
+
+    async def browser() -> None:
+        async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None, open_timeout=120) as ws:
+            await ws.send(camera_message())
+            for _ in range(frames):
+                await ws.recv()
+
+    async def failure(connection) -> BaseException | None:
+        try:
+            await connection
+        except (OSError, TimeoutError, WebSocketException) as exc:  # a reset, a refused handshake, a closed socket
+            return exc
+        return None
+
+    return await asyncio.wait_for(asyncio.gather(*(failure(browser()) for _ in range(count))), timeout=180)
 
 
 def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
@@ -81,9 +113,20 @@ def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
         port = int(url.rsplit(":", 1)[1])
         assert spare not in _listening_pids(port)
 
-        # Kill worker 1: reported, its browsers' sockets close, worker 2's keep streaming.
+        # Kill worker 1, and at once browsers connect: every one is served (the kernel keeps handing worker
+        # 1's share of them to its slot's listening socket, which the supervisor holds: they wait there for
+        # the spare instead of being reset with the dead worker's socket).
         process_1 = pids[1]
-        subprocess.run(["kill", "-KILL", str(process_1)], check=True)
+        before = [_connections(out, 1), _connections(out, 2)]
+        os.kill(process_1, signal.SIGKILL)
+        failures = asyncio.run(_connect_at_once(url.replace("http://", "ws://"), RIGHT_AFTER_KILL))
+        assert failures == [None] * RIGHT_AFTER_KILL, failures
+        wait_until(lambda: _connections(out, 1) + _connections(out, 2) == sum(before) + RIGHT_AFTER_KILL,
+                   timeout=60.0)
+        print(f"of {RIGHT_AFTER_KILL} browsers connected right after the kill, "
+              f"{_connections(out, 1) - before[0]} were served by worker 1's replacement")
+
+        # The kill is reported; its browsers' sockets close, worker 2's keep streaming.
         wait_until(lambda: f"worker 1 (pid {process_1}) was killed by SIGKILL" in out.text(), timeout=20.0)
         # nothing of it is left: its executor's fork server and pool processes (its process group) are gone
         assert wait_until(lambda: process_group_gone(process_1), timeout=20.0)
@@ -97,7 +140,7 @@ def test_two_workers_share_a_port_and_survive_the_loss_of_one() -> None:
         again = WsClient(url)
         clients.append(again)
         wait_until(lambda: again.frames > 5, timeout=30.0)
-        # ... and the spare takes worker 1's place: it listens on the port (replaced within a second where a
+        # ... and the spare took worker 1's place: it listens on the port (replaced within a second where a
         # worker started cold took 19-25 s; the time is in docs/app.md, not asserted here).
         wait_until(lambda: f"worker 1 restarted (pid {spare}; the spare worker took its place)" in out.text(),
                    timeout=20.0)
