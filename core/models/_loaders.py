@@ -99,6 +99,114 @@ def _add_groups(system: Any, groups: list[_Group], where: Any) -> None:
             raise ValueError(f"{where(g)}: link {g.name!r}: {exc}") from None
 
 
+#: Joints that meet through massless links must meet: lines of joint axes within ``MEET_TOL`` (m) of a common
+#: point, axes perpendicular (universal) or parallel (cylindrical) within ``MEET_TOL`` (|cos| or |sin|). Files
+#: write their numbers to about 6 digits.
+MEET_TOL = 1e-6
+
+
+def _meeting_point(points: list, axes: list) -> tuple[np.ndarray, float]:
+    """The point nearest to the lines ``p + s a`` (least squares) and its largest distance from them."""
+    P = [np.eye(3) - np.outer(a, a) for a in axes]
+    x = np.linalg.lstsq(np.sum(P, axis=0), np.sum([Pk @ p for Pk, p in zip(P, points)], axis=0), rcond=None)[0]
+    return x, max(float(np.linalg.norm(Pk @ (x - p))) for Pk, p in zip(P, points))
+
+
+def _combined(chain: list) -> tuple[str, np.ndarray, Any, Any] | None:
+    """(kind, point, axis, axis_j) of one joint equivalent to ``chain`` (joint records meeting through massless
+    frames), or None: two revolute joints with perpendicular axes that intersect (universal), three revolute
+    joints whose axes meet at one point and span space (spherical), a revolute and a prismatic joint along one
+    line (cylindrical)."""
+    kinds = [c[0] for c in chain]
+    points = [np.asarray(c[3], dtype=float) for c in chain]
+    axes = [np.asarray(c[4], dtype=float) / np.linalg.norm(c[4]) for c in chain]
+    if kinds == ["revolute", "revolute"]:
+        x, gap = _meeting_point(points, axes)
+        if gap <= MEET_TOL and abs(float(axes[0] @ axes[1])) <= MEET_TOL:
+            b = axes[1] - float(axes[0] @ axes[1]) * axes[0]  # perpendicular to round-off, as add_joint checks
+            return "universal", x, axes[0], b / np.linalg.norm(b)
+    if kinds == ["revolute"] * 3:
+        x, gap = _meeting_point(points, axes)
+        if gap <= MEET_TOL and abs(float(np.linalg.det(np.stack(axes)))) > MEET_TOL:
+            return "spherical", x, None, None
+    if sorted(kinds) == ["prismatic", "revolute"]:
+        r = kinds.index("revolute")
+        if float(np.linalg.norm(np.cross(axes[0], axes[1]))) <= MEET_TOL:
+            d = points[1 - r] - points[r]
+            if float(np.linalg.norm(d - float(d @ axes[r]) * axes[r])) <= MEET_TOL:
+                return "cylindrical", points[r], axes[r], None
+    return None
+
+
+def _combine_massless(groups: list, joints: list, where: Any) -> tuple[list, list]:
+    """Replace chains of joints through massless groups by one joint; drop massless leaves.
+
+    ``joints``: records ``(kind, group_i, group_j, point, axis, name)``. A moving group without mass whose
+    one outgoing joint continues the chain (the virtual links of humanoid hips, MuJoCo bodies with several
+    joints) is removed with its joints, which become one universal, spherical or cylindrical joint named
+    ``"j1+j2[+j3]"`` (see :func:`_combined`); a massless group that carries nothing (no outgoing joint) is
+    left out with its joint. Any other massless moving group is left for :func:`_add_groups` to refuse.
+    """
+    def massless(g):
+        return not g.fixed_to_world and not g.lumped()[0] > 0.0
+
+    out_of: dict[int, list] = {}
+    into: dict[int, Any] = {}
+    for rec in joints:
+        out_of.setdefault(id(rec[1]), []).append(rec)
+        into[id(rec[2])] = rec
+    dropped: set[int] = set()
+    # leaves first (repeatedly: a massless link on a massless link)
+    changed = True
+    while changed:
+        changed = False
+        for g in groups:
+            if id(g) in dropped or not massless(g) or id(g) not in into:
+                continue
+            if not [r for r in out_of.get(id(g), []) if id(r[2]) not in dropped]:
+                dropped.add(id(g))
+                changed = True
+    kept_joints = [r for r in joints if id(r[2]) not in dropped]
+    result = []
+    absorbed: set[int] = set()
+    for rec in kept_joints:
+        if massless(rec[1]) and id(rec[1]) not in dropped:
+            continue  # an inner joint of a chain: handled from the chain's first joint
+        chain = [rec]
+        while massless(chain[-1][2]):
+            nxt = [r for r in out_of.get(id(chain[-1][2]), []) if id(r[2]) not in dropped]
+            if len(nxt) != 1 or len(chain) == 3:
+                break
+            chain.append(nxt[0])
+        if len(chain) == 1:
+            result.append(rec)
+            continue
+        combo = _combined(chain)
+        if combo is None or massless(chain[-1][2]):
+            names = [c[5] for c in chain]
+            g = chain[0][2]
+            raise ValueError(
+                f"{where(g)}: link {g.name!r} has no mass and its joints {names} ({[c[0] for c in chain]}) do not "
+                "make one universal (two revolute axes that intersect at a right angle), spherical (three revolute "
+                "axes through one point) or cylindrical joint (a revolute and a prismatic joint along one line); "
+                "give it an inertial with mass > 0")
+        for c in chain[:-1]:
+            absorbed.add(id(c[2]))
+        kind, point, axis, axis_j = combo
+        result.append((kind, chain[0][1], chain[-1][2], point, (axis, axis_j), "+".join(c[5] for c in chain)))
+    keep = [g for g in groups if id(g) not in dropped and id(g) not in absorbed]
+    return keep, result
+
+
+def _add_joint(system: Any, kind: str, gi: _Group, gj: _Group, point: Any, axis: Any, name: str) -> None:
+    if kind == "universal":
+        system.add_joint(kind, gi.body, gj.body, point=point, axis=axis[0], axis_j=axis[1], name=name)
+    elif isinstance(axis, tuple):
+        system.add_joint(kind, gi.body, gj.body, point=point, axis=axis[0], name=name)
+    else:
+        system.add_joint(kind, gi.body, gj.body, point=point, axis=axis, name=name)
+
+
 def _positions(joint_positions: Any, names: set[str], path: str) -> dict:
     if joint_positions is None:
         return {}
@@ -132,7 +240,14 @@ def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -
     are lumped into one body (parallel-axis theorem), named after the first
     of them and with its frame. ``revolute`` and ``continuous`` joints become
     revolute joints, ``prismatic`` joints prismatic ones, at the joint
-    frame's origin and along its ``axis`` (global in the pose). Joint limits,
+    frame's origin and along its ``axis`` (global in the pose). Joints that
+    meet through links without mass (the virtual links of humanoid hips)
+    become one joint named ``"j1+j2[+j3]"``: two revolute joints whose axes
+    intersect at a right angle a universal joint, three revolute joints
+    whose axes pass through one point a spherical joint, a revolute and a
+    prismatic joint along one line a cylindrical joint (within ``MEET_TOL``,
+    1e-6); a link without mass that carries nothing is left out with its
+    joint. Joint limits,
     ``<dynamics>`` (damping, friction), ``<mimic>`` (the joint moves
     independently), transmissions, visuals and collisions are ignored.
     ``planar`` and ``floating`` joints are refused.
@@ -165,8 +280,10 @@ def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -
         One message naming the file and the element (and its line): a
         missing file, malformed XML, a link that is the child of two joints
         or a cycle of joints, a joint naming an unknown link, a ``planar``
-        or ``floating`` joint, a moving link without mass, an inertia that
-        is not a valid tensor, an unknown joint name in ``joint_positions``.
+        or ``floating`` joint, a moving link without mass whose joints do
+        not combine into one, an inertia that is not a valid tensor (moments
+        within ``SNAP_MOMENT`` (1e-12) kg m^2 per kg of zero count as zero),
+        an unknown joint name in ``joint_positions``.
     """
     from core.multibody import System
 
@@ -304,12 +421,13 @@ def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -
         R_in = T_in[:3, :3]
         group_of[name].add(m, T_in[:3, 3], R_in @ I_in @ R_in.T)
 
+    joints = [(URDF_JOINT_KINDS[jt.type], group_of[jt.parent], group_of[jt.child], point, axis, jt.name)
+              for jt, point, axis in order]
+    groups, joints = _combine_massless(groups, joints, lambda g: at("link", g.name))
     system = System(gravity=gravity)
     _add_groups(system, groups, lambda g: at("link", g.name))
-    for jt, point, axis in order:
-        kind = URDF_JOINT_KINDS[jt.type]
-        bi, bj = group_of[jt.parent].body, group_of[jt.child].body
-        system.add_joint(kind, bi, bj, point=point, axis=axis, name=jt.name)
+    for kind, gi, gj, point, axis, name in joints:
+        _add_joint(system, kind, gi, gj, point, axis, name)
     return system
 
 
@@ -325,7 +443,11 @@ def from_mjcf(path: Any, *, joint_positions: Any = None, degrees: bool = False, 
     world's: into the ground); ``hinge`` joints become revolute joints,
     ``slide`` joints prismatic ones, ``ball`` joints spherical ones (at
     MuJoCo's global anchor and axis ``xanchor``/``xaxis`` in the pose), a
-    ``free`` joint leaves its body free. Joint limits, ``stiffness``,
+    ``free`` joint leaves its body free. Several joints on one body combine
+    into one, as massless links do in :func:`from_urdf`: three hinges
+    through one point a spherical joint, two perpendicular hinges through
+    one point a universal joint, a hinge and a slide along one line a
+    cylindrical joint, named ``"j1+j2[+j3]"``. Joint limits, ``stiffness``,
     ``damping``, ``armature``, ``frictionloss``, actuators, tendons,
     equality constraints and contacts are ignored.
 
@@ -355,9 +477,9 @@ def from_mjcf(path: Any, *, joint_positions: Any = None, degrees: bool = False, 
     ------
     ValueError
         One message naming the file and MuJoCo's element and line: a
-        missing file, malformed XML, an element MuJoCo refuses; a body with
-        more than one joint (join such bodies with one joint each), a moving
-        body without mass, an unknown joint name in ``joint_positions``.
+        missing file, malformed XML, an element MuJoCo refuses; a body
+        whose joints do not combine into one, a moving body without mass, an
+        unknown joint name in ``joint_positions``.
     """
     from core.multibody import System
 
@@ -407,30 +529,38 @@ def from_mjcf(path: Any, *, joint_positions: Any = None, degrees: bool = False, 
     for b in range(1, model.nbody):
         parent = int(model.body_parentid[b])
         count = int(model.body_jntnum[b])
-        where = f"{path}: <body name={body_name(b)!r}>"
-        if count > 1:
-            listed = [joint_name(int(model.body_jntadr[b]) + k) for k in range(count)]
-            raise ValueError(f"{where}: has {count} joints {listed}; a body moves on one joint here (put each joint "
-                             "on its own body)")
         A = data.xmat[b].reshape(3, 3).copy()
         if count == 0:
             g = group_of[parent]
         else:
-            j = int(model.body_jntadr[b])
-            kind = kinds[int(model.jnt_type[j])]
-            g = _Group(body_name(b), A)
-            groups.append(g)
-            if kind != "free":
-                rl = {"hinge": "revolute", "slide": "prismatic", "ball": "spherical"}[kind]
-                joints.append((rl, group_of[parent], g, data.xanchor[j].copy(),
-                               None if kind == "ball" else data.xaxis[j].copy(), joint_name(j)))
+            # several joints on one body act one after the other: a chain through massless frames, which
+            # _combine_massless turns into one universal, spherical or cylindrical joint
+            previous = group_of[parent]
+            for k in range(count):
+                j = int(model.body_jntadr[b]) + k
+                kind = kinds[int(model.jnt_type[j])]
+                if kind == "free" and count > 1:
+                    raise ValueError(f"{path}: <body name={body_name(b)!r}>: a free joint with other joints")
+                last = k == count - 1
+                g = _Group(body_name(b) if last else f"{body_name(b)}/{joint_name(j)}", A)
+                groups.append(g)
+                if kind != "free":
+                    rl = {"hinge": "revolute", "slide": "prismatic", "ball": "spherical"}[kind]
+                    joints.append((rl, previous, g, data.xanchor[j].copy(),
+                                   None if kind == "ball" else data.xaxis[j].copy(), joint_name(j)))
+                previous = g
         group_of[b] = g
         R_in = data.ximat[b].reshape(3, 3)
         g.add(float(model.body_mass[b]), data.xipos[b].copy(), R_in @ np.diag(model.body_inertia[b]) @ R_in.T)
 
     g_vec = model.opt.gravity.copy() if gravity is None else gravity
+
+    def where(g):
+        return f"{path}: <body name={g.name.split('/')[0]!r}>"
+
+    groups, joints = _combine_massless(groups, joints, where)
     system = System(gravity=g_vec)
-    _add_groups(system, groups, lambda g: f"{path}: <body name={g.name!r}>")
+    _add_groups(system, groups, where)
     for kind, gi, gj, point, axis, name in joints:
-        system.add_joint(kind, gi.body, gj.body, point=point, axis=axis, name=name)
+        _add_joint(system, kind, gi, gj, point, axis, name)
     return system

@@ -206,6 +206,56 @@ def test_arm_modes_agree_with_mujoco():
     assert np.all(flexible.stable)
 
 
+LEG_MJCF = DATA / "leg.xml"
+
+
+def test_several_joints_on_one_body_become_one_joint():
+    """MuJoCo bodies with three hinges (hip), two (knee) and a hinge with a slide (ankle): one spherical,
+    universal and cylindrical joint each, with MuJoCo's mass matrix in its own joint coordinates, every
+    motion of those coordinates allowed by the combined joints, and MuJoCo's modes."""
+    mujoco = pytest.importorskip("mujoco")
+    model = mujoco.MjModel.from_xml_path(str(LEG_MJCF))
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
+    system = from_mjcf(LEG_MJCF)
+    assert [(j.name, j.kind) for j in system.joints] == [
+        ("hip_z+hip_x+hip_y", "spherical"), ("knee_x+knee_y", "universal"), ("ankle_roll+ankle_slide", "cylindrical")]
+    q = np.array([0.3, -0.2, 0.4, 0.5, -0.3, 0.2, 0.05])
+    data = mujoco.MjData(model)
+    data.qpos[:] = q
+    mujoco.mj_forward(model, data)
+    M_mj = _full_m(mujoco, model, data)
+
+    def at(qq):
+        return from_mjcf(LEG_MJCF, joint_positions=dict(zip(names, qq)))
+
+    M = _joint_space_mass(at, names, q)
+    # as for the arm: central differences ~1e-10 of the largest entry (measured 1.4e-10)
+    assert np.max(np.abs(M - M_mj)) <= 1e-8 * float(np.max(np.abs(M_mj)))
+    # the combined joints allow exactly the 7 motions of MuJoCo's coordinates: same count of degrees of freedom
+    D = at(q).evaluate().D
+    assert D.shape[1] - np.linalg.matrix_rank(D) == 7
+
+    # modes at q = 0 (centres of mass below the joints): K = d(qfrc_bias)/dq by central differences
+    def bias(qq):
+        data.qpos[:] = qq
+        data.qvel[:] = 0.0
+        mujoco.mj_forward(model, data)
+        return data.qfrc_bias.copy()
+
+    h = 1e-6
+    K = np.stack([(bias(h * e) - bias(-h * e)) / (2 * h) for e in np.eye(7)], axis=1)
+    bias(np.zeros(7))
+    lam = scipy.linalg.eigh(0.5 * (K + K.T), _full_m(mujoco, model, data), eigvals_only=True)
+    # one zero (the turn about the vertical hip axis) and one negative eigenvalue: sliding the foot sideways
+    # while the leg tilts lowers it (V has a term m g x theta), a divergent mode with s = +sqrt(-lambda)
+    assert abs(lam[1]) < 1e-8 * lam[-1] and lam[0] < 0
+    expected = np.sort(np.sqrt(np.abs(np.delete(lam, 1))))
+    flexible = linearize(system).modes().flexible
+    # MuJoCo's K by central differences (~1e-10 relative), rigidlab's exact here: 1e-7 as for the arm
+    np.testing.assert_allclose(flexible.omega_n, expected, rtol=1e-7)
+    assert int(np.sum(~flexible.stable)) == 1
+
+
 # ------------------------------------------------------------------ bad files
 def _write(tmp_path, name, text):
     p = tmp_path / name
@@ -271,9 +321,23 @@ def test_urdf_unknown_link_and_massless_moving_link(tmp_path):
     path = _write(tmp_path, "ghost.urdf", _urdf(LINK.format("a"), _joint("j", "revolute", "a", "nowhere")))
     with pytest.raises(ValueError, match=r"ghost\.urdf:4: <joint name='j'>: names link 'nowhere'"):
         from_urdf(path)
-    path = _write(tmp_path, "light.urdf", _urdf(LINK.format("a"), '<link name="b"/>', _joint("j", "revolute", "a", "b")))
-    with pytest.raises(ValueError, match=r"light\.urdf:4: <link name='b'>: link 'b' moves .* has no mass"):
+    # a massless link between two parallel hinges that are apart: no single joint does what they do
+    text = _urdf(LINK.format("a"), '<link name="b"/>', LINK.format("c"), _joint("j", "revolute", "a", "b"),
+                 '<joint name="k" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0 0 -1"/>'
+                 '<axis xyz="1 0 0"/></joint>')
+    path = _write(tmp_path, "light.urdf", text)
+    with pytest.raises(ValueError, match=r"light\.urdf:4: <link name='b'>: link 'b' has no mass and its joints "
+                                         r"\['j', 'k'\] \(\['revolute', 'revolute'\]\) do not make one universal"):
         from_urdf(path)
+    # a massless link that carries nothing is left out with its joint
+    path = _write(tmp_path, "leaf.urdf", _urdf(LINK.format("a"), LINK.format("c"), '<link name="b"/>',
+                                                _joint("j", "revolute", "a", "b"), _joint("k", "revolute", "a", "c")))
+    system = from_urdf(path)
+    assert [b.name for b in system.bodies] == ["c"] and [j.name for j in system.joints] == ["k"]
+    # a massless floating base is refused
+    path = _write(tmp_path, "float.urdf", _urdf('<link name="a"/>', LINK.format("c"), _joint("k", "revolute", "a", "c")))
+    with pytest.raises(ValueError, match=r"float\.urdf:3: <link name='a'>: link 'a' moves .* has no mass"):
+        from_urdf(path, fixed_base=False)
 
 
 def test_urdf_round_off_moments_count_as_zero(tmp_path):
@@ -322,8 +386,9 @@ def test_mjcf_bad_files(tmp_path):
     with pytest.raises(ValueError, match=r"kind\.xml: MuJoCo could not load the model: .*Element 'joint', line 2"):
         from_mjcf(path)
     path = _write(tmp_path, "two.xml", "<mujoco><worldbody><body name='a'><joint name='j1' axis='1 0 0'/>"
-                  "<joint name='j2' axis='0 1 0'/><geom size='0.1'/></body></worldbody></mujoco>\n")
-    with pytest.raises(ValueError, match=r"two\.xml: <body name='a'>: has 2 joints \['j1', 'j2'\]"):
+                  "<joint name='j2' axis='1 0 0' pos='0 0 0.1'/><geom size='0.1'/></body></worldbody></mujoco>\n")
+    with pytest.raises(ValueError, match=r"two\.xml: <body name='a'>: link 'a/j1' has no mass and its joints "
+                                         r"\['j1', 'j2'\] .* do not make one universal"):
         from_mjcf(path)
 
 
@@ -359,7 +424,8 @@ def _example_robot(relative):
     return path
 
 
-@pytest.mark.parametrize("relative", ["ur_description/urdf/ur5_robot.urdf", "panda_description/urdf/panda.urdf"])
+@pytest.mark.parametrize("relative", ["ur_description/urdf/ur5_robot.urdf", "panda_description/urdf/panda.urdf",
+                                      "human_description/robots/human.urdf"])
 def test_real_robot_mass_matrix_equals_pinocchio_crba(relative):
     pytest.importorskip("yourdfpy")
     pinocchio = pytest.importorskip("pinocchio")
@@ -381,7 +447,9 @@ def test_real_robot_mass_matrix_equals_pinocchio_crba(relative):
     M_pin = M_pin[np.ix_(order, order)]
 
     system = from_urdf(path)
-    assert {j.name for j in system.joints} == set(names)
+    # (the human's hips, spine and neck: revolute joints through massless links, combined into spherical and
+    # universal joints named "a+b+c")
+    assert {n for j in system.joints for n in j.name.split("+")} <= set(names)
 
     def at(qq):
         return from_urdf(path, joint_positions=dict(zip(names, qq)))
