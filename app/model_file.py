@@ -215,6 +215,10 @@ def load_model_file(path: str | Path) -> ModelFile:
         system = model.build()
     except ModelFileError:
         raise
+    except ValueError as exc:
+        if kind != "python":  # core's loaders name the file and the line already
+            raise ModelFileError(str(exc)) from None
+        raise ModelFileError(f"{_where(resolved, exc)}: build() raised ValueError: {exc}") from None
     except Exception as exc:
         where = _where(resolved, exc) if kind == "python" else str(given)
         what = "build()" if kind == "python" else f"loading the {kind.upper()}"

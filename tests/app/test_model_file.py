@@ -96,3 +96,13 @@ def test_missing_files_directories_and_unknown_suffixes_are_refused(tmp_path):
         load_model_file(tmp_path / "dir.py")
     with pytest.raises(ModelFileError, match=r"expected a model file ending in .py, .urdf, .xml, .mjcf, got '.txt'"):
         load_model_file(_file(tmp_path, "x", "model.txt"))
+
+
+def test_a_bad_urdf_is_refused_with_the_loaders_message_once(tmp_path):
+    pytest.importorskip("yourdfpy")
+    path = _file(tmp_path, "<robot name='r'><link name='a'/><joint name='j' type='planar'>"
+                           "<parent link='a'/><child link='a'/></joint></robot>", "bad.urdf")
+    with pytest.raises(ModelFileError) as info:
+        load_model_file(path)
+    message = str(info.value)
+    assert message.count(str(path)) == 1 and "\n" not in message, message
