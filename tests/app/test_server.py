@@ -563,6 +563,8 @@ def test_copy_and_load_state_through_the_share_panel(fake_apps: Any, ws_client: 
     assert "Copy link" in session._share_html.content and "websocket=ws%3A%2F%2F127.0.0.1" in session._share_html.content
     # Change things, then load the copied state: same values, same scene.
     client.set_gui_value(scene.slider, -2.0)
+    # (browser messages run in viser's thread pool: the slider's must be in before the load, not racing it)
+    assert wait_until(lambda: scene.controls.value("angle") == -2.0)
     client.set_gui_value(session._chooser, "Beta")
     assert wait_until(lambda: session.active_name == "beta")
     # the copied state is alpha's: another scene shown, its string and link are cleared (they would open alpha)
@@ -571,7 +573,7 @@ def test_copy_and_load_state_through_the_share_panel(fake_apps: Any, ws_client: 
     assert wait_until(lambda: session.controls.value("state_in") == string)
     client.set_gui_value(handles["load_state"], True)
     assert wait_until(lambda: session.active_name == "alpha" and scene.controls.value("angle") == 0.75)
-    assert scene.slider.value == 0.75
+    assert wait_until(lambda: scene.slider.value == 0.75)
     assert wait_until(lambda: np.allclose(scene.body.wxyz, (np.cos(0.375), 0, 0, np.sin(0.375))))
     assert session.notices[-1][:1] == ("State loaded",)
     # A damaged or hostile state is refused with a reason; nothing changes.
