@@ -44,6 +44,7 @@ from ._cam import (
     CamRevolution,
     CamSystem,
     CamTouch,
+    largest_roller_radius,
     smallest_convex_rise,
 )
 from ._free_body import (
@@ -162,6 +163,7 @@ __all__ = [
     "CamRevolution",
     "CamSystem",
     "CamTouch",
+    "largest_roller_radius",
     "smallest_convex_rise",
     "HeavyTop",
     "ReducedChainMotion",

@@ -41,6 +41,7 @@ __all__ = [
     "CamRevolution",
     "CamSystem",
     "CamTouch",
+    "largest_roller_radius",
     "smallest_convex_rise",
 ]
 
@@ -281,6 +282,21 @@ class CamRevolution(NamedTuple):
     contact_normal: np.ndarray
     separations: tuple
     min_force: tuple
+
+    def separated(self, theta: Any) -> np.ndarray:
+        """Whether the cam angles ``theta`` (rad, any shape, taken modulo 2 pi) lie in a separation interval
+        (:attr:`separations`, ends included): where the closed-form contact force ``N < 0`` (the contact would
+        have to pull), up to the intervals' ends (found to ``SEPARATION_XTOL``, 1e-12 rad).
+
+        Returns
+        -------
+        ndarray of bool, the shape of ``theta``.
+        """
+        th = np.mod(_angles(theta), _TWO_PI)
+        out = np.zeros(th.shape, dtype=bool)
+        for a, b in self.separations:
+            out |= np.mod(th - a, _TWO_PI) <= b - a
+        return out
 
 
 @dataclass(frozen=True)
@@ -1351,36 +1367,64 @@ class CamFollower:
         return worst, where
 
     def largest_roller_radius(self) -> float:
-        """The largest roller radius (m) that does not undercut this cam with this follower offset.
+        """The largest roller radius (m) that does not undercut this cam with this follower offset:
+        :func:`largest_roller_radius` ``(self.profile, offset=self.offset)`` (the follower's own roller aside)."""
+        return largest_roller_radius(self.profile, offset=self.offset)
 
-        The pitch curve (the roller centre's path) grows with the roller, so
-        its smallest convex radius of curvature ``rho_min(r_f)`` does too;
-        the cam is undercut when ``rho_min(r_f) <= r_f``. Returns the root of
-        ``rho_min(r_f) = r_f`` (to 1e-9 m); inf when no roller undercuts
-        the cam: the eccentric circle (its pitch curve is a circle of radius
-        ``R + r_f``) and a rise-dwell-return cam whose pitch curve stays
-        convex and no tighter than the roller at every size (the default
-        ``rise_dwell_return()``); 0.0 when no roller fits.
-        """
-        from scipy.optimize import brentq
 
-        prof = self.profile
-        if prof.kind == "eccentric":
+def largest_roller_radius(profile: CamProfile, *, offset: float = 0.0) -> float:
+    """The largest roller radius (m) that does not undercut the cam of ``profile`` with the follower axis at ``offset``.
+
+    The profile alone decides it (no roller need be given, nor fit): the
+    pitch curve (the roller centre's path, :meth:`CamFollower.pitch_curve`,
+    ``c(u) = e_o t(u) + (s_0 + s(u)) n(u)`` with ``s_0 = sqrt((R_b + r_f)^2
+    - e_o^2)``) grows with the roller, so its smallest convex radius of
+    curvature ``rho_min(r_f)`` does too; the cam is undercut when
+    ``rho_min(r_f) <= r_f`` (the inner offset of the pitch curve by ``r_f``
+    would cross itself). Returns the root of ``rho_min(r_f) = r_f`` by
+    Brent's method (to 1e-9 m).
+
+    Parameters
+    ----------
+    profile : CamProfile
+    offset : float, keyword-only
+        e_o (m): distance of the follower axis from the shaft (as in :class:`CamFollower`).
+
+    Returns
+    -------
+    float
+        r_f (m); inf when no roller undercuts the cam: the eccentric circle
+        (its pitch curve is a circle of radius ``R + r_f``) and a
+        rise-dwell-return cam whose pitch curve stays convex and no tighter
+        than the roller at every size (the default ``rise_dwell_return()``);
+        0.0 when no roller fits.
+    """
+    from scipy.optimize import brentq
+
+    if not isinstance(profile, CamProfile):
+        raise ArgumentError("profile", f"profile: expected a CamProfile, got {type(profile).__name__}")
+    eo = real_number(offset, "offset", expected="a finite distance (m)")
+    if profile.kind == "eccentric":
+        return math.inf
+    # the roller's geometry without its refusals: the pitch curves of every roller size are evaluated below
+    probe = object.__new__(CamFollower)
+    for name, value in (("profile", profile), ("follower", "roller"), ("roller_radius", 0.0), ("offset", eo),
+                        ("_segments", profile._law_segments()), ("_pitch_height", 0.0)):
+        object.__setattr__(probe, name, value)
+    lo = max(0.0, abs(eo) - profile.base_radius) * (1.0 + 1e-12) + 1e-12
+
+    def margin(r: float) -> float:  # (the pitch curve of roller r: its height at zero lift)
+        height = math.sqrt((profile.base_radius + r) ** 2 - eo**2)
+        return probe._smallest_convex_pitch_radius(height)[0] - r
+
+    if not margin(lo) > 0:
+        return 0.0
+    hi = max(2.0 * lo, profile.base_radius)
+    while margin(hi) > 0:
+        hi *= 2.0
+        if hi > 1e6 * (profile.base_radius + profile.lift):
             return math.inf
-        lo = max(0.0, abs(self.offset) - prof.base_radius) * (1.0 + 1e-12) + 1e-12
-
-        def margin(r: float) -> float:  # (the pitch curve of roller r: its height at zero lift)
-            height = math.sqrt((prof.base_radius + r) ** 2 - self.offset**2)
-            return self._smallest_convex_pitch_radius(height)[0] - r
-
-        if not margin(lo) > 0:
-            return 0.0
-        hi = max(2.0 * lo, prof.base_radius)
-        while margin(hi) > 0:
-            hi *= 2.0
-            if hi > 1e6 * (prof.base_radius + prof.lift):
-                return math.inf
-        return float(brentq(margin, lo, hi, xtol=1e-9))
+    return float(brentq(margin, lo, hi, xtol=1e-9))
 
 
 def smallest_convex_rise(base_radius: float, lift: float, dwell: float, law: str, *, xtol: float = 1e-9) -> float:

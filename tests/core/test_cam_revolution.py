@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from core import ArgumentError
-from core.models import CamFollower, CamProfile, CamRevolution, smallest_convex_rise
+from core.models import CamFollower, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
 
 TWO_PI = 2.0 * math.pi
 
@@ -102,3 +102,56 @@ def test_the_smallest_convex_rise_is_inf_when_no_rise_is_convex_and_refuses_bad_
         with pytest.raises(ArgumentError) as info:
             smallest_convex_rise(**args)
         assert info.value.argument == argument
+
+
+def _pitch_radius_min(profile: CamProfile, roller: float, offset: float, n: int = 400_000) -> float:
+    """Smallest convex radius of curvature (m) of the roller centre's path, independent of core's pitch curve:
+    the point ``e_o t + (s_0 + s) n`` is at polar radius ``hypot(e_o, s_0 + s)`` and polar angle
+    ``u + atan2(e_o, s_0 + s)`` (orientation and sign of the angle do not change a radius of curvature), its
+    derivatives by central differences of the points on a grid of ``n`` angles."""
+    u = np.arange(n) * (TWO_PI / n)
+    h = TWO_PI / n
+    s = profile.motion_law(u).lift
+    y = math.sqrt((profile.base_radius + roller) ** 2 - offset**2) + s
+    radius, angle = np.hypot(offset, y), u + np.arctan2(offset, y)
+    x, z = radius * np.cos(angle), radius * np.sin(angle)
+    dx, dz = (np.roll(x, -1) - np.roll(x, 1)) / (2 * h), (np.roll(z, -1) - np.roll(z, 1)) / (2 * h)
+    ddx, ddz = (np.roll(x, -1) - 2 * x + np.roll(x, 1)) / h**2, (np.roll(z, -1) - 2 * z + np.roll(z, 1)) / h**2
+    rho = (dx * dx + dz * dz) ** 1.5 / (dx * ddz - dz * ddx)  # > 0 where the path turns as a whole (counter-clockwise)
+    return float(rho[rho > 0].min())
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.01])
+def test_the_largest_roller_radius_needs_only_the_profile(offset):
+    # (40 deg rise = fall: an 18-21 mm roller undercuts this cam; a 5 mm one fits)
+    profile = CamProfile.rise_dwell_return(0.04, 0.02, math.radians(40.0), math.radians(30.0), math.radians(40.0))
+    largest = largest_roller_radius(profile, offset=offset)
+    assert largest == CamFollower(profile, follower="roller", roller_radius=0.005, offset=offset).largest_roller_radius()
+    # at that roller its own pitch curve's smallest convex radius of curvature is the roller's radius. Tolerance
+    # 1e-5 relative: core locates the smallest radius on 1025 samples per segment without refining it (a sampled
+    # minimum of a smooth function: off by up to about 1e-6 of it here); the differences here err by O(h^2), 1e-10
+    assert _pitch_radius_min(profile, largest, offset) == pytest.approx(largest, rel=1e-5)
+    # a roller that no cam of this profile can carry is refused when built; the profile still answers
+    with pytest.raises(ArgumentError) as refused:
+        CamFollower(profile, follower="roller", roller_radius=0.03, offset=offset)
+    assert refused.value.argument == "roller_radius"
+    assert largest_roller_radius(CamProfile.eccentric()) == math.inf
+    for args, argument in (({"profile": "cam"}, "profile"), ({"profile": profile, "offset": math.nan}, "offset")):
+        with pytest.raises(ArgumentError, match=f"^{argument}: expected") as bad:
+            largest_roller_radius(**args)
+        assert bad.value.argument == argument
+
+
+def test_the_separated_angles_are_where_the_closed_form_force_is_negative():
+    cam = CamFollower(CamProfile.rise_dwell_return(law="harmonic"), follower="roller", roller_radius=0.01)
+    rev = cam.revolution(1.4 * cam.jump_speed(), samples=720)
+    assert rev.separations
+    theta = np.linspace(-TWO_PI, 2 * TWO_PI, 30_000).reshape(3, -1)  # any shape, any turn
+    # the independent reference: the sign of N, away from the intervals' ends (found to 1e-12 rad)
+    ends = np.array([e for interval in rev.separations for e in interval])
+    far = np.min(np.abs(np.mod(theta[..., None] - ends + math.pi, TWO_PI) - math.pi), axis=-1) > 1e-9
+    separated = rev.separated(theta)
+    assert separated.shape == theta.shape and np.any(separated[far]) and not np.all(separated[far])
+    np.testing.assert_array_equal(separated[far], (cam.contact_force(theta, rev.speed) < 0.0)[far])
+    below = cam.revolution(0.9 * cam.jump_speed(), samples=720)
+    assert not np.any(below.separated(theta))
