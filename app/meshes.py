@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 import trimesh
 
-__all__ = ["bicycle_meshes", "body_parts", "box", "cylinder_z", "extrude", "helix_tube", "pack",
-           "pedestal", "pins", "ring", "spinning_top", "spoked_wheel", "triangulate", "tube", "Mesh"]
+__all__ = ["bicycle_meshes", "body_parts", "box", "cylinder_z", "extrude", "follower_stand", "helix_tube", "pack",
+           "pedestal", "pins", "ring", "spinning_top", "spoked_wheel", "translating_follower", "triangulate", "tube",
+           "Mesh"]
 
 Mesh = tuple[np.ndarray, np.ndarray]
 
@@ -243,6 +244,48 @@ def helix_tube(length: float, wire_radius: float, *, radius: float, turns: int, 
     a, b, c, d = i + j, i + (j + 1) % sides, i + sides + j, i + sides + (j + 1) % sides
     faces = np.concatenate([np.stack([a, c, b], axis=-1).reshape(-1, 3), np.stack([b, c, d], axis=-1).reshape(-1, 3)])
     return vertices, faces.astype(np.uint32)
+
+def translating_follower(*, travel: float, face_halfwidth: float = 0.0, roller_radius: float = 0.0,
+                         depth: float = 0.014, stem_radius: float = 0.004, collar_radius: float = 0.015,
+                         collar: float = 0.003) -> tuple[Mesh, Mesh | None, float]:
+    """A follower that slides along +z (a cam's, a guided plunger's) in its own frame: origin at the centre of its
+    flat face (``roller_radius`` 0: a plate ``2 face_halfwidth`` wide along x, ``depth`` along y, on z = 0) or at
+    the centre of its roller (a fork holding a roller of ``roller_radius`` on an axle along y); a stem from
+    there 0.03 m up to a spring collar (``collar_radius``, ``collar`` thick), then ``travel`` further.
+
+    Returns
+    -------
+    ``(follower, roller or None, seat)``: the meshes (roller about the origin) and the height of the collar's
+    top, where a spring sits (m).
+    """
+    if roller_radius > 0.0:
+        r = roller_radius
+        parts = [trimesh.creation.cylinder(radius=r, height=0.010, sections=64),
+                 trimesh.creation.cylinder(radius=min(0.0025, 0.5 * r), height=0.016, sections=16)]
+        roller = trimesh.util.concatenate(parts)
+        roller.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, (1.0, 0.0, 0.0)))
+        foot = r + 0.004
+        lower = [box((-0.004, y0, -0.002), (0.004, y1, foot)) for y0, y1 in ((-0.0075, -0.0055), (0.0055, 0.0075))]
+        lower.append(box((-0.006, -0.0075, foot - 0.003), (0.006, 0.0075, foot)))
+    else:
+        roller, foot = None, 0.004
+        lower = [box((-face_halfwidth, -depth / 2, 0.0), (face_halfwidth, depth / 2, foot))]
+    seat = foot + 0.03 + collar
+    follower = trimesh.util.concatenate(lower + [cylinder_z(stem_radius, foot, seat + travel),
+                                                 cylinder_z(collar_radius, seat - collar, seat, 40)])
+    return pack(follower), None if roller is None else pack(roller), seat
+
+
+def follower_stand(top: float, *, base: float = -0.085, column: float = -0.095, arm: float = 0.008) -> Mesh:
+    """The stand of a shaft on the y axis and a follower guided along +z above it (global frame, m): a base
+    plate at z = ``base``, a bearing pedestal and hub for the shaft, a column at x = ``column`` and an arm from
+    z = ``top`` (the guide's underside, where a spring ends) to ``top + arm`` across the follower's axis."""
+    hub = trimesh.creation.cylinder(radius=0.013, segment=np.array([[0.0, 0.009, 0.0], [0.0, 0.03, 0.0]]), sections=40)
+    return pack(trimesh.util.concatenate([
+        box((-0.12, -0.04, base - 0.008), (0.09, 0.045, base)), box((-0.012, 0.012, base), (0.012, 0.03, 0.0)), hub,
+        box((column - 0.007, 0.015, base), (column + 0.007, 0.03, top + arm)),
+        box((column - 0.007, -0.012, top), (0.02, 0.03, top + arm))]))
+
 
 def tube(a: object, b: object, radius: float, *, sections: int = 12) -> trimesh.Trimesh:
     """A cylinder of ``radius`` from point ``a`` to point ``b`` (a trimesh, in the frame of the points;

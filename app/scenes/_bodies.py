@@ -28,11 +28,13 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from app.meshes import helix_tube
 from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from app.scenes._arrows import vertex_rgb
+from app.scenes.base import PRESENTER_LINE_SCALE
 from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
-__all__ = ["ForceArrow", "Parts", "Placed", "PartsView", "add_body_meshes", "add_disk", "body_point", "disk_meshes",
+__all__ = ["CoilSpring", "ForceArrow", "Parts", "Placed", "PartsView", "add_body_meshes", "add_disk", "body_point", "disk_meshes",
            "ring_mesh", "rod_mesh", "saturating_arrows", "spring_polyline"]
 
 #: Coils of a spring drawn as a zigzag (segments = 2 coils + 2 straight ends).
@@ -428,3 +430,50 @@ class ForceArrow:
         if abs(length - self.length) > self.resend * self.length or (length == 0.0) != (self.length == 0.0):
             self.length = length
             set_array(self.arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))
+
+
+class CoilSpring:
+    """A coil spring along +z between two heights: one helix mesh (:func:`app.meshes.helix_tube`) built at
+    ``length`` and moved and stretched along z every frame (one position and one scale, :meth:`span`); its
+    wire ``PRESENTER_LINE_SCALE`` times thicker in presenter view (the scene calls :meth:`set_presenter` with
+    its readouts).
+
+    Parameters
+    ----------
+    scene : app.scenes.base.Scene
+    name, color : path of the batched mesh; RGB (a mesh's colour: sRGB as drawn).
+    radius, turns, wire : the helix's radius (m), its turns, the wire's radius (m) at scale 1.
+    length : the length (m) the mesh is built at: the middle of the spring's travel keeps the wire near round.
+    """
+
+    def __init__(self, scene: Any, name: str, *, radius: float, turns: int, wire: float, color: Any,
+                 length: float) -> None:
+        self.scene, self.radius, self.turns, self.wire, self.length = scene, radius, turns, wire, float(length)
+        self.node = scene.target.scene.add_batched_meshes_simple(
+            name, *helix_tube(self.length, self.wire_radius, radius=radius, turns=turns),
+            batched_wxyzs=np.array([[1.0, 0.0, 0.0, 0.0]]), batched_positions=np.zeros((1, 3)),
+            batched_scales=np.ones((1, 3)), batched_colors=color, lod="off", side="double")
+        scene._readouts.append(self)  # (set_presenter with the readouts)
+
+    @property
+    def wire_radius(self) -> float:
+        """The drawn wire's radius (m): thicker in presenter view."""
+        return self.wire * (PRESENTER_LINE_SCALE if self.scene.presenter else 1.0)
+
+    @property
+    def solid(self) -> float:
+        """Length (m) at which the coils touch, drawn as thick as in presenter view: the shortest it may be drawn."""
+        return 2.0 * self.turns * self.wire * PRESENTER_LINE_SCALE
+
+    def rebuild(self, length: float | None = None) -> None:
+        """Send the mesh again, built at ``length`` (None: the same) with the wire of the view."""
+        self.length = self.length if length is None else float(length)
+        vertices, faces = helix_tube(self.length, self.wire_radius, radius=self.radius, turns=self.turns)
+        set_arrays(self.node, vertices=vertices, faces=faces)
+
+    def set_presenter(self, on: bool) -> None:
+        self.rebuild()
+
+    def span(self, z0: float, z1: float) -> None:
+        """Draw the spring from height ``z0`` to ``z1`` (m) on its axis (inside ``target.atomic()``)."""
+        set_arrays(self.node, batched_positions=((0.0, 0.0, z0),), batched_scales=((1.0, 1.0, (z1 - z0) / self.length),))

@@ -43,6 +43,7 @@ __all__ = [
     "PlotRefresh",
     "Table",
     "axis_offset",
+    "capped_range",
     "drift_title",
     "format_rows",
     "label_with_offset",
@@ -460,3 +461,22 @@ def drift_title(title: str, values: Any, *, scale: float, log10: bool = False,
     if round_off_level(a, scale=scale, ulps=ulps):
         return f"{title} \u2014 round-off level (\u2264 {ulps:g} \u03b5)"
     return title
+
+
+def capped_range(reference: Any, values: Any, *, spans: float = 2.0, margin: float = 0.05,
+                 ) -> tuple[tuple[float, float], float | None]:
+    """A y range that keeps ``reference`` readable beside ``values`` with short peaks far above it (a landing's
+    impact of kilonewtons against a closed form of tens of newtons), and the largest value if it is cut off.
+
+    The range holds zero, ``reference`` and ``values``, but reaches above the top of ``reference`` (or 0) by at
+    most ``spans`` times the height of ``reference`` and zero (at least 1), with ``margin`` of its height
+    (at least 1) added at both ends. Returns ``((lo, hi), peak)``: ``peak`` is ``max(values)`` when it is
+    above that cap (name it in the legend), else None.
+    """
+    ref, val = np.asarray(reference, dtype=float), np.asarray(values, dtype=float)
+    lo, top = min(float(ref.min()), float(val.min()), 0.0), max(float(ref.max()), 0.0)
+    cap = top + spans * max(top - min(float(ref.min()), 0.0), 1.0)
+    peak = float(val.max())
+    hi = max(top, min(peak, cap))
+    pad = margin * max(hi - lo, 1.0)
+    return (lo - pad, hi + pad), (peak if peak > cap else None)

@@ -16,7 +16,7 @@ import trimesh
 
 from core.models import Cuboid, Prism
 
-__all__ = ["arrow_segments", "ellipsoid_wireframe", "parts_mesh"]
+__all__ = ["arrow_segments", "closed_path_segments", "ellipsoid_wireframe", "parts_mesh"]
 
 #: Rotation (angle, axis) that turns a mesh's z axis onto body axis 0, 1, 2.
 _Z_ONTO = {0: (math.pi / 2, (0.0, 1.0, 0.0)), 1: (-math.pi / 2, (1.0, 0.0, 0.0)), 2: (0.0, (0.0, 0.0, 1.0))}
@@ -97,3 +97,21 @@ def arrow_segments(origins: Any, vectors: Any, *, length: float, half: Any = 0.0
                       where=norm > 0)
     o = np.broadcast_to(o, v.shape)
     return np.stack([o, o + v * scale], axis=-2).astype(np.float32)
+
+
+def closed_path_segments(points: Any, marked: Any) -> np.ndarray | None:
+    """Segments (n, 2, 3) float32 of the closed path through ``points`` (n, 3) along its ``marked`` (n,) stretches
+    (an arc of a contour), for a line-segment node of constant size: the segments from a marked point to a
+    marked next one (a lone marked point: its segment to the next), then the first of them repeated up to n
+    (drawn over it). None when no point is marked.
+    """
+    mark = np.asarray(marked, dtype=bool)
+    if not np.any(mark):
+        return None
+    p = np.asarray(points, dtype=np.float32)
+    segments = np.stack([p, np.roll(p, -1, axis=0)], axis=1)
+    both = mark & np.roll(mark, -1)
+    used = segments[both] if np.any(both) else segments[mark]
+    out = np.repeat(used[:1], p.shape[0], axis=0)
+    out[: used.shape[0]] = used
+    return out

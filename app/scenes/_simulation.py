@@ -93,6 +93,9 @@ class PlotSpec:
     per_chunk : True: the plot shows the whole chunk drawn (its table: one
         period of a periodic motion, one revolution of a run), sent again
         only when the chunk's table changes; False: the plotted window
+    table : ``table(chunk) -> Table``, with ``per_chunk``: the table of the
+        chunk drawn that the plot shows (None: ``chunk.table``), e.g. the
+        closed form a run's chunk is compared with
     """
 
     name: str
@@ -108,6 +111,7 @@ class PlotSpec:
     #: None: uPlot's own y range; a number: the y axis follows the window's data, at least this tall (a flat
     #: series gets a small axis about its value, not uPlot's 0-100)
     y_span: float | None = None
+    table: Callable[[Any], Any] | None = None
 
 
 def power_of_ten(series: Sequence[np.ndarray]) -> int:
@@ -491,7 +495,7 @@ class SimulationScene(PlaybackRequests, Scene):
             return
         t, columns = self._plot_window
         if spec.per_chunk:
-            table = self.last_chunk.table
+            table = self.last_chunk.table if spec.table is None else spec.table(self.last_chunk)
             if self._chunk_plotted.get(what) is table:
                 return
             self._chunk_plotted[what] = table

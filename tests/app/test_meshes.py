@@ -27,3 +27,19 @@ def test_pedestal_stands_on_the_ground_below_its_pivot() -> None:
     assert vertices[:, 2].max() == pytest.approx(-0.05, abs=1e-6)
     assert np.hypot(vertices[:, 0], vertices[:, 1]).max() == pytest.approx(0.25, rel=1e-6)
     assert faces.max() < len(vertices)
+
+
+@pytest.mark.parametrize("roller", [0.0, 0.012])
+def test_translating_follower_sits_on_its_face_or_roller_and_carries_a_seat(roller: float) -> None:
+    from app.meshes import follower_stand, translating_follower
+
+    (vertices, faces), roller_mesh, seat = translating_follower(travel=0.05, face_halfwidth=0.02, roller_radius=roller)
+    assert faces.max() < len(vertices) and vertices[:, 2].max() == pytest.approx(seat + 0.05, abs=1e-6)
+    if roller:
+        r = roller_mesh[0]
+        assert np.hypot(r[:, 0], r[:, 2]).max() == pytest.approx(roller, rel=1e-6) and seat > roller
+    else:
+        assert roller_mesh is None and vertices[:, 2].min() == pytest.approx(0.0, abs=1e-7)
+        assert vertices[:, 0].max() == pytest.approx(0.02, abs=1e-7)
+    stand, _ = follower_stand(0.1, base=-0.085, arm=0.008)
+    assert stand[:, 2].min() == pytest.approx(-0.093, abs=1e-6) and stand[:, 2].max() == pytest.approx(0.108, abs=1e-6)

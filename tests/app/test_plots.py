@@ -4,6 +4,7 @@ period, held by busy frames) and the history's windows."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from app.scenes._plots import History, PlotRefresh, Table
 
@@ -90,3 +91,14 @@ def test_history_windows_and_csv_hold_each_sample_once():
             every, _ = _reference_window(tables, a, b, 10**9)
             rows = history.csv("h", a, b).decode().splitlines()[1:]
             assert [row.split(",")[0] for row in rows] == ["%.15g" % x for x in every]
+
+
+def test_capped_range_keeps_the_reference_readable_and_names_the_cut_peak():
+    from app.scenes._plots import capped_range
+
+    reference = np.array([-20.0, 10.0, 40.0])
+    (lo, hi), peak = capped_range(reference, np.array([0.0, 30.0, 5000.0]))
+    # the cap: 40 + 2 (40 - (-20)) = 160; margins 5 % of 180
+    assert peak == 5000.0 and (lo, hi) == pytest.approx((-20.0 - 9.0, 160.0 + 9.0))
+    (lo, hi), peak = capped_range(reference, np.array([-30.0, 50.0]))
+    assert peak is None and (lo, hi) == pytest.approx((-30.0 - 4.0, 50.0 + 4.0))

@@ -107,3 +107,21 @@ def test_sphere_trail_traces_on_its_sphere_and_marks_the_newest_point(server):
     np.testing.assert_allclose(trail.frame.position, (0.0, -2.0, 0.0))
     trail.clear()
     assert trail.points.shape == (0, 3)
+
+
+def test_closed_path_segments_follow_the_marked_stretches_across_the_start():
+    from app.scenes._shapes import closed_path_segments
+
+    n = 12
+    points = np.column_stack([np.cos(np.arange(n)), np.sin(np.arange(n)), np.zeros(n)])
+    assert closed_path_segments(points, np.zeros(n, bool)) is None
+    marked = np.zeros(n, bool)
+    marked[[10, 11, 0, 1]] = True  # a stretch across the path's first point
+    segments = closed_path_segments(points, marked)
+    assert segments.shape == (n, 2, 3) and segments.dtype == np.float32
+    pairs = {(int(np.argmin(np.linalg.norm(points - a, axis=1))), int(np.argmin(np.linalg.norm(points - b, axis=1))))
+             for a, b in segments}
+    assert pairs == {(10, 11), (11, 0), (0, 1)}  # (the rest repeats the first)
+    lone = np.zeros(n, bool)
+    lone[5] = True
+    np.testing.assert_array_equal(closed_path_segments(points, lone)[0], points[[5, 6]].astype(np.float32))
