@@ -1,21 +1,17 @@
 """Cam-follower scene: a disk cam at constant speed drives a spring-loaded translating follower.
 
-The motion is a :class:`app.scenes._simulation.SimulationScene` whose chunk is one revolution (display time is
-the physical time; *Slow motion* sets the time scale to one turn per so many wall seconds):
+A :class:`~app.scenes._simulation.SimulationScene` whose chunk is one revolution (display time is the physical
+time; *Slow motion* sets the time scale to one turn per so many wall seconds), core's results drawn as they are:
 
-* **Closed form** (default): a periodic motion. Its chunk is the :class:`Revolution`: lift, velocity ``omega s'``,
-  acceleration ``omega^2 s''`` and contact force ``N cos(phi) = m omega^2 s'' + k s + F_0 + m g`` (Eqs.
-  8.95-8.108 reduced to the follower's axis) of :meth:`core.models.CamFollower.kinematics` and
-  :meth:`~core.models.CamFollower.contact_force` at 1440 cam angles, the contact point and common normal of
-  :meth:`~core.models.CamFollower.touch_location`, and the separation intervals (N < 0 past
-  :meth:`~core.models.CamFollower.jump_speed`) of :meth:`~core.models.CamFollower.separation_intervals`. Chunk k
-  is the same table one period later. The sample drawn is on the table's 0.25 deg grid, so the pose and readout
-  are the closed form at the angle shown, to the last digit.
-* **Compliant contact**: :meth:`core.models.CamFollower.simulate` one revolution per chunk (180 outputs), each
-  continuing from the previous one's ``final_state``: the contact constraints (Eqs. 8.90-8.94, kinematic
-  analysis: the System has no degree of freedom on the cam), then a Hunt-Crossley contact after a separation,
-  integrated by DOP853 at rtol 1e-8 (atol 1e-10): against 1e-8, 1e-6 moved the lift by 12-47 um and the impact
-  peaks by 54-175 N, which a plot shows; the cost saved was 20-30 %.
+* **Closed form** (default): :meth:`core.models.CamFollower.revolution` (a :class:`~core.models.CamRevolution`:
+  lift, ``omega s'``, ``omega^2 s''``, ``N cos(phi) = m omega^2 s'' + k s + F_0 + m g``, Eqs. 8.95-8.108 reduced
+  to the follower's axis, contact point and normal, separation intervals) at 1440 cam angles; chunk k is the same
+  table one period later, and the sample drawn is on its 0.25 deg grid: pose and readout are the closed form.
+* **Compliant contact**: :meth:`core.models.CamFollower.simulate` one revolution per chunk (180 outputs), each from
+  the previous one's ``final_state``: the contact constraints (Eqs. 8.90-8.94, kinematic analysis), then a
+  Hunt-Crossley contact after a separation, DOP853 at rtol 1e-8 (atol 1e-10): against 1e-8, 1e-6 moved the lift
+  by 12-47 um and the impact peaks by 54-175 N, which a plot shows, for 20-30 % less cost. A revolution in core's
+  periodic steady state (``CamMotion.periodic``) repeats a period later.
 
 Frames (global, metres): the cam shaft is the global y axis, the profile plane is the x-z plane (profile x ->
 global x, profile y -> global z, as in :meth:`CamFollower.build_system`), the follower slides along +z above the
@@ -34,19 +30,19 @@ import numpy as np
 import trimesh
 
 from app.controls import Choice, Slider, Toggle
-from app.meshes import box, cylinder_z, extrude, helix_tube, pack
+from app.meshes import box, cylinder_z, extrude, follower_stand, pack, translating_follower
 from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from app.readout import significant
 from app.scenes._arrows import vertex_rgb
-from app.scenes._plots import Table, format_rows
+from app.scenes._bodies import CoilSpring
+from app.scenes._plots import Table, capped_range, format_rows
+from app.scenes._shapes import closed_path_segments
 from app.scenes._simulation import PlotSpec, SimulationScene
-from app.scenes.base import PRESENTER_LINE_SCALE
 from core import ArgumentError
-from core.models import CamFollower, CamProfile, smallest_convex_rise
+from core.models import CamFollower, CamMotion, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
 
-__all__ = ["CSV_HEADER", "CamFollowerScene", "CamRefused", "FOLLOWERS", "Inputs", "PROFILES", "REVOLUTION_SAMPLES",
-           "RUN_SAMPLES", "Revolution", "RunChunk", "build_cam", "compute_chunk", "compute_revolution",
-           "run_force_range", "run_plot_angles"]
+__all__ = ["CSV_HEADER", "CamFollowerScene", "Chunk", "FOLLOWERS", "Inputs", "Layout", "PROFILES",
+           "REVOLUTION_SAMPLES", "RUN_SAMPLES", "build_cam", "compute_chunk", "compute_revolution", "layout"]
 
 PROFILES = ("Eccentric circle", "Rise-dwell-return, cycloidal", "Rise-dwell-return, harmonic",
             "Rise-dwell-return, 3-4-5")
@@ -56,20 +52,13 @@ ECCENTRIC_RADIUS, ECCENTRICITY = 0.04, 0.01  # m
 BASE_RADIUS, LIFT, DWELL_DEG = 0.04, 0.02, 30.0  # rise-dwell-return cams (m, m, deg)
 _RISE_DEG, _ROLLER_MM = (30.0, 150.0), (2.0, 40.0)  # slider ranges
 GRAVITY = 9.81  # m/s^2 along the follower axis towards the cam
-REVOLUTION_SAMPLES = 1440  # closed-form table: every 0.25 deg
-_STEP = 2.0 * math.pi / REVOLUTION_SAMPLES
-RUN_SAMPLES = 180  # outputs per revolution of the compliant run
-_RUN_RTOL, _RUN_ATOL = 1e-8, 1e-10  # the compliant run's DOP853 (module docstring)
-_CONTACT = {"contact_stiffness": 1e8, "contact_damping": 0.5}  # Hunt-Crossley, N/m^1.5 and s/m
-_CONTOUR_POINTS = 720
+REVOLUTION_SAMPLES, RUN_SAMPLES, _CONTOUR_POINTS = 1440, 180, 720  # per revolution: table, run outputs, contour
+_RUN = {"on_separation": "compliant", "rtol": 1e-8, "atol": 1e-10,  # (module docstring); Hunt-Crossley N/m^1.5, s/m
+        "contact_stiffness": 1e8, "contact_damping": 0.5}
 CSV_HEADER = "cam angle (deg),lift (m),velocity (m/s),acceleration (m/s^2),contact force (N)"
-# drawing (m): the cam is 12 mm thick; the contact marks lie in front of it (y = _Y_FRONT)
-_CAM_THICKNESS, _Y_FRONT, _FOLLOWER_DEPTH, _STEM_RADIUS = 0.012, -0.012, 0.014, 0.004
-_COLLAR_RADIUS, _COLLAR_THICKNESS, _ARM_THICKNESS, _BASE_Z, _COLUMN_X = 0.015, 0.003, 0.008, -0.085, -0.095
-_SPRING = {"radius": 0.011, "turns": 7}
-_SPRING_WIRE, _SPRING_MIN_LENGTH = 0.0011, 0.045
-#: the drawn spring is solid (its coils touch, as thick as in presenter view): a run flying higher stops
-_SPRING_SOLID = 2.0 * _SPRING["turns"] * _SPRING_WIRE * PRESENTER_LINE_SCALE
+# drawing (m): the cam is 12 mm thick, the contact marks lie in front of it (y = _Y_FRONT); the spring is never
+# drawn shorter than _SPRING_MIN_LENGTH on the cam
+_CAM_THICKNESS, _Y_FRONT, _SPRING_MIN_LENGTH, _ARM, _BASE_Z = 0.012, -0.012, 0.045, 0.008, -0.085
 _ARROW_MAX, _ARROW_HALF, _NORMAL_HALF = 0.045, 40.0, 0.03  # m, N, m
 _CAM_COLOR, _HUB_COLOR, _FOLLOWER_COLOR = (150, 156, 172), (70, 72, 84), (196, 160, 84)
 _ROLLER_COLOR, _STAND_COLOR, _SPRING_COLOR = (96, 100, 114), (188, 190, 198), (60, 60, 72)
@@ -90,294 +79,151 @@ class Inputs:
     roller_mm: float = 10.0
     compliant: bool = False
 
-    @property
-    def speed(self) -> float:
-        """Cam speed omega (rad/s)."""
-        return self.rpm * math.pi / 30.0
+    speed = property(lambda self: self.rpm * math.pi / 30.0, doc="Cam speed omega (rad/s).")
 
     def geometry_key(self) -> tuple:
         law, roller = _LAWS.get(self.profile), self.follower == FOLLOWERS[1]
         return (law, "roller" if roller else "flat", self.rise_deg if law else None, self.roller_mm if roller else None)
 
-    def model_key(self) -> tuple:
-        return (*self.geometry_key(), self.mass, self.stiffness, self.preload)
-
-
-class CamRefused(ValueError):
-    """Core refused the cam of the panel's values (the message in the panel's terms)."""
-
 
 def build_cam(inputs: Inputs) -> CamFollower:
-    """The :class:`core.models.CamFollower` of ``inputs``; :class:`CamRefused` in the panel's terms (rise = fall
-    in degrees, roller in mm) with the value that works, from core's ``ArgumentError.argument``."""
-    key = inputs.model_key()
+    """The :class:`core.models.CamFollower` of ``inputs``, or a ValueError in the panel's terms (rise = fall in
+    degrees, roller in mm) naming the value that works, chosen by core's ``ArgumentError.argument``."""
+    law, _, rise, roller = key = inputs.geometry_key()
     try:
-        return _cam(key)
+        return _cam(key, inputs.mass, inputs.stiffness, inputs.preload)
     except ArgumentError as exc:
-        law, kind, rise, roller, *rest = key
-        if exc.argument == "roller_radius" and law:
-            largest = _cam((law, kind, rise, 1.0, *rest)).largest_roller_radius() if rise else 0.0
-            if largest * 1000.0 >= _ROLLER_MM[0]:
-                raise CamRefused(f"Roller radius: a {roller:g} mm roller would undercut this cam (rise = fall = "
-                                 f"{rise:g}°; the roller centre's path curves more sharply than the roller); use a "
-                                 f"roller of at most {math.floor(largest * 2000.0) / 2.0:g} mm or a longer rise") from exc
+        if exc.argument == "roller_radius" and law and (r := largest_roller_radius(_profile(law, rise))) >= 1e-3 * _ROLLER_MM[0]:
+            raise ValueError(f"Roller radius: a {roller:g} mm roller would undercut this cam (rise = fall = {rise:g}°; "
+                             "the roller centre's path curves more sharply than the roller); use a roller of at most "
+                             f"{math.floor(r * 2000.0) / 2.0:g} mm or a longer rise") from exc
         if exc.argument == "base_radius" and law:
             fits = math.ceil(math.degrees(smallest_convex_rise(BASE_RADIUS, LIFT, math.radians(DWELL_DEG), law)))
             advice = f"a rise of at least {fits}° or " if fits <= _RISE_DEG[1] else ""
-            raise CamRefused(f"Flat-faced follower: at rise = fall = {rise:g}° the cam would not be convex (its radius "
+            raise ValueError(f"Flat-faced follower: at rise = fall = {rise:g}° the cam would not be convex (its radius "
                              f"of curvature R_b + s + s″ turns negative, and a flat face would bridge the hollow); use "
                              f"{advice}the roller follower") from exc
-        raise CamRefused(str(exc)) from exc
+        raise
+
+
+def _profile(law: str | None, rise_deg: float | None) -> CamProfile:
+    if law is None:
+        return CamProfile.eccentric(radius=ECCENTRIC_RADIUS, eccentricity=ECCENTRICITY)
+    rise = math.radians(rise_deg)
+    return CamProfile.rise_dwell_return(base_radius=BASE_RADIUS, lift=LIFT, rise=rise, dwell=math.radians(DWELL_DEG),
+                                        fall=rise, law=law)
 
 
 @functools.lru_cache(maxsize=256)
-def _cam(key: tuple) -> CamFollower:
-    law, kind, rise_deg, roller_mm, mass, stiffness, preload = key
-    profile = (CamProfile.eccentric(radius=ECCENTRIC_RADIUS, eccentricity=ECCENTRICITY) if law is None else
-               CamProfile.rise_dwell_return(base_radius=BASE_RADIUS, lift=LIFT, rise=math.radians(rise_deg),
-                                            dwell=math.radians(DWELL_DEG), fall=math.radians(rise_deg), law=law))
-    return CamFollower(profile, follower=kind, roller_radius=roller_mm / 1000.0 if roller_mm else 0.0, mass=mass,
+def _cam(key: tuple, mass: float = 0.5, stiffness: float = 2000.0, preload: float = 20.0) -> CamFollower:
+    law, kind, rise_deg, roller_mm = key
+    return CamFollower(_profile(law, rise_deg), follower=kind, roller_radius=(roller_mm or 0.0) / 1000.0, mass=mass,
                        stiffness=stiffness, preload=preload, gravity=GRAVITY)
 
 
 @dataclasses.dataclass(frozen=True)
-class Geometry:
-    """Meshes ``(vertices, faces)`` of a cam shape and follower: the cam in its body frame (profile = body x-y),
-    the follower parts in the follower's frame (origin at the face or the roller's centre), the stand global."""
+class Layout:
+    """What is drawn of a cam and follower: meshes ``(vertices, faces)``, the cam's in its body frame (profile =
+    body x-y), the follower's in its frame (:func:`app.meshes.translating_follower`), the stand's global; metres."""
 
-    key: tuple
-    cam_mesh: tuple
-    follower_mesh: tuple
-    roller_mesh: tuple | None
-    stand_mesh: tuple
-    contour: np.ndarray  # (_CONTOUR_POINTS, 2) the cam's contour (body frame, m)
-    pitch_height: float  # m: global z of the follower's origin at zero lift
-    spring_seat: float  # m above the follower's origin
-    spring_top: float  # m, global z
-    label_follower: float  # m, global z
+    key: tuple  # Inputs.geometry_key()
+    contour: np.ndarray  # (_CONTOUR_POINTS, 2) the cam's contour (core's cam_curve), body frame
+    cam: tuple
+    follower: tuple
+    roller: tuple | None
+    stand: tuple
+    pitch_height: float  # global z of the follower's origin at zero lift
+    seat: float  # the spring's seat above the follower's origin
+    spring_top: float  # global z
+    stem_top: float  # global z at zero lift
+    spring_length: float  # the spring's length in the middle of its travel (its mesh is built at it)
 
 
 @functools.lru_cache(maxsize=32)
-def _geometry(key: tuple) -> Geometry:
-    law, kind, rise_deg, roller_mm = key
-    cam = _cam((*key, 0.5, 2000.0, 20.0))
+def layout(key: tuple) -> Layout:
+    """The :class:`Layout` of ``Inputs.geometry_key()`` (its follower must fit the cam: :func:`build_cam`)."""
+    cam = _cam(key)
     u = np.arange(_CONTOUR_POINTS) * (2.0 * math.pi / _CONTOUR_POINTS)
-    contour, kin = np.array(cam.cam_curve(u).point), cam.kinematics(u)
-    pitch_height = float(cam.pitch_curve(0.0).point[1])
-    if kind == "flat":  # the face reaches past the farthest contact point, |s'| from the axis
-        w = float(np.max(np.abs(kin.dlift))) + 0.008
-        lower, stem_start, roller_mesh = [box((-w, -_FOLLOWER_DEPTH / 2, 0.0), (w, _FOLLOWER_DEPTH / 2, 0.004))], 0.004, None
-    else:
-        r = roller_mm / 1000.0
-        parts = [trimesh.creation.cylinder(radius=r, height=0.010, sections=64),
-                 trimesh.creation.cylinder(radius=min(0.0025, 0.5 * r), height=0.016, sections=16)]
-        for part in parts:
-            part.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, (1.0, 0.0, 0.0)))
-        roller_mesh, stem_start = pack(trimesh.util.concatenate(parts)), r + 0.004
-        lower = [box((-0.004, y0, -0.002), (0.004, y1, stem_start)) for y0, y1 in ((-0.0075, -0.0055), (0.0055, 0.0075))]
-        lower.append(box((-0.006, -0.0075, stem_start - 0.003), (0.006, 0.0075, stem_start)))
-    seat = stem_start + 0.03
-    spring_top = pitch_height + float(np.max(kin.lift)) + seat + _COLLAR_THICKNESS + _SPRING_MIN_LENGTH
-    stem_top, arm_top = spring_top - pitch_height + _ARM_THICKNESS + 0.015, spring_top + _ARM_THICKNESS
-    follower = trimesh.util.concatenate(lower + [cylinder_z(_STEM_RADIUS, stem_start, stem_top),
-                                                 cylinder_z(_COLLAR_RADIUS, seat, seat + _COLLAR_THICKNESS, 40)])
-    hub = trimesh.creation.cylinder(radius=0.013, segment=np.array([[0.0, 0.009, 0.0], [0.0, 0.03, 0.0]]), sections=40)
-    stand = trimesh.util.concatenate([  # base plate, bearing pedestal, hub, column, the arm guiding the stem
-        box((-0.12, -0.04, _BASE_Z - 0.008), (0.09, 0.045, _BASE_Z)), box((-0.012, 0.012, _BASE_Z), (0.012, 0.03, 0.0)),
-        hub, box((_COLUMN_X - 0.007, 0.015, _BASE_Z), (_COLUMN_X + 0.007, 0.03, arm_top)),
-        box((_COLUMN_X - 0.007, -0.012, spring_top), (0.02, 0.03, arm_top))])
-    return Geometry(key, pack(extrude(contour, -_CAM_THICKNESS / 2, _CAM_THICKNESS / 2)), pack(follower),
-                    roller_mesh, pack(stand), contour.astype(np.float32), pitch_height, seat + _COLLAR_THICKNESS,
-                    spring_top, pitch_height + stem_top)
+    contour, kin, pitch = np.asarray(cam.cam_curve(u).point), cam.kinematics(u), float(cam.pitch_curve(0.0).point[1])
+    top = float(np.max(kin.lift))
+    travel = top + _SPRING_MIN_LENGTH + _ARM + 0.015  # the stem's length above the spring's seat
+    follower, roller, seat = translating_follower(  # a flat face reaches past the farthest contact point, |s'|
+        travel=travel, face_halfwidth=float(np.max(np.abs(kin.dlift))) + 0.008, roller_radius=cam.roller_radius)
+    spring_top = pitch + top + seat + _SPRING_MIN_LENGTH
+    return Layout(key, contour.astype(np.float32), pack(extrude(contour, -_CAM_THICKNESS / 2, _CAM_THICKNESS / 2)),
+                  follower, roller, follower_stand(spring_top, base=_BASE_Z, arm=_ARM), pitch, seat, spring_top,
+                  pitch + seat + travel, 0.5 * (top + 2.0 * _SPRING_MIN_LENGTH))
 
 
 @dataclasses.dataclass(frozen=True)
-class Revolution:
-    """Chunk ``k`` of the closed-form motion: one revolution at constant speed, rows ``i = 0 .. n`` at cam angles
-    ``i 2 pi / n`` (n = :data:`REVOLUTION_SAMPLES`), times ``t = (k + i / n) T``; points and normals global x-z."""
+class Chunk:
+    """Revolution ``k`` of the motion, rows at times ``t``: the closed form (``closed``: core's table of the
+    revolution, rows every 0.25 deg) or the compliant run (``run``: core's run over the revolution, 180 outputs)."""
 
     k: int
-    t: np.ndarray  # (n + 1,) s
-    table: Table  # t; the plotted columns
-    inputs: Inputs  # (compliant False: the closed form's inputs)
-    speed: float  # rad/s
-    jump_speed: float  # rad/s
-    lift: np.ndarray  # (n + 1,) m
-    velocity: np.ndarray  # (n + 1,) m/s
-    acceleration: np.ndarray  # (n + 1,) m/s^2
-    force: np.ndarray  # (n + 1,) N, > 0 pressing
-    force_at_jump: np.ndarray  # (n + 1,) N at the jump speed
-    contact: np.ndarray  # (n + 1, 2) m
-    normal: np.ndarray  # (n + 1, 2)
-    follower_z: np.ndarray  # (n + 1,) m
-    separations: tuple  # cam-angle intervals (rad) where N < 0
-    separation_segments: np.ndarray | None  # (720, 2, 3) the intervals on the cam's contour (body frame)
-    min_force: tuple[float, float]  # (N, rad)
-    geometry: Geometry
+    t: np.ndarray  # (n,) s
+    table: Table  # t; closed: cam angle (deg), lift (mm), v, a, N, N at the jump speed; run: the angle in the
+    inputs: Inputs  # revolution (deg), cam lift and follower lift (mm), closed-form and run force (N)
+    closed: CamRevolution | None = None
+    run: CamMotion | None = None
+    revolution: Chunk | None = None  # the closed form's chunk 0 (run revolution 0 only; else None)
 
-    @property
-    def revolution(self) -> Revolution:
-        return self
-
-    @staticmethod
-    def angle(i: int) -> float:
-        return i * _STEP
-
-    def later(self, k: int) -> Revolution:
-        """Chunk ``k``: the same revolution ``k - self.k`` periods later."""
-        t = self.t + (k - self.k) * 2.0 * math.pi / self.speed
+    def later(self, k: int) -> Chunk:
+        """Chunk ``k``: this revolution ``k - self.k`` periods later."""
+        t = self.t + (k - self.k) * 2.0 * math.pi / self.inputs.speed
         return dataclasses.replace(self, k=k, t=t, table=Table.build(t, self.table.columns))
-
-    def csv(self) -> bytes:
-        """:data:`CSV_HEADER`, then one row per 0.25 deg (15 significant digits)."""
-        n = REVOLUTION_SAMPLES
-        rows = format_rows(np.arange(n) * (360.0 / n),
-                           np.column_stack([self.lift, self.velocity, self.acceleration, self.force])[:n])
-        return ("\n".join((CSV_HEADER, *rows)) + "\n").encode()
 
 
 @functools.lru_cache(maxsize=8)
-def compute_revolution(inputs: Inputs) -> Revolution:
-    """Chunk 0 of the closed form of ``inputs`` (on the executor); :class:`CamRefused` for a cam core refuses."""
+def compute_revolution(inputs: Inputs) -> Chunk:
+    """Revolution 0 of the closed form of ``inputs`` (on the executor)."""
     inputs = dataclasses.replace(inputs, compliant=False)
     rev = build_cam(inputs).revolution(inputs.speed, samples=REVOLUTION_SAMPLES)
-    geometry = _geometry(inputs.geometry_key())
-    arrays = [rev.lift, rev.velocity, rev.acceleration, rev.contact_force, rev.force_at_jump, rev.contact_point,
-              rev.contact_normal, geometry.pitch_height + rev.lift]
-    if not all(np.all(np.isfinite(a)) for a in arrays):
-        raise CamRefused("the closed form gave a non-finite value; choose other parameters")
-    t = rev.theta / rev.speed
-    columns = np.column_stack([np.degrees(rev.theta), 1000.0 * rev.lift, *arrays[1:5]])
-    return Revolution(0, t, Table.build(t, columns), inputs, rev.speed, rev.jump_speed, *arrays, rev.separations,
-                      _separation_segments(geometry.contour, rev.separations), rev.min_force, geometry)
+    columns = np.column_stack([np.degrees(rev.theta), 1000.0 * rev.lift, rev.velocity, rev.acceleration,
+                               rev.contact_force, rev.force_at_jump])
+    if not (np.all(np.isfinite(columns)) and np.all(np.isfinite(rev.contact_point))):
+        raise ValueError("the closed form gave a non-finite value; choose other parameters")
+    return Chunk(0, rev.theta / rev.speed, Table.build(rev.theta / rev.speed, columns), inputs, rev)
 
 
-def closed_form_chunk(inputs: Inputs, k: int, previous: Revolution | None) -> Revolution:
-    """Chunk ``k`` of the closed form: the revolution of ``inputs``, ``k`` periods on (the motion is periodic)."""
+def closed_form_chunk(inputs: Inputs, k: int, previous: Chunk | None) -> Chunk:
+    """Chunk ``k`` of the closed form: revolution 0 of ``inputs``, ``k`` periods on (the motion is periodic)."""
     revolution = previous or compute_revolution(inputs)
     return revolution if revolution.k == k else revolution.later(k)
 
 
-@dataclasses.dataclass(frozen=True)
-class RunChunk:
-    """Revolution ``k`` of the compliant run, outputs ``t = k T + j T / RUN_SAMPLES`` (points global x-z)."""
-
-    k: int
-    t: np.ndarray  # (n,) s
-    table: Table  # t; cam angle in the revolution (deg), cam lift and lift (mm), closed-form and run force (N)
-    revolution: Revolution | None  # the closed form (revolution 0 only)
-    theta: np.ndarray  # (n,) rad
-    follower_z: np.ndarray  # (n,) m
-    lift: np.ndarray  # (n,) m
-    cam_lift: np.ndarray  # (n,) m, the closed-form lift under the follower
-    force: np.ndarray  # (n,) N
-    closed_force: np.ndarray  # (n,) N
-    point: np.ndarray  # (n, 2) m
-    normal: np.ndarray  # (n, 2)
-    gap: np.ndarray  # (n,) m
-    constraint: np.ndarray  # (n,) bool
-    separations: np.ndarray  # (m,) s: separations and gap openings
-    landings: np.ndarray  # (m,) s: gap closings
-    final_state: Any  # core's RunState to continue from
-    periodic: bool  # core's CamMotion.periodic: the next revolution repeats this one
-
-    @property
-    def t0(self) -> float:
-        return float(self.t[0])
-
-    @property
-    def h(self) -> float:
-        return float(self.t[1] - self.t[0])
-
-
-def compute_chunk(inputs: Inputs, k: int, previous: RunChunk | None) -> RunChunk:
+def compute_chunk(inputs: Inputs, k: int, previous: Chunk | None) -> Chunk:
     """Revolution ``k`` of the compliant run of ``inputs`` (on the executor): :meth:`CamFollower.simulate`
-    continuing from ``previous.final_state`` (revolution ``k - 1``). A revolution that stayed on the cam repeats
-    (the System has no degree of freedom there): the next is the same one a period later."""
+    continuing from ``previous.run.final_state`` (revolution ``k - 1``), or ``previous`` a period later when that
+    run is periodic (core's ``CamMotion.periodic``: on the cam throughout, it has no degree of freedom there)."""
     if k > 0 and (previous is None or previous.k != k - 1):
         raise ValueError(f"previous: revolution {k} continues from revolution {k - 1}, which was not given")
-    w = inputs.speed
-    period = 2.0 * math.pi / w
-    if previous is not None and previous.periodic:
-        t = previous.t + period
-        return dataclasses.replace(previous, k=k, t=t, theta=w * t, revolution=None,
-                                   table=Table.build(t, previous.table.columns))
-    cam = build_cam(inputs)
-    times = (k + np.arange(RUN_SAMPLES + 1) / RUN_SAMPLES) * period
-    run = cam.simulate(w, times, model="constraint", on_separation="compliant", rtol=_RUN_RTOL, atol=_RUN_ATOL,
-                       initial=None if previous is None else previous.final_state, **_CONTACT)
+    if previous is not None and previous.run.periodic:
+        return dataclasses.replace(previous.later(k), revolution=None)
+    cam, w = build_cam(inputs), inputs.speed
+    times = (k + np.arange(RUN_SAMPLES + 1) / RUN_SAMPLES) * 2.0 * math.pi / w
+    run = cam.simulate(w, times, initial=None if previous is None else previous.run.final_state, **_RUN)
     for name in ("lift", "contact_force", "contact_point", "gap"):
         if not np.all(np.isfinite(getattr(run, name))):
             raise ValueError(f"{name}: the run left the finite range in revolution {k + 1}")
-    theta, force = run.cam_angle, run.contact_force
-    cam_lift, closed = cam.kinematics(theta).lift, np.asarray(cam.contact_force(theta, w))
-    table = Table.build(run.t, np.column_stack([np.round(np.degrees(theta) - 360.0 * k, 9), 1000.0 * cam_lift,
-                                                1000.0 * run.lift, closed, force]))
-    return RunChunk(k, run.t, table, compute_revolution(inputs) if k == 0 else None, theta,
-                    run.lift + _geometry(inputs.geometry_key()).pitch_height, run.lift, cam_lift, force, closed,
-                    run.contact_point[:, [0, 2]], run.contact_normal[:, [0, 2]], run.gap, run.constraint,
-                    run.separations[:, 0], run.landings[:, 0], run.final_state, run.periodic)
-
-
-def run_plot_angles(chunk: RunChunk) -> np.ndarray:
-    """The run plots' x: the cam angle in the revolution (deg), rounded to 1e-9 deg (uPlot drops the 0 tick
-    for 5.7e-14)."""
-    return chunk.table.columns[:, 0]
-
-
-def run_force_range(chunk: RunChunk) -> tuple[tuple[float, float], float | None]:
-    """The run force plot's y range (N) and the off-scale peak (N) or None (:func:`_force_range`)."""
-    return _force_range(chunk.closed_force, chunk.force)
-
-
-def _force_range(closed: np.ndarray, force: np.ndarray) -> tuple[tuple[float, float], float | None]:
-    """Zero, the closed form and the run's force up to twice the closed form's span above its top (a landing's
-    impact reaches kilonewtons against tens of newtons), with 5 % margins."""
-    lo, top = min(float(closed.min()), float(force.min()), 0.0), max(float(closed.max()), 0.0)
-    cap = top + 2.0 * max(top - min(float(closed.min()), 0.0), 1.0)
-    peak = float(force.max())
-    hi = max(top, min(peak, cap))
-    pad = 0.05 * max(hi - lo, 1.0)
-    return (lo - pad, hi + pad), (peak if peak > cap else None)
-
-
-def _separation_segments(contour: np.ndarray, intervals: tuple) -> np.ndarray | None:
-    """(n, 2, 3) segments of the contour over the separation intervals on the cam's front face (body frame; unused
-    ones repeat the first), or None."""
-    n = contour.shape[0]
-    u = np.arange(n) * (2.0 * math.pi / n)
-    mask = np.zeros(n, dtype=bool)
-    for a, b in intervals:
-        mask |= ((u - a) % (2.0 * math.pi)) <= (b - a)
-    if not np.any(mask):
-        return None
-    pts = np.column_stack([contour, np.full(n, _CAM_THICKNESS / 2 + 0.0006)]).astype(np.float32)
-    seg = np.stack([pts, np.roll(pts, -1, axis=0)], axis=1)
-    used = seg[mask & np.roll(mask, -1)] if np.any(mask & np.roll(mask, -1)) else seg[mask]
-    out = np.repeat(used[:1], n, axis=0)
-    out[: used.shape[0]] = used
-    return out
+    theta = run.cam_angle  # (the plots' x rounded to 1e-9 deg: uPlot drops the 0 tick for 5.7e-14)
+    columns = np.column_stack([np.round(np.degrees(theta) - 360.0 * k, 9), 1000.0 * cam.kinematics(theta).lift,
+                               1000.0 * run.lift, cam.contact_force(theta, w), run.contact_force])
+    return Chunk(k, run.t, Table.build(run.t, columns), inputs, run=run,
+                 revolution=compute_revolution(inputs) if k == 0 else None)
 
 
 def _deg(theta: float) -> float:
     return math.degrees(theta % (2.0 * math.pi))
 
 
-def _newtons(x: float) -> str:
-    return f"{x / 1000.0:.1f} kN" if abs(x) >= 1000.0 else f"{x:.0f} N"
-
-
-_SHADE = {"label": "N < 0", "stroke": "rgba(150, 60, 200, 0)", "fill": "rgba(150, 60, 200, 0.3)", "width": 1}
-_CLOSED_PLOTS = {  # name: (title, series after x, column of the table (y), scale)
-    "lift": ("lift s (mm)", ({"label": "s (mm)", "stroke": "#2266dd", "width": 2}, _SHADE), 1),
-    "velocity": ("velocity ω s′ (m/s)", ({"label": "v (m/s)", "stroke": "#0f766e", "width": 2}, _SHADE), 2),
-    "acceleration": ("acceleration ω² s″ (m/s²)", ({"label": "a (m/s²)", "stroke": "#c2410c", "width": 2}, _SHADE), 3),
-    "force": ("contact force N (N)", ({"label": "N (N)", "stroke": "#d97706", "width": 2},
-                                      {"label": "N = 0", "stroke": "#555555", "dash": [6, 4], "width": 1},
-                                      {"label": "N at jump speed", "stroke": "#888888", "dash": [3, 3], "width": 1},
-                                      _SHADE), 4),
-}
-_RUN_FORCE_LABEL = "System (N)"
+_SHADE = ("N < 0", "rgba(150, 60, 200, 0)", {"fill": "rgba(150, 60, 200, 0.3)", "width": 1})
+_CLOSED_PLOTS = {  # name: (title, first series, column of the closed table)
+    "lift": ("lift s (mm)", ("s (mm)", "#2266dd"), 1), "velocity": ("velocity ω s′ (m/s)", ("v (m/s)", "#0f766e"), 2),
+    "acceleration": ("acceleration ω² s″ (m/s²)", ("a (m/s²)", "#c2410c"), 3),
+    "force": ("contact force N (N)", ("N (N)", "#d97706"), 4)}
+_FORCE_MORE = (("N = 0", "#555555", {"dash": [6, 4], "width": 1}), ("N at jump speed", "#888888",
+                                                                     {"dash": [3, 3], "width": 1}))
 
 
 class CamFollowerScene(SimulationScene):
@@ -426,19 +272,15 @@ class CamFollowerScene(SimulationScene):
     camera_position: ClassVar[tuple[float, float, float]] = (0.12, -0.27, 0.10)
     camera_look_at: ClassVar[tuple[float, float, float]] = (0.075, 0.0, 0.055)
     Inputs = Inputs
-    chunks_kept = 4
-    refresh_period = 0.2
-    csv_header = CSV_HEADER
+    chunks_kept, refresh_period, csv_header, refusal_title = 4, 0.2, CSV_HEADER, "Cam refused"
 
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
         super().__init__(target, notify, context=context)
-        self.revolution: Revolution | None = None  # the closed form in use
+        self.revolution: Chunk | None = None  # the closed form in use (its chunk 0)
         self.revision, self.drawn_revision = 0, -1  # revolutions swapped in; the one drawn last
-        self.geometry = _geometry(Inputs().geometry_key())
-        self.run_chunk: RunChunk | None = None
+        self.layout, self.run_chunk = layout(Inputs().geometry_key()), None
         self.cam_angle = self.force = self.follower_z = 0.0  # drawn: rad, N, m
         self.index = 0  # closed-form table row drawn
-        self._pending: list[str] = []  # meshes, info, marks, closed-form plots: one per frame
         self._angle: float | None = None  # a loaded cam angle (rad), applied at the next frame
         self._arrow_sent, self._thrown, self._reconfigure = (0.0, True), False, False
 
@@ -447,55 +289,49 @@ class CamFollowerScene(SimulationScene):
     def job(self, inputs: Inputs, segment: Any) -> Any:
         return functools.partial(compute_chunk if inputs.compliant else closed_form_chunk, inputs)
 
+    def check_inputs(self, inputs: Inputs) -> None:
+        build_cam(inputs)  # (a refusal in the panel's terms)
+
     # -- nodes and controls ------------------------------------------------------------------
     def build_nodes(self) -> None:
-        scene, root, flat = self.target.scene, self.root, self.geometry
-        roller = _geometry(Inputs(follower=FOLLOWERS[1]).geometry_key())
+        scene, root, flat = self.target.scene, self.root, self.layout
+        roller = layout(Inputs(follower=FOLLOWERS[1]).geometry_key())
         self.add_ground_grid(width=0.6, height=0.4, position=(0.0, 0.0, _BASE_Z - 0.0081), cell_size=0.01,
                              section_size=0.05)
-        self.stand = scene.add_mesh_simple(f"{root}/stand", *flat.stand_mesh, color=_STAND_COLOR)
+        self.stand = scene.add_mesh_simple(f"{root}/stand", *flat.stand, color=_STAND_COLOR)
         scene.add_frame(f"{root}/cam_plane", show_axes=False, wxyz=(math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0))
         self.cam_frame = scene.add_frame(f"{root}/cam_plane/cam", show_axes=False)
-        self.cam_mesh = scene.add_mesh_simple(f"{root}/cam_plane/cam/body", *flat.cam_mesh, color=_CAM_COLOR)
+        self.cam_mesh = scene.add_mesh_simple(f"{root}/cam_plane/cam/body", *flat.cam, color=_CAM_COLOR)
         hub = trimesh.util.concatenate([cylinder_z(0.006, -0.022, _CAM_THICKNESS / 2 + 0.004),  # shaft, index stripe
                                         box((-0.0015, 0.008, _CAM_THICKNESS / 2), (0.0015, 0.028, 0.0068))])
         scene.add_mesh_simple(f"{root}/cam_plane/cam/hub", *pack(hub), color=_HUB_COLOR)
-        n = _CONTOUR_POINTS
-        self.separation_arc = self.add_lines(f"{root}/cam_plane/cam/separation", np.zeros((n, 2, 3), np.float32),
-                                             np.full((n, 2, 3), _PULL_COLOR, np.uint8), thickness=5.0,
+        self.separation_arc = self.add_lines(f"{root}/cam_plane/cam/separation", np.zeros((_CONTOUR_POINTS, 2, 3)),
+                                             vertex_rgb(np.full((_CONTOUR_POINTS, 2, 3), _PULL_COLOR)), thickness=5.0,
                                              thickness_units="screen", visible=False)
         self.follower_frame = scene.add_frame(f"{root}/follower", show_axes=False, position=(0, 0, flat.pitch_height))
-        self.follower_meshes = {
-            "flat": scene.add_mesh_simple(f"{root}/follower/flat", *flat.follower_mesh, color=_FOLLOWER_COLOR),
-            "roller": scene.add_mesh_simple(f"{root}/follower/fork", *roller.follower_mesh, color=_FOLLOWER_COLOR,
-                                            visible=False)}
-        self.roller_mesh = scene.add_mesh_simple(f"{root}/follower/roller", *roller.roller_mesh, color=_ROLLER_COLOR,
+        self.follower_meshes = {"flat": scene.add_mesh_simple(f"{root}/follower/flat", *flat.follower,
+                                                              color=_FOLLOWER_COLOR),
+                                "roller": scene.add_mesh_simple(f"{root}/follower/fork", *roller.follower,
+                                                                color=_FOLLOWER_COLOR, visible=False)}
+        self.roller_mesh = scene.add_mesh_simple(f"{root}/follower/roller", *roller.roller, color=_ROLLER_COLOR,
                                                  visible=False)
-        # one wire mesh, moved and stretched along z every frame (a position and a scale)
-        self._spring_reference = self._spring_length(flat)
-        self.spring = scene.add_batched_meshes_simple(
-            f"{root}/spring", *helix_tube(self._spring_reference, self.spring_wire_radius, **_SPRING),
-            batched_wxyzs=np.array([[1.0, 0.0, 0.0, 0.0]]), batched_positions=np.zeros((1, 3)),
-            batched_scales=np.ones((1, 3)), batched_colors=_SPRING_COLOR, lod="off", side="double")
+        self.spring = CoilSpring(self, f"{root}/spring", radius=0.011, turns=7, wire=0.0011, color=_SPRING_COLOR,
+                                 length=flat.spring_length)
         self.contact_frame = scene.add_frame(f"{root}/contact", show_axes=False)
         # at the contact point, +z along the common normal: one pose moves the dot, the normal and the arrow
         self.contact_point = scene.add_frame(f"{root}/contact/point", show_axes=False)
         scene.add_icosphere(f"{root}/contact/point/dot", radius=0.0026, color=_POINT_COLOR, subdivisions=2)
-        self.normal_line = self.add_lines(f"{root}/contact/point/normal",
-                                          np.array([[(0, 0, -_NORMAL_HALF), (0, 0, _NORMAL_HALF)]], np.float32),
-                                          np.full((1, 2, 3), _NORMAL_COLOR, np.uint8), thickness=2.5,
-                                          thickness_units="screen")
+        self.normal_line = self.add_lines(f"{root}/contact/point/normal", [[(0, 0, -_NORMAL_HALF), (0, 0, _NORMAL_HALF)]],
+                                          vertex_rgb([[_NORMAL_COLOR] * 2]), thickness=2.5, thickness_units="screen")
         self.arrow = self.add_arrows(f"{root}/contact/point/force", np.zeros((1, 2, 3), np.float32),
                                      vertex_rgb([_FORCE_COLOR]), shaft_radius=0.0016, head_radius=0.004,
                                      head_length=0.008)
         self.force_label = self.add_label(f"{root}/contact/label", "N", anchor="top-right", scale=1.3)
-        self.labels = {
-            "cam": self.add_label(f"{root}/label_cam", "cam (turns at ω)", position=(-0.048, _Y_FRONT, -0.03),
-                                  anchor="center-right", scale=1.3),
-            "follower": self.add_label(f"{root}/label_follower", "follower", anchor="center-left", scale=1.3,
-                                       position=(0.008, _Y_FRONT, flat.label_follower - 0.004)),
-            "spring": self.add_label(f"{root}/label_spring", "spring k, F0", anchor="center-left", scale=1.3,
-                                     position=(0.016, _Y_FRONT, flat.spring_top - 0.02))}
+        self.labels = {name: self.add_label(f"{root}/label_{name}", text, position=(x, _Y_FRONT, z), anchor=anchor,
+                                            scale=1.3) for name, text, x, z, anchor in (
+            ("cam", "cam (turns at ω)", -0.048, -0.03, "center-right"),
+            ("follower", "follower", 0.008, flat.stem_top - 0.004, "center-left"),
+            ("spring", "spring k, F0", 0.016, flat.spring_top - 0.02, "center-left"))}
 
     def build_controls(self) -> None:
         d = Inputs()
@@ -505,8 +341,7 @@ class CamFollowerScene(SimulationScene):
             (_NORMAL_COLOR, "common normal at the contact point (hidden in flight)"),
             (_POINT_COLOR, "contact point (in flight: the cam's point nearest the follower)"),
         ), "Drawn on the cam (arrow length saturates):")
-        self.status = self.add_readout("Computing the cam…")
-        self.info = self.add_readout("")
+        self.status, self.info = self.add_readout("Computing the cam…"), self.add_readout("")
         add = self.controls.add
         with self.target.gui.add_folder("Speed and loads"):
             add(Slider("rpm", "Cam speed (rpm)", min=10.0, max=3000.0, step=1.0, default=d.rpm,
@@ -530,187 +365,135 @@ class CamFollowerScene(SimulationScene):
             add(Toggle("compliant", "Compliant contact (the follower can jump)", default=False,
                        hint="Run the multibody System: constraints, then a Hunt-Crossley contact after a separation"))
             add(Toggle("show_contact", "Contact point, normal, force", default=True))
-        with self.plot_area():
-            self.closed_plots = {name: self.add_plot((np.zeros(2),) * (len(series) + 1),
-                                                     ({"label": "θ (deg)"}, *series), title=title,
-                                                     scales={"x": {"time": False}}, aspect=1.7)
-                                 for name, (title, series, _) in _CLOSED_PLOTS.items()}
 
     def plots(self) -> list[PlotSpec]:
-        angle, compliant = (lambda t, c: c[:, 0]), (lambda inputs: inputs.compliant)
-        return [PlotSpec("run_lift", "compliant run: lift (mm)", (("cam under it (mm)", "#2266dd"),
-                         ("follower (mm)", "#9633c8")), lambda t, c: (c[:, 1], c[:, 2]), compliant, "θ (deg)", 1.7,
-                         x=angle, per_chunk=True),
+        """The closed form over the cam angle (every 0.5 deg, N < 0 shaded), then the compliant run's revolution."""
+        def closed(name: str) -> PlotSpec:
+            title, first, y = _CLOSED_PLOTS[name]
+            force = name == "force"
+            return PlotSpec(name, title, (first, *(_FORCE_MORE if force else ()), _SHADE), lambda t, c: (
+                c[::2, y], *((0.0 * c[::2, y], c[::2, 5], np.minimum(c[::2, 4], 0.0)) if force else
+                             (np.where(c[::2, 4] < 0.0, c[::2, y], 0.0),))), x_label="θ (deg)", aspect=1.7,
+                            x=lambda t, c: c[::2, 0], per_chunk=True, table=lambda chunk: self.revolution.table)
+        run = {"shown": lambda inputs: inputs.compliant, "x_label": "θ (deg)", "aspect": 1.7,
+               "x": lambda t, c: c[:, 0], "per_chunk": True}
+        return [*(closed(name) for name in _CLOSED_PLOTS),
+                PlotSpec("run_lift", "compliant run: lift (mm)", (("cam under it (mm)", "#2266dd"),
+                         ("follower (mm)", "#9633c8")), lambda t, c: (c[:, 1], c[:, 2]), **run),
                 PlotSpec("run_force", "compliant run: force N (N)", (("closed form (N)", "#888888"),
-                         (_RUN_FORCE_LABEL, "#d97706")), lambda t, c: (c[:, 3], c[:, 4]), compliant, "θ (deg)", 1.7,
-                         x=angle, per_chunk=True)]
+                         ("System (N)", "#d97706")), lambda t, c: (c[:, 3], c[:, 4]), **run)]
 
-    @property
-    def gui(self) -> SimpleNamespace:
-        run = {name: self.plot_handles[name] for name in ("run_lift", "run_force")}
-        return SimpleNamespace(readout=self.status, info=self.info, legend=self.legend, plots=self.closed_plots,
-                               run_plots=run)
+    gui = property(lambda self: SimpleNamespace(
+        readout=self.status, info=self.info, legend=self.legend, plots={n: self.plot_handles[n] for n in _CLOSED_PLOTS},
+        run_plots={n: self.plot_handles[n] for n in ("run_lift", "run_force")}))
 
     def set_plot_data(self, handle: Any, data: tuple) -> None:
         if handle is self.plot_handles.get("run_force"):  # scaled to the closed form; an impact peak is named
-            (lo, hi), peak = _force_range(data[1], data[2])
+            (lo, hi), peak = capped_range(data[1], data[2])
             handle.scales = {"x": {"time": False}, "y": {"auto": False, "range": [lo, hi]}}
-            label = _RUN_FORCE_LABEL + ("" if peak is None else f", peak {_newtons(peak)} off scale")
+            label = "System (N)" + ("" if peak is None else ", peak " + (
+                f"{peak / 1000.0:.1f} kN" if peak >= 1000.0 else f"{peak:.0f} N") + " off scale")
             if handle.series[2]["label"] != label:
                 handle.series = (*handle.series[:2], {**handle.series[2], "label": label})
         super().set_plot_data(handle, data)
 
-    def on_presenter(self, on: bool) -> None:
-        super().on_presenter(on)
-        self._send_spring_mesh()
-
-    @property
-    def spring_wire_radius(self) -> float:
-        """Radius of the drawn spring's wire (m): twice as thick in presenter view."""
-        return _SPRING_WIRE * (PRESENTER_LINE_SCALE if self.presenter else 1.0)
-
     def _travel_limit(self) -> float:
         """The largest lift (m) the stand allows: the drawn spring is solid there."""
-        g = self.geometry
-        return g.spring_top - g.pitch_height - g.spring_seat - _SPRING_SOLID
+        return self.layout.spring_top - self.layout.pitch_height - self.layout.seat - self.spring.solid
 
-    @staticmethod
-    def _spring_length(g: Geometry) -> float:  # the spring's length (m) in the middle of its travel
-        return 0.5 * (g.spring_top - g.pitch_height - g.spring_seat + _SPRING_MIN_LENGTH)
-
-    def _send_spring_mesh(self) -> None:
-        self._spring_reference = self._spring_length(self.geometry)
-        vertices, faces = helix_tube(self._spring_reference, self.spring_wire_radius, **_SPRING)
-        set_arrays(self.spring, vertices=vertices, faces=faces)
-
-    # -- state, refusals ------------------------------------------------------------------------
+    # -- state, errors ----------------------------------------------------------------------------
     def extra_state(self) -> dict[str, Any]:
         """The cam angle shown (deg), so a paused scene is reproduced at its angle."""
         return {"cam_angle_deg": round(math.degrees(self.cam_angle), 9)}
 
     def load_extra_state(self, extra: dict[str, Any]) -> list[str]:
-        refused = []
-        for key, value in extra.items():
-            if key != "cam_angle_deg":
-                refused.append(f"{key!r}: not part of this scene's state")
-            elif (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
-                  or not 0.0 <= value <= 360.0):
-                refused.append(f"cam_angle_deg: expected a number from 0 to 360, got {value!r}")
-            else:
-                self._angle = math.radians(float(value))
+        refused = [f"{key!r}: not part of this scene's state" for key in extra if key != "cam_angle_deg"]
+        value = extra.get("cam_angle_deg")
+        if "cam_angle_deg" not in extra:
+            pass
+        elif (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+              or not 0.0 <= value <= 360.0):
+            refused.append(f"cam_angle_deg: expected a number from 0 to 360, got {value!r}")
+        else:
+            self._angle = math.radians(float(value))
         return refused
 
-    def values_refusal(self, values: dict[str, Any]) -> str | None:
-        try:
-            build_cam(Inputs(**{f.name: values[f.name] for f in dataclasses.fields(Inputs)}))
-        except ValueError as exc:
-            return f"cam refused: {exc}"
-        return None
-
     def on_error(self, error: BaseException) -> bool:
-        if isinstance(error, CamRefused):  # the values in use again
-            kept = dataclasses.asdict(self.revolution.inputs if self.revolution is not None else Inputs())
-            self.notify("Cam refused", f"{error}. Keeping the values in use (the controls are set back).", "warning")
-            self.controls.set_many({k: v for k, v in kept.items() if k != "compliant"})
-            self._reconfigure = True
-            return True
         if self.compliant:
             self._stop_run(f"{error}. Showing the closed form again; turn the compliant contact on to try again.")
-            return True
-        return False
+        return self.compliant
 
     def _stop_run(self, text: str) -> None:
-        self._thrown = True
+        self._thrown, self._reconfigure = True, True  # (the inputs shown, from the next frame)
         self.notify("Compliant run stopped", text, "warning")
         self.controls.set("compliant", False)
-        self._reconfigure = True
 
-    # -- the clock --------------------------------------------------------------------------------
+    # -- the clock ----------------------------------------------------------------------------------
     def on_configure(self, inputs: Inputs) -> None:
         self.timeline.chunk_time = self.window = 2.0 * math.pi / inputs.speed  # a chunk (and the history) is a turn
         self.run_chunk, self._thrown = None, False
-        self._pending.append("info")  # (its advice follows the toggle)
+        if self.revolution is not None:  # (its advice follows the toggle)
+            self.info.content = self._info(self.revolution)
 
     def update(self, dt: float) -> None:
         super().update(min(max(dt, 0.0), 0.1))  # a stalled loop advances the cam by at most 0.1 s of wall time
 
     def on_frame(self, changed: set[str]) -> None:
-        if self._reconfigure:  # the scene set controls back (a refused cam, a stopped run)
+        if self._reconfigure:  # a stopped run: the closed form again
             self._reconfigure = False
             self.configure(self.inputs)
         self.playback.set_playing(bool(self.controls.value("animate")))
         self.playback.set_time_scale(self.timeline.chunk_time / float(self.controls.value("turn_seconds")))
         if self._angle is not None and not self.compliant:  # a loaded angle, on the table's grid
-            i = round((self._angle % (2.0 * math.pi)) / _STEP) % REVOLUTION_SAMPLES
+            i = round(self._angle / (2.0 * math.pi) * REVOLUTION_SAMPLES) % REVOLUTION_SAMPLES
             self.local_time = self.sim_time = i * self.timeline.chunk_time / REVOLUTION_SAMPLES
             self._angle, self._drawn = None, None
         if bool(self.controls.value("show_contact")) != self.contact_frame.visible:  # (a click or a loaded state)
             self._drawn = None
-        if self._pending:
-            with self.target.atomic():
-                self._refresh_pending(self._pending.pop(0))
 
-    def _use(self, rev: Revolution) -> None:
-        """Draw ``rev`` from now on: its meshes, info, marks and plots (one per frame)."""
-        self.revolution, self.revision = rev, self.revision + 1
-        if rev.geometry.key != self.geometry.key:
-            self.geometry = rev.geometry
-            self._pending.append("meshes")
-        self._pending += ["info", "marks", *self.closed_plots]
+    def _use(self, rev: Chunk) -> None:
+        """Draw the closed form ``rev`` from now on: its meshes, info and separation arc."""
+        self.revolution, self.revision, g = rev, self.revision + 1, layout(rev.inputs.geometry_key())
+        if g.key != self.layout.key:
+            self.layout, kind = g, "flat" if g.roller is None else "roller"
+            self.spring.rebuild(g.spring_length)
+            for node, (vertices, faces) in ((self.cam_mesh, g.cam), (self.stand, g.stand),
+                                            (self.follower_meshes[kind], g.follower), (self.roller_mesh, g.roller)):
+                if vertices is not None:
+                    set_arrays(node, vertices=vertices, faces=faces)
+            for name, handle in (*self.follower_meshes.items(), ("roller", self.roller_mesh)):
+                handle.visible = name == kind
+            set_pose(self.labels["follower"], position=(0.008, _Y_FRONT, g.stem_top - 0.004))
+            set_pose(self.labels["spring"], position=(0.016, _Y_FRONT, g.spring_top - 0.02))
+        self.info.content = self._info(rev)
+        u = np.arange(_CONTOUR_POINTS) * (2.0 * math.pi / _CONTOUR_POINTS)
+        front = np.column_stack([g.contour, np.full(_CONTOUR_POINTS, _CAM_THICKNESS / 2 + 0.0006)])
+        arc = closed_path_segments(front, rev.closed.separated(u))  # on the cam's front face (body frame)
+        if arc is not None:
+            set_array(self.separation_arc, "points", arc)
+        self.separation_arc.visible = arc is not None
         self.controls.handles["rise_deg"].disabled = rev.inputs.profile == PROFILES[0]
         self.controls.handles["roller_mm"].disabled = rev.inputs.follower != FOLLOWERS[1]
 
-    def _refresh_pending(self, what: str) -> None:
-        rev, g = self.revolution, self.geometry
-        if what == "meshes":
-            self._send_spring_mesh()
-            set_arrays(self.cam_mesh, vertices=g.cam_mesh[0], faces=g.cam_mesh[1])
-            set_arrays(self.stand, vertices=g.stand_mesh[0], faces=g.stand_mesh[1])
-            kind = "flat" if g.roller_mesh is None else "roller"
-            set_arrays(self.follower_meshes[kind], vertices=g.follower_mesh[0], faces=g.follower_mesh[1])
-            for name, handle in self.follower_meshes.items():
-                handle.visible = name == kind
-            if g.roller_mesh is not None:
-                set_arrays(self.roller_mesh, vertices=g.roller_mesh[0], faces=g.roller_mesh[1])
-            self.roller_mesh.visible = g.roller_mesh is not None
-            set_pose(self.labels["follower"], position=(0.008, _Y_FRONT, g.label_follower - 0.004))
-            set_pose(self.labels["spring"], position=(0.016, _Y_FRONT, g.spring_top - 0.02))
-        elif rev is None:
-            return
-        elif what == "info":
-            self.info.content = self._info(rev)
-        elif what == "marks":
-            if rev.separation_segments is not None:
-                set_array(self.separation_arc, "points", rev.separation_segments)
-            self.separation_arc.visible = rev.separation_segments is not None
-        else:
-            c = rev.table.columns[::2]  # every 0.5 deg
-            y = c[:, _CLOSED_PLOTS[what][2]]
-            shade = np.minimum(c[:, 4], 0.0) if what == "force" else np.where(c[:, 4] < 0.0, y, 0.0)
-            extra = (np.zeros_like(y), c[:, 5]) if what == "force" else ()
-            self.closed_plots[what].data = (c[:, 0], y, *extra, shade)
-
     # -- drawing -----------------------------------------------------------------------------------
-    def draw(self, chunk: Revolution | RunChunk, j: int) -> None:
-        rev = chunk.revolution
+    def draw(self, chunk: Chunk, j: int) -> None:
+        rev = chunk if chunk.run is None else chunk.revolution
         if rev is not None and (self.revolution is None or rev.inputs != self.revolution.inputs):
             self._use(rev)
-        self.drawn_revision = self.revision
-        show = bool(self.controls.value("show_contact"))
-        if isinstance(chunk, Revolution):
-            i = j % REVOLUTION_SAMPLES
-            self.index, self.cam_angle = i, Revolution.angle(i)
-            self.force, self.follower_z = float(chunk.force[i]), float(chunk.follower_z[i])
-            self._pose(chunk.contact[i], chunk.normal[i], show, in_contact=True)
+        self.drawn_revision, show, run = self.revision, bool(self.controls.value("show_contact")), chunk.run
+        if run is None:
+            c = chunk.closed
+            self.index = i = j % REVOLUTION_SAMPLES
+            self.cam_angle, self.force, lift = float(c.theta[i]), float(c.contact_force[i]), float(c.lift[i])
+            self._pose(lift, c.contact_point[i], c.contact_normal[i], show, in_contact=True)
             return
-        self.run_chunk = chunk
-        k = min(j, chunk.t.size - 2)
+        self.run_chunk, k = chunk, min(j, chunk.t.size - 2)
         w = min(max((self.sim_time - chunk.t[k]) / (chunk.t[k + 1] - chunk.t[k]), 0.0), 1.0)
 
         def lerp(a: np.ndarray) -> Any:
             return a[k] + w * (a[k + 1] - a[k])
 
-        if lerp(chunk.lift) > self._travel_limit():
+        if lerp(run.lift) > self._travel_limit():
             if not self._thrown:
                 i = self.config
                 spring = (f"the spring (k = {i.stiffness:g} N/m, F0 = {i.preload:g} N)" if i.stiffness or i.preload
@@ -720,20 +503,17 @@ class CamFollowerScene(SimulationScene):
                                f"stop): at {i.rpm:g} rpm {spring} cannot keep it near the cam. Raise the stiffness "
                                "or the preload, or lower the cam speed. Showing the closed form again.")
             return
-        self.cam_angle = (self.revolution.speed * self.sim_time) % (2.0 * math.pi)
-        self.follower_z, self.force = float(lerp(chunk.follower_z)), float(lerp(chunk.force))
-        normal = lerp(chunk.normal)
-        near = k + 1 if w >= 0.5 else k
-        flight = not chunk.constraint[near] and lerp(chunk.gap) > 0.0
-        self._pose(lerp(chunk.point), normal / (np.hypot(*normal) or 1.0), show, in_contact=not flight)
+        self.cam_angle, self.force = (chunk.inputs.speed * self.sim_time) % (2.0 * math.pi), float(lerp(run.contact_force))
+        normal = lerp(run.contact_normal)[[0, 2]]
+        flight = not run.constraint[k + 1 if w >= 0.5 else k] and lerp(run.gap) > 0.0
+        self._pose(float(lerp(run.lift)), lerp(run.contact_point)[[0, 2]], normal / (np.hypot(*normal) or 1.0), show,
+                   in_contact=not flight)
 
-    def _pose(self, contact: np.ndarray, normal: np.ndarray, show: bool, *, in_contact: bool) -> None:
-        g, theta, force = self.geometry, self.cam_angle, self.force
+    def _pose(self, lift: float, contact: np.ndarray, normal: np.ndarray, show: bool, *, in_contact: bool) -> None:
+        theta, force, self.follower_z = self.cam_angle, self.force, self.layout.pitch_height + lift
         set_pose(self.cam_frame, wxyz=(math.cos(0.5 * theta), 0.0, 0.0, math.sin(0.5 * theta)))
         set_pose(self.follower_frame, position=(0.0, 0.0, self.follower_z))
-        z0 = self.follower_z + g.spring_seat
-        set_arrays(self.spring, batched_positions=((0.0, 0.0, z0),),
-                   batched_scales=((1.0, 1.0, (g.spring_top - z0) / self._spring_reference),))
+        self.spring.span(self.follower_z + self.layout.seat, self.layout.spring_top)
         self.contact_frame.visible = show
         if not show:
             return
@@ -741,11 +521,9 @@ class CamFollowerScene(SimulationScene):
         set_pose(self.contact_point, position=(x, _Y_FRONT, z), wxyz=wxyz_z_to((nx, 0.0, nz), 1.0))
         if self.normal_line.visible != in_contact:  # in flight there is no contact normal
             self.normal_line.visible = in_contact
-        drawn = in_contact and force != 0.0
-        self.arrow.visible = self.force_label.visible = drawn
+        self.arrow.visible = self.force_label.visible = drawn = in_contact and force != 0.0
         if drawn:
-            length = _ARROW_MAX * abs(force) / (abs(force) + _ARROW_HALF)  # saturates
-            sent, pressing = self._arrow_sent
+            length, (sent, pressing) = _ARROW_MAX * abs(force) / (abs(force) + _ARROW_HALF), self._arrow_sent  # saturates
             if (force >= 0.0) != pressing or abs(length - sent) > 0.02 * sent:
                 self._arrow_sent = (length, force >= 0.0)
                 ends = ((0.0, 0.0, -length), (0.0, 0.0, 0.0))  # N n ends at the contact point; N < 0 starts there
@@ -756,48 +534,50 @@ class CamFollowerScene(SimulationScene):
 
     # -- readouts and export --------------------------------------------------------------------
     def time_text(self) -> str:
-        chunk = self.last_chunk
-        if isinstance(chunk, RunChunk):
-            return (f"**t** = {1000.0 * self.display_time:.2f} ms (revolution {chunk.k + 1}) · **θ** = "
+        if self.last_chunk.run is not None:
+            return (f"**t** = {1000.0 * self.display_time:.2f} ms (revolution {self.last_chunk.k + 1}) · **θ** = "
                     f"{_deg(self.cam_angle):.1f}°")
-        rev, i = self.revolution, self.index
-        return f"**θ** = {_deg(self.cam_angle):.2f}° · **s** = {1000.0 * float(rev.lift[i]):.4f} mm"
+        return f"**θ** = {_deg(self.cam_angle):.2f}° · **s** = {1000.0 * float(self.revolution.closed.lift[self.index]):.4f} mm"
 
     def readout_lines(self) -> list[str]:
-        rev, chunk, turn = self.revolution, self.last_chunk, float(self.controls.value("turn_seconds"))
-        if isinstance(chunk, RunChunk):
-            return self._readout_run(rev, chunk, self.sample_index(chunk), turn).split("\n")[1:]
-        i, force = self.index, float(rev.force[self.index])
-        state = "pressing" if force >= 0.0 else "< 0: the contact would have to pull; a real follower leaves the cam"
-        return [f"**v** = ω s′ = {float(rev.velocity[i]):.4f} m/s · **a** = ω² s″ = {float(rev.acceleration[i]):.2f} "
-                f"m/s²", f"**N** = {force:.3f} N ({state})", _slow_motion(turn, rev.speed)]
+        chunk, turn = self.last_chunk, float(self.controls.value("turn_seconds"))
+        slow = (f"*slow motion*: one turn in {turn:g} s (a real turn takes "
+                f"{1000.0 * 2.0 * math.pi / self.config.speed:.1f} ms)")
+        if chunk.run is not None:
+            return [*self.run_lines(chunk, self.sample_index(chunk)), slow]
+        c, i = self.revolution.closed, self.index
+        state = "pressing" if self.force >= 0.0 else "< 0: the contact would have to pull; a real follower leaves the cam"
+        return [f"**v** = ω s′ = {float(c.velocity[i]):.4f} m/s · **a** = ω² s″ = {float(c.acceleration[i]):.2f} "
+                f"m/s²", f"**N** = {self.force:.3f} N ({state})", slow]
 
-    def _readout_run(self, rev: Revolution, chunk: RunChunk, j: int, turn: float) -> str:
-        gap, force, now = float(chunk.gap[j]), float(chunk.force[j]), float(chunk.t[j])
-        if gap > 0.0 and not chunk.constraint[j]:
+    @staticmethod
+    def run_lines(chunk: Chunk, j: int) -> list[str]:
+        """The readout's lines on sample ``j`` of a run's ``chunk``: the contact, the events so far."""
+        run, now, lift = chunk.run, float(chunk.t[j]), chunk.table.columns[j]
+        gap, force = float(run.gap[j]), float(run.contact_force[j])
+        if gap > 0.0 and not run.constraint[j]:
             contact = f"**in flight**: gap {1000.0 * gap:.3f} mm, N = 0"
-        elif chunk.constraint[j]:
+        elif run.constraint[j]:
             contact = f"**on the cam** (contact constraint): N = {force:.3f} N"
         else:
             contact = f"**on the cam** (Hunt-Crossley, pressed in {significant(1e6 * -gap, 3)} µm): N = {force:.3f} N"
-        return "\n".join([
-            f"**t** = {1000.0 * now:.2f} ms (revolution {chunk.k + 1}) · **θ** = {_deg(float(chunk.theta[j])):.1f}°",
-            f"follower lift {1000.0 * float(chunk.lift[j]):.3f} mm, cam under it {1000.0 * float(chunk.cam_lift[j]):.3f} mm",
-            contact, f"so far this revolution: {int(np.count_nonzero(chunk.separations <= now))} separation(s), "
-            f"{int(np.count_nonzero(chunk.landings <= now))} landing(s)", _slow_motion(turn, rev.speed)])
+        passed = now - chunk.t[0] + run.t[0]  # (the run's own clock: a repeated revolution is one a period earlier)
+        return [f"follower lift {lift[2]:.3f} mm, cam under it {lift[1]:.3f} mm", contact,
+                f"so far this revolution: {int(np.count_nonzero(run.separations[:, 0] <= passed))} separation(s), "
+                f"{int(np.count_nonzero(run.landings[:, 0] <= passed))} landing(s)"]
 
-    def _info(self, rev: Revolution) -> str:
-        i = rev.inputs
-        lines = [f"**jump speed = {rev.jump_speed * 30.0 / math.pi:.1f} rpm** ({rev.jump_speed:.3f} rad/s); the cam "
-                 f"turns at {i.rpm:g} rpm, {100.0 * rev.speed / rev.jump_speed:.1f} % of it."]
-        if rev.separations:
+    def _info(self, rev: Chunk) -> str:
+        i, c = rev.inputs, rev.closed
+        lines = [f"**jump speed = {c.jump_speed * 30.0 / math.pi:.1f} rpm** ({c.jump_speed:.3f} rad/s); the cam "
+                 f"turns at {i.rpm:g} rpm, {100.0 * c.speed / c.jump_speed:.1f} % of it."]
+        if c.separations:
             then = ("The compliant run (its plots below) shows the follower leave the cam and land." if self.compliant
                     else "Turn on *Compliant contact* to see the follower jump.")
-            spans = ", ".join(f"θ = {_deg(a):.2f}° to {_deg(b):.2f}°" for a, b in rev.separations)
+            spans = ", ".join(f"θ = {_deg(a):.2f}° to {_deg(b):.2f}°" for a, b in c.separations)
             lines.append(f"**Separation**: N < 0 from {spans} (shaded); the contact would have to pull. {then}")
         else:
-            lines.append(f"**No separation**: N > 0 all round (smallest {rev.min_force[0]:.3f} N at θ = "
-                         f"{_deg(rev.min_force[1]):.2f}°).")
+            lines.append(f"**No separation**: N > 0 all round (smallest {c.min_force[0]:.3f} N at θ = "
+                         f"{_deg(c.min_force[1]):.2f}°).")
         cam = (f"eccentric circle R = {1000 * ECCENTRIC_RADIUS:g} mm, e = {1000 * ECCENTRICITY:g} mm"
                if i.profile == PROFILES[0] else f"{_LAWS[i.profile]} rise-dwell-return, base circle "
                f"{1000 * BASE_RADIUS:g} mm, lift {1000 * LIFT:g} mm, rise = fall = {i.rise_deg:g}°, dwell {DWELL_DEG:g}°")
@@ -807,9 +587,11 @@ class CamFollowerScene(SimulationScene):
         return "\n\n".join(lines)
 
     def csv_bytes(self) -> bytes:
-        """One revolution of the closed form in use (not the plotted window: the plots are over the cam angle)."""
-        return self.revolution.csv() if self.revolution is not None else (CSV_HEADER + "\n").encode()
-
-
-def _slow_motion(turn: float, speed: float) -> str:
-    return f"*slow motion*: one turn in {turn:g} s (a real turn takes {1000.0 * 2.0 * math.pi / speed:.1f} ms)"
+        """One revolution of the closed form in use, a row per 0.25 deg (not the plotted window: the plots are over
+        the cam angle)."""
+        if self.revolution is None:
+            return (CSV_HEADER + "\n").encode()
+        c, n = self.revolution.closed, REVOLUTION_SAMPLES
+        rows = format_rows(np.arange(n) * (360.0 / n), np.column_stack([c.lift, c.velocity, c.acceleration,
+                                                                         c.contact_force])[:n])
+        return ("\n".join((CSV_HEADER, *rows)) + "\n").encode()

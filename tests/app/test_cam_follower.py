@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 from app.scenes._arrows import vertex_rgb
+from app.scenes._plots import capped_range
 from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
 from app.scenes.cam_follower import (
     CSV_HEADER,
@@ -41,8 +42,7 @@ from app.scenes.cam_follower import (
     build_cam,
     compute_chunk,
     compute_revolution,
-    run_force_range,
-    run_plot_angles,
+    layout,
 )
 from tests.app._views import Camera, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
@@ -196,7 +196,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     app, scene = cam_app
     inputs = scene.revolution.inputs
     jump = flat_jump_speed(inputs)
-    assert scene.revolution.jump_speed == pytest.approx(jump, rel=1e-14)
+    assert scene.revolution.closed.jump_speed == pytest.approx(jump, rel=1e-14)
     wait_until(lambda: "jump speed = 1088.0 rpm" in scene.gui.info.content)
     assert f"jump speed = {jump * 30 / math.pi:.1f} rpm" in scene.gui.info.content
     assert "No separation" in scene.gui.info.content and not scene.separation_arc.visible
@@ -206,12 +206,12 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     rpm_jump = jump * 30 / math.pi
     assert send_value(scene, "rpm", math.floor(rpm_jump))
     wait_for_inputs(scene, rpm=float(math.floor(rpm_jump)))
-    assert scene.revolution.separations == ()
+    assert scene.revolution.closed.separations == ()
     assert send_value(scene, "rpm", 1300.0)
     wait_for_inputs(scene, rpm=1300.0)
     wait_until(lambda: "Separation" in scene.gui.info.content and scene.separation_arc.visible)
     assert "Turn on *Compliant contact* to see the follower jump." in scene.gui.info.content
-    (start, end), = scene.revolution.separations
+    (start, end), = scene.revolution.closed.separations
     # N = 0 where m w^2 e cos(theta) + k e (1 - cos theta) + F = 0 (closed form, both roots)
     w = 1300 * math.pi / 30
     k, m, force = inputs.stiffness, inputs.mass, inputs.preload + inputs.mass * GRAVITY
@@ -355,15 +355,15 @@ def test_presenter_view_scales_labels_arrow_and_lines(cam_app):
     app, scene = cam_app
     base = scene.arrow.shaft_radius
     label = scene.labels["cam"].font_screen_scale
-    wire = scene.spring_wire_radius
-    extent = np.ptp(np.array(scene.spring.vertices)[:, 0])
+    wire = scene.spring.wire_radius
+    extent = np.ptp(np.array(scene.spring.node.vertices)[:, 0])
     app.session_for().set_presenter(True)
     wait_until(lambda: scene.presenter)
     assert scene.arrow.shaft_radius == pytest.approx(base * PRESENTER_ARROW_SCALE)
     assert scene.labels["cam"].font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
     assert scene.force_label.font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
-    assert scene.spring_wire_radius > wire
-    assert np.ptp(np.array(scene.spring.vertices)[:, 0]) > extent  # the wire's mesh was sent again
+    assert scene.spring.wire_radius > wire
+    assert np.ptp(np.array(scene.spring.node.vertices)[:, 0]) > extent  # the wire's mesh was sent again
     assert "1.45em" in scene.gui.legend.html()
     app.session_for().set_presenter(False)
     wait_until(lambda: not scene.presenter)
@@ -386,29 +386,27 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     wait_for_inputs(scene, rpm=1300.0)
     assert send_value(scene, "compliant", True)
     wait_until(lambda: scene.compliant and scene.run_chunk is not None, timeout=120.0)
-    chunk = scene.run_chunk
-    assert chunk.k == 0 and chunk.theta.size == RUN_SAMPLES + 1
+    chunk, run = scene.run_chunk, scene.run_chunk.run
+    assert chunk.k == 0 and chunk.t.size == RUN_SAMPLES + 1
     assert scene.gui.run_plots["run_lift"].visible
     # the separation's advice follows the toggle
     wait_until(lambda: "The compliant run (its plots below) shows the follower" in scene.gui.info.content)
     assert "Turn on *Compliant contact*" not in scene.gui.info.content
     # on the cam at first (the constraint), then in flight by over a millimetre, then landed
-    assert chunk.constraint[0] and chunk.separations.size >= 1 and chunk.landings.size >= 1
-    assert chunk.gap.max() > 1e-3
-    i = int(np.argmax(chunk.gap))
-    assert chunk.force[i] == 0.0  # no force in flight
+    assert run.constraint[0] and run.separations.size >= 1 and run.landings.size >= 1
+    assert run.gap.max() > 1e-3
+    i = int(np.argmax(run.gap))
+    assert run.contact_force[i] == 0.0  # no force in flight
     # it leaves where the closed form turns negative (within two outputs of 2 deg)
     inputs = scene.revolution.inputs
     w = inputs.speed
     force = inputs.preload + inputs.mass * GRAVITY
     root = math.acos(-(inputs.stiffness * E + force) / (inputs.mass * w * w * E - inputs.stiffness * E))
-    assert w * chunk.separations[0] == pytest.approx(root, abs=math.radians(4.0))
+    assert w * run.separations[0, 0] == pytest.approx(root, abs=math.radians(4.0))
     # the readout counts the events of the revolution so far: none before the first separation, one after it
-    before = int(chunk.separations[0] / chunk.h) - 1
-    with app.session_for().run_lock:
-        assert "so far this revolution: 0 separation(s), 0 landing(s)" in scene._readout_run(
-            scene.revolution, chunk, before, 0.5)
-        assert "so far this revolution: 1 separation(s)" in scene._readout_run(scene.revolution, chunk, before + 2, 0.5)
+    before = int(run.separations[0, 0] / (chunk.t[1] - chunk.t[0])) - 1
+    assert "so far this revolution: 0 separation(s), 0 landing(s)" in scene.run_lines(chunk, before)[2]
+    assert "so far this revolution: 1 separation(s)" in scene.run_lines(chunk, before + 2)[2]
     # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
     wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.gui.readout.content, timeout=60.0)
     # in flight: no force arrow and no contact normal (the dot is the cam's point nearest the follower)
@@ -423,7 +421,8 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     plot = scene.gui.run_plots["run_force"]
 
     def plotted() -> bool:  # (the revolution shown may move on while this waits: each try reads it again)
-        (lo, hi), peak = run_force_range(scene.run_chunk)
+        columns = scene.run_chunk.table.columns
+        (lo, hi), peak = capped_range(columns[:, 3], columns[:, 4])
         named = None if peak is None else (f"{peak / 1000.0:.1f} kN" if peak >= 1000.0 else f"{peak:.0f} N")
         label = "System (N)" + ("" if named is None else f", peak {named} off scale")
         return plot.scales["y"]["range"] == [lo, hi] and plot.series[2]["label"] == label
@@ -441,8 +440,8 @@ def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notic
         assert send_value(scene, key, value)
     wait_for_inputs(scene, rpm=3000.0, stiffness=0.0, preload=0.0)
     limit = scene._travel_limit()
-    geometry = scene.geometry
-    assert 0.01 < limit - float(np.max(scene.revolution.lift)) < 0.02  # room above the cam's highest lift
+    geometry = scene.layout
+    assert 0.01 < limit - float(np.max(scene.revolution.closed.lift)) < 0.02  # room above the cam's highest lift
     assert send_value(scene, "compliant", True)
     drawn = []
     deadline = time.monotonic() + 240.0
@@ -455,7 +454,7 @@ def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notic
     assert "flew to the end of its travel" in notice[1] and "gravity alone (k = 0, F0 = 0)" in notice[1]
     wait_until(lambda: not scene.compliant and not scene.gui.run_plots["run_lift"].visible)
     # it flew (well above the cam's highest lift) and was never drawn beyond the stand's travel
-    assert max(drawn) > float(np.max(scene.revolution.lift)) + 0.005
+    assert max(drawn) > float(np.max(scene.revolution.closed.lift)) + 0.005
     assert max(drawn) <= limit + 1e-3  # (one frame of motion past the limit at most)
     assert scene.paused_error is None
 
@@ -466,24 +465,29 @@ def test_the_run_plots_span_exactly_0_to_360_degrees_in_every_revolution():
     chunk = compute_chunk(inputs, 0, None)
     for k in range(1, 3):
         chunk = compute_chunk(inputs, k, chunk)
-        x = run_plot_angles(chunk)
+        x = chunk.table.columns[:, 0]
         assert x[0] == 0.0 and x[-1] == 360.0 and np.all(np.diff(x) > 0.0)
 
 
 def test_the_compliant_force_plot_keeps_the_closed_form_readable_under_impact_peaks():
     # past the jump speed a landing's impact reaches kilonewtons against a closed form of about +-100 N
+    def force_range(chunk):
+        return capped_range(chunk.table.columns[:, 3], chunk.table.columns[:, 4])
+
     chunk = compute_chunk(Inputs(rpm=1300.0), 0, None)
-    closed_lo, closed_hi = float(chunk.closed_force.min()), float(chunk.closed_force.max())
-    assert chunk.force.max() > 10.0 * closed_hi
-    (lo, hi), peak = run_force_range(chunk)
+    closed_force, force = chunk.table.columns[:, 3], chunk.run.contact_force
+    closed_lo, closed_hi = float(closed_force.min()), float(closed_force.max())
+    assert force.max() > 10.0 * closed_hi
+    (lo, hi), peak = force_range(chunk)
     span = closed_hi - min(closed_lo, 0.0)
     assert lo < closed_lo and closed_hi < hi
     assert hi - lo < 4.0 * span  # the closed form fills over a quarter of the height
-    assert peak == chunk.force.max()
+    assert peak == force.max()
     # below the jump speed nothing is off scale: the range is the forces' own, with 5 % margins
     calm = compute_chunk(Inputs(rpm=700.0), 0, None)
-    (lo, hi), peak = run_force_range(calm)
-    top, bottom = max(calm.force.max(), calm.closed_force.max()), min(calm.force.min(), 0.0)
+    (lo, hi), peak = force_range(calm)
+    calm_force = calm.run.contact_force
+    top, bottom = max(calm_force.max(), calm.table.columns[:, 3].max()), min(calm_force.min(), 0.0)
     assert peak is None
     assert hi == pytest.approx(top + 0.05 * (top - bottom)) and lo == pytest.approx(bottom - 0.05 * (top - bottom))
 
@@ -491,47 +495,48 @@ def test_the_compliant_force_plot_keeps_the_closed_form_readable_under_impact_pe
 def test_compliant_run_below_the_jump_speed_follows_the_closed_form():
     inputs = Inputs(rpm=700.0)
     chunk = compute_chunk(inputs, 0, None)
-    s, ds, dds, force = flat_closed_form(chunk.theta, inputs)
-    np.testing.assert_allclose(chunk.lift, s, atol=1e-10)
-    np.testing.assert_allclose(chunk.force, force, rtol=1e-7)
-    assert np.all(chunk.constraint) and chunk.separations.size == 0
+    run = chunk.run
+    s, ds, dds, force = flat_closed_form(run.cam_angle, inputs)
+    np.testing.assert_allclose(run.lift, s, atol=1e-10)
+    np.testing.assert_allclose(run.contact_force, force, rtol=1e-7)
+    assert np.all(run.constraint) and run.separations.size == 0 and run.periodic
     revolution = compute_revolution(inputs)
     # the System's contact point is the scene's closed-form contact point
-    np.testing.assert_allclose(chunk.point[:, 0], E * np.sin(chunk.theta), atol=1e-9)
-    np.testing.assert_allclose(chunk.point[:, 1], RB + s, atol=1e-9)
+    np.testing.assert_allclose(run.contact_point[:, 0], E * np.sin(run.cam_angle), atol=1e-9)
+    np.testing.assert_allclose(run.contact_point[:, 2], RB + s, atol=1e-9)
     i = REVOLUTION_SAMPLES // 4  # 90 deg, also an output of the run (every 2 deg)
     j = RUN_SAMPLES // 4
-    np.testing.assert_allclose(revolution.contact[i], chunk.point[j], atol=1e-9)
+    np.testing.assert_allclose(revolution.closed.contact_point[i], run.contact_point[j, [0, 2]], atol=1e-9)
     with pytest.raises(ValueError, match="previous: revolution 2 continues from revolution 1"):
         compute_chunk(inputs, 2, chunk)
     # on the cam throughout: the next revolution repeats this one a period later, not computed again;
     # a run of the System over that revolution (kinematic, as the chunk's) is the same motion
     period = 2.0 * math.pi / inputs.speed
     second = compute_chunk(inputs, 1, chunk)
-    assert second.k == 1 and second.t0 == pytest.approx(period, rel=1e-15)
-    np.testing.assert_allclose(second.theta, chunk.theta + 2.0 * math.pi, rtol=0, atol=1e-12)
+    assert second.k == 1 and second.t[0] == pytest.approx(period, rel=1e-15) and second.run is run
+    np.testing.assert_allclose(second.t * inputs.speed, run.cam_angle + 2.0 * math.pi, rtol=0, atol=1e-12)
     cam = build_cam(inputs)
     direct = cam.simulate(inputs.speed, period * (1.0 + np.arange(RUN_SAMPLES + 1) / RUN_SAMPLES))
     # both are solved from the constraints to the Newton tolerance (1e-12 m, about 1e-10 of the lift)
-    np.testing.assert_allclose(second.lift, direct.lift, rtol=0, atol=1e-11)
-    np.testing.assert_allclose(second.force, direct.contact_force, rtol=1e-10)
+    np.testing.assert_allclose(second.run.lift, direct.lift, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(second.run.contact_force, direct.contact_force, rtol=1e-10)
 
 
 def test_every_cam_and_follower_gives_a_closed_mesh_and_finite_tables():
     for profile in PROFILES:
         for follower in FOLLOWERS:
             inputs = Inputs(profile=profile, follower=follower, rpm=2000.0)
-            rev = compute_revolution(inputs)
+            rev = compute_revolution(inputs).closed
             cam = build_cam(inputs)
             theta = np.arange(REVOLUTION_SAMPLES + 1) * (2 * math.pi / REVOLUTION_SAMPLES)
             np.testing.assert_array_equal(rev.lift, cam.kinematics(theta).lift)
-            np.testing.assert_array_equal(rev.force, cam.contact_force(theta, inputs.speed))
-            vertices, faces = rev.geometry.cam_mesh
+            np.testing.assert_array_equal(rev.contact_force, cam.contact_force(theta, inputs.speed))
+            vertices, faces = layout(inputs.geometry_key()).cam
             assert faces.max() < vertices.shape[0] and np.all(np.isfinite(vertices))
             # the contour drawn passes through every contact point (turned back into the cam frame)
             c, s = np.cos(theta), np.sin(theta)
-            body = np.column_stack([c * rev.contact[:, 0] + s * rev.contact[:, 1],
-                                    -s * rev.contact[:, 0] + c * rev.contact[:, 1]])
+            body = np.column_stack([c * rev.contact_point[:, 0] + s * rev.contact_point[:, 1],
+                                    -s * rev.contact_point[:, 0] + c * rev.contact_point[:, 1]])
             np.testing.assert_allclose(body, cam.cam_curve(theta).point, atol=1e-12)
             assert rev.jump_speed == pytest.approx(cam.jump_speed(), rel=1e-12)
             assert rev.separations  # 2000 rpm is past every default cam's jump speed
@@ -576,7 +581,7 @@ def test_nothing_is_computed_on_the_loop_and_the_frames_go_on(bare_scene):
     before = scene.sim_time
     scene.frame(30.0)
     turn = scene.controls.value("turn_seconds")
-    period = 2 * math.pi / scene.revolution.speed
+    period = 2 * math.pi / scene.revolution.closed.speed
     assert 0 < scene.sim_time - before <= period * 0.1 / turn + 1e-12
 
 
@@ -596,7 +601,7 @@ def test_labels_are_framed_left_of_the_panel_and_do_not_overlap(bare_scene):
             assert 0 < x < 0.62 * 1200 and 0 < y < 750, (name, x, y)
         assert overlapping_pairs(boxes) == [], angle
     # the mechanism fills a good part of the view, left of the panel
-    top = camera.pixels((0.0, 0.0, scene.geometry.spring_top))
+    top = camera.pixels((0.0, 0.0, scene.layout.spring_top))
     bottom = camera.pixels((0.0, 0.0, -0.05))
     assert 250 < bottom[1] - top[1] < 700 and top[0] < 0.62 * 1200
 
