@@ -39,6 +39,7 @@ __all__ = [
     "CamMotion",
     "CamProfile",
     "CamRevolution",
+    "CamSample",
     "CamSystem",
     "CamTouch",
     "largest_roller_radius",
@@ -1480,6 +1481,28 @@ def smallest_convex_rise(base_radius: float, lift: float, dwell: float, law: str
 CAM_CONTACT_MODELS = ("constraint", "compliant")
 
 
+class CamSample(NamedTuple):
+    """A :class:`CamMotion` at one time between its outputs (:meth:`CamMotion.at`).
+
+    Attributes
+    ----------
+    lift : float
+        Follower lift (m).
+    contact_force : float
+        Normal force (N), > 0 pressing.
+    contact_point, contact_normal : (3,) ndarray
+        Global (m; unit, from the cam to the follower).
+    in_contact : bool
+        False while the follower is in flight (no contact normal, no force).
+    """
+
+    lift: float
+    contact_force: float
+    contact_point: np.ndarray
+    contact_normal: np.ndarray
+    in_contact: bool
+
+
 @dataclass(frozen=True)
 class CamMotion:
     """A cam-follower run on :class:`core.multibody.System` (see :meth:`CamFollower.simulate`).
@@ -1553,6 +1576,34 @@ class CamMotion:
         own) and the next revolution repeats this one a period later. A compliant stretch (after a
         separation, or from the start) is not: its flight and bounces depend on the state it began in."""
         return self.separations.size == 0 and self.constraint is not None and bool(np.all(self.constraint))
+
+    def at(self, t: float) -> CamSample:
+        """The run between its outputs at time ``t`` (s; clamped to ``[t[0], t[-1]]``), linear between the two
+        outputs around it: what a display shows between outputs (the outputs themselves exactly).
+
+        The contact holds (``in_contact``) while the contact is in the constraint model at the nearer output or
+        the interpolated gap is ``<= 0`` (the one boundary convention of :func:`core.contact.gap_crossings`);
+        else the follower is in flight, ``contact_point`` is the cam's point nearest it and ``contact_normal``
+        (unit, renormalized after the interpolation) points from it to the follower.
+
+        Returns
+        -------
+        CamSample
+        """
+        time = real_number(t, "t", expected="a finite time (s)")
+        n = self.t.size
+        k = int(min(max(np.searchsorted(self.t, time, side="right") - 1, 0), max(n - 2, 0)))
+        span = float(self.t[k + 1] - self.t[k]) if n > 1 else 0.0
+        w = min(max((time - float(self.t[k])) / span, 0.0), 1.0) if span > 0.0 else 0.0
+
+        def lerp(a: np.ndarray) -> Any:
+            return a[k] if n == 1 else a[k] + w * (a[k + 1] - a[k])
+
+        normal = np.asarray(lerp(self.contact_normal), dtype=float)
+        norm = float(np.linalg.norm(normal))
+        held = self.constraint is not None and bool(self.constraint[min(k + 1, n - 1) if w >= 0.5 else k])
+        return CamSample(float(lerp(self.lift)), float(lerp(self.contact_force)), np.asarray(lerp(self.contact_point)),
+                         normal / norm if norm > 0.0 else normal, held or float(lerp(self.gap)) <= 0.0)
 
     def __reduce__(self):
         arrays = (self.t, self.cam_angle, self.lift, self.lift_rate, self.contact_force, self.contact_point, self.gap,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from core import ArgumentError
-from core.models import CamFollower, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
+from core.models import CamFollower, CamMotion, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
 
 TWO_PI = 2.0 * math.pi
 
@@ -155,3 +155,27 @@ def test_the_separated_angles_are_where_the_closed_form_force_is_negative():
     np.testing.assert_array_equal(separated[far], (cam.contact_force(theta, rev.speed) < 0.0)[far])
     below = cam.revolution(0.9 * cam.jump_speed(), samples=720)
     assert not np.any(below.separated(theta))
+
+
+def test_a_run_between_its_outputs_is_linear_and_in_flight_only_off_the_constraint_with_a_gap():
+    # a hand-made run (no System needed): outputs every 0.1 s, on the cam (constraint), then in flight, then a
+    # compliant contact pressed in
+    t = np.array([0.0, 0.1, 0.2, 0.3])
+    lift, force, gap = np.array([0.0, 1.0, 3.0, 2.0]), np.array([5.0, 1.0, 0.0, 4.0]), np.array([0.0, 0.0, 2e-3, -2e-3])
+    point = np.column_stack([t, np.zeros(4), 1.0 + t])
+    normal = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    run = CamMotion(t, 10.0 * t, lift, np.zeros(4), force, point, gap, np.zeros((0, 2)), np.zeros((0, 2)), "completed",
+                    None, normal, np.array([True, True, False, False]))
+    for k in range(4):  # the outputs themselves, exactly
+        sample = run.at(float(t[k]))
+        assert (sample.lift, sample.contact_force) == (lift[k], force[k])
+        np.testing.assert_array_equal(sample.contact_point, point[k])
+    quarter = run.at(0.125)  # a quarter of the way from output 1 to output 2 (closed forms of the straight line)
+    assert quarter.lift == pytest.approx(1.5, rel=1e-12) and quarter.contact_force == pytest.approx(0.75, rel=1e-12)
+    np.testing.assert_allclose(quarter.contact_normal, np.array([0.25, 0.0, 0.75]) / math.hypot(0.25, 0.75), rtol=1e-12)
+    assert quarter.in_contact  # nearer the constraint output
+    assert not run.at(0.175).in_contact  # nearer the compliant one, the gap 1.5e-3 > 0: in flight
+    assert run.at(0.29).in_contact  # the gap closed (pressed in)
+    assert run.at(-1.0).lift == 0.0 and run.at(9.0).lift == 2.0  # clamped to the run
+    with pytest.raises(ArgumentError, match="^t: expected"):
+        run.at(math.nan)
