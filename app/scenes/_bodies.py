@@ -476,4 +476,5 @@ class CoilSpring:
 
     def span(self, z0: float, z1: float) -> None:
         """Draw the spring from height ``z0`` to ``z1`` (m) on its axis (inside ``target.atomic()``)."""
-        set_arrays(self.node, batched_positions=((0.0, 0.0, z0),), batched_scales=((1.0, 1.0, (z1 - z0) / self.length),))
+        set_arrays(self.node, batched_positions=((0.0, 0.0, z0),),
+                   batched_scales=((1.0, 1.0, (z1 - z0) / self.length),))

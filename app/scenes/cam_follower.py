@@ -1,17 +1,10 @@
 """Cam-follower scene: a disk cam at constant speed drives a spring-loaded translating follower.
 
-A :class:`~app.scenes._simulation.SimulationScene` whose chunk is one revolution (display time is the physical
-time; *Slow motion* sets the time scale to one turn per so many wall seconds), core's results drawn as they are:
-
-* **Closed form** (default): :meth:`core.models.CamFollower.revolution` (a :class:`~core.models.CamRevolution`:
-  lift, ``omega s'``, ``omega^2 s''``, ``N cos(phi) = m omega^2 s'' + k s + F_0 + m g``, Eqs. 8.95-8.108 reduced
-  to the follower's axis, contact point and normal, separation intervals) at 1440 cam angles; chunk k is the same
-  table one period later, and the sample drawn is on its 0.25 deg grid: pose and readout are the closed form.
-* **Compliant contact**: :meth:`core.models.CamFollower.simulate` one revolution per chunk (180 outputs), each from
-  the previous one's ``final_state``: the contact constraints (Eqs. 8.90-8.94, kinematic analysis), then a
-  Hunt-Crossley contact after a separation, DOP853 at rtol 1e-8 (atol 1e-10): against 1e-8, 1e-6 moved the lift
-  by 12-47 um and the impact peaks by 54-175 N, which a plot shows, for 20-30 % less cost. A revolution in core's
-  periodic steady state (``CamMotion.periodic``) repeats a period later.
+A :class:`~app.scenes._simulation.SimulationScene` whose chunk is one revolution, drawn from core's results as they
+are: the closed form (:meth:`core.models.CamFollower.revolution`, rows every 0.25 deg, chunk k the same a period
+later) or the compliant run (:meth:`~core.models.CamFollower.simulate`, 180 outputs, from the previous revolution's
+``final_state``; DOP853 at rtol 1e-8, atol 1e-10: against 1e-8, 1e-6 moved the lift by 12-47 um and the impact
+peaks by 54-175 N, which a plot shows, for 20-30 % less cost). The help text states the equations (8.84-8.109).
 
 Frames (global, metres): the cam shaft is the global y axis, the profile plane is the x-z plane (profile x ->
 global x, profile y -> global z, as in :meth:`CamFollower.build_system`), the follower slides along +z above the
@@ -23,7 +16,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from types import SimpleNamespace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -93,7 +85,8 @@ def build_cam(inputs: Inputs) -> CamFollower:
     try:
         return _cam(key, inputs.mass, inputs.stiffness, inputs.preload)
     except ArgumentError as exc:
-        if exc.argument == "roller_radius" and law and (r := largest_roller_radius(_profile(law, rise))) >= 1e-3 * _ROLLER_MM[0]:
+        r = largest_roller_radius(_profile(law, rise)) if exc.argument == "roller_radius" and law else 0.0
+        if r >= 1e-3 * _ROLLER_MM[0]:
             raise ValueError(f"Roller radius: a {roller:g} mm roller would undercut this cam (rise = fall = {rise:g}°; "
                              "the roller centre's path curves more sharply than the roller); use a roller of at most "
                              f"{math.floor(r * 2000.0) / 2.0:g} mm or a longer rise") from exc
@@ -158,12 +151,14 @@ def layout(key: tuple) -> Layout:
 @dataclasses.dataclass(frozen=True)
 class Chunk:
     """Revolution ``k`` of the motion, rows at times ``t``: the closed form (``closed``: core's table of the
-    revolution, rows every 0.25 deg) or the compliant run (``run``: core's run over the revolution, 180 outputs)."""
+    revolution, rows every 0.25 deg; ``table``: cam angle (deg), lift (mm), v, a, N and N at the jump speed) or the
+    compliant run (``run``: core's run over the revolution, 180 outputs; ``table``: the cam angle in the revolution
+    (deg), the cam's lift under the follower and the follower's lift (mm), the closed-form and the run's force)."""
 
     k: int
     t: np.ndarray  # (n,) s
-    table: Table  # t; closed: cam angle (deg), lift (mm), v, a, N, N at the jump speed; run: the angle in the
-    inputs: Inputs  # revolution (deg), cam lift and follower lift (mm), closed-form and run force (N)
+    table: Table
+    inputs: Inputs
     closed: CamRevolution | None = None
     run: CamMotion | None = None
     revolution: Chunk | None = None  # the closed form's chunk 0 (run revolution 0 only; else None)
@@ -321,8 +316,9 @@ class CamFollowerScene(SimulationScene):
         # at the contact point, +z along the common normal: one pose moves the dot, the normal and the arrow
         self.contact_point = scene.add_frame(f"{root}/contact/point", show_axes=False)
         scene.add_icosphere(f"{root}/contact/point/dot", radius=0.0026, color=_POINT_COLOR, subdivisions=2)
-        self.normal_line = self.add_lines(f"{root}/contact/point/normal", [[(0, 0, -_NORMAL_HALF), (0, 0, _NORMAL_HALF)]],
-                                          vertex_rgb([[_NORMAL_COLOR] * 2]), thickness=2.5, thickness_units="screen")
+        self.normal_line = self.add_lines(f"{root}/contact/point/normal", [[(0, 0, -_NORMAL_HALF),
+                                          (0, 0, _NORMAL_HALF)]], vertex_rgb([[_NORMAL_COLOR] * 2]), thickness=2.5,
+                                          thickness_units="screen")
         self.arrow = self.add_arrows(f"{root}/contact/point/force", np.zeros((1, 2, 3), np.float32),
                                      vertex_rgb([_FORCE_COLOR]), shaft_radius=0.0016, head_radius=0.004,
                                      head_length=0.008)
@@ -383,10 +379,6 @@ class CamFollowerScene(SimulationScene):
                 PlotSpec("run_force", "compliant run: force N (N)", (("closed form (N)", "#888888"),
                          ("System (N)", "#d97706")), lambda t, c: (c[:, 3], c[:, 4]), **run)]
 
-    gui = property(lambda self: SimpleNamespace(
-        readout=self.status, info=self.info, legend=self.legend, plots={n: self.plot_handles[n] for n in _CLOSED_PLOTS},
-        run_plots={n: self.plot_handles[n] for n in ("run_lift", "run_force")}))
-
     def set_plot_data(self, handle: Any, data: tuple) -> None:
         if handle is self.plot_handles.get("run_force"):  # scaled to the closed form; an impact peak is named
             (lo, hi), peak = capped_range(data[1], data[2])
@@ -408,13 +400,10 @@ class CamFollowerScene(SimulationScene):
 
     def load_extra_state(self, extra: dict[str, Any]) -> list[str]:
         refused = [f"{key!r}: not part of this scene's state" for key in extra if key != "cam_angle_deg"]
-        value = extra.get("cam_angle_deg")
-        if "cam_angle_deg" not in extra:
-            pass
-        elif (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
-              or not 0.0 <= value <= 360.0):
+        value = extra.get("cam_angle_deg", 0.0)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 360.0:  # (nan too)
             refused.append(f"cam_angle_deg: expected a number from 0 to 360, got {value!r}")
-        else:
+        elif "cam_angle_deg" in extra:
             self._angle = math.radians(float(value))
         return refused
 
@@ -487,13 +476,9 @@ class CamFollowerScene(SimulationScene):
             self.cam_angle, self.force, lift = float(c.theta[i]), float(c.contact_force[i]), float(c.lift[i])
             self._pose(lift, c.contact_point[i], c.contact_normal[i], show, in_contact=True)
             return
-        self.run_chunk, k = chunk, min(j, chunk.t.size - 2)
-        w = min(max((self.sim_time - chunk.t[k]) / (chunk.t[k + 1] - chunk.t[k]), 0.0), 1.0)
-
-        def lerp(a: np.ndarray) -> Any:
-            return a[k] + w * (a[k + 1] - a[k])
-
-        if lerp(run.lift) > self._travel_limit():
+        self.run_chunk, now = chunk, run.t[0] + self.sim_time - chunk.t[0]  # (a repeated revolution: the run's clock)
+        at = run.at(now)
+        if at.lift > self._travel_limit():
             if not self._thrown:
                 i = self.config
                 spring = (f"the spring (k = {i.stiffness:g} N/m, F0 = {i.preload:g} N)" if i.stiffness or i.preload
@@ -503,11 +488,8 @@ class CamFollowerScene(SimulationScene):
                                f"stop): at {i.rpm:g} rpm {spring} cannot keep it near the cam. Raise the stiffness "
                                "or the preload, or lower the cam speed. Showing the closed form again.")
             return
-        self.cam_angle, self.force = (chunk.inputs.speed * self.sim_time) % (2.0 * math.pi), float(lerp(run.contact_force))
-        normal = lerp(run.contact_normal)[[0, 2]]
-        flight = not run.constraint[k + 1 if w >= 0.5 else k] and lerp(run.gap) > 0.0
-        self._pose(float(lerp(run.lift)), lerp(run.contact_point)[[0, 2]], normal / (np.hypot(*normal) or 1.0), show,
-                   in_contact=not flight)
+        self.cam_angle, self.force = (chunk.inputs.speed * self.sim_time) % (2.0 * math.pi), at.contact_force
+        self._pose(at.lift, at.contact_point[[0, 2]], at.contact_normal[[0, 2]], show, in_contact=at.in_contact)
 
     def _pose(self, lift: float, contact: np.ndarray, normal: np.ndarray, show: bool, *, in_contact: bool) -> None:
         theta, force, self.follower_z = self.cam_angle, self.force, self.layout.pitch_height + lift
@@ -523,7 +505,7 @@ class CamFollowerScene(SimulationScene):
             self.normal_line.visible = in_contact
         self.arrow.visible = self.force_label.visible = drawn = in_contact and force != 0.0
         if drawn:
-            length, (sent, pressing) = _ARROW_MAX * abs(force) / (abs(force) + _ARROW_HALF), self._arrow_sent  # saturates
+            length, (sent, pressing) = _ARROW_MAX * abs(force) / (abs(force) + _ARROW_HALF), self._arrow_sent
             if (force >= 0.0) != pressing or abs(length - sent) > 0.02 * sent:
                 self._arrow_sent = (length, force >= 0.0)
                 ends = ((0.0, 0.0, -length), (0.0, 0.0, 0.0))  # N n ends at the contact point; N < 0 starts there
@@ -537,7 +519,8 @@ class CamFollowerScene(SimulationScene):
         if self.last_chunk.run is not None:
             return (f"**t** = {1000.0 * self.display_time:.2f} ms (revolution {self.last_chunk.k + 1}) · **θ** = "
                     f"{_deg(self.cam_angle):.1f}°")
-        return f"**θ** = {_deg(self.cam_angle):.2f}° · **s** = {1000.0 * float(self.revolution.closed.lift[self.index]):.4f} mm"
+        lift = float(self.revolution.closed.lift[self.index])
+        return f"**θ** = {_deg(self.cam_angle):.2f}° · **s** = {1000.0 * lift:.4f} mm"
 
     def readout_lines(self) -> list[str]:
         chunk, turn = self.last_chunk, float(self.controls.value("turn_seconds"))
@@ -546,7 +529,8 @@ class CamFollowerScene(SimulationScene):
         if chunk.run is not None:
             return [*self.run_lines(chunk, self.sample_index(chunk)), slow]
         c, i = self.revolution.closed, self.index
-        state = "pressing" if self.force >= 0.0 else "< 0: the contact would have to pull; a real follower leaves the cam"
+        state = ("pressing" if self.force >= 0.0 else
+                 "< 0: the contact would have to pull; a real follower leaves the cam")
         return [f"**v** = ω s′ = {float(c.velocity[i]):.4f} m/s · **a** = ω² s″ = {float(c.acceleration[i]):.2f} "
                 f"m/s²", f"**N** = {self.force:.3f} N ({state})", slow]
 
@@ -580,7 +564,8 @@ class CamFollowerScene(SimulationScene):
                          f"{_deg(c.min_force[1]):.2f}°).")
         cam = (f"eccentric circle R = {1000 * ECCENTRIC_RADIUS:g} mm, e = {1000 * ECCENTRICITY:g} mm"
                if i.profile == PROFILES[0] else f"{_LAWS[i.profile]} rise-dwell-return, base circle "
-               f"{1000 * BASE_RADIUS:g} mm, lift {1000 * LIFT:g} mm, rise = fall = {i.rise_deg:g}°, dwell {DWELL_DEG:g}°")
+               f"{1000 * BASE_RADIUS:g} mm, lift {1000 * LIFT:g} mm, rise = fall = {i.rise_deg:g}°, "
+               f"dwell {DWELL_DEG:g}°")
         follower = "flat face" if i.follower == FOLLOWERS[0] else f"roller r = {i.roller_mm:g} mm"
         lines.append(f"Cam: {cam}; follower: {follower}, m = {i.mass:g} kg, k = {i.stiffness:g} N/m, "
                      f"F0 = {i.preload:g} N, g = {GRAVITY:g} m/s² towards the cam.")

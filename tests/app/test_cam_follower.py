@@ -98,7 +98,7 @@ def pause(scene) -> None:
     assert send_value(scene, "animate", False)
     wait_until(lambda: not scene.playing)  # (the clock stands from this frame on; the readout follows)
     wait_until(lambda: scene.drawn_revision == scene.revision
-               and f"**θ** = {math.degrees(scene.cam_angle):.2f}°" in scene.gui.readout.content)
+               and f"**θ** = {math.degrees(scene.cam_angle):.2f}°" in scene.status.content)
 
 
 def wait_for_inputs(scene, timeout=30.0, **fields):
@@ -137,7 +137,7 @@ def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_ap
         time.sleep(0.03)
     pause(scene)
     with app.session_for().run_lock:
-        theta, text = scene.cam_angle, scene.gui.readout.content
+        theta, text = scene.cam_angle, scene.status.content
         z = float(scene.follower_frame.position[2])
         point = np.array(scene.contact_point.position)
         arrow = _in_global(scene.contact_point, np.array(scene.arrow.points)[0])
@@ -177,7 +177,7 @@ def test_roller_follows_the_slider_crank_closed_form(cam_app):
         normal = _in_global(scene.contact_point, np.array(scene.normal_line.points)[0])
     s = roller_lift(theta, r)
     assert z == pytest.approx(R + r - E + s, abs=1e-14)  # the roller's centre
-    assert numbers(scene.gui.readout.content, "**s**") == f"{1000 * s:.4f}"
+    assert numbers(scene.status.content, "**s**") == f"{1000 * s:.4f}"
     # the contact point lies on the roller, r from its centre, and on the cam's circle
     centre_cam = np.array([E * math.sin(theta), -E * math.cos(theta)])  # the circle's centre, turned by theta
     assert math.hypot(point[0], point[2] - z) == pytest.approx(r, abs=1e-12)
@@ -197,10 +197,10 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     inputs = scene.revolution.inputs
     jump = flat_jump_speed(inputs)
     assert scene.revolution.closed.jump_speed == pytest.approx(jump, rel=1e-14)
-    wait_until(lambda: "jump speed = 1088.0 rpm" in scene.gui.info.content)
-    assert f"jump speed = {jump * 30 / math.pi:.1f} rpm" in scene.gui.info.content
-    assert "No separation" in scene.gui.info.content and not scene.separation_arc.visible
-    force_plot = scene.gui.plots["force"]
+    wait_until(lambda: "jump speed = 1088.0 rpm" in scene.info.content)
+    assert f"jump speed = {jump * 30 / math.pi:.1f} rpm" in scene.info.content
+    assert "No separation" in scene.info.content and not scene.separation_arc.visible
+    force_plot = scene.plot_handles["force"]
     assert np.all(np.asarray(force_plot.data[4]) == 0.0)  # nothing shaded
     # just below the jump speed: still no separation; just above: an interval around theta = pi
     rpm_jump = jump * 30 / math.pi
@@ -209,24 +209,24 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     assert scene.revolution.closed.separations == ()
     assert send_value(scene, "rpm", 1300.0)
     wait_for_inputs(scene, rpm=1300.0)
-    wait_until(lambda: "Separation" in scene.gui.info.content and scene.separation_arc.visible)
-    assert "Turn on *Compliant contact* to see the follower jump." in scene.gui.info.content
+    wait_until(lambda: "Separation" in scene.info.content and scene.separation_arc.visible)
+    assert "Turn on *Compliant contact* to see the follower jump." in scene.info.content
     (start, end), = scene.revolution.closed.separations
     # N = 0 where m w^2 e cos(theta) + k e (1 - cos theta) + F = 0 (closed form, both roots)
     w = 1300 * math.pi / 30
     k, m, force = inputs.stiffness, inputs.mass, inputs.preload + inputs.mass * GRAVITY
     root = math.acos(-(k * E + force) / (m * w * w * E - k * E))
     assert start == pytest.approx(root, abs=1e-9) and end == pytest.approx(2 * math.pi - root, abs=1e-9)
-    assert f"θ = {math.degrees(root):.2f}° to {360 - math.degrees(root):.2f}°" in scene.gui.info.content
+    assert f"θ = {math.degrees(root):.2f}° to {360 - math.degrees(root):.2f}°" in scene.info.content
     # shaded in the plots: the negative part of N, and the other curves over the same interval
-    wait_until(lambda: np.any(np.asarray(scene.gui.plots["force"].data[4]) < 0.0)
-               and np.any(np.asarray(scene.gui.plots["lift"].data[2]) > 0.0))
-    x, n, zero, at_jump, shaded = (np.asarray(a) for a in scene.gui.plots["force"].data)
+    wait_until(lambda: np.any(np.asarray(scene.plot_handles["force"].data[4]) < 0.0)
+               and np.any(np.asarray(scene.plot_handles["lift"].data[2]) > 0.0))
+    x, n, zero, at_jump, shaded = (np.asarray(a) for a in scene.plot_handles["force"].data)
     inside = (np.radians(x) > root) & (np.radians(x) < 2 * math.pi - root)
     assert np.all(shaded[inside] < 0) and np.all(shaded[~inside] == 0) and np.all(zero == 0)
     # the dashed curve: the force at the jump speed touches zero at theta = pi
     assert at_jump.min() == pytest.approx(0.0, abs=1e-9) and x[np.argmin(at_jump)] == pytest.approx(180.0)
-    lift_shade = np.asarray(scene.gui.plots["lift"].data[2])
+    lift_shade = np.asarray(scene.plot_handles["lift"].data[2])
     assert np.all(lift_shade[~inside] == 0) and np.all(lift_shade[inside] > 0)
     # the arc on the cam: contour points u of the interval, on the cam's front face (body frame)
     segments = np.asarray(scene.separation_arc.points, dtype=float)
@@ -243,7 +243,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     with app.session_for().run_lock:
         assert scene.load_state(load) == []
     wait_until(lambda: scene.index == REVOLUTION_SAMPLES // 2)
-    wait_until(lambda: "would have to pull" in scene.gui.readout.content)
+    wait_until(lambda: "would have to pull" in scene.status.content)
     assert scene.force < 0 and np.array_equal(np.asarray(scene.arrow.colors)[0], vertex_rgb((150, 60, 200)))
 
 
@@ -364,7 +364,7 @@ def test_presenter_view_scales_labels_arrow_and_lines(cam_app):
     assert scene.force_label.font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
     assert scene.spring.wire_radius > wire
     assert np.ptp(np.array(scene.spring.node.vertices)[:, 0]) > extent  # the wire's mesh was sent again
-    assert "1.45em" in scene.gui.legend.html()
+    assert "1.45em" in scene.legend.html()
     app.session_for().set_presenter(False)
     wait_until(lambda: not scene.presenter)
     assert scene.arrow.shaft_radius == pytest.approx(base)
@@ -388,10 +388,10 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     wait_until(lambda: scene.compliant and scene.run_chunk is not None, timeout=120.0)
     chunk, run = scene.run_chunk, scene.run_chunk.run
     assert chunk.k == 0 and chunk.t.size == RUN_SAMPLES + 1
-    assert scene.gui.run_plots["run_lift"].visible
+    assert scene.plot_handles["run_lift"].visible
     # the separation's advice follows the toggle
-    wait_until(lambda: "The compliant run (its plots below) shows the follower" in scene.gui.info.content)
-    assert "Turn on *Compliant contact*" not in scene.gui.info.content
+    wait_until(lambda: "The compliant run (its plots below) shows the follower" in scene.info.content)
+    assert "Turn on *Compliant contact*" not in scene.info.content
     # on the cam at first (the constraint), then in flight by over a millimetre, then landed
     assert run.constraint[0] and run.separations.size >= 1 and run.landings.size >= 1
     assert run.gap.max() > 1e-3
@@ -408,17 +408,17 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     assert "so far this revolution: 0 separation(s), 0 landing(s)" in scene.run_lines(chunk, before)[2]
     assert "so far this revolution: 1 separation(s)" in scene.run_lines(chunk, before + 2)[2]
     # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
-    wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.gui.readout.content, timeout=60.0)
+    wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.status.content, timeout=60.0)
     # in flight: no force arrow and no contact normal (the dot is the cam's point nearest the follower)
     wait_until(lambda: not scene.arrow.visible and not scene.normal_line.visible, timeout=10.0)
     # on the cam again: the normal is back
-    wait_until(lambda: "on the cam" in scene.gui.readout.content and scene.normal_line.visible, timeout=60.0)
+    wait_until(lambda: "on the cam" in scene.status.content and scene.normal_line.visible, timeout=60.0)
     # the next revolution continues from the last state of this one; its plots start at exactly 0 deg (uPlot
     # drops the axis's 0 tick for 5.7e-14)
     wait_until(lambda: scene.run_chunk is not None and scene.run_chunk.k >= 1, timeout=180.0)
     assert scene.paused_error is None and not notices_with(app, "Compliant run stopped")
     # the force plot is scaled to the closed form, not to the landing's impact (named in the legend)
-    plot = scene.gui.run_plots["run_force"]
+    plot = scene.plot_handles["run_force"]
 
     def plotted() -> bool:  # (the revolution shown may move on while this waits: each try reads it again)
         columns = scene.run_chunk.table.columns
@@ -429,7 +429,7 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
 
     wait_until(plotted)
     assert send_value(scene, "compliant", False)
-    wait_until(lambda: not scene.compliant and not scene.gui.run_plots["run_lift"].visible)
+    wait_until(lambda: not scene.compliant and not scene.plot_handles["run_lift"].visible)
 
 
 def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notice(cam_app):
@@ -452,7 +452,7 @@ def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notic
         time.sleep(0.02)
     (notice,) = notices_with(app, "Compliant run stopped")
     assert "flew to the end of its travel" in notice[1] and "gravity alone (k = 0, F0 = 0)" in notice[1]
-    wait_until(lambda: not scene.compliant and not scene.gui.run_plots["run_lift"].visible)
+    wait_until(lambda: not scene.compliant and not scene.plot_handles["run_lift"].visible)
     # it flew (well above the cam's highest lift) and was never drawn beyond the stand's travel
     assert max(drawn) > float(np.max(scene.revolution.closed.lift)) + 0.005
     assert max(drawn) <= limit + 1e-3  # (one frame of motion past the limit at most)

@@ -53,7 +53,7 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     wait_until(lambda: scene.frames > frames + 1)  # a loop tick after the roller is drawn
     z_before = float(scene.follower_frame.position[2])
     theta = scene.cam_angle
-    lift_before = np.array(scene.gui.plots["lift"].data[1])
+    lift_before = np.array(scene.plot_handles["lift"].data[1])
     view_before = settled_view(page)
 
     thumb = _row(page, "Roller radius (mm)").get_by_role("slider").first
@@ -62,7 +62,7 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     page.keyboard.press("End")  # the slider's maximum: 40 mm
     wait_until(lambda: scene.controls.value("roller_mm") == 40.0)
     wait_until(lambda: scene.revolution.inputs.roller_mm == 40.0
-               and not np.array_equal(np.asarray(scene.gui.plots["lift"].data[1]), lift_before), timeout=120.0)
+               and not np.array_equal(np.asarray(scene.plot_handles["lift"].data[1]), lift_before), timeout=120.0)
     wait_until(lambda: float(scene.follower_frame.position[2]) != z_before)
     assert scene.cam_angle == theta  # the cam stands still
     # the roller's centre: the slider-crank of crank e and rod R + r (closed form), 30 mm higher pitch
@@ -72,13 +72,13 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     view_changed_from(page, view_before, 300)
 
     # the cam speed past the jump speed: the force plot shades the separation interval
-    force_before = np.array(scene.gui.plots["force"].data[1])
+    force_before = np.array(scene.plot_handles["force"].data[1])
     speed = _row(page, "Cam speed (rpm)").get_by_role("slider").first
     speed.focus()
     page.keyboard.press("End")  # 3000 rpm
     wait_until(lambda: scene.revolution.inputs.rpm == 3000.0 and scene.separation_arc.visible, timeout=120.0)
-    wait_until(lambda: np.any(np.asarray(scene.gui.plots["force"].data[4]) < 0.0))
-    assert not np.array_equal(np.asarray(scene.gui.plots["force"].data[1]), force_before)
-    wait_until(lambda: "Separation" in scene.gui.info.content)
+    wait_until(lambda: np.any(np.asarray(scene.plot_handles["force"].data[4]) < 0.0))
+    assert not np.array_equal(np.asarray(scene.plot_handles["force"].data[1]), force_before)
+    wait_until(lambda: "Separation" in scene.info.content)
     page.get_by_text("jump speed = ", exact=False).first.wait_for(state="visible")
     wait_for_drawn_canvas(page)

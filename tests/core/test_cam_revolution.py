@@ -126,7 +126,8 @@ def test_the_largest_roller_radius_needs_only_the_profile(offset):
     # (40 deg rise = fall: an 18-21 mm roller undercuts this cam; a 5 mm one fits)
     profile = CamProfile.rise_dwell_return(0.04, 0.02, math.radians(40.0), math.radians(30.0), math.radians(40.0))
     largest = largest_roller_radius(profile, offset=offset)
-    assert largest == CamFollower(profile, follower="roller", roller_radius=0.005, offset=offset).largest_roller_radius()
+    cam = CamFollower(profile, follower="roller", roller_radius=0.005, offset=offset)
+    assert largest == cam.largest_roller_radius()
     # at that roller its own pitch curve's smallest convex radius of curvature is the roller's radius. Tolerance
     # 1e-5 relative: core locates the smallest radius on 1025 samples per segment without refining it (a sampled
     # minimum of a smooth function: off by up to about 1e-6 of it here); the differences here err by O(h^2), 1e-10
