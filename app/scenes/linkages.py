@@ -207,7 +207,6 @@ class LinkagesScene(SimulationScene):
         self.parts = PartsView(scene, f"{m}/parts", capacity=(_MAX_RODS, _MAX_RODS, 1, 1),
                                rod_colors=[((96, 108, 128), (178, 184, 196))[i % 2] for i in range(_MAX_RODS)],
                                ball_color=_JOINT, box_color=_JOINT, spring_color=_JOINT)
-        self.rods, self.joint_spheres = self.parts.rods, self.parts.balls
         self.slider = scene.add_box(f"{m}/slider", color=(120, 122, 134), dimensions=(0.125,) * 3, visible=False)
         self.ghost_pivot = scene.add_frame(f"{m}/ghost_pivot", show_axes=False, position=_GHOST_OFFSET, visible=False)
         top = meshes.spinning_top(2.0 / 9.81)  # core's top: its centre of mass l = mgl / (m g) above the pivot

@@ -74,13 +74,13 @@ def test_scene_is_registered_after_the_gyroscope():
 def test_moving_n_changes_the_number_of_visible_links(linkages):
     app, scene = linkages
     wait_for_model(scene, preset=CHAIN)
-    assert drawn_instances(scene.rods) == Inputs().n_links
+    assert drawn_instances(scene.parts.rods) == Inputs().n_links
     for n in (1, 8, 10, 3):
         assert send_value(scene, "n_links", n)
-        wait_until(lambda: scene.setup.model.n_links == n and drawn_instances(scene.rods) == n, timeout=30.0)
+        wait_until(lambda: scene.setup.model.n_links == n and drawn_instances(scene.parts.rods) == n, timeout=30.0)
         with app.session_for().run_lock:
-            scales = np.asarray(scene.rods.batched_scales)
-            joint_scales = np.asarray(scene.joint_spheres.batched_scales)
+            scales = np.asarray(scene.parts.rods.batched_scales)
+            joint_scales = np.asarray(scene.parts.balls.batched_scales)
         # n rods of length 2 m / n, the others drawn at scale zero; one joint per link
         np.testing.assert_allclose(scales[:n, 2], 2.0 / n, rtol=1e-6)
         assert np.all(scales[n:] == 0.0)
@@ -92,11 +92,11 @@ def test_play_advances_the_chain_and_pause_holds_it(linkages):
     app, scene = linkages
     wait_for_model(scene, preset=CHAIN)
     with app.session_for().run_lock:
-        before = np.array(scene.rods.batched_positions)
+        before = np.array(scene.parts.rods.batched_positions)
         t_before = scene.sim_time
     wait_until(lambda: scene.sim_time > t_before + 0.3)
     with app.session_for().run_lock:
-        after = np.array(scene.rods.batched_positions)
+        after = np.array(scene.parts.rods.batched_positions)
     # released from a tilt, the links swing: their centres move (m)
     assert np.abs(after - before).max() > 0.01
     click(scene, "playback", "Pause")
@@ -104,10 +104,10 @@ def test_play_advances_the_chain_and_pause_holds_it(linkages):
     wait_for_frames(scene, 2)
     t_paused = scene.sim_time
     with app.session_for().run_lock:
-        paused = np.array(scene.rods.batched_positions)
+        paused = np.array(scene.parts.rods.batched_positions)
     wait_for_frames(scene, 20)
     assert scene.sim_time == t_paused
-    np.testing.assert_array_equal(np.asarray(scene.rods.batched_positions), paused)
+    np.testing.assert_array_equal(np.asarray(scene.parts.rods.batched_positions), paused)
     click(scene, "playback", "Play")
     wait_until(lambda: scene.sim_time > t_paused + 0.1)
 
@@ -160,7 +160,7 @@ def test_presets_match_their_closed_forms_and_show_their_parts(linkages):
         assert slider_shown == (preset == CRANK)
         assert top_shown == ghost_shown == (preset == TOP)
         assert rpm_shown == (preset == CRANK) and n_shown == (preset == CHAIN)
-        assert drawn_instances(scene.rods) == {CHAIN: 5, DOUBLE: 2, CRANK: 2, TOP: 0}[preset]
+        assert drawn_instances(scene.parts.rods) == {CHAIN: 5, DOUBLE: 2, CRANK: 2, TOP: 0}[preset]
         if preset == CRANK:
             # the slider follows r cos(phi) + sqrt(l^2 - r^2 sin^2 phi), phi = 2 pi t at 60 rpm
             assert setup.info.degrees_of_freedom == 0 and setup.info.motor and not setup.info.conserved
@@ -254,7 +254,7 @@ def test_a_failing_integration_stops_the_clock_with_a_notice(linkages):
     assert notices_with(app, "fixed-point iteration did not converge")
     assert scene.paused_error is None and not scene.playing
     with app.session_for().run_lock:
-        assert np.all(np.isfinite(np.asarray(scene.rods.batched_positions)))
+        assert np.all(np.isfinite(np.asarray(scene.parts.rods.batched_positions)))
     # another integrator runs again
     assert send_value(scene, "method", "DOP853")
     click(scene, "playback", "Play")
@@ -371,13 +371,13 @@ def test_the_clock_holds_until_its_chunk_is_ready_and_nothing_runs_on_the_loop(b
         assert time.thread_time() - t0 < 0.05  # no integration on the loop thread
     # no chunk yet: nothing was computed on the loop thread, the clock holds, nothing is drawn
     assert scene.sim_time == 0.0 and scene.waiting and scene.timeline.computed == 0
-    assert scene.setup is None and drawn_instances(scene.rods) == 0
+    assert scene.setup is None and drawn_instances(scene.parts.rods) == 0
     executor.open.set()
     wait_until(lambda: scene.timeline.ready(0), timeout=30.0)
     for _ in range(10):
         scene.frame(1 / 60)
     assert scene.sim_time == pytest.approx(10 / 60) and not scene.waiting
-    assert drawn_instances(scene.rods) == 10
+    assert drawn_instances(scene.parts.rods) == 10
 
 
 def test_time_step_per_frame_is_bounded(bare_scene):
@@ -415,13 +415,13 @@ def test_every_preset_is_framed_left_of_the_panel_and_its_labels_do_not_overlap(
         scene.frame(1 / 60)
         assert scene.setup.model.preset == preset and scene.sim_time == 0.0
         setup = scene.setup
-        points = [np.asarray(scene.joint_spheres.batched_positions, dtype=float)[: len(setup.info.joint_names)]]
-        positions = np.asarray(scene.rods.batched_positions, dtype=float)
-        scales = np.asarray(scene.rods.batched_scales, dtype=float)
+        points = [np.asarray(scene.parts.balls.batched_positions, dtype=float)[: len(setup.info.joint_names)]]
+        positions = np.asarray(scene.parts.rods.batched_positions, dtype=float)
+        scales = np.asarray(scene.parts.rods.batched_scales, dtype=float)
         for i in range(len(setup.info.links)):
             from scipy.spatial.transform import Rotation
 
-            axis = Rotation.from_quat(np.asarray(scene.rods.batched_wxyzs[i], dtype=float),
+            axis = Rotation.from_quat(np.asarray(scene.parts.rods.batched_wxyzs[i], dtype=float),
                                       scalar_first=True).apply([0.0, 0.0, 0.5 * scales[i, 2]])
             points.append(np.array([positions[i] + axis, positions[i] - axis]))
         if setup.info.slider >= 0:

@@ -37,7 +37,7 @@ def _slider_thumb(page, label: str):
 def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     _, page, scene = scene_page(LinkagesScene)
     wait_until(lambda: scene.setup is not None and scene.sim_time > 0.3, timeout=120.0)
-    assert drawn_instances(scene.rods) == 5
+    assert drawn_instances(scene.parts.rods) == 5
     page.get_by_role("button", name="Pause", exact=True).click()
     wait_until(lambda: not scene.playing)
     thumb = _slider_thumb(page, "N links")
@@ -47,13 +47,13 @@ def test_moving_n_changes_the_links_drawn(scene_page) -> None:
     thumb.focus()
     page.keyboard.press("End")  # the slider's maximum: 10 links
     wait_until(lambda: scene.controls.value("n_links") == 10)
-    wait_until(lambda: drawn_instances(scene.rods) == 10 and scene.setup.model.n_links == 10, timeout=120.0)
+    wait_until(lambda: drawn_instances(scene.parts.rods) == 10 and scene.setup.model.n_links == 10, timeout=120.0)
     # ten joints and arrows against five, then one: many pixels of the 3-D view differ
     view_changed_from(page, before, 300)
     ten = settled_view(page)
     thumb.focus()
     page.keyboard.press("Home")  # one link
-    wait_until(lambda: drawn_instances(scene.rods) == 1 and scene.setup.model.n_links == 1, timeout=120.0)
+    wait_until(lambda: drawn_instances(scene.parts.rods) == 1 and scene.setup.model.n_links == 1, timeout=120.0)
     view_changed_from(page, ten, 300)
     wait_for_drawn_canvas(page)
 
@@ -66,19 +66,19 @@ def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
     frames = scene.frames
     wait_until(lambda: scene.frames > frames + 1)  # a loop tick after the pause
     t_paused = scene.sim_time
-    positions = np.array(scene.rods.batched_positions)
+    positions = np.array(scene.parts.rods.batched_positions)
     held = settled_view(page)
     # half a second of loop ticks and a few page frames later, nothing has moved
     frames = scene.frames
     wait_until(lambda: scene.frames > frames + 30, timeout=120.0)
     next_frames(page, 3)
     assert scene.sim_time == t_paused
-    np.testing.assert_array_equal(np.asarray(scene.rods.batched_positions), positions)
+    np.testing.assert_array_equal(np.asarray(scene.parts.rods.batched_positions), positions)
     assert changed_pixels(view(page), held) == 0  # nothing moves while paused
 
     page.get_by_role("button", name="Play", exact=True).click()
     wait_until(lambda: scene.playing and scene.sim_time > t_paused + 0.5, timeout=120.0)
-    assert np.abs(np.asarray(scene.rods.batched_positions) - positions).max() > 0.01
+    assert np.abs(np.asarray(scene.parts.rods.batched_positions) - positions).max() > 0.01
     view_changed_from(page, held, 200)
 
 
