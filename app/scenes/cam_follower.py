@@ -78,25 +78,38 @@ class Inputs:
         return (law, "roller" if roller else "flat", self.rise_deg if law else None, self.roller_mm if roller else None)
 
 
-def build_cam(inputs: Inputs) -> CamFollower:
+def build_cam(inputs: Inputs, *, shape_only: bool = False) -> CamFollower:
     """The :class:`core.models.CamFollower` of ``inputs``, or a ValueError in the panel's terms (rise = fall in
-    degrees, roller in mm) naming the value that works, chosen by core's ``ArgumentError.argument``."""
-    law, _, rise, roller = key = inputs.geometry_key()
+    degrees, roller in mm) naming the value that works. Only the cam's shape can be refused (the sliders keep
+    ``F0 + m g > 0``): ``shape_only`` checks it alone, as the loop thread does (cached per shape: a shape costs up
+    to about 6 ms once, a refusal about 60 ms once: core names the largest roller in its own refusal)."""
+    key = inputs.geometry_key()
+    refusal = _refusal(key)
+    if refusal is not None:
+        raise ValueError(refusal)
+    return _cam(key) if shape_only else _cam(key, inputs.mass, inputs.stiffness, inputs.preload)
+
+
+@functools.lru_cache(maxsize=256)
+def _refusal(key: tuple) -> str | None:
+    """Why core refuses the shape ``key`` in the panel's terms (by ``ArgumentError.argument``), or None."""
+    law, _, rise, roller = key
     try:
-        return _cam(key, inputs.mass, inputs.stiffness, inputs.preload)
+        _cam(key)
     except ArgumentError as exc:
         r = largest_roller_radius(_profile(law, rise)) if exc.argument == "roller_radius" and law else 0.0
         if r >= 1e-3 * _ROLLER_MM[0]:
-            raise ValueError(f"Roller radius: a {roller:g} mm roller would undercut this cam (rise = fall = {rise:g}°; "
-                             "the roller centre's path curves more sharply than the roller); use a roller of at most "
-                             f"{math.floor(r * 2000.0) / 2.0:g} mm or a longer rise") from exc
+            return (f"Roller radius: a {roller:g} mm roller would undercut this cam (rise = fall = {rise:g}°; the "
+                    "roller centre's path curves more sharply than the roller); use a roller of at most "
+                    f"{math.floor(r * 2000.0) / 2.0:g} mm or a longer rise")
         if exc.argument == "base_radius" and law:
             fits = math.ceil(math.degrees(smallest_convex_rise(BASE_RADIUS, LIFT, math.radians(DWELL_DEG), law)))
             advice = f"a rise of at least {fits}° or " if fits <= _RISE_DEG[1] else ""
-            raise ValueError(f"Flat-faced follower: at rise = fall = {rise:g}° the cam would not be convex (its radius "
-                             f"of curvature R_b + s + s″ turns negative, and a flat face would bridge the hollow); use "
-                             f"{advice}the roller follower") from exc
-        raise
+            return (f"Flat-faced follower: at rise = fall = {rise:g}° the cam would not be convex (its radius of "
+                    f"curvature R_b + s + s″ turns negative, and a flat face would bridge the hollow); use {advice}the "
+                    "roller follower")
+        return str(exc)
+    return None
 
 
 def _profile(law: str | None, rise_deg: float | None) -> CamProfile:
@@ -285,7 +298,7 @@ class CamFollowerScene(SimulationScene):
         return functools.partial(compute_chunk if inputs.compliant else closed_form_chunk, inputs)
 
     def check_inputs(self, inputs: Inputs) -> None:
-        build_cam(inputs)  # (a refusal in the panel's terms)
+        build_cam(inputs, shape_only=True)  # (a refusal in the panel's terms)
 
     # -- nodes and controls ------------------------------------------------------------------
     def build_nodes(self) -> None:
