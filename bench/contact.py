@@ -423,7 +423,7 @@ def scene_target(*, revolutions: int = 3) -> list[dict]:
     out = []
     for profile, follower, fraction in SCENE_CASES:
         base = cf.Inputs(profile=profile, follower=follower)
-        jump = cf._jump_speed(base.model_key())
+        jump = cf.build_cam(base).jump_speed()
         inputs = cf.Inputs(profile=profile, follower=follower, rpm=fraction * jump * 30.0 / math.pi)
         previous, cpus = None, []
         for k in range(revolutions):
