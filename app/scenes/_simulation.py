@@ -58,6 +58,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from app.jobs import ChunkTimeline
+from app.nodes import set_plot_data
 from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh
 from app.scenes.base import Scene
@@ -200,6 +201,7 @@ class SimulationScene(PlaybackRequests, Scene):
         self._error_paused = False  # an error stopped the running clock (a change of the inputs restarts it)
         self._timeline_inputs: Any = None  # the inputs of the timeline's chunks (None: not a motion from t = 0)
         self._rate: collections.deque[tuple[float, float]] = collections.deque()
+        self._rate_sums = [0.0, 0.0]  # wall and simulated seconds in self._rate (running sums: O(1) a frame)
         self.real_time_rate = math.nan
 
     @staticmethod
@@ -427,16 +429,24 @@ class SimulationScene(PlaybackRequests, Scene):
         the clock moves (requests such as a push)."""
 
     def _measure_rate(self, dt: float, advanced: float, running: bool) -> None:
+        rate, sums = self._rate, self._rate_sums
         if not running or not self.playback.playing or self.ended:
-            self._rate.clear()
+            rate.clear()
+            sums[:] = (0.0, 0.0)
             self.real_time_rate = math.nan
             return
-        self._rate.append((max(dt, 0.0), max(advanced, 0.0)))
-        wall = sum(w for w, _ in self._rate)
-        while len(self._rate) > 1 and wall - self._rate[0][0] >= RATE_WINDOW:
-            wall -= self._rate.popleft()[0]
-        if wall >= 0.5 * RATE_WINDOW:
-            self.real_time_rate = sum(s for _, s in self._rate) / wall
+        w, s = max(dt, 0.0), max(advanced, 0.0)
+        rate.append((w, s))
+        sums[0] += w
+        sums[1] += s
+        while len(rate) > 1 and sums[0] - rate[0][0] >= RATE_WINDOW:
+            w, s = rate.popleft()
+            sums[0] -= w
+            sums[1] -= s
+        if len(rate) == 1:  # (no drift of the running sums)
+            sums[:] = rate[0]
+        if sums[0] >= 0.5 * RATE_WINDOW:
+            self.real_time_rate = max(sums[1], 0.0) / sums[0]
 
     def _frame(self, chunk: Any, dt: float) -> None:
         if getattr(chunk, "final", False) and self.sim_time >= float(chunk.t[-1]) - 1e-12:
@@ -532,8 +542,9 @@ class SimulationScene(PlaybackRequests, Scene):
             handle.scales = {"x": {"time": False}, "y": {"auto": False, "range": y_range}}
 
     def set_plot_data(self, handle: Any, data: tuple) -> None:
-        """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page)."""
-        handle.data = tuple(np.asarray(a, dtype=float) for a in data)
+        """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page), one
+        message without viser's per-array type checks (:func:`app.nodes.set_plot_data`)."""
+        set_plot_data(handle, data)
 
     def readout_text(self) -> str:
         lines = [self.time_text()]
