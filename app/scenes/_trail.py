@@ -613,12 +613,13 @@ class SampledTrack:
         self._fed = (key, max(i0, j + 1), start.size - 1)
         self.head.add(point)
 
-    def draw(self) -> None:
-        """Send what changed (inside ``target.atomic()``, every frame the point moves)."""
+    def draw(self, *, hold: bool = False) -> None:
+        """Send what changed (inside ``target.atomic()``, every frame the point moves); ``hold``: the frame
+        sends a plot or a readout already, the trail's chunk waits for the next frame (the head's poses go)."""
         if not self.visible:
             return
         now = time.monotonic()
-        if self.trail.pending and now - self._flushed >= self.period:
+        if not hold and self.trail.pending and now - self._flushed >= self.period:
             self.trail.flush()
             self._flushed = now
         self.head.draw()
@@ -629,8 +630,8 @@ class HeadedTrail:
     ended by a :class:`StickHead` of ``count`` sticks of ``length`` (m) placed by poses in every frame.
 
     ``add(point)`` feeds both; ``draw(visible)`` (inside ``atomic()``) shows or hides them, sends the
-    trail's newest chunk when ``period`` s of wall time have passed and the head's poses; ``clear()``
-    empties both.
+    trail's newest chunk when ``period`` s of wall time have passed (not in a frame that sends a plot:
+    ``hold=True``) and the head's poses; ``clear()`` empties both.
     """
 
     def __init__(self, scene: Any, name: str, color: Any, *, thickness: float, capacity: int, min_step: float,
@@ -650,12 +651,12 @@ class HeadedTrail:
         self.trail.clear()
         self.head.clear()
 
-    def draw(self, visible: bool) -> None:
+    def draw(self, visible: bool, *, hold: bool = False) -> None:
         for part in (self.trail, self.head):
             if part.visible != visible:
                 part.visible = visible
         now = time.monotonic()
-        if visible and now - self._sent >= self.period and self.trail.pending:
+        if visible and not hold and now - self._sent >= self.period and self.trail.pending:
             self._sent = now
             self.trail.flush()  # the newest chunk only
         if visible:

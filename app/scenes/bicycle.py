@@ -36,6 +36,7 @@ _CHUNK = 0.5  # s of ride per chunk
 _SAMPLES = 21  # samples per chunk (40 per second; frames interpolate)
 _RTOL, _ATOL = 1e-5, 1e-7  # DOP853 (a display: lean to about 1e-5 rad)
 _GRID_SECTION = 2.0  # m
+_POSE_END = 28  # columns of RideChunk.rows: the four bodies' poses (position, Euler parameters), then contacts
 #: Presets: speed (m/s) and the push (N s) given at t = 0.
 PRESETS = {"Self-stable: 5 m/s, push": (5.0, 40.0), "Weave: 2 m/s, push": (2.0, 20.0),
            "Capsize: 8 m/s, push": (8.0, 60.0), "Upright at 5 m/s": (5.0, 0.0)}
@@ -58,6 +59,8 @@ class RideChunk:
     poses: np.ndarray  # (n, 4, 7) ride.poses, drawn (made on the executor)
     contacts: np.ndarray  # (n, 2, 3) ride.contact_points
     table: Table  # lean, steer, yaw (deg), rear contact x, y (m), speed (m/s)
+    #: (n, 36) what a frame interpolates, one row a sample: poses (28), contacts (6), lean and steer (rad)
+    rows: np.ndarray
 
     t, final = property(lambda self: self.ride.t), property(lambda self: self.ride.fallen)
 
@@ -74,7 +77,9 @@ def _ride_chunk(speed: float, t0: float, start: RunState | None, impulse: float,
     c = ride.contact_points
     columns = np.column_stack([np.degrees(np.stack([ride.lean, ride.steer, ride.yaw], axis=1)), c[:, 0, :2],
                                ride.rear_speed])
-    return RideChunk(k, ride, ride.poses, c, Table.build(ride.t, columns))
+    poses = ride.poses
+    rows = np.column_stack([poses.reshape(poses.shape[0], -1), c.reshape(c.shape[0], -1), ride.lean, ride.steer])
+    return RideChunk(k, ride, poses, c, Table.build(ride.t, columns), rows)
 
 
 def eigenvalue_svg(sweep: Any, current: tuple[float, tuple] | None, *, font: float = _CHART_FONT[0],
@@ -258,20 +263,28 @@ class BicycleScene(SimulationScene):
         t, i = chunk.t, min(j, max(chunk.t.size - 2, 0))
         w = 0.0 if t.size < 2 else min(max((self.sim_time - t[i]) / (t[i + 1] - t[i]), 0.0), 1.0)
         k = min(i + 1, t.size - 1)
-        r = chunk.ride
-        pose, lean, steer, contacts = ((1 - w) * a[i] + w * a[k] for a in (chunk.poses, r.lean, r.steer, chunk.contacts))
-        self.lean, self.steer = float(lean), float(steer)
-        self.center = center = 0.5 * (contacts[0, :2] + contacts[1, :2])
-        shift = -(center - _GRID_SECTION * np.round(center / _GRID_SECTION))
-        set_pose(self.world, position=(-float(center[0]), -float(center[1]), 0.0))
-        set_pose(self.grid, position=(float(shift[0]), float(shift[1]), 0.0))
+        # one interpolation of the sample's rows (poses, contacts, lean, steer), made on the executor
+        row = (1.0 - w) * chunk.rows[i] + w * chunk.rows[k]
+        pose = row[:_POSE_END].reshape(4, 7)
+        pose[:, 3:] /= np.sqrt(np.einsum("ij,ij->i", pose[:, 3:], pose[:, 3:]))[:, None]
+        values = row.tolist()
+        self.lean, self.steer = values[-2], values[-1]
+        rx, ry, rz, fx, fy, fz = values[_POSE_END:_POSE_END + 6]
+        cx, cy = 0.5 * (rx + fx), 0.5 * (ry + fy)
+        self.center = np.array((cx, cy))
+        set_pose(self.world, position=(-cx, -cy, 0.0))
+        set_pose(self.grid, position=(-(cx - _GRID_SECTION * round(cx / _GRID_SECTION)),
+                                      -(cy - _GRID_SECTION * round(cy / _GRID_SECTION)), 0.0))
         for b, node in enumerate(self.bodies):
-            set_pose(node, position=pose[b, :3], wxyz=pose[b, 3:] / math.sqrt(float(pose[b, 3:] @ pose[b, 3:])))
-        for track, point in zip(self.tracks, contacts):
-            track.add(point + (0.0, 0.0, 0.003))
-            track.draw(bool(self.controls.value("show_tracks")))
-        if self.rider.visible != bool(self.controls.value("show_rider")):
-            self.rider.visible = bool(self.controls.value("show_rider"))
+            set_pose(node, position=values[7 * b:7 * b + 3], wxyz=values[7 * b + 3:7 * b + 7])
+        # a frame that sends a plot or the readout sends no track buffer (they come a frame later)
+        show_tracks, hold = bool(self.controls.value("show_tracks")), self.refresh_due is not None
+        for track, point in zip(self.tracks, ((rx, ry, rz + 0.003), (fx, fy, fz + 0.003))):
+            track.add(point)
+            track.draw(show_tracks, hold=hold)
+        show_rider = bool(self.controls.value("show_rider"))
+        if self.rider.visible != show_rider:
+            self.rider.visible = show_rider
 
     # -- side jobs: the modes at the current speed, then the eigenvalues against speed --------------
     def background(self) -> None:

@@ -292,7 +292,7 @@ class RollingDiskScene(SimulationScene):
         set_pose(self.grid, position=(-math.fmod(ox, _GRID_SECTION), -math.fmod(oy, _GRID_SECTION), 0.0))
         set_pose(self.point, position=(px, py, pz))
         self.path.visible = show_track
-        self.path.draw()
+        self.path.draw(hold=self.refresh_due is not None)  # a frame that sends a plot sends no track buffer
         self.force.show(force if show_force else None, scale=_ARROW_RADII * radius,
                         reference=chunk.model.mass * _GRAVITY)
 
