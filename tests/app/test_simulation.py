@@ -18,7 +18,7 @@ import pytest
 
 from app.controls import Slider
 from app.scenes._plots import Table
-from app.scenes._simulation import PlotSpec, SimulationScene, power_of_ten
+from app.scenes._simulation import RATE_WINDOW, PlotSpec, SimulationScene, power_of_ten
 from tests.app.conftest import GatedExecutor
 from tests.helpers import wait_until
 
@@ -186,6 +186,18 @@ def test_the_readout_says_the_rate_when_the_chunks_hold_the_clock(make_bare_scen
     text = scene.readout_text()
     assert "real time" in text and "waiting for the computation" in text
     gate.open.set()
+
+
+def test_the_rate_is_the_simulated_over_the_wall_seconds_of_the_last_window(make_bare_scene) -> None:
+    # (running sums of the window: 5 s at full speed, then 5 s at a quarter; the rate forgets the first part)
+    scene, _ = make_bare_scene(_Toy)
+    scene.playback.set_playing(True)
+    for i in range(600):
+        scene._measure_rate(1 / 60, (1.0 if i < 300 else 0.25) / 60, True)
+    assert scene.real_time_rate == pytest.approx(0.25, rel=1e-9)
+    assert len(scene._rate) <= RATE_WINDOW * 60 + 2
+    scene._measure_rate(1 / 60, 0.0, False)  # stopped: no rate, and a fresh window
+    assert math.isnan(scene.real_time_rate) and not scene._rate
 
 
 def test_a_change_after_a_failure_runs_again_unless_the_clock_was_paused_by_hand(make_bare_scene) -> None:

@@ -237,3 +237,33 @@ def test_headed_trail_feeds_both_and_hides_both(server) -> None:
     assert not track.trail.visible and not track.head.visible
     track.clear()
     assert track.trail.points.shape[0] == 0
+
+
+def test_a_held_frame_sends_no_track_buffer_and_the_next_frame_does(server) -> None:
+    """HeadedTrail and SampledTrack: ``draw(hold=True)`` (a frame that sends a plot) moves the head but keeps
+    the ring's newest chunk for the next frame that is not held."""
+    from app.scenes._trail import HeadedTrail, SampledTrack, sampled_curve
+
+    headed = HeadedTrail(_Owner(server), "/held", (0, 150, 140), thickness=2.0, capacity=64, min_step=0.01,
+                         length=0.05, count=8, period=0.0)
+    for x in np.linspace(0.0, 1.0, 51):
+        headed.add((x, 0.0, 0.0))
+    with server.atomic():
+        headed.draw(True, hold=True)
+    assert headed.trail.pending
+    np.testing.assert_allclose(headed.head.segments[-1][0], (1.0, 0.0, 0.0), atol=1e-12)  # the head moved
+    with server.atomic():
+        headed.draw(True)
+    assert not headed.trail.pending
+
+    u = np.linspace(0.0, 1.0, 11)
+    curve = sampled_curve(u, np.column_stack([u, np.zeros_like(u), np.zeros_like(u)]))
+    sampled = SampledTrack(_Owner(server), "/held_sampled", (0, 150, 140), thickness=2.0, capacity=100,
+                           min_step=1e-6, head_length=0.05, head_count=8, period=0.0)
+    sampled.follow("a", *curve, 10, (1.0, 0.0, 0.0))
+    with server.atomic():
+        sampled.draw(hold=True)
+    assert sampled.trail.pending
+    with server.atomic():
+        sampled.draw()
+    assert not sampled.trail.pending
