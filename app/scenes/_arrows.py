@@ -88,7 +88,9 @@ class PointArrows:
         self.upper = pair[1] if pair is not None else -1  # the pair's arrow whose label is above
         self.labels = [scene.add_label(f"{name}/label_{i}", text, anchor=self.anchor(i), scale=label_scale)
                        for i, text in enumerate(texts)]
-        self._shown = [True] * k
+        for label in self.labels:  # every arrow is zero until the first draw: its label would sit at the origin
+            label.visible = False
+        self._shown = [False] * k
 
     @property
     def visible(self) -> bool:

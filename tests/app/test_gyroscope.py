@@ -462,6 +462,23 @@ def test_the_clock_holds_until_its_chunk_is_ready_and_nothing_runs_on_the_loop(b
     assert scene.sim_time == pytest.approx(10 / 60) and not scene.waiting
 
 
+def test_arrow_labels_are_hidden_until_their_arrows_are_drawn(bare_scene):
+    """Before the first chunk every arrow is zero: its label would sit at the
+    origin on top of the others (L, M and omega overlapped while the motion was
+    computed), so none is shown until the arrows are drawn."""
+    executor = GatedExecutor()
+    scene, _ = bare_scene(executor)
+    for _ in range(5):
+        scene.frame(1 / 60)
+    assert scene.waiting and not any(label.visible for label in scene.arrow_labels)
+    executor.open.set()
+    wait_until(lambda: scene.timeline.ready(0))
+    scene.frame(1 / 60)
+    tips = np.array(scene.arrows.points)[:, 1]
+    shown = [label.visible for label in scene.arrow_labels]
+    assert shown == [bool(np.linalg.norm(tip) > 0.0) for tip in tips] and any(shown)
+
+
 def test_labels_do_not_overlap_at_the_default_view(bare_scene):
     """Project every label anchor with the scene's default camera (1200 x 750)
     and check that no two label boxes overlap and all lie left of the GUI panel,
