@@ -63,12 +63,19 @@ from app.scenes._playback import Playback, PlaybackRequests
 from app.scenes._plots import History, Legend, PlotRefresh
 from app.scenes.base import Scene
 
-__all__ = ["PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL", "power_of_ten"]
+__all__ = ["InputsRefused", "PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL", "power_of_ten"]
 
 #: Wall seconds over which the real-time rate is measured.
 RATE_WINDOW = 2.0
 #: The readout reports the rate when it is below this fraction of the time scale.
 RATE_SHORTFALL = 0.9
+
+
+class InputsRefused(ValueError):
+    """Raised by a scene's job (or :meth:`SimulationScene.check_inputs`) for inputs that cannot run together,
+    with the reason in the panel's terms: the layer then sets the controls back to the inputs whose motion ran
+    last and says why in a notice titled :attr:`SimulationScene.refusal_title`, as for a refusal on the loop
+    thread. A check too slow for a frame's budget (building core's model) runs in the job this way."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -168,6 +175,10 @@ class SimulationScene(PlaybackRequests, Scene):
     #: Title of the notice when :meth:`check_inputs` refuses the inputs (lower case: the start of the
     #: refusal of a loaded state, :meth:`values_refusal`).
     refusal_title: ClassVar[str] = "Invalid values"
+    #: Whether :meth:`check_inputs` fits in a frame's budget (p99 2 ms, max 8 ms): the layer then calls it on the
+    #: loop thread at each change; else only off the loop (before a state loads), and the job raises
+    #: :class:`InputsRefused` for the inputs it refuses.
+    check_on_loop: ClassVar[bool] = True
 
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
         super().__init__(target, notify, context=context)
@@ -179,6 +190,7 @@ class SimulationScene(PlaybackRequests, Scene):
         # owned by the loop thread
         self.segment = Segment()
         self.config: Any = None  # the Inputs in use (None until the first frame)
+        self._ran: Any = None  # the Inputs of the last motion drawn (kept when a job refuses newer ones)
         self.sim_time = 0.0  # display clock (s)
         self.local_time = 0.0  # clock within the segment (s)
         self.display_time = 0.0  # time of the sample drawn (s)
@@ -232,7 +244,9 @@ class SimulationScene(PlaybackRequests, Scene):
     def check_inputs(self, inputs: Any) -> None:
         """Hook: raise ValueError (naming the argument) when ``inputs`` cannot run together (each control's
         value passed its own check); the layer then keeps the motion in use, sets the controls back to it
-        and says why in a notice titled :attr:`refusal_title`. Also checks a state before it loads."""
+        and says why in a notice titled :attr:`refusal_title`. Also checks a state before it loads (off the loop
+        thread). A check too slow for a frame (:attr:`check_on_loop` False) runs only there; the job then raises
+        :class:`InputsRefused` itself."""
 
     def values_refusal(self, values: dict[str, Any]) -> str | None:
         try:
@@ -332,12 +346,10 @@ class SimulationScene(PlaybackRequests, Scene):
     def configure(self, inputs: Any) -> None:
         """Use ``inputs``: the motion again from t = 0 (or refuse them: :meth:`check_inputs`)."""
         try:
-            self.check_inputs(inputs)
+            if self.check_on_loop:
+                self.check_inputs(inputs)
         except ValueError as exc:
-            self.notify(self.refusal_title, f"{exc}. Keeping the previous values (the controls are set back).",
-                        "warning")
-            kept = self.config if self.config is not None else self.Inputs()
-            self.controls.set_many(dataclasses.asdict(kept))
+            kept = self._set_back(exc, self.config)
             if self.config is not None:
                 return
             inputs = kept
@@ -351,6 +363,14 @@ class SimulationScene(PlaybackRequests, Scene):
         for spec in self._specs:
             if spec.shown is not None:
                 self.plot_handles[spec.name].visible = bool(spec.shown(inputs))
+
+    def _set_back(self, refusal: ValueError, kept: Any) -> Any:
+        """Say why the inputs are refused and set the controls back to ``kept`` (None: the defaults)."""
+        self.notify(self.refusal_title, f"{refusal}. Keeping the previous values (the controls are set back).",
+                    "warning")
+        kept = kept if kept is not None else self.Inputs()
+        self.controls.set_many(dataclasses.asdict(kept))
+        return kept
 
     def restart(self) -> None:
         """The motion from t = 0 (chunks of the same inputs and :meth:`initial_extra` are reused)."""
@@ -412,7 +432,9 @@ class SimulationScene(PlaybackRequests, Scene):
         error = self.timeline.error
         if error is not None and "error" not in self._reported:
             self._reported.add("error")
-            if not self.on_error(error):
+            if isinstance(error, InputsRefused):
+                self.configure(self._set_back(error, self._ran))
+            elif not self.on_error(error):
                 self._error_paused = self.playback.playing  # (a clock paused by hand stays paused)
                 self.playback.set_playing(False)
                 self.notify(f"{self.title}: motion stopped",
@@ -462,7 +484,7 @@ class SimulationScene(PlaybackRequests, Scene):
                     self._refresh_one(due)
             return
         self._drawn = key
-        self.last_chunk = chunk
+        self.last_chunk, self._ran = chunk, self.config
         self.history.add(self.segment.index * 1_000_000 + chunk.k, chunk.table)
         failure = getattr(chunk, "failure", None)
         if failure is not None and failure not in self._reported:

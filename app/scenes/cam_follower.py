@@ -29,7 +29,7 @@ from app.scenes._arrows import vertex_rgb
 from app.scenes._bodies import CoilSpring
 from app.scenes._plots import Table, capped_range, format_rows
 from app.scenes._shapes import closed_path_segments
-from app.scenes._simulation import PlotSpec, SimulationScene
+from app.scenes._simulation import InputsRefused, PlotSpec, SimulationScene
 from core import ArgumentError
 from core.models import CamFollower, CamMotion, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
 
@@ -79,14 +79,14 @@ class Inputs:
 
 
 def build_cam(inputs: Inputs, *, shape_only: bool = False) -> CamFollower:
-    """The :class:`core.models.CamFollower` of ``inputs``, or a ValueError in the panel's terms (rise = fall in
-    degrees, roller in mm) naming the value that works. Only the cam's shape can be refused (the sliders keep
-    ``F0 + m g > 0``): ``shape_only`` checks it alone, as the loop thread does (cached per shape: a shape costs up
-    to about 6 ms once, a refusal about 60 ms once: core names the largest roller in its own refusal)."""
+    """The :class:`core.models.CamFollower` of ``inputs``, or :class:`~app.scenes._simulation.InputsRefused` in the
+    panel's terms (rise = fall in degrees, roller in mm) naming the value that works. Only the cam's shape can be
+    refused (the sliders keep ``F0 + m g > 0``): ``shape_only`` checks it alone. Off the loop thread (in the job,
+    or before a state loads): a new shape costs about 5 ms, a refusal 25-75 ms (core names the largest roller)."""
     key = inputs.geometry_key()
     refusal = _refusal(key)
     if refusal is not None:
-        raise ValueError(refusal)
+        raise InputsRefused(refusal)
     return _cam(key) if shape_only else _cam(key, inputs.mass, inputs.stiffness, inputs.preload)
 
 
@@ -175,6 +175,7 @@ class Chunk:
     closed: CamRevolution | None = None
     run: CamMotion | None = None
     revolution: Chunk | None = None  # the closed form's chunk 0 (run revolution 0 only; else None)
+    layout: Layout | None = None  # what is drawn (closed form's chunks only)
 
     def later(self, k: int) -> Chunk:
         """Chunk ``k``: this revolution ``k - self.k`` periods later."""
@@ -191,7 +192,8 @@ def compute_revolution(inputs: Inputs) -> Chunk:
                                rev.contact_force, rev.force_at_jump])
     if not (np.all(np.isfinite(columns)) and np.all(np.isfinite(rev.contact_point))):
         raise ValueError("the closed form gave a non-finite value; choose other parameters")
-    return Chunk(0, rev.theta / rev.speed, Table.build(rev.theta / rev.speed, columns), inputs, rev)
+    return Chunk(0, rev.theta / rev.speed, Table.build(rev.theta / rev.speed, columns), inputs, rev,
+                 layout=layout(inputs.geometry_key()))
 
 
 def closed_form_chunk(inputs: Inputs, k: int, previous: Chunk | None) -> Chunk:
@@ -281,6 +283,7 @@ class CamFollowerScene(SimulationScene):
     camera_look_at: ClassVar[tuple[float, float, float]] = (0.075, 0.0, 0.055)
     Inputs = Inputs
     chunks_kept, refresh_period, csv_header, refusal_title = 4, 0.2, CSV_HEADER, "Cam refused"
+    check_on_loop = False  # (a new shape costs ms: build_cam in the job)
 
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
         super().__init__(target, notify, context=context)
@@ -455,14 +458,14 @@ class CamFollowerScene(SimulationScene):
 
     def _use(self, rev: Chunk) -> None:
         """Draw the closed form ``rev`` from now on: its meshes, info and separation arc."""
-        self.revolution, self.revision, g = rev, self.revision + 1, layout(rev.inputs.geometry_key())
+        self.revolution, self.revision, g = rev, self.revision + 1, rev.layout
         if g.key != self.layout.key:
             self.layout, kind = g, "flat" if g.roller is None else "roller"
             self.spring.rebuild(g.spring_length)
-            for node, (vertices, faces) in ((self.cam_mesh, g.cam), (self.stand, g.stand),
+            for node, mesh in ((self.cam_mesh, g.cam), (self.stand, g.stand),
                                             (self.follower_meshes[kind], g.follower), (self.roller_mesh, g.roller)):
-                if vertices is not None:
-                    set_arrays(node, vertices=vertices, faces=faces)
+                if mesh is not None:
+                    set_arrays(node, vertices=mesh[0], faces=mesh[1])
             for name, handle in (*self.follower_meshes.items(), ("roller", self.roller_mesh)):
                 handle.visible = name == kind
             set_pose(self.labels["follower"], position=(0.008, _Y_FRONT, g.stem_top - 0.004))

@@ -18,7 +18,7 @@ import pytest
 
 from app.controls import Slider
 from app.scenes._plots import Table
-from app.scenes._simulation import RATE_WINDOW, PlotSpec, SimulationScene, power_of_ten
+from app.scenes._simulation import RATE_WINDOW, InputsRefused, PlotSpec, SimulationScene, power_of_ten
 from tests.app.conftest import GatedExecutor
 from tests.helpers import wait_until
 
@@ -85,6 +85,21 @@ class _Toy(SimulationScene):
     def check_inputs(self, inputs: _Inputs) -> None:
         if inputs.amplitude > 4.5:
             raise ValueError(f"amplitude: expected <= 4.5 together with end, got {inputs.amplitude!r}")
+
+
+def _checking_job(inputs: _Inputs, k: int, previous: Any) -> _Chunk:
+    if inputs.amplitude > 4.5:  # (a check too slow for the loop thread, made in the job)
+        raise InputsRefused(f"amplitude: expected <= 4.5 together with end, got {inputs.amplitude!r}")
+    return _toy_job(inputs, 0.0, None, k, previous)
+
+
+class _CheckingToy(_Toy):
+    """The toy checking its inputs in the job, off the loop thread."""
+
+    check_on_loop = False
+
+    def job(self, inputs: _Inputs, segment: Any) -> Any:
+        return functools.partial(_checking_job, inputs)
 
 
 class _KeyedToy(_Toy):
@@ -242,6 +257,24 @@ def test_refused_inputs_keep_the_motion_and_set_the_controls_back(make_bare_scen
     assert "amplitude: expected <= 4.5" in text and "set back" in text and level == "warning"
     assert scene.values_refusal({"amplitude": 4.8, "end": 0.0}).startswith("invalid values: amplitude: expected")
     assert scene.values_refusal({"amplitude": 2.0, "end": 0.0}) is None
+
+
+def test_inputs_the_job_refuses_set_the_controls_back_to_the_motion_that_ran(make_bare_scene) -> None:
+    scene, notices = make_bare_scene(_CheckingToy)
+    _play_until(scene, 0.5)
+    scene.controls.apply({"amplitude": 2.0})  # taken, then refused values in a row (a dragged slider)
+    wait_until(lambda: (scene.frame(1 / 60), scene.last_chunk.x[-1] != 0 and scene._ran.amplitude == 2.0)[1],
+               interval=0.0)
+    for value in (4.6, 4.8):
+        scene.controls.apply({"amplitude": value})
+        scene.frame(1 / 60)
+    assert scene.config.amplitude == 4.8  # taken on the loop thread unchecked; the job refuses it
+    wait_until(lambda: (scene.frame(1 / 60), scene.controls.value("amplitude") == 2.0 and scene.config.amplitude
+                        == 2.0 and not scene.waiting)[1], interval=0.0)
+    title, text, level = next(n for n in notices if n[0] == "Invalid values")
+    assert "amplitude: expected <= 4.5" in text and "set back" in text and level == "warning"
+    assert not any("motion stopped" in n[0] for n in notices) and scene.playing
+    assert scene.values_refusal({"amplitude": 4.8, "end": 0.0}).startswith("invalid values: amplitude: expected")
 
 
 def test_series_options_and_a_legend_that_grows_in_presenter_view(make_bare_scene) -> None:
