@@ -20,7 +20,6 @@ import csv
 import io
 import math
 import re
-import time
 
 import numpy as np
 import pytest
@@ -46,7 +45,7 @@ from app.scenes.cam_follower import (
 )
 from tests.app._views import Camera, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
-from tests.helpers import click, send_value, wait_until
+from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 R, E = ECCENTRIC_RADIUS, ECCENTRICITY
 RB = R - E  # base circle of the eccentric cam
@@ -134,7 +133,7 @@ def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_ap
         np.testing.assert_allclose(wxyz, [math.cos(theta / 2), 0, 0, math.sin(theta / 2)], atol=1e-15)
         assert theta == pytest.approx(round(theta / (2 * math.pi / REVOLUTION_SAMPLES)) * 2 * math.pi
                                       / REVOLUTION_SAMPLES, abs=1e-15)
-        time.sleep(0.03)
+        wait_for_frames(scene, 2)
     pause(scene)
     with app.session_for().run_lock:
         theta, text = scene.cam_angle, scene.status.content
@@ -444,12 +443,14 @@ def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notic
     assert 0.01 < limit - float(np.max(scene.revolution.closed.lift)) < 0.02  # room above the cam's highest lift
     assert send_value(scene, "compliant", True)
     drawn = []
-    deadline = time.monotonic() + 240.0
-    while not notices_with(app, "Compliant run stopped") and time.monotonic() < deadline:
+
+    def stopped() -> bool:  # (each look records the lift drawn)
         with app.session_for().run_lock:
             if scene.compliant:
                 drawn.append(scene.follower_z - geometry.pitch_height)
-        time.sleep(0.02)
+        return bool(notices_with(app, "Compliant run stopped"))
+
+    wait_until(stopped, timeout=240.0)
     (notice,) = notices_with(app, "Compliant run stopped")
     assert "flew to the end of its travel" in notice[1] and "gravity alone (k = 0, F0 = 0)" in notice[1]
     wait_until(lambda: not scene.compliant and not scene.plot_handles["run_lift"].visible)
