@@ -24,7 +24,6 @@ import trimesh
 from app.controls import Choice, Slider, Toggle
 from app.meshes import box, cylinder_z, extrude, follower_stand, pack, translating_follower
 from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
-from app.readout import significant
 from app.scenes._arrows import vertex_rgb
 from app.scenes._bodies import CoilSpring
 from app.scenes._plots import Table, capped_range, format_rows
@@ -176,6 +175,7 @@ class Chunk:
     run: CamMotion | None = None
     revolution: Chunk | None = None  # the closed form's chunk 0 (run revolution 0 only; else None)
     layout: Layout | None = None  # what is drawn (closed form's chunks only)
+    cam: CamFollower | None = None  # (closed form's chunks only)
 
     def later(self, k: int) -> Chunk:
         """Chunk ``k``: this revolution ``k - self.k`` periods later."""
@@ -187,13 +187,14 @@ class Chunk:
 def compute_revolution(inputs: Inputs) -> Chunk:
     """Revolution 0 of the closed form of ``inputs`` (on the executor)."""
     inputs = dataclasses.replace(inputs, compliant=False)
-    rev = build_cam(inputs).revolution(inputs.speed, samples=REVOLUTION_SAMPLES)
+    cam = build_cam(inputs)
+    rev = cam.revolution(inputs.speed, samples=REVOLUTION_SAMPLES)
     columns = np.column_stack([np.degrees(rev.theta), 1000.0 * rev.lift, rev.velocity, rev.acceleration,
                                rev.contact_force, rev.force_at_jump])
     if not (np.all(np.isfinite(columns)) and np.all(np.isfinite(rev.contact_point))):
         raise ValueError("the closed form gave a non-finite value; choose other parameters")
     return Chunk(0, rev.theta / rev.speed, Table.build(rev.theta / rev.speed, columns), inputs, rev,
-                 layout=layout(inputs.geometry_key()))
+                 layout=layout(inputs.geometry_key()), cam=cam)
 
 
 def closed_form_chunk(inputs: Inputs, k: int, previous: Chunk | None) -> Chunk:
@@ -221,6 +222,11 @@ def compute_chunk(inputs: Inputs, k: int, previous: Chunk | None) -> Chunk:
                                1000.0 * run.lift, cam.contact_force(theta, w), run.contact_force])
     return Chunk(k, run.t, Table.build(run.t, columns), inputs, run=run,
                  revolution=compute_revolution(inputs) if k == 0 else None)
+
+
+def _words(pairs: Any) -> list[str]:
+    """Core's ``(topic, text)`` pairs as readout lines."""
+    return [f"**{topic}**: {text}." for topic, text in pairs]
 
 
 def _deg(theta: float) -> float:
@@ -552,40 +558,19 @@ class CamFollowerScene(SimulationScene):
 
     @staticmethod
     def run_lines(chunk: Chunk, j: int) -> list[str]:
-        """The readout's lines on sample ``j`` of a run's ``chunk``: the contact, the events so far."""
-        run, now, lift = chunk.run, float(chunk.t[j]), chunk.table.columns[j]
-        gap, force = float(run.gap[j]), float(run.contact_force[j])
-        if gap > 0.0 and not run.constraint[j]:
-            contact = f"**in flight**: gap {1000.0 * gap:.3f} mm, N = 0"
-        elif run.constraint[j]:
-            contact = f"**on the cam** (contact constraint): N = {force:.3f} N"
-        else:
-            contact = f"**on the cam** (Hunt-Crossley, pressed in {significant(1e6 * -gap, 3)} µm): N = {force:.3f} N"
-        passed = now - chunk.t[0] + run.t[0]  # (the run's own clock: a repeated revolution is one a period earlier)
-        return [f"follower lift {lift[2]:.3f} mm, cam under it {lift[1]:.3f} mm", contact,
-                f"so far this revolution: {int(np.count_nonzero(run.separations[:, 0] <= passed))} separation(s), "
-                f"{int(np.count_nonzero(run.landings[:, 0] <= passed))} landing(s)"]
+        """The readout's lines on sample ``j`` of a run's ``chunk``: the lifts, then core's words on the contact
+        and the events so far in this revolution (:meth:`core.models.CamMotion.describe`)."""
+        lift = chunk.table.columns[j]
+        return [f"follower lift {lift[2]:.3f} mm, cam under it {lift[1]:.3f} mm", *_words(chunk.run.describe(j))]
 
     def _info(self, rev: Chunk) -> str:
-        i, c = rev.inputs, rev.closed
-        lines = [f"**jump speed = {c.jump_speed * 30.0 / math.pi:.1f} rpm** ({c.jump_speed:.3f} rad/s); the cam "
-                 f"turns at {i.rpm:g} rpm, {100.0 * c.speed / c.jump_speed:.1f} % of it."]
-        if c.separations:
-            then = ("The compliant run (its plots below) shows the follower leave the cam and land." if self.compliant
-                    else "Turn on *Compliant contact* to see the follower jump.")
-            spans = ", ".join(f"θ = {_deg(a):.2f}° to {_deg(b):.2f}°" for a, b in c.separations)
-            lines.append(f"**Separation**: N < 0 from {spans} (shaded); the contact would have to pull. {then}")
-        else:
-            lines.append(f"**No separation**: N > 0 all round (smallest {c.min_force[0]:.3f} N at θ = "
-                         f"{_deg(c.min_force[1]):.2f}°).")
-        cam = (f"eccentric circle R = {1000 * ECCENTRIC_RADIUS:g} mm, e = {1000 * ECCENTRICITY:g} mm"
-               if i.profile == PROFILES[0] else f"{_LAWS[i.profile]} rise-dwell-return, base circle "
-               f"{1000 * BASE_RADIUS:g} mm, lift {1000 * LIFT:g} mm, rise = fall = {i.rise_deg:g}°, "
-               f"dwell {DWELL_DEG:g}°")
-        follower = "flat face" if i.follower == FOLLOWERS[0] else f"roller r = {i.roller_mm:g} mm"
-        lines.append(f"Cam: {cam}; follower: {follower}, m = {i.mass:g} kg, k = {i.stiffness:g} N/m, "
-                     f"F0 = {i.preload:g} N, g = {GRAVITY:g} m/s² towards the cam.")
-        return "\n\n".join(lines)
+        """Core's words on the revolution (the separation's advice follows the toggle) and on the cam."""
+        lines = _words(rev.closed.describe())
+        if rev.closed.separations:
+            lines[1] += (" Shaded in the plots, purple on the cam. " + ("The compliant run (its plots below) shows "
+                         "the follower leave the cam and land." if self.compliant else
+                         "Turn on *Compliant contact* to see the follower jump."))
+        return "\n\n".join([*lines, " ".join(_words(rev.cam.describe()))])
 
     def csv_bytes(self) -> bytes:
         """One revolution of the closed form in use, a row per 0.25 deg (not the plotted window: the plots are over

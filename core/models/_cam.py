@@ -299,6 +299,24 @@ class CamRevolution(NamedTuple):
             out |= np.mod(th - a, _TWO_PI) <= b - a
         return out
 
+    def describe(self) -> tuple[tuple[str, str], ...]:
+        """The revolution in words: ``(topic, text)`` pairs: the jump speed against the speed (rpm and rad/s),
+        then ``"Separation"`` (the intervals where N < 0, cam angles in degrees in [0, 360)) or ``"No
+        separation"`` (the smallest force and its angle)."""
+        rpm = 30.0 / math.pi
+        jump = (f"{self.jump_speed * rpm:.1f} rpm ({self.jump_speed:.3f} rad/s); the cam turns at "
+                f"{self.speed * rpm:.6g} rpm, {100.0 * self.speed / self.jump_speed:.1f} % of it")
+        if self.separations:
+            spans = ", ".join(f"θ = {_degrees(a):.2f}° to {_degrees(b):.2f}°" for a, b in self.separations)
+            return ("Jump speed", jump), ("Separation", f"N < 0 from {spans}: the contact would have to pull")
+        return ("Jump speed", jump), ("No separation", f"N > 0 all round (smallest {self.min_force[0]:.3f} N at "
+                                                       f"θ = {_degrees(self.min_force[1]):.2f}°)")
+
+
+def _degrees(theta: float) -> float:
+    """A cam angle (rad) in degrees in [0, 360)."""
+    return math.degrees(theta % _TWO_PI)
+
 
 @dataclass(frozen=True)
 class CamCurve:
@@ -1367,6 +1385,18 @@ class CamFollower:
                     worst, where = float(rho[i]), float(u[i])
         return worst, where
 
+    def describe(self) -> tuple[tuple[str, str], ...]:
+        """The cam and the follower in words: ``(topic, text)`` pairs ``("Cam", ...)``, ``("Follower", ...)``
+        (lengths in mm, angles in degrees, the loads in SI units)."""
+        p, mm = self.profile, lambda x: f"{1000.0 * x:.6g} mm"
+        cam = (f"eccentric circle R = {mm(p.radius)}, e = {mm(p.eccentricity)}" if p.kind == "eccentric" else
+               f"{p.law} rise-dwell-return, base circle {mm(p.base_radius)}, lift {mm(p.lift)}, rise "
+               f"{math.degrees(p.rise):.6g}°, dwell {math.degrees(p.dwell):.6g}°, fall {math.degrees(p.fall):.6g}°")
+        face = "flat face" if self.follower == "flat" else f"roller r = {mm(self.roller_radius)}"
+        offset = f", offset {mm(self.offset)}" if self.offset else ""
+        return ("Cam", cam), ("Follower", f"{face}{offset}, m = {self.mass:g} kg, k = {self.stiffness:g} N/m, "
+                                          f"F0 = {self.preload:g} N, g = {self.gravity:g} m/s² towards the cam")
+
     def largest_roller_radius(self) -> float:
         """The largest roller radius (m) that does not undercut this cam with this follower offset:
         :func:`largest_roller_radius` ``(self.profile, offset=self.offset)`` (the follower's own roller aside)."""
@@ -1604,6 +1634,22 @@ class CamMotion:
         held = self.constraint is not None and bool(self.constraint[min(k + 1, n - 1) if w >= 0.5 else k])
         return CamSample(float(lerp(self.lift)), float(lerp(self.contact_force)), np.asarray(lerp(self.contact_point)),
                          normal / norm if norm > 0.0 else normal, held or float(lerp(self.gap)) <= 0.0)
+
+    def describe(self, i: int) -> tuple[tuple[str, str], ...]:
+        """Output ``i`` in words: ``(topic, text)`` pairs: the contact (``"in flight"`` with the gap, or ``"on
+        the cam"`` with the model and the force) and ``"so far"``: the separations and landings up to ``t[i]``."""
+        i = int(i)
+        gap, force = float(self.gap[i]), float(self.contact_force[i])
+        held = self.constraint is not None and bool(self.constraint[i])
+        if gap > 0.0 and not held:
+            contact = ("in flight", f"gap {1000.0 * gap:.3f} mm, N = 0")
+        elif held:
+            contact = ("on the cam", f"contact constraint, N = {force:.3f} N")
+        else:
+            contact = ("on the cam", f"Hunt-Crossley, pressed in {1e6 * -gap:.3g} µm, N = {force:.3f} N")
+        now = self.t[i]
+        return contact, ("so far", f"{int(np.count_nonzero(self.separations[:, 0] <= now))} separation(s), "
+                                   f"{int(np.count_nonzero(self.landings[:, 0] <= now))} landing(s)")
 
     def __reduce__(self):
         arrays = (self.t, self.cam_angle, self.lift, self.lift_rate, self.contact_force, self.contact_point, self.gap,

@@ -196,8 +196,8 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     inputs = scene.revolution.inputs
     jump = flat_jump_speed(inputs)
     assert scene.revolution.closed.jump_speed == pytest.approx(jump, rel=1e-14)
-    wait_until(lambda: "jump speed = 1088.0 rpm" in scene.info.content)
-    assert f"jump speed = {jump * 30 / math.pi:.1f} rpm" in scene.info.content
+    wait_until(lambda: "**Jump speed**: 1088.0 rpm" in scene.info.content)
+    assert f"**Jump speed**: {jump * 30 / math.pi:.1f} rpm" in scene.info.content
     assert "No separation" in scene.info.content and not scene.separation_arc.visible
     force_plot = scene.plot_handles["force"]
     assert np.all(np.asarray(force_plot.data[4]) == 0.0)  # nothing shaded
@@ -404,8 +404,8 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     assert w * run.separations[0, 0] == pytest.approx(root, abs=math.radians(4.0))
     # the readout counts the events of the revolution so far: none before the first separation, one after it
     before = int(run.separations[0, 0] / (chunk.t[1] - chunk.t[0])) - 1
-    assert "so far this revolution: 0 separation(s), 0 landing(s)" in scene.run_lines(chunk, before)[2]
-    assert "so far this revolution: 1 separation(s)" in scene.run_lines(chunk, before + 2)[2]
+    assert "**so far**: 0 separation(s), 0 landing(s)" in scene.run_lines(chunk, before)[2]
+    assert "**so far**: 1 separation(s)" in scene.run_lines(chunk, before + 2)[2]
     # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
     wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.status.content, timeout=60.0)
     # in flight: no force arrow and no contact normal (the dot is the cam's point nearest the follower)

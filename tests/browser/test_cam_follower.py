@@ -80,5 +80,5 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     wait_until(lambda: np.any(np.asarray(scene.plot_handles["force"].data[4]) < 0.0))
     assert not np.array_equal(np.asarray(scene.plot_handles["force"].data[1]), force_before)
     wait_until(lambda: "Separation" in scene.info.content)
-    page.get_by_text("jump speed = ", exact=False).first.wait_for(state="visible")
+    page.get_by_text("the cam turns at 3000 rpm", exact=False).first.wait_for(state="visible")
     wait_for_drawn_canvas(page)

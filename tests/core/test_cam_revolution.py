@@ -180,3 +180,39 @@ def test_a_run_between_its_outputs_is_linear_and_in_flight_only_off_the_constrai
     assert run.at(-1.0).lift == 0.0 and run.at(9.0).lift == 2.0  # clamped to the run
     with pytest.raises(ArgumentError, match="^t: expected"):
         run.at(math.nan)
+
+
+def test_a_run_in_words_names_the_contact_and_counts_the_events_up_to_the_output():
+    t = np.array([0.0, 0.1, 0.2, 0.3])
+    gap, force = np.array([0.0, 2e-3, 0.0, -2.5e-6]), np.array([5.0, 0.0, 1.0, 4.0])
+    run = CamMotion(t, 10.0 * t, np.zeros(4), np.zeros(4), force, np.zeros((4, 3)), gap, np.array([[0.05, 0.5]]),
+                    np.array([[0.15, 1.5]]), "completed", None, np.zeros((4, 3)), np.array([True, False, False, False]))
+    assert run.describe(0) == (("on the cam", "contact constraint, N = 5.000 N"),
+                               ("so far", "0 separation(s), 0 landing(s)"))
+    assert run.describe(1) == (("in flight", "gap 2.000 mm, N = 0"), ("so far", "1 separation(s), 0 landing(s)"))
+    assert run.describe(3) == (("on the cam", "Hunt-Crossley, pressed in 2.5 µm, N = 4.000 N"),
+                               ("so far", "1 separation(s), 1 landing(s)"))
+
+
+def test_a_revolution_and_a_cam_in_words():
+    cam = CamFollower(CamProfile.eccentric(radius=0.04, eccentricity=0.01))
+    jump = cam.jump_speed()
+    # the flat face on the eccentric cam at half its jump speed: the force is smallest at the bottom (theta = 0;
+    # N = m w^2 e cos(theta) + k e (1 - cos(theta)) + F0 + m g, with k e > m w^2 e here)
+    (topic, text), (none, smallest) = cam.revolution(0.5 * jump, samples=720).describe()
+    assert topic == "Jump speed" and text == (f"{jump * 30 / math.pi:.1f} rpm ({jump:.3f} rad/s); the cam turns at "
+                                              f"{0.5 * jump * 30 / math.pi:.6g} rpm, 50.0 % of it")
+    force = float(cam.contact_force(0.0, 0.5 * jump))
+    assert none == "No separation" and smallest == f"N > 0 all round (smallest {force:.3f} N at θ = 0.00°)"
+    rev = cam.revolution(1.5 * jump, samples=720)
+    (a, b), = rev.separations
+    assert rev.describe()[1] == ("Separation", f"N < 0 from θ = {math.degrees(a):.2f}° to {math.degrees(b):.2f}°: "
+                                               "the contact would have to pull")
+    assert cam.describe() == (("Cam", "eccentric circle R = 40 mm, e = 10 mm"), (
+        "Follower", "flat face, m = 0.5 kg, k = 2000 N/m, F0 = 20 N, g = 9.81 m/s² towards the cam"))
+    roller = CamFollower(CamProfile.rise_dwell_return(base_radius=0.04, lift=0.02, rise=math.pi / 2, dwell=math.pi / 6,
+                                                      fall=math.pi / 2, law="cycloidal"), follower="roller",
+                         roller_radius=0.0105, offset=0.002)
+    assert roller.describe()[0][1] == ("cycloidal rise-dwell-return, base circle 40 mm, lift 20 mm, rise 90°, "
+                                       "dwell 30°, fall 90°")
+    assert roller.describe()[1][1].startswith("roller r = 10.5 mm, offset 2 mm, m = 0.5 kg")
