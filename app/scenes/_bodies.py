@@ -406,10 +406,15 @@ class ForceArrow:
         Path of the frame (the arrow is ``{name}/arrow``) and RGB colour (sRGB, as drawn: :func:`~app.scenes._arrows.vertex_rgb`).
     sizes : dict
         ``shaft_radius``, ``head_radius``, ``head_length`` (m) at scale 1 (:meth:`resize`).
+    tip_at_point : bool, keyword-only
+        True: the arrow ends at the point (a push drawn from outside the body it acts on, e.g. a contact force);
+        False: it starts there.
     """
 
-    def __init__(self, scene: Any, name: str, color: Any, *, sizes: dict[str, float], resend: float = 0.02) -> None:
+    def __init__(self, scene: Any, name: str, color: Any, *, sizes: dict[str, float], resend: float = 0.02,
+                 tip_at_point: bool = False) -> None:
         self.scene, self.sizes, self.resend, self.length = scene, dict(sizes), float(resend), 0.0
+        self.tip_at_point, self.color = bool(tip_at_point), tuple(np.asarray(color).reshape(-1, 3)[0].tolist())
         self.frame = scene.target.scene.add_frame(name, show_axes=False)
         self.arrow = scene.add_arrows(f"{name}/arrow", np.zeros((1, 2, 3), np.float32), vertex_rgb(color), **sizes)
 
@@ -417,8 +422,10 @@ class ForceArrow:
         """Shaft and head ``scale`` times their sizes at scale 1 (a body of another size)."""
         self.scene.resize_arrows(self.arrow, **{k: scale * v for k, v in self.sizes.items()})
 
-    def show(self, force: Sequence[float] | None, *, scale: float = 1.0, reference: float = 1.0) -> None:
-        """Draw ``force`` (3,) (None: hide the arrow); call inside ``target.atomic()``."""
+    def show(self, force: Sequence[float] | None, *, scale: float = 1.0, reference: float = 1.0,
+             color: Sequence[int] | None = None) -> None:
+        """Draw ``force`` (3,) (None: hide the arrow), in RGB ``color`` when given (sent when it changes); call
+        inside ``target.atomic()``."""
         if self.frame.visible != (force is not None):
             self.frame.visible = force is not None
         if force is None:
@@ -429,7 +436,11 @@ class ForceArrow:
         set_pose(self.frame, wxyz=wxyz_z_to((fx, fy, fz), magnitude))
         if abs(length - self.length) > self.resend * self.length or (length == 0.0) != (self.length == 0.0):
             self.length = length
-            set_array(self.arrow, "points", (((0.0, 0.0, 0.0), (0.0, 0.0, length)),))
+            start = -length if self.tip_at_point else 0.0
+            set_array(self.arrow, "points", (((0.0, 0.0, start), (0.0, 0.0, start + length)),))
+        if color is not None and tuple(color) != self.color:
+            self.color = tuple(color)
+            set_array(self.arrow, "colors", vertex_rgb([color]))
 
 
 class CoilSpring:

@@ -60,7 +60,8 @@ import numpy as np
 from app.jobs import ChunkTimeline
 from app.nodes import set_plot_data
 from app.scenes._playback import Playback, PlaybackRequests
-from app.scenes._plots import History, Legend, PlotRefresh
+from app.readout import significant
+from app.scenes._plots import History, Legend, PlotRefresh, capped_range
 from app.scenes.base import Scene
 
 __all__ = ["InputsRefused", "PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL", "power_of_ten"]
@@ -104,6 +105,10 @@ class PlotSpec:
     table : ``table(chunk) -> Table``, with ``per_chunk``: the table of the
         chunk drawn that the plot shows (None: ``chunk.table``), e.g. the
         closed form a run's chunk is compared with
+    capped : the y range keeps the first series readable beside short peaks
+        of the last one far above it (:func:`app.scenes._plots.capped_range`,
+        e.g. a landing's impact against a closed form); a peak cut off is
+        named in the last series' label (``"..., peak 1234 off scale"``)
     """
 
     name: str
@@ -120,6 +125,7 @@ class PlotSpec:
     #: series gets a small axis about its value, not uPlot's 0-100)
     y_span: float | None = None
     table: Callable[[Any], Any] | None = None
+    capped: bool = False
 
 
 def power_of_ten(series: Sequence[np.ndarray]) -> int:
@@ -546,6 +552,8 @@ class SimulationScene(PlaybackRequests, Scene):
             handle.title = title
         if spec.y_span is not None:
             self._follow_data(handle, series, spec.y_span)
+        if spec.capped:
+            self._cap(handle, spec, series)
         self.set_plot_data(handle, (t if spec.x is None else spec.x(t, columns), *series))
 
     def _follow_data(self, handle: Any, series: Sequence[np.ndarray], span: float) -> None:
@@ -562,6 +570,16 @@ class SimulationScene(PlaybackRequests, Scene):
         if self._y_ranges.get(id(handle)) != y_range:
             self._y_ranges[id(handle)] = y_range
             handle.scales = {"x": {"time": False}, "y": {"auto": False, "range": y_range}}
+
+    def _cap(self, handle: Any, spec: PlotSpec, series: Sequence[np.ndarray]) -> None:
+        """The y range of a ``capped`` plot and its last series' label (sent when they change)."""
+        y_range, peak = capped_range(series[0], series[-1])
+        if self._y_ranges.get(id(handle)) != list(y_range):
+            self._y_ranges[id(handle)] = list(y_range)
+            handle.scales = {"x": {"time": False}, "y": {"auto": False, "range": list(y_range)}}
+        label = spec.series[-1][0] + ("" if peak is None else f", peak {significant(peak, 3)} off scale")
+        if handle.series[-1]["label"] != label:
+            handle.series = (*handle.series[:-1], {**handle.series[-1], "label": label})
 
     def set_plot_data(self, handle: Any, data: tuple) -> None:
         """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page), one

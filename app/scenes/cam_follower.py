@@ -25,8 +25,8 @@ from app.controls import Choice, Slider, Toggle
 from app.meshes import box, cylinder_z, extrude, follower_stand, pack, translating_follower
 from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
 from app.scenes._arrows import vertex_rgb
-from app.scenes._bodies import CoilSpring
-from app.scenes._plots import Table, capped_range, format_rows
+from app.scenes._bodies import CoilSpring, ForceArrow
+from app.scenes._plots import Table, format_rows
 from app.scenes._shapes import closed_path_segments
 from app.scenes._simulation import InputsRefused, PlotSpec, SimulationScene
 from core import ArgumentError
@@ -299,7 +299,7 @@ class CamFollowerScene(SimulationScene):
         self.cam_angle = self.force = self.follower_z = 0.0  # drawn: rad, N, m
         self.index = 0  # closed-form table row drawn
         self._angle: float | None = None  # a loaded cam angle (rad), applied at the next frame
-        self._arrow_sent, self._thrown, self._reconfigure = (0.0, True), False, False
+        self._thrown, self._reconfigure = False, False
 
     compliant = property(lambda self: bool(self.config is not None and self.config.compliant))
 
@@ -341,9 +341,8 @@ class CamFollowerScene(SimulationScene):
         self.normal_line = self.add_lines(f"{root}/contact/point/normal", [[(0, 0, -_NORMAL_HALF),
                                           (0, 0, _NORMAL_HALF)]], vertex_rgb([[_NORMAL_COLOR] * 2]), thickness=2.5,
                                           thickness_units="screen")
-        self.arrow = self.add_arrows(f"{root}/contact/point/force", np.zeros((1, 2, 3), np.float32),
-                                     vertex_rgb([_FORCE_COLOR]), shaft_radius=0.0016, head_radius=0.004,
-                                     head_length=0.008)
+        self.force_arrow = ForceArrow(self, f"{root}/contact/point/force", _FORCE_COLOR, tip_at_point=True,
+                                      sizes={"shaft_radius": 0.0016, "head_radius": 0.004, "head_length": 0.008})
         self.force_label = self.add_label(f"{root}/contact/label", "N", anchor="top-right", scale=1.3)
         self.labels = {name: self.add_label(f"{root}/label_{name}", text, position=(x, _Y_FRONT, z), anchor=anchor,
                                             scale=1.3) for name, text, x, z, anchor in (
@@ -399,17 +398,7 @@ class CamFollowerScene(SimulationScene):
                 PlotSpec("run_lift", "compliant run: lift (mm)", (("cam under it (mm)", "#2266dd"),
                          ("follower (mm)", "#9633c8")), lambda t, c: (c[:, 1], c[:, 2]), **run),
                 PlotSpec("run_force", "compliant run: force N (N)", (("closed form (N)", "#888888"),
-                         ("System (N)", "#d97706")), lambda t, c: (c[:, 3], c[:, 4]), **run)]
-
-    def set_plot_data(self, handle: Any, data: tuple) -> None:
-        if handle is self.plot_handles.get("run_force"):  # scaled to the closed form; an impact peak is named
-            (lo, hi), peak = capped_range(data[1], data[2])
-            handle.scales = {"x": {"time": False}, "y": {"auto": False, "range": [lo, hi]}}
-            label = "System (N)" + ("" if peak is None else ", peak " + (
-                f"{peak / 1000.0:.1f} kN" if peak >= 1000.0 else f"{peak:.0f} N") + " off scale")
-            if handle.series[2]["label"] != label:
-                handle.series = (*handle.series[:2], {**handle.series[2], "label": label})
-        super().set_plot_data(handle, data)
+                         ("System (N)", "#d97706")), lambda t, c: (c[:, 3], c[:, 4]), capped=True, **run)]
 
     def _travel_limit(self) -> float:
         """The largest lift (m) the stand allows: the drawn spring is solid there."""
@@ -525,15 +514,11 @@ class CamFollowerScene(SimulationScene):
         set_pose(self.contact_point, position=(x, _Y_FRONT, z), wxyz=wxyz_z_to((nx, 0.0, nz), 1.0))
         if self.normal_line.visible != in_contact:  # in flight there is no contact normal
             self.normal_line.visible = in_contact
-        self.arrow.visible = self.force_label.visible = drawn = in_contact and force != 0.0
+        self.force_label.visible = drawn = in_contact and force != 0.0  # (N n ends at the contact point)
+        self.force_arrow.show((0.0, 0.0, force) if drawn else None, scale=_ARROW_MAX, reference=_ARROW_HALF,
+                              color=_FORCE_COLOR if force >= 0.0 else _PULL_COLOR)
         if drawn:
-            length, (sent, pressing) = _ARROW_MAX * abs(force) / (abs(force) + _ARROW_HALF), self._arrow_sent
-            if (force >= 0.0) != pressing or abs(length - sent) > 0.02 * sent:
-                self._arrow_sent = (length, force >= 0.0)
-                ends = ((0.0, 0.0, -length), (0.0, 0.0, 0.0))  # N n ends at the contact point; N < 0 starts there
-                set_arrays(self.arrow, points=np.array([ends if force >= 0.0 else ends[::-1]], np.float32),
-                           colors=vertex_rgb([_FORCE_COLOR if force >= 0.0 else _PULL_COLOR]))
-            tail = self._arrow_sent[0]  # the label at the arrow's tail
+            tail = math.copysign(self.force_arrow.length, force)  # the label at the arrow's tail
             set_pose(self.force_label, position=(x - tail * nx, _Y_FRONT, z - tail * nz))
 
     # -- readouts and export --------------------------------------------------------------------

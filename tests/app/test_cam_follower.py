@@ -24,6 +24,7 @@ import re
 import numpy as np
 import pytest
 
+from app.readout import significant
 from app.scenes._arrows import vertex_rgb
 from app.scenes._plots import capped_range
 from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
@@ -139,7 +140,7 @@ def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_ap
         theta, text = scene.cam_angle, scene.status.content
         z = float(scene.follower_frame.position[2])
         point = np.array(scene.contact_point.position)
-        arrow = _in_global(scene.contact_point, np.array(scene.arrow.points)[0])
+        arrow = _in_global(scene.contact_point, np.array(scene.force_arrow.arrow.points)[0])
         normal = _in_global(scene.contact_point, np.array(scene.normal_line.points)[0])
     inputs = scene.revolution.inputs
     s, ds, dds, force = flat_closed_form(theta, inputs)
@@ -243,7 +244,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
         assert scene.load_state(load) == []
     wait_until(lambda: scene.index == REVOLUTION_SAMPLES // 2)
     wait_until(lambda: "would have to pull" in scene.status.content)
-    assert scene.force < 0 and np.array_equal(np.asarray(scene.arrow.colors)[0], vertex_rgb((150, 60, 200)))
+    assert scene.force < 0 and np.array_equal(np.asarray(scene.force_arrow.arrow.colors)[0], vertex_rgb((150, 60, 200)))
 
 
 @pytest.mark.parametrize(("key", "raw"), [("rpm", 1e308), ("rpm", math.nan), ("mass", -1.0), ("stiffness", "abc"),
@@ -352,13 +353,13 @@ def test_state_round_trip_reproduces_the_cam_and_the_angle(running_app):
 
 def test_presenter_view_scales_labels_arrow_and_lines(cam_app):
     app, scene = cam_app
-    base = scene.arrow.shaft_radius
+    base = scene.force_arrow.arrow.shaft_radius
     label = scene.labels["cam"].font_screen_scale
     wire = scene.spring.wire_radius
     extent = np.ptp(np.array(scene.spring.node.vertices)[:, 0])
     app.session_for().set_presenter(True)
     wait_until(lambda: scene.presenter)
-    assert scene.arrow.shaft_radius == pytest.approx(base * PRESENTER_ARROW_SCALE)
+    assert scene.force_arrow.arrow.shaft_radius == pytest.approx(base * PRESENTER_ARROW_SCALE)
     assert scene.labels["cam"].font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
     assert scene.force_label.font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
     assert scene.spring.wire_radius > wire
@@ -366,7 +367,7 @@ def test_presenter_view_scales_labels_arrow_and_lines(cam_app):
     assert "1.45em" in scene.legend.html()
     app.session_for().set_presenter(False)
     wait_until(lambda: not scene.presenter)
-    assert scene.arrow.shaft_radius == pytest.approx(base)
+    assert scene.force_arrow.arrow.shaft_radius == pytest.approx(base)
 
 
 def test_help_cites_the_contact_equations_and_the_closed_forms():
@@ -409,7 +410,7 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
     wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.status.content, timeout=60.0)
     # in flight: no force arrow and no contact normal (the dot is the cam's point nearest the follower)
-    wait_until(lambda: not scene.arrow.visible and not scene.normal_line.visible, timeout=10.0)
+    wait_until(lambda: not scene.force_arrow.frame.visible and not scene.normal_line.visible, timeout=10.0)
     # on the cam again: the normal is back
     wait_until(lambda: "on the cam" in scene.status.content and scene.normal_line.visible, timeout=60.0)
     # the next revolution continues from the last state of this one; its plots start at exactly 0 deg (uPlot
@@ -422,8 +423,7 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     def plotted() -> bool:  # (the revolution shown may move on while this waits: each try reads it again)
         columns = scene.run_chunk.table.columns
         (lo, hi), peak = capped_range(columns[:, 3], columns[:, 4])
-        named = None if peak is None else (f"{peak / 1000.0:.1f} kN" if peak >= 1000.0 else f"{peak:.0f} N")
-        label = "System (N)" + ("" if named is None else f", peak {named} off scale")
+        label = "System (N)" + ("" if peak is None else f", peak {significant(peak, 3)} off scale")
         return plot.scales["y"]["range"] == [lo, hi] and plot.series[2]["label"] == label
 
     wait_until(plotted)

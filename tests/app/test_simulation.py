@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from app.controls import Slider
-from app.scenes._plots import Table
+from app.readout import significant
+from app.scenes._plots import Table, capped_range
 from app.scenes._simulation import RATE_WINDOW, InputsRefused, PlotSpec, SimulationScene, power_of_ten
 from tests.app.conftest import GatedExecutor
 from tests.helpers import wait_until
@@ -391,6 +392,29 @@ def test_a_plot_with_y_span_follows_its_data(make_bare_scene) -> None:
     wait_until(lambda: (r := y_range()) is not None and r[0] <= -3.9 and r[1] >= 3.9, timeout=60.0, interval=0.0)
     lo, hi = y_range()
     assert -5.0 <= lo and hi <= 5.0  # the data's range (4 sin t), rounded out
+
+
+class _PeakToy(_Toy):
+    """The toy beside a spike 100 times its amplitude at t = 0.5 s (an impact against a closed form)."""
+
+    def plots(self) -> list[PlotSpec]:
+        return [PlotSpec("x", "x(t)", (("x (m)", "#2563eb"), ("spiked (m)", "#d97706")), lambda t, c: (
+            c[:, 0], c[:, 0] + np.where(np.abs(t - 0.5) < 0.01, 100.0, 0.0)), capped=True)]
+
+
+def test_a_capped_plot_keeps_its_first_series_readable_and_names_the_peak_off_scale(make_bare_scene) -> None:
+    scene, _ = make_bare_scene(_PeakToy)
+    handle = scene.plot_handles["x"]
+
+    def drawn() -> bool:
+        scene.frame(1 / 60)
+        return scene.sim_time > 0.6 and "off scale" in handle.series[2]["label"]
+
+    wait_until(drawn, timeout=60.0, interval=0.0)
+    t, x, spiked = (np.asarray(a) for a in handle.data)
+    (lo, hi), peak = capped_range(x, spiked)
+    assert handle.scales["y"]["range"] == [lo, hi] and hi < 0.5 * peak  # the peak is cut off, x fills the plot
+    assert handle.series[2]["label"] == f"spiked (m), peak {significant(peak, 3)} off scale"
 
 
 class _ExtraToy(_Toy):
