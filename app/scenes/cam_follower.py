@@ -457,8 +457,8 @@ class CamFollowerScene(SimulationScene):
         if g.key != self.layout.key:
             self.layout, kind = g, "flat" if g.roller is None else "roller"
             self.spring.rebuild(g.spring_length)
-            for node, mesh in ((self.cam_mesh, g.cam), (self.stand, g.stand),
-                                            (self.follower_meshes[kind], g.follower), (self.roller_mesh, g.roller)):
+            for node, mesh in ((self.cam_mesh, g.cam), (self.stand, g.stand), (self.follower_meshes[kind], g.follower),
+                               (self.roller_mesh, g.roller)):
                 if mesh is not None:
                     set_arrays(node, vertices=mesh[0], faces=mesh[1])
             for name, handle in (*self.follower_meshes.items(), ("roller", self.roller_mesh)):
