@@ -52,9 +52,19 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app.controls import Choice, Refused, Slider, Toggle, describe
+from app.controls import Choice, Slider, Toggle
 from app.nodes import set_pose
 from app.scenes._bodies import Parts, PartsView, Placed
+from app.scenes._modal_view import MAX_MODES, MODE_OPTIONS, SAMPLES_PER_CYCLE, ModalStatus, ModeChoice
+from app.scenes._modal_view import Cancelled as _Cancelled
+from app.scenes._modal_view import SELECTED_COLOR as _SELECTED_COLOR
+from app.scenes._modal_view import STATUS_TEXT as _STATUS_TEXT
+from app.scenes._modal_view import Throttled as _Throttled
+from app.scenes._modal_view import (animate_group, complex_plane_svg, mode_groups, mode_row, modes_table)
+from app.scenes._modal_view import remember as _remember
+from app.scenes._modal_view import ro as _ro
+from app.scenes._modal_view import sig as _sig
+from app.scenes._modal_view import xi_text as _xi_text
 from app.scenes._plots import Legend
 from app.scenes._svg import FONT, PRESENTER_FONT, Chart
 from app.scenes.base import Scene
@@ -85,13 +95,6 @@ TWO_MASS = "Two masses, non-proportional damping"
 MODELS = (CHAIN, SPHERICAL, ROTOR, TOP, TWO_MASS)
 RODS, POINTS = "uniform rods", "point masses"
 SLEEPING, SLOW, FAST = "sleeping (upright)", "slow precession", "fast precession"
-#: Most modes offered in the *Mode* dropdown (a chain of 10 links has 10).
-MAX_MODES = 12
-MODE_OPTIONS = tuple(str(k) for k in range(1, MAX_MODES + 1))
-#: Samples of an animated mode per period of its oscillation.
-SAMPLES_PER_CYCLE = 120
-#: Most periods in one clip (a damped or growing mode shows its envelope).
-MAX_CYCLES = 6
 
 # Models (SI units). The chain's links are 1 kg; the top is the gyroscope
 # scene's (I = 1, I3 = 0.8 kg m^2, mgl = 2 N m) as a 1 kg body; the rotor is
@@ -125,11 +128,6 @@ _GHOST_COLOR = (140, 170, 255)
 _GHOST_OPACITY = 0.35
 _SUPPORT_COLOR = (150, 150, 160)
 _LABEL_SCALE = 1.3
-# Chart colours: eigenvalues by stability; none of them the red / green /
-# blue of frame axes.
-_STATUS_COLORS = {"stable": "#0f766e", "neutral": "#1d4ed8", "unstable": "#c2410c", "mirrored": "#c2410c",
-                  "rigid": "#9ca3af"}
-_SELECTED_COLOR = "#7c3aed"
 _CURVE_COLORS = ("#0f766e", "#b45309", "#1d4ed8", "#be185d", "#4d7c0f", "#7c3aed", "#0e7490", "#a16207")
 
 
@@ -375,7 +373,7 @@ def _built(params: Params) -> _Built:
 
 # -- results ---------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
-class Solution:
+class Solution(ModalStatus):
     """The eigen solution of one parameter set, as the panel shows it (picklable, read-only arrays).
 
     Attributes
@@ -417,24 +415,6 @@ class Solution:
     ghost_P: np.ndarray
     csv: str
     json: str
-
-    def status(self, i: int) -> str:
-        """Stability of eigenvalue ``i``: rigid, unstable, neutral (undamped: on the boundary), stable
-        (damped), or mirrored: Re s < 0, but its mirror ``-conj(s)`` is an eigenvalue too and grows (an
-        undamped system's eigenvalues come in such pairs: an inverted or slow heavy top has s = +-1.41;
-        the decaying one is no damping, and the equilibrium is unstable)."""
-        if self.rigid[i]:
-            return "rigid"
-        if not self.stable[i]:
-            return "unstable"
-        if self.critical[i]:
-            return "neutral"
-        ev = self.eigenvalues
-        mirror = -np.conj(ev[i])
-        scale = float(np.max(np.abs(ev))) if ev.size else 1.0
-        if np.any((np.abs(ev - mirror) <= 1e-8 * scale) & ~self.stable & ~self.rigid):
-            return "mirrored"
-        return "stable"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -480,12 +460,6 @@ class Clip:
         return math.isfinite(self.period)
 
 
-def _ro(a: Any, dtype: Any = float) -> np.ndarray:
-    out = np.array(a, dtype=dtype)
-    out.setflags(write=False)
-    return out
-
-
 def _display(params: Params, R: np.ndarray, P: np.ndarray, t: np.ndarray,
              W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Body poses (m, n, 3), (m, n, 4) seen from the observer frame turning at ``W``, in display coordinates."""
@@ -501,13 +475,7 @@ def _display(params: Params, R: np.ndarray, P: np.ndarray, t: np.ndarray,
 def _solution(params: Params, built: _Built) -> Solution:
     m = built.modes
     ev = m.eigenvalues
-    groups, k = [], 0
-    while k < ev.size:
-        pair = ev[k].imag > 0 and k + 1 < ev.size and ev[k + 1] == np.conj(ev[k])
-        members = (k, k + 1) if pair else (k,)
-        if not m.rigid[k]:
-            groups.append(members)
-        k += len(members)
+    groups = mode_groups(m)
     emb = m.embedding
     n = emb.n_bodies
     R0 = emb.q0[: 3 * n].reshape(1, n, 3)
@@ -518,53 +486,18 @@ def _solution(params: Params, built: _Built) -> Solution:
            "modes": json.loads(m.to_json())}
     return Solution(
         params, _ro(ev, complex), _ro(m.omega_n), _ro(m.damping_ratio), _ro(m.frequency_hz), _ro(m.stable, bool),
-        _ro(m.critical, bool), _ro(m.rigid, bool), m.method, tuple(groups), built.n_dof, n, built.description,
+        _ro(m.critical, bool), _ro(m.rigid, bool), m.method, groups, built.n_dof, n, built.description,
         built.parts, built.special, built.special_body, built.parts.place(R, P), _ro(R[0]), _ro(P[0]),
         m.to_csv(), json.dumps(doc, allow_nan=False),
     )
 
 
 def _clip(params: Params, built: _Built, group: tuple[int, ...], mode: int, fraction: float) -> Clip:
-    """Mode ``group`` animated by :meth:`core.modal.Modes.animate` (runs in the worker)."""
-    modes, system = built.modes, built.system
-    j = group[0]
-    s = complex(modes.eigenvalues[j])
-    n = modes.embedding.n_bodies
-    shape = modes.body_shapes(system)[j]
-    unit = "m" if int(np.argmax(np.abs(shape))) < 3 * n else "rad"
-    amplitude = fraction * (built.size if unit == "m" else 1.0)
-    oscillates = len(group) == 2
-    if oscillates:
-        period = 2.0 * math.pi / abs(s.imag)
-        decay = abs(s.real) * period  # log change of the amplitude per period
-        cycles = 1 if decay < 1e-3 else int(min(MAX_CYCLES, max(1, round(math.log(4.0) / decay))))
-        m = SAMPLES_PER_CYCLE * cycles
-        t = np.arange(m) * (cycles * period / m)
-        if s.real > 0 and decay >= 1e-3:
-            t = t - t[-1]  # a growing mode ends at the amplitude a
-        still = m - 1 if s.real > 0 and decay >= 1e-3 else 0
-    else:
-        period, cycles, m, still = math.inf, 1, SAMPLES_PER_CYCLE, 0
-        t = np.zeros(m)
-    reduced = False
-    for _ in range(4):
-        try:
-            if oscillates:
-                motion = modes.animate(system, j, t, amplitude=amplitude)
-                R, P, res = motion.positions, motion.orientations, motion.residual_position
-            else:  # no oscillation: the shape swung once, amplitude a cos(2 pi k / m)
-                frames = [modes.animate(system, j, [0.0], amplitude=amplitude * math.cos(2 * math.pi * i / m))
-                          for i in range(m)]
-                R = np.concatenate([f.positions for f in frames])
-                P = np.concatenate([f.orientations for f in frames])
-                res = np.concatenate([f.residual_position for f in frames])
-            break
-        except Exception:  # the projection did not converge at this amplitude: halve it
-            amplitude *= 0.5
-            reduced = True
-    else:
-        raise ValueError(f"amplitude: the constraints cannot be met for mode {mode} even at {amplitude:.3g} "
-                         f"{unit}; choose a smaller amplitude")
+    """Mode ``group`` animated by :meth:`core.modal.Modes.animate` (runs in the worker; :func:`animate_group`)."""
+    a = animate_group(built.modes, built.system, group, mode, fraction, built.size)
+    t, s, res, amplitude, unit = a.t, a.eigenvalue, a.residual, a.amplitude, a.unit
+    period, cycles, reduced, still = a.period, a.cycles, a.reduced, a.still
+    R, P = a.positions, a.orientations
     R, P = _display(params, R, P, t, built.frame_omega)
     for name, a in (("positions", R), ("orientations", P)):
         if not np.all(np.isfinite(a)):
@@ -636,77 +569,6 @@ class SweepOutcome:
         return self.charts[font]
 
 
-class _Cancelled(Exception):
-    """Raised by a sweep's progress callback to stop it."""
-
-
-class _Throttled(concurrent.futures.Executor):
-    """Forwards at most ``limit`` jobs at a time to ``base``; the others wait here.
-
-    A sweep submits all its values at once; through this they reach the pool
-    one by one, so a job the scene submits meanwhile waits for one value, not
-    for the whole sweep. A job cancelled before it was forwarded never runs.
-    """
-
-    def __init__(self, base: concurrent.futures.Executor, limit: int = 1) -> None:
-        self._base = base
-        self._limit = int(limit)
-        self._lock = threading.Lock()
-        self._queue: collections.deque = collections.deque()
-        self._running = 0
-
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> concurrent.futures.Future:
-        outer: concurrent.futures.Future = concurrent.futures.Future()
-        with self._lock:
-            self._queue.append((outer, fn, args, kwargs))
-        self._pump()
-        return outer
-
-    def _pump(self) -> None:
-        while True:
-            with self._lock:
-                if self._running >= self._limit or not self._queue:
-                    return
-                outer, fn, args, kwargs = self._queue.popleft()
-                if outer.cancelled():
-                    continue
-                self._running += 1
-            try:
-                inner = self._base.submit(fn, *args, **kwargs)
-            except BaseException as exc:  # the pool is shut down
-                with self._lock:
-                    self._running -= 1
-                _settle(outer, None, exc)
-                continue
-            outer.add_done_callback(lambda o, inner=inner: inner.cancel() if o.cancelled() else None)
-            inner.add_done_callback(lambda f, outer=outer: self._done(f, outer))
-
-    def _done(self, inner: concurrent.futures.Future, outer: concurrent.futures.Future) -> None:
-        with self._lock:
-            self._running -= 1
-        if inner.cancelled():
-            outer.cancel()
-        else:
-            exc = inner.exception()
-            _settle(outer, None if exc is not None else inner.result(), exc)
-        self._pump()
-
-    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-        with self._lock:
-            queued, self._queue = list(self._queue), collections.deque()
-        for outer, *_ in queued:
-            outer.cancel()
-
-
-def _settle(future: concurrent.futures.Future, result: Any, exc: BaseException | None) -> None:
-    if not future.set_running_or_notify_cancel():
-        return
-    if exc is not None:
-        future.set_exception(exc)
-    else:
-        future.set_result(result)
-
-
 class _SweepRun:
     """One sweep in a thread of this process that waits on the executor (see the module docstring)."""
 
@@ -755,117 +617,6 @@ class _SweepRun:
         finally:
             throttled.shutdown()
             self.finished.set()
-
-
-# -- formatting ----------------------------------------------------------------------
-def _sig(x: float, digits: int = 4) -> str:
-    """``x`` with ``digits`` significant digits, plain where it reads well."""
-    if x == 0.0 or not math.isfinite(x):
-        return "0" if x == 0.0 else f"{x:g}"
-    x = float(f"{x:.{digits - 1}e}")  # rounded first: 9.99999 and 10.00001 both read 10.00
-    if 1e-3 <= abs(x) < 1e5:
-        decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
-        return f"{x:.{decimals}f}"
-    return f"{x:.{digits - 1}e}"
-
-
-def _xi_text(xi: float) -> str:
-    if not math.isfinite(xi):
-        return "–"
-    return "0" if abs(xi) < 5e-7 else _sig(xi, 3)
-
-
-def _s_text(s: complex, pair: bool, scale: float) -> str:
-    re = s.real if abs(s.real) > 1e-12 * max(scale, 1.0) else 0.0
-    real = "0" if re == 0.0 else _sig(re, 3)
-    if not pair:
-        return real
-    imag = f"±{_sig(abs(s.imag), 4)}i"
-    return imag if re == 0.0 else f"{real} {imag[0]}\u00a0{imag[1:]}"  # (a narrow column breaks before the ±)
-
-
-_STATUS_TEXT = {"stable": "stable (damped)", "neutral": "neutral (undamped)", "unstable": "**unstable**",
-                "mirrored": "**unstable**: decays, its mirror grows", "rigid": "rigid"}
-
-
-@dataclasses.dataclass(frozen=True)
-class ModeChoice(Choice):
-    """The mode picker: a dropdown whose options are the rows of the modes table.
-
-    The value (in the state, in ``controls.value("mode")``) stays the mode number, ``"1"`` to ``"12"``; the
-    dropdown shows each number as its row ("2 · 1.234 Hz · ξ 0.02 · neutral", :func:`mode_row`), which the
-    scene writes into :attr:`rows` when a new solution is shown. A browser may send either form.
-    """
-
-    rows: dict = dataclasses.field(default_factory=dict, compare=False, kw_only=True)
-
-    def _number(self, raw: Any) -> str | None:
-        if not isinstance(raw, str):
-            return None
-        head = raw.split("\u00b7", 1)[0].strip()
-        return head if head in self.options else None
-
-    def check(self, raw: Any) -> str:
-        if self._number(raw) is None:
-            raise Refused(f"expected a mode number 1 to {len(self.options)} (a row of the table), got {describe(raw)}")
-        return raw
-
-    def parse(self, value: Any) -> Any:
-        number = self._number(value)
-        return value if number is None else number
-
-    def display(self, value: Any) -> Any:
-        return self.rows.get(value, value)
-
-
-def mode_row(solution: Solution, number: int) -> str:
-    """Mode ``number`` (1-based) as one line of the table: "2 · 1.234 Hz · ξ 0.02 · neutral"."""
-    i = solution.groups[number - 1][0]
-    return (f"{number} \u00b7 {_sig(float(solution.frequency_hz[i]))} Hz \u00b7 "
-            f"\u03be {_xi_text(float(solution.damping_ratio[i]))} \u00b7 {_STATUS_TEXT[solution.status(i)].replace('*', '')}")
-
-
-def modes_table(solution: Solution, selected: int) -> str:
-    """The table of modes (Markdown), the ``selected`` (1-based) row in bold."""
-    ev = solution.eigenvalues
-    scale = float(np.max(np.abs(ev))) if ev.size else 1.0
-    rows = ["| # | f (Hz) | ω_n (rad/s) | ξ | s (1/s) | stability |", "|---:|---:|---:|---:|---:|:---|"]
-    for number, group in enumerate(solution.groups[:MAX_MODES], start=1):
-        i = group[0]
-        cells = [str(number), _sig(float(solution.frequency_hz[i])), _sig(float(solution.omega_n[i])),
-                 _xi_text(float(solution.damping_ratio[i])), _s_text(complex(ev[i]), len(group) == 2, scale)]
-        if number == selected:
-            cells = [f"**{c}**" for c in cells]
-        rows.append("| " + " | ".join(cells) + f" | {_STATUS_TEXT[solution.status(i)]} |")
-    rigid = int(np.count_nonzero(solution.rigid))
-    lines = ["\n".join(rows)]
-    if rigid:
-        lines.append(f"and {rigid} rigid-body eigenvalue{'s' if rigid > 1 else ''} s = 0 "
-                     "(motions without a restoring force, such as a free spin).")
-    if len(solution.groups) > MAX_MODES:
-        lines.append(f"{len(solution.groups) - MAX_MODES} more modes are in the export.")
-    return "\n\n".join(lines)
-
-
-def complex_plane_svg(solution: Solution, selected: int, *, font: float = FONT) -> str:
-    """The eigenvalues in the complex plane, coloured by stability; the selected mode ringed."""
-    ev = solution.eigenvalues
-    im = float(np.max(np.abs(ev.imag))) if ev.size else 1.0
-    re_lo, re_hi = min(0.0, float(np.min(ev.real))), max(0.0, float(np.max(ev.real)))
-    y = 1.15 * im if im > 0 else 1.15 * max(abs(re_lo), abs(re_hi), 1.0)
-    span = max(re_hi - re_lo, 0.12 * y)
-    mid = 0.5 * (re_lo + re_hi)
-    chart = Chart((mid - 0.65 * span, mid + 0.65 * span), (-y, y), "Re s (1/s)", "Im s (rad/s)", font=font,
-                  height=220)
-    chart.shade_right_half("#fdecea")
-    for status, color in _STATUS_COLORS.items():
-        idx = [i for i in range(ev.size) if solution.status(i) == status]
-        if idx:
-            chart.points(ev.real[idx], ev.imag[idx], color, radius=4.0, hollow=status == "rigid")
-    if 1 <= selected <= len(solution.groups):
-        g = list(solution.groups[selected - 1])
-        chart.points(ev.real[g], ev.imag[g], _SELECTED_COLOR, radius=7.5, hollow=True)
-    return chart.svg()
 
 
 def _sweep_chart(outcome: SweepOutcome, *, font: float) -> tuple[Chart, str]:
@@ -1694,10 +1445,3 @@ def _label_position(model: str, anchor: tuple[float, float, float]) -> tuple[flo
     x, y, z = anchor
     return {CHAIN: (x, y, z + 0.35), SPHERICAL: (x, y, z + 0.35), ROTOR: (x, y, z + 1.0),
             TOP: (x, y, z + 1.5), TWO_MASS: (x + 1.5, y, z + 0.8)}[model]
-
-
-def _remember(cache: collections.OrderedDict, key: Any, value: Any, capacity: int) -> None:
-    cache[key] = value
-    cache.move_to_end(key)
-    while len(cache) > capacity:
-        cache.popitem(last=False)
