@@ -216,6 +216,11 @@ def _serve(args: argparse.Namespace) -> int:
             passed = [] if args.scene is None else ["--scene", args.scene]
             passed += ["--present"] if args.present else []
             passed += [] if args.state is None else ["--state", args.state]
+            if args.model:  # refuse a bad model file once, not in every worker
+                status = _check_models(args.model)
+                if status is not None:
+                    return status
+                passed += [arg for path in args.model for arg in ("--model", path)]
             warm = _warm_kernels()  # once for every worker process (they load the kernels it compiles)
             try:
                 return serve_workers(host=args.host, port=args.port, count=workers, worker_args=passed,
@@ -240,6 +245,19 @@ def _serve(args: argparse.Namespace) -> int:
               "(--port 0 picks a free one)", file=sys.stderr)
         return 2
     return _run_app(args, state, worker)
+
+
+def _check_models(paths: Sequence[str]) -> int | None:
+    """Exit status 2 after one line on stderr for the first model file that cannot be used (None: all good)."""
+    from app.model_file import ModelFileError
+    from app.scenes.model import model_scene_classes
+
+    try:
+        model_scene_classes(paths)
+    except ModelFileError as exc:
+        print(f"rigidlab serve: --model: {exc}", file=sys.stderr)
+        return 2
+    return None
 
 
 def _serve_spare(args: argparse.Namespace, state: dict | None) -> int:
@@ -297,9 +315,21 @@ def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, in
     if sock is None and args.listen_fd is not None:
         sock = socket.socket(fileno=args.listen_fd)
     try:
+        scene_classes = None
+        if args.model:  # the Model scenes first: the first one is shown unless --scene says otherwise
+            from app.model_file import ModelFileError
+            from app.scenes import discover_scenes
+            from app.scenes.model import model_scene_classes
+
+            try:
+                scene_classes = {**model_scene_classes(args.model), **discover_scenes()}
+            except ModelFileError as exc:
+                print(f"rigidlab serve: --model: {exc}", file=sys.stderr)
+                return 2
         try:
             app = create_app(host=args.host, port=args.port, scene=args.scene, mode=args.mode,
-                             presenter=args.present, state=state, sock=sock, executor=executor)
+                             presenter=args.present, state=state, sock=sock, executor=executor,
+                             scene_classes=scene_classes)
             executor = sock = None  # the app's now
         except ValueError as exc:
             print(f"rigidlab serve: {exc}", file=sys.stderr)
@@ -456,6 +486,10 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--state", default=None, metavar="FILE",
                        help="start from a scene state saved with Share > Download state (JSON) "
                             "or a state string")
+    serve.add_argument("--model", action="append", default=None, metavar="PATH",
+                       help="a model file to show in a Model scene (repeatable): a Python file with "
+                            "build(**parameters) -> System (and PARAMETERS, SWEEP), a URDF or an MJCF; its code "
+                            "runs because you name it here (no browser can choose a file)")
     serve.set_defaults(func=_serve)
 
     bench = sub.add_parser("bench", help="run benchmark scripts from bench/")
