@@ -26,7 +26,7 @@ from tests.helpers import wait_until
 
 @pytest.fixture
 def running_app() -> Iterator[Callable[..., RigidlabApp]]:
-    """Factory ``running_app(scene="sandbox", mode="shared", run_unwatched=True) -> RigidlabApp``.
+    """Factory ``running_app(scene="sandbox", mode="shared", run_unwatched=True, scene_classes=None) -> RigidlabApp``.
 
     Each call starts a server on 127.0.0.1 with a free port (port 0); every
     app started through the factory is stopped at teardown. Tests inspect
@@ -36,10 +36,12 @@ def running_app() -> Iterator[Callable[..., RigidlabApp]]:
     apps: list[RigidlabApp] = []
 
     def start(
-        scene: str | None = "sandbox", mode: str = "shared", run_unwatched: bool = True
+        scene: str | None = "sandbox", mode: str = "shared", run_unwatched: bool = True,
+        scene_classes: dict[str, type[Scene]] | None = None,
     ) -> RigidlabApp:
         app = create_app(
-            host="127.0.0.1", port=0, scene=scene, mode=mode, run_unwatched=run_unwatched
+            host="127.0.0.1", port=0, scene=scene, mode=mode, run_unwatched=run_unwatched,
+            scene_classes=scene_classes,
         )
         apps.append(app)
         return app

@@ -16,7 +16,8 @@ updates of properties other than ``value``. Then:
 * the log has no traceback and the process wrote none to stderr.
 
 The test is parametrized over the registry, so a new scene is covered as soon
-as its module exists.
+as its module exists, and over the Model scene of examples/four_bar.py (what
+``rigidlab serve --model`` adds).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import dataclasses
 import logging
 import math
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,6 +38,14 @@ from app.wire import gui_value_message
 from tests.helpers import wait_until
 
 SCENES = list(discover_scenes())
+#: The Model scene of a model file (``rigidlab serve --model examples/four_bar.py``), served beside the registry.
+MODEL_FILE = Path(__file__).resolve().parents[2] / "examples" / "four_bar.py"
+
+
+def _model_scenes() -> dict[str, Any]:
+    from app.scenes.model import model_scene_classes
+
+    return {**model_scene_classes([MODEL_FILE]), **discover_scenes()}
 
 HOSTILE = [
     math.nan, math.inf, -math.inf, 1e308, -1e308, 2**64 - 1, -(2**63), 0.5, -0.0,
@@ -120,12 +130,12 @@ def _controls_of(app: Any) -> list[tuple[Any, Any]]:
     return pairs
 
 
-@pytest.mark.parametrize("name", SCENES)
+@pytest.mark.parametrize("name", [*SCENES, "model"])
 def test_hostile_client_cannot_break_a_shared_session(
     name: str, running_app: Any, ws_client: Any, caplog: Any, capfd: Any
 ) -> None:
     caplog.set_level(logging.INFO)
-    app = running_app(scene=name)
+    app = running_app(scene=name, scene_classes=_model_scenes() if name == "model" else None)
     scanner = _Scanner()
     scanner.wrap(app.server._websock_server)
     attacker, attacker_id = ws_client(app)
