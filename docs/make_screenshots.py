@@ -8,11 +8,16 @@ software WebGL), shows each scene in turn and saves ``docs/img/<scene>.png``
 With ``--views normal presenter`` it writes ``docs/img/<scene>-<view>.png``
 instead, at 1600 x 900 (a projector's page), one per view.
 
+With ``--model PATH`` (repeatable) it serves the Model scene of each model
+file (as ``rigidlab serve --model PATH``) and writes
+``docs/img/model-<file stem>.png`` at 1600 x 900.
+
 Usage::
 
     .venv/bin/python docs/make_screenshots.py            # every scene
     .venv/bin/python docs/make_screenshots.py sandbox    # only some
     .venv/bin/python docs/make_screenshots.py sandbox manipulator modes --views normal presenter
+    .venv/bin/python docs/make_screenshots.py --model examples/arm.urdf --model examples/four_bar.py
 """
 
 from __future__ import annotations
@@ -72,11 +77,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--settle", type=float, default=2.0, help="seconds to let a scene render")
     parser.add_argument("--views", nargs="+", choices=VIEWS, default=None,
                         help="write <scene>-<view>.png at 1600 x 900 for these views")
+    parser.add_argument("--model", action="append", default=[], metavar="PATH",
+                        help="a model file: write docs/img/model-<file stem>.png of its Model scene at 1600 x 900")
     args = parser.parse_args(argv)
-    viewport = WIDE if args.views else VIEWPORT
+    viewport = WIDE if args.views or args.model else VIEWPORT
 
-    app = create_app(port=0)
-    names = args.scenes or list(app.scene_names)
+    files: dict[str, str] = {}  # Model scene name -> the image's name
+    if args.model:
+        from app.scenes import discover_scenes
+        from app.scenes.model import model_scene_classes
+
+        models = model_scene_classes(args.model)
+        files = {name: f"model-{Path(path).stem}" for name, path in zip(models, args.model)}
+        app = create_app(port=0, scene_classes={**models, **discover_scenes()})
+    else:
+        app = create_app(port=0)
+    names = args.scenes or (list(files) if files else list(app.scene_names))
     unknown = sorted(set(names) - set(app.scene_names))
     if unknown:
         app.stop()
@@ -103,7 +119,8 @@ def main(argv: list[str] | None = None) -> int:
                     page.evaluate("() => document.querySelectorAll('.mantine-Notification-root').forEach("
                                   "n => { if (n.textContent.includes('Software WebGL')) n.remove(); })")
                     png = _compress(page.screenshot(timeout=300_000))
-                    path = OUT_DIR / (f"{name}.png" if view is None else f"{name}-{view}.png")
+                    stem = files.get(name, name)
+                    path = OUT_DIR / (f"{stem}.png" if view is None else f"{stem}-{view}.png")
                     path.write_bytes(png)
                     print(f"{path.relative_to(OUT_DIR.parent.parent)}: {len(png) / 1000:.0f} kB")
             browser.close()

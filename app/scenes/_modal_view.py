@@ -314,8 +314,8 @@ def modes_table(solution: Any, selected: int) -> str:
         if number == selected:
             cells = [f"**{c}**" for c in cells]
         rows.append("| " + " | ".join(cells) + f" | {STATUS_TEXT[solution.status(i)]} |")
-    listed = {i for group in solution.groups for i in group}
-    rigid = sum(1 for i in np.flatnonzero(solution.rigid) if int(i) not in listed)
+    # a table that lists its rigid-body modes as rows (the Model scene's) needs no note on them
+    rigid = 0 if any(solution.rigid[g[0]] for g in solution.groups) else int(np.count_nonzero(solution.rigid))
     lines = ["\n".join(rows)]
     if rigid:
         lines.append(f"and {rigid} rigid-body eigenvalue{'s' if rigid > 1 else ''} s = 0 "

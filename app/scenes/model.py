@@ -225,8 +225,12 @@ def _reference(key: Key) -> _Reference:
         lin = linearize(system)
         how = "about the static equilibrium nearest to the state the file builds"
     modes = lin.modes()
-    groups = sorted(mode_groups(modes, rigid=True), key=lambda g: bool(modes.rigid[g[0]]))  # rigid-body modes last
-    return _Reference(system, modes, tuple(groups), int(lin.n_dof), how)
+    groups = mode_groups(modes, rigid=True)
+    # rigid-body modes last, and once: a degree of freedom without stiffness has the double eigenvalue s = 0
+    # (two real eigenvalues, a displacement and a drift), of which one is shown
+    rigid = [g for g in groups if modes.rigid[g[0]]]
+    flexible = [g for g in groups if not modes.rigid[g[0]]]
+    return _Reference(system, modes, tuple(flexible + rigid[::2]), int(lin.n_dof), how)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1187,7 +1191,7 @@ def model_scene_class(model: ModelFile, index: int = 0) -> type[ModelScene]:
         name=name, title=f"Model: {model.name}", order=index - 100, model=model, meshes=meshes, ground_meshes=ground,
         capacity=capacity, joint_names=tuple(j.name for j in system.joints), Inputs=inputs, default_start=start,
         size=size, csv_header="t (s)",
-        camera_position=tuple(float(x) for x in center + size * np.array([0.9, -1.6, 0.7])),
+        camera_position=tuple(float(x) for x in center + size * np.array([1.0, 1.7, 0.6])),
         camera_look_at=tuple(float(x) for x in center),
     )
     return type(f"ModelScene_{name.replace('-', '_')}", (ModelScene,), attrs)
