@@ -160,3 +160,19 @@ def test_a_model_file_with_a_syntax_error_exits_2_with_one_line(tmp_path):
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
     assert f"{bad}:1: syntax error" in lines[0]
+
+
+def test_the_spring_chain_example_has_the_closed_form_frequencies():
+    """examples/spring_chain.py: N equal masses and springs, fixed at one end, free at the other:
+    omega_r = 2 sqrt(k/m) sin((2r - 1) pi / (2 (2N + 1)))."""
+    from app.model_file import load_model_file
+    from app.scenes.model import Key, _reference
+
+    model = load_model_file(EXAMPLES / "spring_chain.py")
+    key = Key(str(model.path), model.sha256, (("stiffness", 900.0), ("mass", 2.5), ("stretch", 0.1)))
+    ref = _reference(key)
+    f = np.array([ref.modes.frequency_hz[g[0]] for g in ref.groups])
+    n = 5
+    r = np.arange(1, n + 1)
+    expected = 2.0 * np.sqrt(900.0 / 2.5) * np.sin((2 * r - 1) * np.pi / (2 * (2 * n + 1))) / (2 * np.pi)
+    np.testing.assert_allclose(f, expected, rtol=1e-8)
