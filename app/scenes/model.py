@@ -686,10 +686,8 @@ class ModelScene(SimulationScene):
 
     def build_nodes(self) -> None:
         scene, root = self.target.scene, self.root
-        lo = float(self.camera_look_at[2]) - 2.0 * self.size
         self.add_ground_grid(width=max(4.0, 6 * self.size), height=max(4.0, 6 * self.size),
-                             position=(float(self.camera_look_at[0]), float(self.camera_look_at[1]),
-                                       min(0.0, lo) if self.ground_meshes else min(0.0, lo)),
+                             position=(float(self.camera_look_at[0]), float(self.camera_look_at[1]), self.floor),
                              cell_size=0.25, section_size=1.0)
         colors = np.array([_ROD_COLOR, (178, 184, 196)] * (self.capacity[0] // 2 + 1), dtype=np.uint8)
         self.live = PartsView(scene, f"{root}/live", capacity=self.capacity, rod_colors=colors[: self.capacity[0]],
@@ -1174,6 +1172,9 @@ def model_scene_class(model: ModelFile, index: int = 0) -> type[ModelScene]:
     counts = drawn.parts.counts
     capacity = tuple(max(2 * c, c + 8) for c in counts)
     center, size = drawn.center, drawn.size
+    state = system.state
+    lowest = min([float(state.position(b)[2]) for b in system.bodies] + [float(j.point[2]) for j in system.joints],
+                 default=0.0)
     try:
         from core.modal import linearize
 
@@ -1190,7 +1191,7 @@ def model_scene_class(model: ModelFile, index: int = 0) -> type[ModelScene]:
     attrs = dict(
         name=name, title=f"Model: {model.name}", order=index - 100, model=model, meshes=meshes, ground_meshes=ground,
         capacity=capacity, joint_names=tuple(j.name for j in system.joints), Inputs=inputs, default_start=start,
-        size=size, csv_header="t (s)",
+        size=size, csv_header="t (s)", floor=min(0.0, lowest - 0.1 * size),
         camera_position=tuple(float(x) for x in center + size * np.array([1.0, 1.7, 0.6])),
         camera_look_at=tuple(float(x) for x in center),
     )
