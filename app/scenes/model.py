@@ -22,7 +22,8 @@ path. The scene is a :class:`~app.scenes._simulation.SimulationScene`:
   export of the modes.
 
 Drawing: a URDF's visual meshes (STL, OBJ, DAE, GLB through trimesh, and its
-box / cylinder / sphere primitives) are drawn on their bodies; every other
+box / cylinder / sphere primitives) and an MJCF's geoms (primitives and
+meshes, as MuJoCo compiled them) are drawn on their bodies; every other
 body is drawn as the uniform box of the same mass and principal moments (a
 rod when two of its edges are alike and the third three times longer);
 revolute, prismatic and cylindrical joints are short cylinders on their axes,
@@ -501,6 +502,62 @@ def urdf_meshes(path: Path, system: Any) -> tuple[dict[int, list], list]:
                 v = (v - state.position(body)) @ state.rotation_matrix(body)
             entry = (v.astype(np.float32), np.asarray(mesh.faces, dtype=np.uint32), _rgba(visual, materials))
             (ground if body is None else on_bodies[body.index]).append(entry)
+    return dict(on_bodies), ground
+
+
+def mjcf_meshes(path: Path, system: Any) -> tuple[dict[int, list], list]:
+    """The geoms of the MJCF ``path`` (boxes, spheres, capsules, cylinders, ellipsoids, meshes; planes and
+    height fields left out) on the bodies of ``system`` (built from it at ``qpos0``), as :func:`urdf_meshes`
+    gives them: a MuJoCo body belongs to the System body of its own name, or of its nearest ancestor's."""
+    import mujoco
+    import trimesh
+
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    bodies = {b.name: b for b in system.bodies}
+    state = system.state
+    G = mujoco.mjtGeom
+
+    def owner(b: int) -> Any:
+        while b > 0:
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+            if name in bodies:
+                return bodies[name]
+            b = int(model.body_parentid[b])
+        return None
+
+    on_bodies: dict[int, list] = collections.defaultdict(list)
+    ground: list = []
+    for g in range(model.ngeom):
+        kind, size = int(model.geom_type[g]), np.asarray(model.geom_size[g], dtype=float)
+        if kind == G.mjGEOM_BOX:
+            mesh = trimesh.creation.box(extents=2.0 * size)
+        elif kind == G.mjGEOM_SPHERE:
+            mesh = trimesh.creation.icosphere(subdivisions=2, radius=size[0])
+        elif kind == G.mjGEOM_ELLIPSOID:
+            mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+            mesh.apply_scale(size)
+        elif kind == G.mjGEOM_CAPSULE:
+            mesh = trimesh.creation.capsule(height=2.0 * size[1], radius=size[0], count=[12, 12])
+        elif kind == G.mjGEOM_CYLINDER:
+            mesh = trimesh.creation.cylinder(radius=size[0], height=2.0 * size[1], sections=24)
+        elif kind == G.mjGEOM_MESH:
+            m = int(model.geom_dataid[g])
+            v0, nv = int(model.mesh_vertadr[m]), int(model.mesh_vertnum[m])
+            f0, nf = int(model.mesh_faceadr[m]), int(model.mesh_facenum[m])
+            mesh = trimesh.Trimesh(np.asarray(model.mesh_vert[v0:v0 + nv], dtype=float),
+                                   np.asarray(model.mesh_face[f0:f0 + nf], dtype=np.int64), process=False)
+        else:  # a plane or a height field: the floor, not a body
+            continue
+        A = np.asarray(data.geom_xmat[g], dtype=float).reshape(3, 3)
+        v = np.asarray(mesh.vertices, dtype=float) @ A.T + np.asarray(data.geom_xpos[g], dtype=float)
+        body = owner(int(model.geom_bodyid[g]))
+        if body is not None:
+            v = (v - state.position(body)) @ state.rotation_matrix(body)
+        rgb = tuple(int(round(255 * min(max(float(c), 0.0), 1.0))) for c in model.geom_rgba[g][:3])
+        entry = (v.astype(np.float32), np.asarray(mesh.faces, dtype=np.uint32), rgb)
+        (ground if body is None else on_bodies[body.index]).append(entry)
     return dict(on_bodies), ground
 
 
@@ -1167,7 +1224,8 @@ def model_scene_class(model: ModelFile, index: int = 0) -> type[ModelScene]:
         For a URDF whose visual mesh is missing or unreadable.
     """
     system = model.build()
-    meshes, ground = urdf_meshes(model.path, system) if model.kind == "urdf" else ({}, [])
+    meshes, ground = {"urdf": urdf_meshes, "mjcf": mjcf_meshes}.get(model.kind, lambda p, s: ({}, []))(
+        model.path, system)
     drawn = look(system, frozenset(meshes))
     counts = drawn.parts.counts
     capacity = tuple(max(2 * c, c + 8) for c in counts)

@@ -176,3 +176,34 @@ def test_the_spring_chain_example_has_the_closed_form_frequencies():
     r = np.arange(1, n + 1)
     expected = 2.0 * np.sqrt(900.0 / 2.5) * np.sin((2 * r - 1) * np.pi / (2 * (2 * n + 1))) / (2 * np.pi)
     np.testing.assert_allclose(f, expected, rtol=1e-8)
+
+
+DOUBLE_PENDULUM_MJCF = """<mujoco model="double">
+  <worldbody>
+    <geom type="plane" size="2 2 0.1"/>
+    <body name="upper" pos="0 0 2">
+      <joint name="j1" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.04" mass="1" rgba="0.9 0.5 0.2 1"/>
+      <body name="lower" pos="0 0 -0.5">
+        <joint name="j2" type="hinge" axis="0 1 0"/>
+        <geom type="box" size="0.05 0.05 0.25" pos="0 0 -0.25" mass="1"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_the_mjcf_geoms_are_drawn_on_their_bodies_and_a_mode_animates(model_app, tmp_path):
+    path = tmp_path / "double.xml"
+    path.write_text(DOUBLE_PENDULUM_MJCF)
+    app, scene = model_app(path)
+    assert sorted(scene.meshes) == [0, 1] and not scene.ground_meshes  # the floor plane is left out
+    (capsule, _, rgb), = scene.meshes[0]
+    assert rgb == (229, 128, 51)  # rgba 0.9 0.5 0.2 (float32) x 255, rounded
+    # body frames at the centres of mass: the capsule (0.5 m, radius 0.04) and the box (0.5 m) centred on them
+    np.testing.assert_allclose(capsule.max(axis=0), (0.04, 0.04, 0.29), atol=1e-6)
+    np.testing.assert_allclose(scene.meshes[1][0][0].max(axis=0), (0.05, 0.05, 0.25), atol=1e-6)
+    solution, clip = wait_for_clip(scene)
+    assert len(solution.groups) == 2
+    assert float(joint_gaps(scene, clip).max()) <= GAP_TOL
