@@ -207,3 +207,19 @@ def test_the_mjcf_geoms_are_drawn_on_their_bodies_and_a_mode_animates(model_app,
     solution, clip = wait_for_clip(scene)
     assert len(solution.groups) == 2
     assert float(joint_gaps(scene, clip).max()) <= GAP_TOL
+
+
+def test_a_rigid_body_mode_animates_with_a_warning_and_the_modes_export(model_app):
+    import json
+
+    app, scene = model_app(EXAMPLES / "arm.urdf")
+    solution, clip = wait_for_clip(scene)
+    rigid = [k + 1 for k, g in enumerate(solution.groups) if solution.rigid[g[0]]]
+    assert rigid == [len(solution.groups)]  # the turret's free yaw, listed once, after the vibration modes
+    assert send_value(scene, "mode", str(rigid[0]))
+    solution, clip = wait_for_clip(scene, mode=rigid[0])
+    assert clip.rigid and not clip.oscillates
+    wait_until(lambda: any(n[0] == "Rigid-body mode" and n[2] == "warning" for n in app.session_for().notices), 60.0)
+    doc = json.loads(scene.modes_json())
+    assert doc["model"] == "arm.urdf" and doc["sha256"] == scene.model.sha256
+    assert scene.modes_csv().decode().count("\n") >= len(solution.eigenvalues)
