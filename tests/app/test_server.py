@@ -525,10 +525,11 @@ def test_presenter_view_enlarges_labels_arrows_and_readouts(fake_apps: Any, ws_c
     scene = app.scene_for()
     small = (scene.label.font_screen_scale, scene.arrows.shaft_radius, scene.readout.html())
     client.set_gui_value(session.controls.handles["presenter"], True)
-    assert wait_until(lambda: scene.presenter)
+    # (the view is switched in the loop thread, element by element: wait for the last)
+    assert wait_until(lambda: scene.presenter and "font-size:1.45em" in scene.readout.html())
     assert scene.label.font_screen_scale >= 1.5 * small[0]
     assert scene.arrows.shaft_radius >= 1.5 * small[1]
-    assert "font-size:1.45em" in scene.readout.html() and "font-size:1.45em" not in small[2]
+    assert "font-size:1.45em" not in small[2]
     # A scene built later starts in presenter view too.
     app.switch_scene("beta")
     assert app.scene_for().presenter and app.scene_for().label.font_screen_scale >= 1.5
