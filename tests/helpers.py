@@ -15,12 +15,20 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def wait_until(predicate: Callable[[], object], timeout: float = 20.0, *, interval: float = 0.02) -> bool:
+#: The least time any wait of a test may take (s): one generous timeout for everything a test waits on, so that
+#: a machine running the suite beside other work makes a test slower, never red. A passing test never waits it.
+MIN_WAIT = 120.0
+
+
+def wait_until(predicate: Callable[[], object], timeout: float = MIN_WAIT, *, interval: float = 0.02) -> bool:
     """Poll ``predicate`` until it is true; the session loop runs at ~60 Hz.
 
     Returns True as soon as ``predicate()`` is true (so ``assert wait_until(...)``
-    reads naturally); raises ``AssertionError`` after ``timeout`` seconds.
+    reads naturally); raises ``AssertionError`` after ``timeout`` seconds, and
+    never before :data:`MIN_WAIT` (a shorter ``timeout`` states what the wait
+    takes on a quiet machine; a loaded one may need more).
     """
+    timeout = max(timeout, MIN_WAIT)
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if predicate():
@@ -85,11 +93,11 @@ def start_serving(*serve_args: str) -> tuple[subprocess.Popen, ProcessOutput]:
 
 
 def stop_serving(process: subprocess.Popen) -> None:
-    """Stop a server started by :func:`start_serving` as Ctrl-C does (SIGINT); killed if it still runs 30 s
-    later."""
+    """Stop a server started by :func:`start_serving` as Ctrl-C does (SIGINT); killed if it still runs
+    :data:`MIN_WAIT` later."""
     process.send_signal(signal.SIGINT)
     try:
-        process.wait(timeout=30.0)
+        process.wait(timeout=MIN_WAIT)
     except subprocess.TimeoutExpired:
         process.kill()
         process.wait(timeout=10.0)
@@ -105,7 +113,7 @@ def failure_lines(text: str) -> list[str]:
     return [line for line in text.splitlines() if re.search(FAILURE_LINE, line)]
 
 
-def send_value(owner: object, key: str, raw: object, *, timeout: float = 10.0) -> bool:
+def send_value(owner: object, key: str, raw: object, *, timeout: float = MIN_WAIT) -> bool:
     """Deliver ``raw`` to control ``key`` exactly as a browser would (through the gate).
 
     ``owner`` is a scene, a session or a :class:`app.panel.ControlPanel`.
@@ -136,6 +144,6 @@ def send_value(owner: object, key: str, raw: object, *, timeout: float = 10.0) -
     return True
 
 
-def click(owner: object, key: str, option: object = True, *, timeout: float = 10.0) -> None:
+def click(owner: object, key: str, option: object = True, *, timeout: float = MIN_WAIT) -> None:
     """Click button ``key`` (or ``option`` of a button group) as a browser would."""
     assert send_value(owner, key, option, timeout=timeout)

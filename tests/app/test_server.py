@@ -20,7 +20,7 @@ from app.controls import Slider
 from app.scenes import discover_scenes, get_scene_class
 from app.scenes.base import Scene
 from app.server import create_app
-from tests.helpers import process_group_gone, wait_until
+from tests.helpers import MIN_WAIT, process_group_gone, wait_until
 
 
 class CountingScene(Scene):
@@ -127,7 +127,7 @@ def test_create_app_validates_arguments() -> None:
 def test_serves_http_on_loopback(running_app: Any) -> None:
     app = running_app()
     assert app.url == f"http://127.0.0.1:{app.port}"
-    with urllib.request.urlopen(app.url, timeout=10) as response:
+    with urllib.request.urlopen(app.url, timeout=MIN_WAIT) as response:
         assert response.status == 200
         assert b"<html" in response.read().lower()
     assert app.scene_for().name == "sandbox"
@@ -230,7 +230,7 @@ def test_scene_exception_pauses_the_scene_once_and_resumes_on_change(
     # Still serving: the loop ticks, HTTP answers, the client gets frames.
     ticks = app._ticks
     assert wait_until(lambda: app._ticks > ticks + 5)
-    with urllib.request.urlopen(app.url, timeout=10) as response:
+    with urllib.request.urlopen(app.url, timeout=MIN_WAIT) as response:
         assert response.status == 200
     # A change resumes the scene.
     client.set_gui_value(scene.slider, 1.0)
@@ -364,10 +364,10 @@ def test_rigidlab_serve_prints_url_warns_off_loopback_and_stops_on_ctrl_c(host: 
         assert ("warning: serving on 0.0.0.0" in output) is warned, output
         if warned:
             assert "no password" in output and "--mode per-client" in output
-        with urllib.request.urlopen(url, timeout=10) as response:
+        with urllib.request.urlopen(url, timeout=MIN_WAIT) as response:
             assert response.status == 200
         process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=30) == 0
+        assert process.wait(timeout=MIN_WAIT) == 0
     finally:
         if process.poll() is None:
             process.kill()
@@ -388,7 +388,7 @@ def test_rigidlab_serve_started_with_sigint_ignored_stops_on_sigint(workers: str
         pids = [int(p) for p in re.findall(r"worker ready \(pid (\d+)", "".join(lines))]
         assert len(pids) == (2 if workers == "2" else 0), "".join(lines)
         process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=30) == 0
+        assert process.wait(timeout=MIN_WAIT) == 0
         assert all(wait_until(lambda pid=pid: process_group_gone(pid), timeout=20.0) for pid in pids)
     finally:
         if process.poll() is None:
@@ -405,7 +405,7 @@ def test_rigidlab_serve_stops_cleanly_on_sigterm() -> None:
     try:
         assert lines and lines[-1].startswith("rigidlab: press Ctrl-C"), "".join(lines)
         process.send_signal(signal.SIGTERM)
-        rest, _ = process.communicate(timeout=30)
+        rest, _ = process.communicate(timeout=MIN_WAIT)
         output = "".join(lines) + rest
         assert process.returncode == 0, output
         assert "rigidlab: stopping" in output and "leaked semaphore" not in output, output
@@ -444,13 +444,13 @@ def test_rigidlab_serve_stopped_while_it_starts_leaves_no_process() -> None:
         assert url is not None, "".join(lines)
         while time.monotonic() < deadline:  # the first moment the port answers
             try:
-                with urllib.request.urlopen(url, timeout=5) as response:
+                with urllib.request.urlopen(url, timeout=MIN_WAIT) as response:
                     if response.status == 200:
                         break
             except OSError:
                 time.sleep(0.02)
         process.send_signal(signal.SIGTERM)
-        rest, _ = process.communicate(timeout=30)
+        rest, _ = process.communicate(timeout=MIN_WAIT)
         output = "".join(lines) + rest
         assert process.returncode == 0, output
         assert "rigidlab: stopping" in output and "leaked semaphore" not in output, output
@@ -660,7 +660,7 @@ def test_rigidlab_serve_stops_on_a_sigterm_that_another_of_its_threads_receives(
         others = [int(t) for t in os.listdir(f"/proc/{process.pid}/task") if int(t) != process.pid]
         assert others, "the server has no thread besides the main one"
         assert libc.tgkill(process.pid, others[0], signal.SIGTERM) == 0, ctypes.get_errno()
-        rest, _ = process.communicate(timeout=20)
+        rest, _ = process.communicate(timeout=MIN_WAIT)
         output = "".join(lines) + rest
         assert process.returncode == 0, output
         assert "rigidlab: stopping" in output, output
@@ -726,7 +726,7 @@ def test_ctrl_c_to_the_process_group_prints_no_traceback() -> None:
     try:
         assert lines and lines[-1].startswith("rigidlab: press Ctrl-C"), "".join(lines)
         os.killpg(process.pid, signal.SIGINT)
-        rest, _ = process.communicate(timeout=30)
+        rest, _ = process.communicate(timeout=MIN_WAIT)
         output = "".join(lines) + rest
         assert process.returncode == 0, output
         assert "rigidlab: stopping" in output and "Traceback" not in output and "KeyboardInterrupt" not in output, output
