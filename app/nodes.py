@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 from viser import _messages
 
-__all__ = ["set_pose", "set_array", "set_arrays", "set_plot_data", "wxyz_z_to"]
+__all__ = ["set_pose", "set_array", "set_arrays", "set_plot_data", "set_visible", "wxyz_z_to"]
 
 _RTOL = 1e-5
 _ATOL = 1e-8
@@ -78,6 +78,14 @@ def set_pose(handle: Any, *, wxyz: Any = None, position: Any = None) -> None:
         if _changed(value, impl.position):
             impl.position[:] = value
             impl.api._queue_scene_message(_messages.SetPositionMessage(impl.name, value))
+
+
+def set_visible(handle: Any, visible: Any) -> None:
+    """Show or hide a node (or a GUI element), sending a message only when that changes (viser sends one for
+    every assignment of ``visible``, changed or not)."""
+    visible = bool(visible)
+    if handle.visible != visible:
+        handle.visible = visible
 
 
 def set_array(handle: Any, name: str, value: Any) -> None:

@@ -508,6 +508,13 @@ class SimulationScene(PlaybackRequests, Scene):
         n = int(chunk.t.size)
         return int(min(max(np.searchsorted(chunk.t, self.sim_time + 1e-9, side="right") - 1, 0), n - 1))
 
+    def interpolated(self, chunk: Any, rows: np.ndarray, j: int) -> np.ndarray:
+        """``rows`` (one a sample of ``chunk``) at the clock: linear between sample ``j`` and the next."""
+        t, i = chunk.t, min(j, max(chunk.t.size - 2, 0))
+        k = min(i + 1, t.size - 1)
+        w = 0.0 if k == i else min(max((self.sim_time - t[i]) / (t[k] - t[i]), 0.0), 1.0)
+        return (1.0 - w) * rows[i] + w * rows[k]
+
     # -- readout, plots, export -------------------------------------------------------------------
     def window_start(self) -> float:
         return max(0.0, self.display_time - self.window)

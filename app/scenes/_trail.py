@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from app.nodes import set_array, set_pose, wxyz_z_to
+from app.nodes import set_array, set_pose, set_visible, wxyz_z_to
 
 __all__ = ["ChunkedTrail", "HeadedTrail", "SampledTrack", "SphereTrail", "StickHead", "curve_pieces", "extend_trail",
            "sampled_curve", "trail_segments", "FAR_SEGMENTS"]
@@ -653,8 +653,7 @@ class HeadedTrail:
 
     def draw(self, visible: bool, *, hold: bool = False) -> None:
         for part in (self.trail, self.head):
-            if part.visible != visible:
-                part.visible = visible
+            set_visible(part, visible)
         now = time.monotonic()
         if visible and not hold and now - self._sent >= self.period and self.trail.pending:
             self._sent = now

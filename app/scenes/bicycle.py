@@ -20,7 +20,7 @@ import numpy as np
 
 from app.controls import Button, Slider, Toggle
 from app.meshes import bicycle_meshes
-from app.nodes import set_pose
+from app.nodes import set_pose, set_visible
 from app.readout import mode_table
 from app.scenes._plots import Legend, Table, hex_color
 from app.scenes._simulation import PlotSpec, SimulationScene, job
@@ -56,8 +56,6 @@ class RideChunk:
 
     k: int
     ride: WhippleRide
-    poses: np.ndarray  # (n, 4, 7) ride.poses, drawn (made on the executor)
-    contacts: np.ndarray  # (n, 2, 3) ride.contact_points
     table: Table  # lean, steer, yaw (deg), rear contact x, y (m), speed (m/s)
     #: (n, 36) what a frame interpolates, one row a sample: poses (28), contacts (6), lean and steer (rad)
     rows: np.ndarray
@@ -77,9 +75,8 @@ def _ride_chunk(speed: float, t0: float, start: RunState | None, impulse: float,
     c = ride.contact_points
     columns = np.column_stack([np.degrees(np.stack([ride.lean, ride.steer, ride.yaw], axis=1)), c[:, 0, :2],
                                ride.rear_speed])
-    poses = ride.poses
-    rows = np.column_stack([poses.reshape(poses.shape[0], -1), c.reshape(c.shape[0], -1), ride.lean, ride.steer])
-    return RideChunk(k, ride, poses, c, Table.build(ride.t, columns), rows)
+    rows = np.column_stack([ride.poses.reshape(c.shape[0], -1), c.reshape(c.shape[0], -1), ride.lean, ride.steer])
+    return RideChunk(k, ride, Table.build(ride.t, columns), rows)
 
 
 def eigenvalue_svg(sweep: Any, current: tuple[float, tuple] | None, *, font: float = _CHART_FONT[0],
@@ -260,11 +257,7 @@ class BicycleScene(SimulationScene):
     # -- drawing -------------------------------------------------------------------------------
     def draw(self, chunk: RideChunk, j: int) -> None:
         self._drawn_segment = self.segment
-        t, i = chunk.t, min(j, max(chunk.t.size - 2, 0))
-        w = 0.0 if t.size < 2 else min(max((self.sim_time - t[i]) / (t[i + 1] - t[i]), 0.0), 1.0)
-        k = min(i + 1, t.size - 1)
-        # one interpolation of the sample's rows (poses, contacts, lean, steer), made on the executor
-        row = (1.0 - w) * chunk.rows[i] + w * chunk.rows[k]
+        row = self.interpolated(chunk, chunk.rows, j)  # poses, contacts, lean, steer (rows made on the executor)
         pose = row[:_POSE_END].reshape(4, 7)
         pose[:, 3:] /= np.sqrt(np.einsum("ij,ij->i", pose[:, 3:], pose[:, 3:]))[:, None]
         values = row.tolist()
@@ -282,9 +275,7 @@ class BicycleScene(SimulationScene):
         for track, point in zip(self.tracks, ((rx, ry, rz + 0.003), (fx, fy, fz + 0.003))):
             track.add(point)
             track.draw(show_tracks, hold=hold)
-        show_rider = bool(self.controls.value("show_rider"))
-        if self.rider.visible != show_rider:
-            self.rider.visible = show_rider
+        set_visible(self.rider, self.controls.value("show_rider"))
 
     # -- side jobs: the modes at the current speed, then the eigenvalues against speed --------------
     def background(self) -> None:

@@ -23,7 +23,7 @@ import trimesh
 
 from app.controls import Choice, Slider, Toggle
 from app.meshes import box, cylinder_z, extrude, follower_stand, pack, translating_follower
-from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
+from app.nodes import set_array, set_arrays, set_pose, set_visible, wxyz_z_to
 from app.scenes._arrows import vertex_rgb
 from app.scenes._bodies import CoilSpring, ForceArrow
 from app.scenes._plots import Table, format_rows
@@ -507,14 +507,14 @@ class CamFollowerScene(SimulationScene):
         set_pose(self.cam_frame, wxyz=(math.cos(0.5 * theta), 0.0, 0.0, math.sin(0.5 * theta)))
         set_pose(self.follower_frame, position=(0.0, 0.0, self.follower_z))
         self.spring.span(self.follower_z + self.layout.seat, self.layout.spring_top)
-        self.contact_frame.visible = show
+        set_visible(self.contact_frame, show)
         if not show:
             return
         (x, z), (nx, nz) = (float(v) for v in contact), (float(v) for v in normal)
         set_pose(self.contact_point, position=(x, _Y_FRONT, z), wxyz=wxyz_z_to((nx, 0.0, nz), 1.0))
-        if self.normal_line.visible != in_contact:  # in flight there is no contact normal
-            self.normal_line.visible = in_contact
-        self.force_label.visible = drawn = in_contact and force != 0.0  # (N n ends at the contact point)
+        set_visible(self.normal_line, in_contact)  # in flight there is no contact normal
+        drawn = in_contact and force != 0.0  # (N n ends at the contact point)
+        set_visible(self.force_label, drawn)
         self.force_arrow.show((0.0, 0.0, force) if drawn else None, scale=_ARROW_MAX, reference=_ARROW_HALF,
                               color=_FORCE_COLOR if force >= 0.0 else _PULL_COLOR)
         if drawn:

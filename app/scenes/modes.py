@@ -53,7 +53,7 @@ import numpy as np
 import trimesh
 
 from app.controls import Choice, Slider, Toggle
-from app.nodes import set_pose
+from app.nodes import set_pose, set_visible
 from app.scenes._bodies import Parts, PartsView, Placed
 from app.scenes._modal_view import MAX_MODES, MODE_OPTIONS, SAMPLES_PER_CYCLE, ModalStatus, ModeChoice
 from app.scenes._modal_view import Cancelled as _Cancelled
@@ -1162,9 +1162,7 @@ class ModesScene(Scene):
         """A new set of parts: scales, supports and special meshes (in the frame's atomic group)."""
         self.live.show(solution.parts)
         for model, node in self.supports.items():
-            shown = model == solution.params.model
-            if node.visible != shown:
-                node.visible = shown
+            set_visible(node, model == solution.params.model)
         for key in ("disk", "top"):
             shown = solution.special == key
             if self.special[key].visible != shown:
