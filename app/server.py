@@ -558,7 +558,11 @@ class Session:
                 f"target='_blank'>{html.escape(link)}</a></div></div>"
             )
         elif key == "load_state":
-            text = self.controls.value("state_in")
+            # the text as viser stored it when its message came (in order, before the click's): the panel's
+            # copy is set by a callback in viser's thread pool, which a quick click can overtake
+            text = self.controls.handles["state_in"].value
+            if not isinstance(text, str):
+                text = self.controls.value("state_in")
             try:
                 state = state_codec.decode(text)
             except state_codec.StateError as exc:
