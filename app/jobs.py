@@ -41,7 +41,7 @@ import threading
 from collections.abc import Callable, Iterable
 from typing import Any
 
-__all__ = ["ChunkTimeline", "make_executor"]
+__all__ = ["ChunkTimeline", "make_executor", "settle"]
 
 _log = logging.getLogger(__name__)
 
@@ -245,10 +245,10 @@ class _Dispatcher(concurrent.futures.Executor):
             inner = self._pool.submit(fn, *args, **kwargs)
         except concurrent.futures.process.BrokenProcessPool as exc:
             self._replace_pool()
-            _finish(outer, None, exc)
+            settle(outer, None, exc)
             return
         except BaseException as exc:  # shut down, or the job could not be queued
-            _finish(outer, None, exc)
+            settle(outer, None, exc)
             return
         outer.add_done_callback(lambda o, inner=inner: inner.cancel() if o.cancelled() else None)
         inner.add_done_callback(lambda f, outer=outer: self._done(f, outer))
@@ -262,7 +262,7 @@ class _Dispatcher(concurrent.futures.Executor):
             self._replace_pool()
         if exc is None:
             self.completed += 1  # only this thread's callbacks write it
-        _finish(outer, None if exc is not None else inner.result(), exc)
+        settle(outer, None if exc is not None else inner.result(), exc)
 
     def _replace_pool(self) -> None:
         if self._closed:
@@ -307,15 +307,15 @@ def _follow(job: concurrent.futures.Future, outer: concurrent.futures.Future) ->
             return
         exc = j.exception()
         if exc is not None:
-            _finish(outer, None, exc)
+            settle(outer, None, exc)
             return
-        _finish(outer, copy.deepcopy(j.result()), None)
+        settle(outer, copy.deepcopy(j.result()), None)
 
     outer.add_done_callback(on_outer)
     job.add_done_callback(on_job)
 
 
-def _finish(future: concurrent.futures.Future, result: Any, exc: BaseException | None) -> None:
+def settle(future: concurrent.futures.Future, result: Any, exc: BaseException | None) -> None:
     """Complete a pending ``future`` unless it was cancelled meanwhile."""
     if not future.set_running_or_notify_cancel():
         return

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from app.controls import Choice, Refused, describe
+from app.jobs import settle
 from app.scenes._svg import FONT, Chart
 
 __all__ = ["Animated", "Cancelled", "MAX_CYCLES", "MAX_MODES", "MODE_OPTIONS", "ModalStatus", "ModeChoice",
@@ -224,15 +225,6 @@ class Throttled(concurrent.futures.Executor):
             queued, self._queue = list(self._queue), collections.deque()
         for outer, *_ in queued:
             outer.cancel()
-
-
-def settle(future: concurrent.futures.Future, result: Any, exc: BaseException | None) -> None:
-    if not future.set_running_or_notify_cancel():
-        return
-    if exc is not None:
-        future.set_exception(exc)
-    else:
-        future.set_result(result)
 
 
 def sig(x: float, digits: int = 4) -> str:
