@@ -7,7 +7,7 @@ Examples
 ``rigidlab serve --host 0.0.0.0 --mode per-client``
     Serve a classroom LAN; every browser gets its own state, the browsers
     spread over one worker process per core (``--workers N`` to choose;
-    :mod:`app.supervisor`).
+    :mod:`rigidlab.app.supervisor`).
 ``rigidlab serve --present --state demo.json``
     Start in presenter view from a saved scene state (Share > Download state).
 ``rigidlab bench``
@@ -182,7 +182,7 @@ def _lan_notes(host: str, port: int, mode: str) -> None:
     """For a host other than loopback: the LAN addresses to open, and the no-password warning."""
     if _is_loopback(host):
         return
-    from app.server import page_url
+    from rigidlab.app.server import page_url
 
     for address in _lan_addresses():
         print(f"rigidlab: on the LAN: {page_url(address, port)}", flush=True)
@@ -195,8 +195,8 @@ def _lan_notes(host: str, port: int, mode: str) -> None:
 
 
 def _serve(args: argparse.Namespace) -> int:
-    from app import state as state_codec
-    from app.supervisor import default_workers, serve_workers
+    from rigidlab.app import state as state_codec
+    from rigidlab.app.supervisor import default_workers, serve_workers
 
     worker = args.worker_index
     workers = args.workers
@@ -249,8 +249,8 @@ def _serve(args: argparse.Namespace) -> int:
 
 def _check_models(paths: Sequence[str]) -> int | None:
     """Exit status 2 after one line on stderr for the first model file that cannot be used (None: all good)."""
-    from app.model_file import ModelFileError
-    from app.scenes.model import model_scene_classes
+    from rigidlab.app.model_file import ModelFileError
+    from rigidlab.app.scenes.model import model_scene_classes
 
     try:
         model_scene_classes(paths)
@@ -261,15 +261,15 @@ def _check_models(paths: Sequence[str]) -> int | None:
 
 
 def _serve_spare(args: argparse.Namespace, state: dict | None) -> int:
-    """A spare worker of :mod:`app.supervisor`: import everything and start the process pool, then wait for the
+    """A spare worker of :mod:`rigidlab.app.supervisor`: import everything and start the process pool, then wait for the
     supervisor's message ``start I/N`` on the control socket (``--control-fd``), which carries the listening
     socket of slot I, and serve as worker I of N on it (end of input: exit quietly).
 
     A worker started cold spends most of its start (9 s of imports and 11 s of the fork server's preload on a
     busy 2-core machine) before it listens; a spare listens within a second of the line.
     """
-    from app.jobs import make_executor
-    from app.scenes import discover_scenes
+    from rigidlab.app.jobs import make_executor
+    from rigidlab.app.scenes import discover_scenes
 
     previous = _stop_signals_as_interrupt()
     executor = None
@@ -302,7 +302,7 @@ def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, in
              executor=None, sock: socket.socket | None = None) -> int:
     """Build the app and serve until Ctrl-C or SIGTERM (``worker``: as worker I of N of a supervisor, on its
     slot's listening socket ``sock``, or ``--listen-fd``'s)."""
-    from app.server import create_app
+    from rigidlab.app.server import create_app
 
     # SIGTERM stops the app from here on: viser answers on the port while create_app is still building the
     # session, and a SIGTERM then (a service manager, a script that waits for the port) killed the process
@@ -317,9 +317,9 @@ def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, in
     try:
         scene_classes = None
         if args.model:  # the Model scenes first: the first one is shown unless --scene says otherwise
-            from app.model_file import ModelFileError
-            from app.scenes import discover_scenes
-            from app.scenes.model import model_scene_classes
+            from rigidlab.app.model_file import ModelFileError
+            from rigidlab.app.scenes import discover_scenes
+            from rigidlab.app.scenes.model import model_scene_classes
 
             try:
                 scene_classes = {**model_scene_classes(args.model), **discover_scenes()}
@@ -374,14 +374,14 @@ def _run_app(args: argparse.Namespace, state: dict | None, worker: tuple[int, in
 
 
 def _warm_kernels() -> subprocess.Popen | None:
-    """Start ``python -m core._warm`` (see core/_warm.py); None if it cannot start.
+    """Start ``python -m rigidlab.core._warm`` (see core/_warm.py); None if it cannot start.
 
-    At the server's own priority: a scene's job that needs the kernels waits for it (:mod:`app.jobs`),
+    At the server's own priority: a scene's job that needs the kernels waits for it (:mod:`rigidlab.app.jobs`),
     so it compiles for that job. (At nice 10 it was starved on a busy machine while the job waited: 40 s
     of CPU in 4 min at a load of 13 on 2 cores.)
     """
     try:
-        proc = subprocess.Popen([sys.executable, "-m", "core._warm"], stdout=subprocess.DEVNULL,
+        proc = subprocess.Popen([sys.executable, "-m", "rigidlab.core._warm"], stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
     except OSError:
         return None
@@ -405,7 +405,7 @@ def _stop_signals_as_interrupt() -> dict:
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
-    from app.supervisor import unignore_sigint
+    from rigidlab.app.supervisor import unignore_sigint
 
     previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, interrupt)}
     ignored = unignore_sigint()
@@ -450,14 +450,14 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rigidlab`` command."""
-    from app.server import MODES
+    from rigidlab.app.server import MODES
 
     parser = _Parser(
         prog="rigidlab", description="Interactive lab for spatial rigid-body dynamics."
     )
     sub = parser.add_subparsers(dest="command", required=True)
 
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     scene_names = list(discover_scenes())
     serve = sub.add_parser(

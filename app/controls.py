@@ -1,11 +1,11 @@
 """Declared controls: what a scene's GUI inputs accept, and how browser values are checked.
 
 Every GUI input of every scene is declared with one of the small frozen
-dataclasses below (a *spec*) and created by :class:`app.panel.ControlPanel`.
+dataclasses below (a *spec*) and created by :class:`rigidlab.app.panel.ControlPanel`.
 A spec knows two checks:
 
 ``check(raw)``
-    The *gate* check, run by :mod:`app.gate` on the raw value a browser sent,
+    The *gate* check, run by :mod:`rigidlab.app.gate` on the raw value a browser sent,
     before viser stores it or broadcasts it to other browsers: the right type,
     finite, inside the declared range. A refused value never reaches viser's
     state, other browsers or late joiners.

@@ -10,7 +10,7 @@ mode, a client's in per-client mode) and puts itself in front of it:
 
 * an update to an element that no control registered, or to any property
   other than ``value``, is dropped;
-* the value goes through the control's ``check`` (:mod:`app.controls`); a
+* the value goes through the control's ``check`` (:mod:`rigidlab.app.controls`); a
   refused value is dropped before viser sees it, so it is never stored,
   broadcast or replayed; the browser that sent it is told why (a notice) and
   gets the value in use back, so its control shows it again;
@@ -20,9 +20,9 @@ mode, a client's in per-client mode) and puts itself in front of it:
 This module reaches into viser's private attributes (``_websock_interface``,
 ``_gui_input_handle_from_uuid``, ``_handle_gui_updates``), as do three other
 places, each for one purpose: :func:`client_request_path` (the page's
-address), the incoming-message guards of :mod:`app.server` (camera messages
+address), the incoming-message guards of :mod:`rigidlab.app.server` (camera messages
 and messages viser cannot decode, dropped before viser stores them) and
-:mod:`app.loop_thread` (viser's message events kept to its event loop). All
+:mod:`rigidlab.app.loop_thread` (viser's message events kept to its event loop). All
 are checked against viser 1.1.x, which ``pyproject.toml`` pins.
 """
 
@@ -38,7 +38,7 @@ from typing import Any
 
 from viser import _messages
 
-from app.controls import Refused, describe
+from rigidlab.app.controls import Refused, describe
 
 __all__ = ["Gate", "RefusedValue", "client_request_path"]
 
@@ -124,7 +124,7 @@ class Gate:
     # -- registry -----------------------------------------------------------
     def register(self, handle: Any, label: str, check: Callable[[Any], Any]) -> None:
         """Accept browser values of ``handle`` that ``check(raw)`` returns (it raises
-        :class:`~app.controls.Refused` otherwise)."""
+        :class:`~rigidlab.app.controls.Refused` otherwise)."""
         with self._lock:
             self._checks[handle._impl.uuid] = (label, check)
 
@@ -247,7 +247,7 @@ def client_request_path(server: Any, client_id: int) -> str | None:
     viser's page connects its websocket to the page's URL without the query
     string, or to the address given by its ``?websocket=`` parameter; a link
     ``http://host:port/?websocket=ws://host:port/state/<state>`` therefore
-    shows the server a path that carries a state (see :mod:`app.state`).
+    shows the server a path that carries a state (see :mod:`rigidlab.app.state`).
     """
     try:
         connection = server._websock_server._live_connections.get(client_id)

@@ -53,7 +53,7 @@ def _worker_ready() -> int:
 
 def _worker_start() -> None:
     """Each worker process, at its start: a compiled kernel it needs while ``rigidlab serve``'s warm-up child
-    compiles them waits for the warm-up and loads its result (see :mod:`core._warm`), instead of compiling
+    compiles them waits for the warm-up and loads its result (see :mod:`rigidlab.core._warm`), instead of compiling
     the same kernels beside it; the objects it inherited are frozen out of the garbage collector; SIGINT is
     ignored (Ctrl-C in a terminal reaches the whole process group: the app stops its pool, and a worker
     interrupted in its queue read printed a KeyboardInterrupt traceback)."""
@@ -62,7 +62,7 @@ def _worker_start() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
-    from core._warm import defer_compiles_to_warm_up
+    from rigidlab.core._warm import defer_compiles_to_warm_up
 
     defer_compiles_to_warm_up()
     # the modules the fork server imported (numpy, scipy, numba, the scenes) are never freed: out of the
@@ -121,7 +121,7 @@ def make_executor(
         one), started by a fork server that has imported ``preload`` (module
         names: the scenes' modules, whose job functions the workers run), and
         warmed up at once; a worker's kernels wait for a running warm-up of
-        the compiled kernels (:mod:`core._warm`). Otherwise one thread.
+        the compiled kernels (:mod:`rigidlab.core._warm`). Otherwise one thread.
     preload : iterable of str, keyword-only
         Modules the fork server imports before it forks workers.
     name : str, keyword-only
@@ -136,7 +136,7 @@ def make_executor(
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     context = multiprocessing.get_context("forkserver")
-    modules = ["numpy", "scipy.special", "scipy.integrate", "app.jobs"]
+    modules = ["numpy", "scipy.special", "scipy.integrate", "rigidlab.app.jobs"]
     modules += [m for m in dict.fromkeys(preload) if m not in modules]
     context.set_forkserver_preload(modules)
     workers = max(1, (os.cpu_count() or 2) - 1)

@@ -1,7 +1,7 @@
 """viser's message events, set from any thread, wake the event loop only from its own thread.
 
-The session loop (:mod:`app.server`) runs scenes in its own thread, and every
-pose, property or GUI write it makes (:mod:`app.nodes`, viser's setters)
+The session loop (:mod:`rigidlab.app.server`) runs scenes in its own thread, and every
+pose, property or GUI write it makes (:mod:`rigidlab.app.nodes`, viser's setters)
 ends in viser 1.1.1's ``AsyncMessageBuffer.push``
 (``viser/infra/_async_message_buffer.py``). ``push`` stores the message under
 a ``threading.Lock`` (safe), wakes the loop with
@@ -17,7 +17,7 @@ touches an asyncio object from the caller's thread: ``flush``, ``atomic_end``
 and ``set_done`` already go through ``call_soon_threadsafe``; GUI callbacks
 and handle cleanups through ``run_coroutine_threadsafe``.
 
-:func:`install` (called by :func:`app.server.create_app` before it creates
+:func:`install` (called by :func:`rigidlab.app.server.create_app` before it creates
 the ``ViserServer``) makes each message buffer's two events
 :class:`LoopEvent`\\ s: on the loop's own thread ``set()`` is asyncio's; from
 any other thread it does nothing, because ``push`` (or ``atomic_end``) hands

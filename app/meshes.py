@@ -310,7 +310,7 @@ def spoked_wheel(radius: float, *, tire: float = 0.018, spokes: int = 8,
 
 @functools.lru_cache(maxsize=4)  # one set per process, shared by every session: read them, never modify them
 def bicycle_meshes(p: Any) -> dict[str, trimesh.Trimesh]:
-    """Meshes of a :func:`core.models.whipple_bicycle` of parameters ``p`` (``WhippleParameters``), each in
+    """Meshes of a :func:`rigidlab.core.models.whipple_bicycle` of parameters ``p`` (``WhippleParameters``), each in
     its body's frame (origin at the body's centre of mass, axes global in the upright reference
     configuration: x forward, z up): ``"rear_wheel"``, ``"front_wheel"`` (with ``"rear_mark"``,
     ``"front_mark"``: one marked spoke each), ``"frame"``, ``"rider"`` (on the frame) and ``"fork"``. The

@@ -7,7 +7,7 @@ the suffix:
 
 ``.py``
     A Python file that defines ``build(**parameters) -> System`` (a
-    :class:`core.multibody.System`) and, optionally::
+    :class:`rigidlab.core.multibody.System`) and, optionally::
 
         PARAMETERS = {"name": (default, low, high, "unit", "label"), ...}
         SWEEP = "name"
@@ -16,9 +16,9 @@ the suffix:
     between them); ``SWEEP`` names the parameter swept for a Campbell diagram
     or a root locus. ``build`` is called once with the defaults to check it.
 ``.urdf``
-    A robot description, through :func:`core.models.from_urdf`.
+    A robot description, through :func:`rigidlab.core.models.from_urdf`.
 ``.xml`` / ``.mjcf``
-    An MJCF model, through MuJoCo's own parser (:func:`core.models.from_mjcf`).
+    An MJCF model, through MuJoCo's own parser (:func:`rigidlab.core.models.from_mjcf`).
 
 Code in a model file runs only because the person who started the server
 named the file on the command line: no browser can upload a file or choose a
@@ -167,7 +167,7 @@ def _python_model(path: Path) -> tuple[Callable[..., Any], tuple[Parameter, ...]
 
 
 def _loader_model(path: Path, kind: str) -> Callable[..., Any]:
-    from core.models import from_mjcf, from_urdf
+    from rigidlab.core.models import from_mjcf, from_urdf
 
     load = from_urdf if kind == "urdf" else from_mjcf
     return lambda: load(str(path))
@@ -189,7 +189,7 @@ def load_model_file(path: str | Path) -> ModelFile:
         ``build`` that does not return a System, a URDF or MJCF the loader
         refuses.
     """
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     given = Path(path)
     resolved = given.expanduser().resolve()
@@ -224,6 +224,6 @@ def load_model_file(path: str | Path) -> ModelFile:
         what = "build()" if kind == "python" else f"loading the {kind.upper()}"
         raise ModelFileError(f"{where}: {what} raised {type(exc).__name__}: {exc}") from None
     if not isinstance(system, System):
-        raise ModelFileError(f"{given}: build() expected to return a core.multibody.System, "
+        raise ModelFileError(f"{given}: build() expected to return a rigidlab.core.multibody.System, "
                              f"got {type(system).__name__}")
     return model

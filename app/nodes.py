@@ -14,7 +14,7 @@ type hints and casts recursively (about 100 us); here the array is cast to
 the stored dtype, compared with ``np.array_equal`` (nothing is sent when
 equal), checked finite, and sent as one update message.
 
-Like :mod:`app.gate`, this module reaches into viser 1.1's handle internals
+Like :mod:`rigidlab.app.gate`, this module reaches into viser 1.1's handle internals
 (``_impl.wxyz``, ``_impl.position``, ``_impl.props``,
 ``_impl.api._queue_scene_message``).
 

@@ -1,8 +1,8 @@
 """A scene's controls: viser elements made from specs, values checked once.
 
 :class:`ControlPanel` creates the GUI element of each declared control
-(:mod:`app.controls`) in the current GUI folder, registers the control's check
-with the gate of the GUI API (:mod:`app.gate`), and records what browsers
+(:mod:`rigidlab.app.controls`) in the current GUI folder, registers the control's check
+with the gate of the GUI API (:mod:`rigidlab.app.gate`), and records what browsers
 change. It is the only way a scene gets GUI input, so every value a scene sees
 has passed one boundary:
 
@@ -27,7 +27,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
-from app.controls import (
+from rigidlab.app.controls import (
     Button,
     ButtonGroup,
     Choice,
@@ -40,7 +40,7 @@ from app.controls import (
     VectorText,
     describe,
 )
-from app.gate import Gate
+from rigidlab.app.gate import Gate
 
 __all__ = ["ControlPanel", "NotifyClient", "TEXT_RESTORE_SECONDS"]
 

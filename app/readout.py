@@ -167,7 +167,7 @@ def _table(rows: list[str], scale: float = 1.0) -> str:
 
 
 class Readout:
-    """A text panel of a scene (create with :meth:`app.scenes.base.Scene.add_readout`).
+    """A text panel of a scene (create with :meth:`rigidlab.app.scenes.base.Scene.add_readout`).
 
     Assigning :attr:`content` sends the text only if it changed, so a
     readout rewritten every frame with the same numbers costs nothing.

@@ -17,15 +17,15 @@ thread pool) only record what changed, under a lock; one loop thread at about
 60 Hz visits every session, applies a requested scene switch, presenter
 toggle or state load and calls the active scene's ``frame(dt)``, which assigns
 poses inside ``atomic()``. Hidden scenes are never updated. Every GUI value
-passes the gate (:mod:`app.gate`) before viser stores it. An exception in a
-scene pauses that scene (:meth:`app.scenes.base.Scene.frame`); the server
+passes the gate (:mod:`rigidlab.app.gate`) before viser stores it. An exception in a
+scene pauses that scene (:meth:`rigidlab.app.scenes.base.Scene.frame`); the server
 keeps serving. Long work runs on one background executor per app
-(:mod:`app.jobs`).
+(:mod:`rigidlab.app.jobs`).
 
 Besides the scene chooser, every session has a presenter-view switch and a
 *Share* folder: *Copy state* (the active scene's state as a short string, a
 link and a copy button), *Load state* and *Download state (JSON)*, the file
-that ``rigidlab serve --state FILE`` starts from (:mod:`app.state`).
+that ``rigidlab serve --state FILE`` starts from (:mod:`rigidlab.app.state`).
 """
 
 from __future__ import annotations
@@ -49,16 +49,16 @@ from typing import Any, Literal
 
 import viser
 
-from app import state as state_codec
-from app.controls import Button, Choice, Text, Toggle
-from app.gate import Gate, RefusedValue, client_request_path
-from app.panel import ControlPanel
-from app.scenes import discover_scenes, discovery_errors
-from app.scenes.base import (NORMAL_PANEL_PX, PRESENTER_PANEL_PX, Scene, SceneContext, aim_camera,
+from rigidlab.app import state as state_codec
+from rigidlab.app.controls import Button, Choice, Text, Toggle
+from rigidlab.app.gate import Gate, RefusedValue, client_request_path
+from rigidlab.app.panel import ControlPanel
+from rigidlab.app.scenes import discover_scenes, discovery_errors
+from rigidlab.app.scenes.base import (NORMAL_PANEL_PX, PRESENTER_PANEL_PX, Scene, SceneContext, aim_camera,
                              presenter_css)
-from app.jobs import make_executor
-from app.loop_thread import install as install_loop_events
-from core._warm import running_for as warm_up_running_for
+from rigidlab.app.jobs import make_executor
+from rigidlab.app.loop_thread import install as install_loop_events
+from rigidlab.core._warm import running_for as warm_up_running_for
 
 __all__ = ["RigidlabApp", "Session", "create_app", "MODES"]
 
@@ -1056,7 +1056,7 @@ def _listening_on(sock: socket.socket) -> Iterator[None]:
     keywords to ``loop.create_server``, so a subclass that passes ``sock``
     instead of the host and port stands in for it while the
     ``ViserServer`` starts (its constructor returns once it serves). The
-    per-client workers of :mod:`app.supervisor` serve on their slot's socket.
+    per-client workers of :mod:`rigidlab.app.supervisor` serve on their slot's socket.
     """
     import websockets.asyncio.server as ws_server
 
@@ -1108,16 +1108,16 @@ def create_app(
     presenter : bool
         Start in presenter view (large labels, thick arrows, large readouts).
     state : dict or None
-        A scene state (:mod:`app.state`) every session starts from.
+        A scene state (:mod:`rigidlab.app.state`) every session starts from.
     sock : socket.socket or None
         Serve on this listening socket instead of binding ``host:port``
         (the app owns it from then on): the per-client workers of
-        :mod:`app.supervisor`, whose sockets share one port with
+        :mod:`rigidlab.app.supervisor`, whose sockets share one port with
         ``SO_REUSEPORT``.
     executor : concurrent.futures.Executor or None
         The background executor, made beforehand with
-        ``app.jobs.make_executor(processes=True, preload=...)`` (a spare
-        worker of :mod:`app.supervisor` starts its process pool before it is
+        ``rigidlab.app.jobs.make_executor(processes=True, preload=...)`` (a spare
+        worker of :mod:`rigidlab.app.supervisor` starts its process pool before it is
         needed); the app owns it and shuts it down. Default: made here.
 
     Returns

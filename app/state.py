@@ -6,7 +6,7 @@ A scene's state is a JSON object::
      "values": {"theta0_deg": 60.0, "psi_dot0": 12.0, ...}}
 
 ``values`` holds the value of every control that belongs to the state (see
-:meth:`app.panel.ControlPanel.state`); a scene may add keys of its own.
+:meth:`rigidlab.app.panel.ControlPanel.state`); a scene may add keys of its own.
 :func:`encode` packs it into a short string (``rl1.`` + base64url of the
 zlib-compressed JSON) that fits in a chat message or a link;
 :func:`decode` takes that string, the JSON text itself, or a link that
@@ -17,7 +17,7 @@ A link that opens a scene with given parameters: viser's page connects its
 websocket to the address in its ``?websocket=`` parameter, so
 ``http://HOST:PORT/?websocket=ws://HOST:PORT/state/<string>`` shows the
 server the state in the websocket path (:func:`share_link`,
-:func:`app.gate.client_request_path`).
+:func:`rigidlab.app.gate.client_request_path`).
 """
 
 from __future__ import annotations

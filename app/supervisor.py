@@ -161,7 +161,7 @@ class Supervisor:
             print(text, file=self.out, flush=True)
 
     def _command(self, worker: _Worker) -> list[str]:
-        return [sys.executable, "-m", "app.cli", "serve", *self.worker_args,
+        return [sys.executable, "-m", "rigidlab.app.cli", "serve", *self.worker_args,
                 "--worker-index", f"{worker.index + 1}/{len(self.workers)}", "--listen-fd", str(worker.sock.fileno())]
 
     def _popen(self, command: list[str], **kwargs) -> subprocess.Popen:
@@ -186,7 +186,7 @@ class Supervisor:
         self.spare_ready.clear()
         ours, theirs = socket.socketpair()
         with theirs:  # (the spare's copy is its own; closing ours tells it that the supervisor is gone)
-            command = [sys.executable, "-m", "app.cli", "serve", *self.worker_args, "--spare",
+            command = [sys.executable, "-m", "rigidlab.app.cli", "serve", *self.worker_args, "--spare",
                        "--control-fd", str(theirs.fileno())]
             try:
                 self.spare = self._popen(command, pass_fds=(theirs.fileno(),))
@@ -400,7 +400,7 @@ def serve_workers(*, host: str, port: int, count: int, worker_args: Sequence[str
                 supervisor.stop()
                 print("rigidlab serve: no worker started (see their output above)", file=err)
                 return 1
-            from app.server import page_url
+            from rigidlab.app.server import page_url
 
             supervisor.say(f"rigidlab: {count - len(missing)} of {count} workers serve port {bound} "
                            "(per-client mode; the kernel spreads the browsers over them)")

@@ -75,7 +75,7 @@ from typing import Any
 import numpy as np
 import zstandard
 
-from app.wire import browser_connection, frame_payload, gui_value_message
+from rigidlab.app.wire import browser_connection, frame_payload, gui_value_message
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT_DIR = ROOT / "bench" / "out"
@@ -268,7 +268,7 @@ def start_server(scene: str, *, profile: bool, workdir: Path) -> Server:
     if profile:
         command = [sys.executable, str(Path(__file__).resolve()), "--profiled-serve", str(profile_path), "--", *serve_args]
     else:
-        command = [sys.executable, "-m", "app.cli", *serve_args]
+        command = [sys.executable, "-m", "rigidlab.app.cli", *serve_args]
     log = open(log_path, "w")
     process = subprocess.Popen(command, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, text=True)
     log.close()
@@ -514,7 +514,7 @@ class PerClientResult:
 
 def start_per_client_server(scene: str, workers: int, workdir: Path) -> Server:
     port = free_port()
-    command = [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--scene",
+    command = [sys.executable, "-m", "rigidlab.app.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--scene",
                scene, "--mode", "per-client", "--workers", str(workers)]
     log_path = workdir / f"serve-{scene}-{port}.log"
     log = open(log_path, "w")
@@ -638,7 +638,7 @@ def profiled_serve(out_path: str, serve_args: list[str]) -> int:
             profile.disable()
 
     threading.Thread.run = profiled_run  # type: ignore[method-assign]
-    from app.cli import main
+    from rigidlab.app.cli import main
 
     status = main(serve_args)
     with lock:

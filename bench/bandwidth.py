@@ -3,7 +3,7 @@
 For every registered scene this starts ``rigidlab serve --scene NAME`` in a
 subprocess on a free loopback port, connects ONE plain websocket client that
 speaks viser's protocol (subprotocol ``viser-v<version>``, a camera message
-first; see :mod:`app.wire`), waits for viser's replay of the scene to end,
+first; see :mod:`rigidlab.app.wire`), waits for viser's replay of the scene to end,
 makes the scene play (the timed scenes play on their own; the sandbox's
 "Animate (constant ω)" and the manipulator's "Animate joints" are switched
 on as a browser would), lets it run for a warm-up (``--warmup``, 8 s: the
@@ -52,7 +52,7 @@ from typing import Any
 import msgpack
 import zstandard
 
-from app.wire import browser_connection, frame_payload, gui_value_message
+from rigidlab.app.wire import browser_connection, frame_payload, gui_value_message
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT_DIR = ROOT / "bench" / "out"
@@ -241,7 +241,7 @@ def free_port() -> int:
 def start_server(scene: str, mode: str, workdir: Path) -> tuple[subprocess.Popen, str]:
     """``rigidlab serve`` (loopback, free port) in a subprocess; returns it and its ws:// URL."""
     port = free_port()
-    command = [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
+    command = [sys.executable, "-m", "rigidlab.app.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
                "--scene", scene, "--mode", mode]
     if mode == "per-client":
         command += ["--workers", "1"]

@@ -2,11 +2,11 @@
 
 One run prints:
 
-1. Building ``core.models.whipple_bicycle`` (the first call builds the
+1. Building ``rigidlab.core.models.whipple_bicycle`` (the first call builds the
    bodies, joints and the two rolling contacts found and assembled; later
    calls copy that System and scale its velocities),
-   ``core.modal.linearize`` and ``LinearModel.modes`` at 5 m/s: CPU of
-   each part, best of three; then ``core.models.whipple_speed_model``
+   ``rigidlab.core.modal.linearize`` and ``LinearModel.modes`` at 5 m/s: CPU of
+   each part, best of three; then ``rigidlab.core.models.whipple_speed_model``
    (two linearizations, once per parameter set) and one speed from it
    (``linear_model(v).modes()``).
 2. For every speed of the paper's Table 2 (0, 1, ..., 10 m/s) the number
@@ -15,7 +15,7 @@ One run prints:
    from the parameters (``whipple_bicycle_reference``):
    ``-log10(abs(s - s_ref) / abs(s_ref))``; the engine linearized at each
    speed, and the fewest digits of the speed model.
-3. ``core.modal.sweep`` over 0-10 m/s (101 speeds) serially (one worker
+3. ``rigidlab.core.modal.sweep`` over 0-10 m/s (101 speeds) serially (one worker
    thread): from the speed model (its two linearizations counted), and
    with ``linearize(whipple_bicycle(v))`` at every speed; the latter also
    on the default process pool. Then ``boundaries()`` (Brent, ``xtol``
@@ -47,8 +47,8 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.optimize import linear_sum_assignment  # noqa: E402
 
-from core.modal import LinearModel, linearize, sweep  # noqa: E402
-from core.models import (  # noqa: E402
+from rigidlab.core.modal import LinearModel, linearize, sweep  # noqa: E402
+from rigidlab.core.models import (  # noqa: E402
     MEIJAARD_2007_EIGENVALUES,
     MEIJAARD_2007_SPEEDS,
     whipple_bicycle,

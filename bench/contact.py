@@ -1,9 +1,9 @@
 """Contact benchmark: the cam-follower and the rolling disk, CPU time against contact-force and position error.
 
-Models (``core.models``):
+Models (``rigidlab.core.models``):
 
 ``cam``
-    :class:`core.models.CamFollower` with its defaults on
+    :class:`rigidlab.core.models.CamFollower` with its defaults on
     ``CamProfile.eccentric()`` (R = 0.04 m, e = 0.01 m, flat face, 0.5 kg,
     2000 N/m, preload 20 N, g = 9.81 m/s^2) at 0.9 times its jump speed
     (102.5 rad/s) over 10 revolutions, outputs at 60 samples per
@@ -11,10 +11,10 @@ Models (``core.models``):
     at the output times from ``CamFollower.kinematics`` and
     ``CamFollower.contact_force``.
 ``disk``
-    :func:`core.models.rolling_disk` (R = 0.1 m, 1 kg), lean 0.3 rad, spin
+    :func:`rigidlab.core.models.rolling_disk` (R = 0.1 m, 1 kg), lean 0.3 rad, spin
     twice the critical upright spin (11.44 rad/s), rolling without slip,
     over 10 s with outputs at 60 Hz. Reference:
-    :func:`core.models.rolling_disk_reference` (its reduced equations,
+    :func:`rigidlab.core.models.rolling_disk_reference` (its reduced equations,
     DOP853 at rtol = atol = 1e-13).
 
 Errors: position = the largest distance from the reference over the run
@@ -50,7 +50,7 @@ degrees of cam per frame: one run with an output per frame, and 60 chunks
 of 1/60 s from one System, each chunk a new run continuing the last state)
 against 1 ms, and the constraint formulation's contact-force error against
 1e-8. Last, the Cam-follower scene's own cost
-(``app.scenes.cam_follower.compute_chunk``, one revolution of 180 outputs
+(``rigidlab.app.scenes.cam_follower.compute_chunk``, one revolution of 180 outputs
 with the compliant continuation after a separation) for the eccentric flat
 cam at 0.9 and 1.2 times its jump speed and the roller at 1.2: CPU of the
 first revolution and of those after it, and that over the frames one
@@ -88,7 +88,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from core.models import (  # noqa: E402
+from rigidlab.core.models import (  # noqa: E402
     CamFollower,
     CamProfile,
     rolling_disk,
@@ -418,7 +418,7 @@ def scene_target(*, revolutions: int = 3) -> list[dict]:
     """CPU of one revolution of the Cam-follower scene's ``compute_chunk`` (ms; the mean over revolutions 1 to
     ``revolutions - 1``, after the start) for :data:`SCENE_CASES`, and per displayed frame at
     :data:`SCENE_FRAMES`."""
-    from app.scenes import cam_follower as cf
+    from rigidlab.app.scenes import cam_follower as cf
 
     out = []
     for profile, follower, fraction in SCENE_CASES:

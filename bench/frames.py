@@ -46,9 +46,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from app.controls import Slider, Toggle  # noqa: E402
-from app.scenes import discover_scenes  # noqa: E402
-from app.server import create_app  # noqa: E402
+from rigidlab.app.controls import Slider, Toggle  # noqa: E402
+from rigidlab.app.scenes import discover_scenes  # noqa: E402
+from rigidlab.app.server import create_app  # noqa: E402
 
 TARGET_P99_MS = 2.0
 TARGET_MAX_MS = 8.0

@@ -30,7 +30,7 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from core.gyroscope import RotorParams, invariants, nutation, simulate
+from rigidlab.core.gyroscope import RotorParams, invariants, nutation, simulate
 
 PARAMS = RotorParams(I=1.0, I3=0.8, mgl=2.0)
 STATE0 = np.array([0.3, 0.7, 0.1, 0.5, -0.4, 10.0])

@@ -6,7 +6,7 @@ One run prints one table:
    pendulum chain of 10, 50 and 100 uniform rods hanging at rest (target:
    <= 0.2 s for 100 links, linearization included); wall time, best of
    three, and the first call (which compiles the row tables).
-2. A 200-point Campbell sweep of ``core.models.disk_rotor`` (spin 0 to
+2. A 200-point Campbell sweep of ``rigidlab.core.models.disk_rotor`` (spin 0 to
    1500 rad/s: build, assemble, linearize, state-space eigen solution per
    point) on the default process pool (target: <= 5 s on 2 cores), with
    the serial time (one worker thread) beside it.
@@ -38,8 +38,8 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from core.modal import LinearModel, linearize, sweep  # noqa: E402
-from core.models import disk_rotor, pendulum_chain  # noqa: E402
+from rigidlab.core.modal import LinearModel, linearize, sweep  # noqa: E402
+from rigidlab.core.models import disk_rotor, pendulum_chain  # noqa: E402
 
 CHAINS = (10, 50, 100)
 SWEEP_POINTS = 200

@@ -1,16 +1,16 @@
 """Multibody benchmark: rigidlab's ``System.simulate`` against MuJoCo and Exudyn at equal accuracy.
 
-Models (``core.models``, every engine builds the same bodies, masses,
+Models (``rigidlab.core.models``, every engine builds the same bodies, masses,
 inertias, joints, gravity and initial state from the rigidlab System):
 
 ``chain2`` ... ``chain20``
-    :func:`core.models.pendulum_chain` of N uniform 1 m, 1 kg rods on
+    :func:`rigidlab.core.models.pendulum_chain` of N uniform 1 m, 1 kg rods on
     revolute joints, released at rest from the straight chain tilted by
     0.5 rad. Reference: its reduced Lagrange equations in the joint angles
-    (:func:`core.models.pendulum_chain_reduced`), DOP853 at rtol = atol =
+    (:func:`rigidlab.core.models.pendulum_chain_reduced`), DOP853 at rtol = atol =
     1e-13.
 ``slider_crank``
-    :func:`core.models.slider_crank` (crank 0.1 m, rod 0.3 m, motor at
+    :func:`rigidlab.core.models.slider_crank` (crank 0.1 m, rod 0.3 m, motor at
     2 pi rad/s). Reference: the closed-form kinematics (the motor
     prescribes the motion).
 
@@ -101,7 +101,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from core.models import pendulum_chain, pendulum_chain_reduced, slider_crank  # noqa: E402
+from rigidlab.core.models import pendulum_chain, pendulum_chain_reduced, slider_crank  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "out"
 T_END = 10.0
@@ -674,7 +674,7 @@ def exudyn_model(exu, model, kind: str):
 # ------------------------------------------------------------------ the chain as a kinematic tree
 @dataclass(frozen=True)
 class ChainTree:
-    """:func:`core.models.pendulum_chain` as a kinematic tree (link k's parent is link k - 1), read from
+    """:func:`rigidlab.core.models.pendulum_chain` as a kinematic tree (link k's parent is link k - 1), read from
     the rigidlab System hanging at rest (tilt 0): every joint frame is then parallel to the global frame,
     and the joint coordinates are the relative angles about the common joint axis (global x)."""
 

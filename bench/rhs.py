@@ -1,11 +1,11 @@
 """Per-right-hand-side benchmark: one evaluation of rigidlab's equations of motion against MuJoCo and Pinocchio.
 
 For pendulum chains of N = 2, 10, 30, 100 and 300 links
-(:func:`core.models.pendulum_chain`, uniform 1 m, 1 kg rods on revolute
+(:func:`rigidlab.core.models.pendulum_chain`, uniform 1 m, 1 kg rods on revolute
 joints about x, tilted by 0.5 rad), the CPU time (``time.process_time``)
 of one evaluation:
 
-* rigidlab: ``_Dynamics.rhs(t, y)`` of ``core.multibody._simulate``, the
+* rigidlab: ``_Dynamics.rhs(t, y)`` of ``rigidlab.core.multibody._simulate``, the
   right-hand side that ``System.simulate`` integrates (absolute
   coordinates: kinematics, constraint rows and the multiplier solve; no
   projection), built as ``simulate`` builds it for the ``"projection"``
@@ -73,7 +73,7 @@ from multibody import (  # noqa: E402
     mujoco_model,
 )
 
-from core.models import pendulum_chain  # noqa: E402
+from rigidlab.core.models import pendulum_chain  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "out"
 LINKS = (2, 10, 30, 100, 300)
@@ -91,8 +91,8 @@ FIRST_CALL = """
 import sys, time
 import numpy as np
 sys.path.insert(0, {root!r})
-from core.models import pendulum_chain
-from core.multibody._simulate import _Dynamics
+from rigidlab.core.models import pendulum_chain
+from rigidlab.core.multibody._simulate import _Dynamics
 N = {n}
 s = pendulum_chain(N, tilt={tilt}); s.assemble(); eng = s._engine()
 model = _Dynamics(s, eng.workspace(), stabilization="projection", baumgarte=1.0, position_tol=1e-10)
@@ -108,7 +108,7 @@ BASELINE = """
 import sys
 sys.path.insert(0, {root!r})
 sys.path.insert(0, {bench!r})
-from core.models import pendulum_chain
+from rigidlab.core.models import pendulum_chain
 from rhs import best_per_call, rigidlab_rhs
 print(best_per_call(rigidlab_rhs({n}, pendulum_chain({n}, tilt={tilt}))))
 """
@@ -135,7 +135,7 @@ def best_per_call(call) -> float:
 
 def rigidlab_rhs(n: int, s):
     """A callable evaluating rigidlab's right-hand side once for the n-link chain ``s``."""
-    from core.multibody._simulate import _Dynamics
+    from rigidlab.core.multibody._simulate import _Dynamics
 
     s.assemble()
     eng = s._engine()

@@ -7,7 +7,7 @@ same seeded inputs, alternating them, and reports the best time per call, the
 ratio (scipy time / our time; above 1 means core.rotations is faster) and
 the largest absolute difference between the two outputs (quaternions are
 compared up to their sign). Batches of at least
-``core.rotations._batch.COMPILED_MIN`` rotations run core.rotations'
+``rigidlab.core.rotations._batch.COMPILED_MIN`` rotations run core.rotations'
 compiled kernels (numba); their first call in the process (the import of
 numba and the compile, or the load from numba's cache) is made before
 anything is timed, when the outputs are compared.
@@ -36,7 +36,7 @@ import numpy as np
 import scipy
 from scipy.spatial.transform import Rotation
 
-import core.rotations as cr
+import rigidlab.core.rotations as cr
 
 
 def _unit_quaternions(rng, n):
@@ -386,7 +386,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     results = run(args.sizes, args.repeat)
     print(
-        f"core.rotations vs scipy {scipy.__version__} Rotation, numpy {np.__version__}, "
+        f"rigidlab.core.rotations vs scipy {scipy.__version__} Rotation, numpy {np.__version__}, "
         f"Python {platform.python_version()}, best of {args.repeat}"
     )
     print(format_table(results))

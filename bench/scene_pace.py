@@ -46,7 +46,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from app.server import create_app  # noqa: E402
+from rigidlab.app.server import create_app  # noqa: E402
 
 CHROMIUM = os.environ.get("RIGIDLAB_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]

@@ -10,11 +10,11 @@ Run from the project root::
 the chains first); ``--quick`` shortens either part.
 
 **Part "chains": pendulum chains against the peers.** Chains of 2, 10, 30
-and 100 links (:func:`core.models.pendulum_chain`: uniform 1 m, 1 kg rods
+and 100 links (:func:`rigidlab.core.models.pendulum_chain`: uniform 1 m, 1 kg rods
 on revolute joints about x, released at rest from the straight chain
 tilted by 0.5 rad), T = 10 s, outputs at 60 Hz. Error = the largest
 distance over the outputs of the chain's tip (the free end of the last
-link) from the reference: :func:`core.models.pendulum_chain_reduced` (the
+link) from the reference: :func:`rigidlab.core.models.pendulum_chain_reduced` (the
 reduced Lagrange equations in the joint angles, DOP853 at rtol = atol =
 1e-13; ``bench/multibody.py`` checks it against 1e-11 to ~1e-13 m). CPU
 is ``time.process_time`` of the run (model building excluded), the best
@@ -54,9 +54,9 @@ solution.** What it measures, all in one run:
 
 1. **Work-precision, free asymmetric body** (moments 1, 2, 3; T = 1000 s,
    ~180 polhode periods): for every fixed-step method of
-   :mod:`core.integrators` at several steps and scipy's RK45, DOP853 and
+   :mod:`rigidlab.core.integrators` at several steps and scipy's RK45, DOP853 and
    LSODA at several tolerances, the CPU time (``time.process_time``) and
-   the error against :func:`core.rigid_body.free_body_exact` at 101
+   the error against :func:`rigidlab.core.rigid_body.free_body_exact` at 101
    checkpoints (max over checkpoints of the orientation angle error in rad
    and the relative omega error).
 2. **Stiff case**: spin about the major axis 1e3 times the transverse rates
@@ -100,8 +100,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from core import integrators as itg  # noqa: E402
-from core import rigid_body as rb  # noqa: E402
+from rigidlab.core import integrators as itg  # noqa: E402
+from rigidlab.core import rigid_body as rb  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "out"
 P0 = np.array([0.9, 0.1, -0.3, 0.2]) / np.linalg.norm([0.9, 0.1, -0.3, 0.2])
@@ -450,7 +450,7 @@ class ChainCase:
     def __init__(self, n: int):
         from multibody import chain_tree
 
-        from core.models import pendulum_chain, pendulum_chain_reduced
+        from rigidlab.core.models import pendulum_chain, pendulum_chain_reduced
 
         self.n = n
         self.t = np.linspace(0.0, CHAIN_T_END, round(CHAIN_T_END * CHAIN_FPS) + 1)
@@ -758,7 +758,7 @@ def chains_main(quick: bool) -> None:
     print(f"{machine}; " + ", ".join(f"{k} {v}" for k, v in versions.items()))
     print(f"T = {CHAIN_T_END:g} s, outputs at {CHAIN_FPS} Hz; tip error = largest distance of the last link's end "
           f"from the reference; CPU = process time; cap {cap:g} s per run\n")
-    from core._warm import warm
+    from rigidlab.core._warm import warm
 
     # compile or load the kernels before any run is timed (a stale cache would put a compile in the first point)
     print(f"kernels ready ({warm():.1f} s of CPU, not counted below)\n", flush=True)

@@ -3,6 +3,6 @@
 Conventions are stated once in ``docs/conventions.md``.
 """
 
-from core._errors import ArgumentError  # (a leaf module: importing core stays cheap)
+from rigidlab.core._errors import ArgumentError  # (a leaf module: importing core stays cheap)
 
 __all__ = ["ArgumentError"]

@@ -2,14 +2,14 @@
 
 ``np.asarray(x, dtype=float)`` casts complex input to its real part with
 only a ``ComplexWarning``; the helpers here refuse it instead. Messages
-follow the ``name: expected ..., got ...`` style of :mod:`core.rigid_body`,
-:mod:`core.gyroscope`, :mod:`core.integrators` and :mod:`core.manipulator`
-(:mod:`core.rotations` has its own validation module).
+follow the ``name: expected ..., got ...`` style of :mod:`rigidlab.core.rigid_body`,
+:mod:`rigidlab.core.gyroscope`, :mod:`rigidlab.core.integrators` and :mod:`rigidlab.core.manipulator`
+(:mod:`rigidlab.core.rotations` has its own validation module).
 """
 
 from __future__ import annotations
 
-from core._errors import ArgumentError
+from rigidlab.core._errors import ArgumentError
 
 import math
 import numbers

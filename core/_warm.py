@@ -1,4 +1,4 @@
-"""Compile (or load from numba's cache) every compiled kernel once: ``python -m core._warm``.
+"""Compile (or load from numba's cache) every compiled kernel once: ``python -m rigidlab.core._warm``.
 
 The kernels are compiled with ``cache=True``: the first process on a machine
 compiles them (about a minute of CPU, once per change of their source) and
@@ -130,9 +130,9 @@ def defer_compiles_to_warm_up() -> None:
 def warm() -> float:
     """Run each compiled entry point once on a small model; returns the CPU seconds it took."""
     t0 = time.process_time()
-    from core.models import pendulum_chain
-    from core.multibody._simulate import _Dynamics
-    from core.rotations import matrix_from_axis_angle, matrix_from_euler_parameters, euler_parameters_from_matrix
+    from rigidlab.core.models import pendulum_chain
+    from rigidlab.core.multibody._simulate import _Dynamics
+    from rigidlab.core.rotations import matrix_from_axis_angle, matrix_from_euler_parameters, euler_parameters_from_matrix
 
     system = pendulum_chain(2, tilt=0.5)
     system.add_spring_damper(system.ground, (0.0, 0.5, 0.0), system.bodies[1], (0.0, 0.0, -1.5), stiffness=1.0)
@@ -148,7 +148,7 @@ def warm() -> float:
     kc.applied(0.0, y, model._loads)
     kc.solve(0, kc.Q, kc.gamma, np.zeros(6 * eng.n))
     _warm_contacts()
-    from core.modal import linearize
+    from rigidlab.core.modal import linearize
 
     linearize(pendulum_chain(2))  # the tree's null-space basis (_tree_basis)
     rng = np.random.default_rng(0)
@@ -161,10 +161,10 @@ def warm() -> float:
 
 
 def _warm_contacts() -> None:
-    """The compiled contact kernel (``core.contact._compiled``): a ball on the ground, every evaluation level."""
-    from core.contact import Plane, Sphere
-    from core.multibody import System
-    from core.multibody._engine import matrices
+    """The compiled contact kernel (``rigidlab.core.contact._compiled``): a ball on the ground, every evaluation level."""
+    from rigidlab.core.contact import Plane, Sphere
+    from rigidlab.core.multibody import System
+    from rigidlab.core.multibody._engine import matrices
 
     system = System(gravity=(0.0, 0.0, -9.81))
     ball = system.add_body("ball", mass=1.0, inertia=(0.004,) * 3, position=(0.0, 0.0, 0.1), omega_body=(1.0, 0, 0))

@@ -52,9 +52,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.special import elliprf, elliprj
 
-from core._elliptic import complete_k, jacobi
-from core._validation import float_array, output_times, positive_integer, short_repr
-from core.integrators import MAX_STEPS
+from rigidlab.core._elliptic import complete_k, jacobi
+from rigidlab.core._validation import float_array, output_times, positive_integer, short_repr
+from rigidlab.core.integrators import MAX_STEPS
 
 __all__ = [
     "GYROSCOPE_MAX_ANGLE",
@@ -89,7 +89,7 @@ _SIN_LEAVE_PARAMETERS = 0.1
 
 #: Largest magnitude (rad) of the angles ``phi``, ``theta``, ``psi`` of a
 #: state, and of the angles of a motion at its sample times: the bound of
-#: :data:`core.rigid_body.FREE_BODY_MAX_PHASE` for the same reason. A float64
+#: :data:`rigidlab.core.rigid_body.FREE_BODY_MAX_PHASE` for the same reason. A float64
 #: angle carries an absolute error of about ``eps`` times its size: at 1e14
 #: rad one unit in the last place is 0.016 rad (about a degree), and at 1e300
 #: sin and cos are those of an angle known to no digit. States beyond it are
@@ -1438,7 +1438,7 @@ def _check_numerical_work(params: RotorParams, s0: np.ndarray, t_end: float, tor
 
 
 def _check_times(t: Any) -> np.ndarray:
-    """Sample times: :func:`core._validation.output_times` (a new non-empty 1-D float array, finite,
+    """Sample times: :func:`rigidlab.core._validation.output_times` (a new non-empty 1-D float array, finite,
     non-decreasing), and >= 0."""
     tt = output_times(t)
     if tt[0] < 0.0:
@@ -1486,7 +1486,7 @@ def simulate(
         ``torques(t, state) -> (3,)`` of time and the (6,) state.
     rtol, atol : keyword-only, tolerances of the numerical path.
     max_steps : keyword-only, largest number of right-hand-side evaluations
-        of the numerical path (default ``core.integrators.MAX_STEPS``, ten
+        of the numerical path (default ``rigidlab.core.integrators.MAX_STEPS``, ten
         million); a run that needs more stops with a ValueError naming
         ``t`` instead of running for hours. The closed form costs O(n)
         whatever the time span.

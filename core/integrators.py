@@ -17,14 +17,14 @@ Every method integrates a *model*: any object with
 ``split_flows``, ``to_split_state(state)``, ``from_split_state(z)`` (optional)
     For the splitting methods only: a tuple of exact flows
     ``flow(z, h) -> z`` of the pieces of a split Hamiltonian, acting on an
-    internal state ``z`` (see :class:`core.rigid_body.FreeBodyModel`).
+    internal state ``z`` (see :class:`rigidlab.core.rigid_body.FreeBodyModel`).
 ``split_run(z, h, gammas, n_steps) -> z`` (optional)
     A fast equivalent of ``n_steps`` steps of the composition of Strang
     steps with stage weights ``gammas``; :func:`integrate` uses it between
     recorded states when present.
 ``project(t, state) -> state`` (optional)
     A map back onto the model's invariant manifold (e.g. the constraints
-    of :mod:`core.multibody`), applied by :func:`integrate` after every
+    of :mod:`rigidlab.core.multibody`), applied by :func:`integrate` after every
     step (not to ``state0``): after each ``rk4`` or ``midpoint`` step;
     for ``RK45`` and ``DOP853`` after each accepted step of scipy's
     solver, which then continues from the projected state (its stored
@@ -36,7 +36,7 @@ Every method integrates a *model*: any object with
     projection would invalidate) refuse a model with ``project``.
 ``euler_parameter_slice : slice`` (optional)
     Where the model's state holds Euler parameters (e.g. ``slice(3, 7)``
-    for :class:`core.rigid_body.EulerParameterModel`): :func:`integrate`
+    for :class:`rigidlab.core.rigid_body.EulerParameterModel`): :func:`integrate`
     refuses a ``state0`` whose parameters there have norm 0 or differ from
     1 by ``max_drift`` or more (a run stops as diverged once ``|p|`` has
     moved that far), so a norm 0 or 2 is an error, not a silent run; a
@@ -48,7 +48,7 @@ Every method integrates a *model*: any object with
     one step of the method from ``y0``). When it returns a time ``te`` in
     ``[t0, t1]`` the run ends there: states are recorded up to ``te``
     only, and :class:`Trajectory` reports ``stop_time = te`` and
-    ``stop_state = dense(te)`` (e.g. a contact of :mod:`core.multibody`
+    ``stop_state = dense(te)`` (e.g. a contact of :mod:`rigidlab.core.multibody`
     whose normal force crosses zero).
 
 Single steps are pure functions ``step(model, state, dt, *, t=0.0) -> state``
@@ -106,8 +106,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from core._constants import DEFAULT_ATOL, DEFAULT_RTOL
-from core._validation import float_array, positive_integer, real_number, short_repr
+from rigidlab.core._constants import DEFAULT_ATOL, DEFAULT_RTOL
+from rigidlab.core._validation import float_array, positive_integer, real_number, short_repr
 
 __all__ = [
     "ADAPTIVE_METHODS",
@@ -154,7 +154,7 @@ RUN_ATTRIBUTES = ("partial", "trajectory")
 
 class RunFailure(Exception):
     """Mixin of the exceptions a run raises when it cannot go on (:class:`IntegrationError`,
-    ``core.contact.ContactError``): they carry the outputs before the failure (``partial``, ``trajectory``)
+    ``rigidlab.core.contact.ContactError``): they carry the outputs before the failure (``partial``, ``trajectory``)
     and pickle without them."""
 
     def __reduce__(self):
@@ -452,7 +452,7 @@ def _split_advance(model: Any, z: Any, h: float, gammas: tuple[float, ...]) -> A
 def splitting_step(model: Any, state: np.ndarray, dt: float, *, t: float = 0.0) -> np.ndarray:
     """One Strang-splitting step (order 2) built from the model's exact flows.
 
-    For the free rigid body (:class:`core.rigid_body.FreeBodyModel`) the
+    For the free rigid body (:class:`rigidlab.core.rigid_body.FreeBodyModel`) the
     flows are exact rotations, so the Euler-parameter norm stays 1 to
     round-off and the method is symplectic. ``t`` is accepted for the common
     interface; split models are autonomous. ``state``, ``dt`` and ``t`` are
@@ -836,7 +836,7 @@ def _check_state0_euler_parameters(y0: np.ndarray, where: slice, max_drift: floa
     refused with the default ``max_drift = 1``, and norm 0 with any. A
     state a previous run ended in carries that run's drift of ``|p|``
     (chained runs continue from it), which is why the unit-norm tolerance
-    of user input, ``core.rotations.UNIT_NORM_TOL``, is not applied here.
+    of user input, ``rigidlab.core.rotations.UNIT_NORM_TOL``, is not applied here.
     """
     p = y0[where]
     norm = math.sqrt(float(p @ p))
@@ -846,7 +846,7 @@ def _check_state0_euler_parameters(y0: np.ndarray, where: slice, max_drift: floa
             f"state0: expected Euler parameters state0[{lo}:{hi}] of norm within max_drift={max_drift:g} of 1 "
             f"(a run stops as diverged once |p| has moved that far; a norm 0 is no orientation), got norm "
             f"{norm!r}; pack the state with core.rigid_body.euler_parameter_state or free_body_state, which "
-            "normalize unit Euler parameters (within core.rotations.UNIT_NORM_TOL)"
+            "normalize unit Euler parameters (within rigidlab.core.rotations.UNIT_NORM_TOL)"
         )
 
 

@@ -53,8 +53,8 @@ import math
 
 import numpy as np
 
-from core._validation import float_array
-from core.rotations import matrix_from_axis_angle
+from rigidlab.core._validation import float_array
+from rigidlab.core.rotations import matrix_from_axis_angle
 
 __all__ = [
     "DEFAULT_GEOMETRY",
@@ -317,7 +317,7 @@ def _rodriguez_floats(axis: tuple[float, float, float], angle: float) -> tuple[f
     """Row-major Rodriguez matrix (Eq. 8.29) of a unit ``axis`` on Python floats.
 
     ``R = I + sin(theta) a~ + 2 sin^2(theta/2) a~^2``: the same formula as
-    :func:`core.rotations.matrix_from_axis_angle`, without array overhead (a
+    :func:`rigidlab.core.rotations.matrix_from_axis_angle`, without array overhead (a
     one-configuration call costs a few microseconds instead of tens).
     """
     x, y, z = axis

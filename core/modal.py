@@ -4,7 +4,7 @@ Three steps, each a function of data (MuJoCo's model/data split: nothing
 here changes a System):
 
 * :func:`linearize` (Eqs. 8.110-8.112): the equations of motion of a
-  :class:`core.multibody.System` linearized about its current state (an
+  :class:`rigidlab.core.multibody.System` linearized about its current state (an
   equilibrium or a steady motion) and embedded in the degrees of freedom
   through an orthonormal basis of the null space of the constraint
   Jacobian: ``M u_ddot + (C + G) u_dot + K u = 0``. ``K`` holds the
@@ -23,13 +23,13 @@ Conventions: SI units, global +Z up; in the tangent coordinates of a
 linearization a body's perturbation is ``(dR, dtheta)``, a translation of
 its centre of mass and a small rotation, both global (``A = exp(skew(dtheta))
 A0``); :meth:`Modes.body_shapes` returns them in the layout of
-:meth:`core.multibody.State.displaced` (rotations in the body frame). The
+:meth:`rigidlab.core.multibody.State.displaced` (rotations in the body frame). The
 formulation is explained in ``docs/modal.md``.
 
 Example::
 
-    from core.models import pendulum_chain
-    from core.modal import linearize
+    from rigidlab.core.models import pendulum_chain
+    from rigidlab.core.modal import linearize
     modes = linearize(pendulum_chain(3, kind="point")).modes()
     modes.frequency_hz[::2]        # one entry per conjugate pair
 """
@@ -53,7 +53,7 @@ import scipy.linalg
 import scipy.sparse
 from scipy.optimize import brentq, linear_sum_assignment
 
-from core._validation import float_array, real_number, short_repr
+from rigidlab.core._validation import float_array, real_number, short_repr
 
 __all__ = [
     "RIGID_TOL",
@@ -156,10 +156,10 @@ class Embedding:
 
     def check(self, system: Any) -> None:
         """Raise ValueError unless ``system`` has the bodies and rows this embedding was made for."""
-        from core.multibody import System
+        from rigidlab.core.multibody import System
 
         if not isinstance(system, System):
-            raise ValueError(f"system: expected a core.multibody.System, got {short_repr(system)}")
+            raise ValueError(f"system: expected a rigidlab.core.multibody.System, got {short_repr(system)}")
         names = tuple(b.name for b in system.bodies)
         rows = system._engine().m
         if names != self.body_names or rows != self.n_rows:
@@ -171,7 +171,7 @@ class Embedding:
     def body_coordinates(self, z: np.ndarray) -> np.ndarray:
         """Tangent vectors ``z`` (..., 6n) in the layout of ``State.displaced``: ``[dR (3n) | dpi_body (3n)]``."""
         n = self.n_bodies
-        from core.multibody._engine import matrices
+        from rigidlab.core.multibody._engine import matrices
 
         A = matrices(self.q0[3 * n :].reshape(n, 4))
         out = np.array(z, copy=True)
@@ -550,7 +550,7 @@ class Modes:
     def _embedding(self, system: Any) -> Embedding:
         if self.embedding is None:
             raise ValueError("system: these modes come from a LinearModel built from matrices; body shapes need "
-                             "a model from core.modal.linearize(system)")
+                             "a model from rigidlab.core.modal.linearize(system)")
         self.embedding.check(system)
         return self.embedding
 
@@ -612,10 +612,10 @@ class Modes:
             ``AssemblyError`` when the amplitude is so large that the
             constraints cannot be met.
         """
-        from core.multibody._analysis import AssemblyError
-        from core.multibody._engine import matrices
-        from core.multibody._linearization import project_positions
-        from core.multibody._system import exp_parameters, quaternion_products
+        from rigidlab.core.multibody._analysis import AssemblyError
+        from rigidlab.core.multibody._engine import matrices
+        from rigidlab.core.multibody._linearization import project_positions
+        from rigidlab.core.multibody._system import exp_parameters, quaternion_products
 
         emb = self._embedding(system)
         j = self._index(index)
@@ -894,13 +894,13 @@ def linearize(system: Any, *, frame_omega: Any = None, steady_tol: float = 1e-6)
 
 def _linearize(system: Any, *, frame_omega: Any, steady_tol: Any, constraint_stiffness: str) -> LinearModel:
     """:func:`linearize`; ``constraint_stiffness="differences"`` takes the geometric stiffness by differences too."""
-    from core.multibody import System
-    from core.multibody import _linearization as lin
-    from core.multibody._simulate import check_assembled
-    from core.multibody._state import _make_state
+    from rigidlab.core.multibody import System
+    from rigidlab.core.multibody import _linearization as lin
+    from rigidlab.core.multibody._simulate import check_assembled
+    from rigidlab.core.multibody._state import _make_state
 
     if not isinstance(system, System):
-        raise ValueError(f"system: expected a core.multibody.System, got {short_repr(system)}")
+        raise ValueError(f"system: expected a rigidlab.core.multibody.System, got {short_repr(system)}")
     n = len(system.bodies)
     if n == 0:
         raise ValueError("system: expected at least one body, got none")
@@ -1031,7 +1031,7 @@ def _rolling_rate_jacobian(eng: Any, ref: Any, ell: np.ndarray, rows: np.ndarray
     wheels of a bicycle in one pair of evaluations). ``error`` is the absolute error estimate of
     the plain difference.
     """
-    from core.multibody import _linearization as lin
+    from rigidlab.core.multibody import _linearization as lin
 
     n = eng.n
     size = 6 * n
@@ -1243,7 +1243,7 @@ def _jacobian(eng, ref, coupling, groups, ell, state_factory, which, *, richards
     3``, and ``abs(J_h - J_2h)`` estimates the error. Returns ``(J,
     absolute error estimate of the plain central difference at step h)``.
     """
-    from core.multibody import _linearization as lin
+    from rigidlab.core.multibody import _linearization as lin
 
     n = eng.n
     size = 6 * n

@@ -1,6 +1,6 @@
 """Newton-Euler equations of a rigid body in Euler or Rodriguez parameters.
 
-State layouts (flat float64 vectors, as :mod:`core.integrators` expects):
+State layouts (flat float64 vectors, as :mod:`rigidlab.core.integrators` expects):
 
 ===================== ===== ===================================================
 model                 size  state
@@ -27,7 +27,7 @@ Equations (``A(p)`` maps body to global, ``r_global = r + A @ u_body``):
 Lifshitz, Mechanics, sec. 37; van Zon & Schofield, J. Comput. Phys. 225,
 2007; Celledoni, Fasso, Safstrom & Zanna, SIAM J. Sci. Comput. 30, 2008).
 :class:`FreeBodyModel` also provides the exact flows of a splitting of the
-free-body Hamiltonian for :func:`core.integrators.splitting_step`.
+free-body Hamiltonian for :func:`rigidlab.core.integrators.splitting_step`.
 """
 
 from __future__ import annotations
@@ -40,9 +40,9 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy.special import ellipj, ellipkm1, elliprf, elliprj
 
-from core._elliptic import agm_sn_cn
-from core._validation import float_array, real_number, short_repr
-from core.rotations import (
+from rigidlab.core._elliptic import agm_sn_cn
+from rigidlab.core._validation import float_array, real_number, short_repr
+from rigidlab.core.rotations import (
     UNIT_NORM_TOL,
     euler_parameters_from_matrix,
     quaternion_conjugate,
@@ -170,7 +170,7 @@ def _unit_p(p: Any, name: str = "p0") -> np.ndarray:
 
     The rule of every entry that takes an orientation as Euler parameters
     (:func:`free_body_exact`, the state packers, :func:`angular_momentum_global`,
-    and :mod:`core.rotations`): a norm 0, 2 or NaN is refused, naming ``name``
+    and :mod:`rigidlab.core.rotations`): a norm 0, 2 or NaN is refused, naming ``name``
     and the norm.
     """
     return _unit_p_batch(_vec(p, name, 4), name)
@@ -233,7 +233,7 @@ def angular_momentum_global(inertia: Any, omega_body: Any, p: Any) -> np.ndarray
         validates it once, see :meth:`FreeBodyModel.angular_momentum_global`).
     omega_body : (..., 3) angular velocity in the body frame, rad/s.
     p : (..., 4) unit Euler parameters (theta0..theta3, scalar first), body
-        to global, unit within :data:`core.rotations.UNIT_NORM_TOL` and
+        to global, unit within :data:`rigidlab.core.rotations.UNIT_NORM_TOL` and
         normalized before use. Batch shapes broadcast.
 
     Returns
@@ -244,7 +244,7 @@ def angular_momentum_global(inertia: Any, omega_body: Any, p: Any) -> np.ndarray
     ------
     ValueError
         For a bad inertia, non-unit ``p`` (renormalize drifting parameters
-        with :func:`core.rotations.normalize_euler_parameters`) or complex
+        with :func:`rigidlab.core.rotations.normalize_euler_parameters`) or complex
         input.
     """
     return _angular_momentum_global(_inertia(inertia), omega_body, p)
@@ -425,7 +425,7 @@ def _load_spec(value: Any, name: str, unit: str, frame: str) -> Vector | np.ndar
 
 def euler_parameter_state(r: Any, p: Any, v: Any, omega_body: Any) -> np.ndarray:
     """Pack the (13,) state of :class:`EulerParameterModel`; ``p`` unit within
-    :data:`core.rotations.UNIT_NORM_TOL`, normalized."""
+    :data:`rigidlab.core.rotations.UNIT_NORM_TOL`, normalized."""
     return np.concatenate([_vec(r, "r"), _unit_p(p, "p"), _vec(v, "v"), _vec(omega_body, "omega_body")])
 
 
@@ -495,7 +495,7 @@ class EulerParameterModel:
     body: RigidBody
     state_size: int = 13
     #: Where the Euler parameters sit in the state (checked by
-    #: :func:`core.integrators.integrate` in ``state0``).
+    #: :func:`rigidlab.core.integrators.integrate` in ``state0``).
     euler_parameter_slice: ClassVar[slice] = slice(3, 7)
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
@@ -607,7 +607,7 @@ class RodriguezModel:
 # ------------------------------------------------------------- free body
 def free_body_state(p: Any, omega_body: Any) -> np.ndarray:
     """Pack the (7,) state ``(p, omega_body)`` of :class:`FreeBodyModel`; ``p`` unit
-    within :data:`core.rotations.UNIT_NORM_TOL`, normalized."""
+    within :data:`rigidlab.core.rotations.UNIT_NORM_TOL`, normalized."""
     return np.concatenate([_unit_p(p, "p"), _vec(omega_body, "omega_body")])
 
 
@@ -628,7 +628,7 @@ class FreeBodyModel:
     ``p_dot = G_bar(p).T omega_body / 2`` (Eq. 8.54) and Euler's equations
     ``I omega_body_dot = (I omega_body) x omega_body``.
 
-    Splitting (for ``core.integrators`` methods ``splitting*``): in the
+    Splitting (for ``rigidlab.core.integrators`` methods ``splitting*``): in the
     principal frame (moments ``J0 <= J1 <= J2``) the kinetic energy is
 
     .. math::
@@ -658,7 +658,7 @@ class FreeBodyModel:
 
     state_size = 7
     #: Where the Euler parameters sit in the state (checked by
-    #: :func:`core.integrators.integrate` in ``state0``).
+    #: :func:`rigidlab.core.integrators.integrate` in ``state0``).
     euler_parameter_slice = slice(0, 4)
 
     def __init__(self, inertia: Any, *, compensated: bool = False):
@@ -725,7 +725,7 @@ class FreeBodyModel:
         ----------
         omega_body : (..., 3) angular velocity in the body frame, rad/s.
         p : (..., 4) unit Euler parameters (theta0..theta3, scalar first),
-            body to global, unit within :data:`core.rotations.UNIT_NORM_TOL`
+            body to global, unit within :data:`rigidlab.core.rotations.UNIT_NORM_TOL`
             and normalized before use. Batch shapes broadcast.
 
         Returns
@@ -787,7 +787,7 @@ class FreeBodyModel:
         ``gammas`` (which sum to 1), ``n_steps`` times; the consecutive half
         steps of ``A`` are merged (``A(s) A(t) = A(s + t)`` exactly, since
         ``L0`` is constant along ``A``), so each stage costs one planar
-        rotation of each kind. Used by :func:`core.integrators.integrate`.
+        rotation of each kind. Used by :func:`rigidlab.core.integrators.integrate`.
         """
         q0, q1, q2, q3, L0, L1, L2, tau = z
         if n_steps <= 0:
@@ -1264,7 +1264,7 @@ def free_body_solution(
         back to the body frame).
     omega_body0 : (3,) initial angular velocity in the body frame, rad/s.
     p0 : (4,) initial unit Euler parameters (scalar first), body to global,
-        unit within :data:`core.rotations.UNIT_NORM_TOL` (normalized).
+        unit within :data:`rigidlab.core.rotations.UNIT_NORM_TOL` (normalized).
     equal_tol : principal moments closer than ``equal_tol * max moment`` are
         treated as equal (closed-form regular precession).
     tables : tabulate sn, cn, dn and the periodic part of the precession
@@ -1407,7 +1407,7 @@ def free_body_exact(inertia: Any, omega_body0: Any, p0: Any, t: Any) -> FreeBody
     omega_body0 : (3,) angular velocity at t = 0 in the body frame, rad/s.
     p0 : (4,) unit Euler parameters at t = 0 (theta0..theta3, scalar first;
         ``A(p0)`` maps body to global), unit within
-        :data:`core.rotations.UNIT_NORM_TOL` (1e-6) and normalized, as
+        :data:`rigidlab.core.rotations.UNIT_NORM_TOL` (1e-6) and normalized, as
         everywhere in the core.
     t : (...) times, s (any shape, any sign), with ``|t| |L| / J_min <=
         FREE_BODY_MAX_PHASE`` (1e14 rad).

@@ -70,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
     from playwright.sync_api import sync_playwright
 
-    from app.server import create_app
+    from rigidlab.app.server import create_app
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*", help="scene names (default: all)")
@@ -84,8 +84,8 @@ def main(argv: list[str] | None = None) -> int:
 
     files: dict[str, str] = {}  # Model scene name -> the image's name
     if args.model:
-        from app.scenes import discover_scenes
-        from app.scenes.model import model_scene_classes
+        from rigidlab.app.scenes import discover_scenes
+        from rigidlab.app.scenes.model import model_scene_classes
 
         models = model_scene_classes(args.model)
         files = {name: f"model-{Path(path).stem}" for name, path in zip(models, args.model)}

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from core.multibody import System
+from rigidlab.core.multibody import System
 
 PARAMETERS = {
     "crank_deg": (60.0, 20.0, 160.0, "deg", "Crank angle at release"),

@@ -9,7 +9,7 @@ shows the forward and backward whirl split by the gyroscopic coupling, and
 background.
 """
 
-from core.multibody import System
+from rigidlab.core.multibody import System
 
 PARAMETERS = {
     "spin": (200.0, 0.0, 1000.0, "rad/s", "Spin speed Ω"),

@@ -12,7 +12,7 @@ has the closed-form natural frequencies
 which the mode-shapes panel reproduces (docs/guide/own_model.md).
 """
 
-from core.multibody import System
+from rigidlab.core.multibody import System
 
 N = 5
 SPACING = 0.4  # m, the springs' free length

@@ -15,5 +15,5 @@ def pytest_configure(config):
     if not getattr(config.option, "numprocesses", None):  # one process (-n 0): it compiles what it uses itself
         return
     # a child process: the compilation's memory and threads do not stay in this one
-    subprocess.run([sys.executable, "-m", "core._warm"], cwd=Path(__file__).resolve().parent.parent, check=False,
+    subprocess.run([sys.executable, "-m", "rigidlab.core._warm"], cwd=Path(__file__).resolve().parent.parent, check=False,
                    stdout=subprocess.DEVNULL)

@@ -83,11 +83,11 @@ class ProcessOutput:
 
 
 def start_serving(*serve_args: str) -> tuple[subprocess.Popen, ProcessOutput]:
-    """Start ``python -m app.cli serve *serve_args`` from the repository; the process and its output.
+    """Start ``python -m rigidlab.app.cli serve *serve_args`` from the repository; the process and its output.
 
     Stop it with :func:`stop_serving` (in a ``finally``).
     """
-    process = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", *serve_args], cwd=ROOT,
+    process = subprocess.Popen([sys.executable, "-m", "rigidlab.app.cli", "serve", *serve_args], cwd=ROOT,
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     return process, ProcessOutput(process)
 
@@ -116,12 +116,12 @@ def failure_lines(text: str) -> list[str]:
 def send_value(owner: object, key: str, raw: object, *, timeout: float = MIN_WAIT) -> bool:
     """Deliver ``raw`` to control ``key`` exactly as a browser would (through the gate).
 
-    ``owner`` is a scene, a session or a :class:`app.panel.ControlPanel`.
+    ``owner`` is a scene, a session or a :class:`rigidlab.app.panel.ControlPanel`.
     Returns whether the gate accepted the value; an accepted value has reached
     the panel when this returns (text that does not parse is then pending).
     Button controls take ``raw=True`` (a click); button groups the option.
     """
-    from app.controls import Button, ButtonGroup, Refused
+    from rigidlab.app.controls import Button, ButtonGroup, Refused
 
     panel = getattr(owner, "controls", owner)
     spec = panel.specs[key]

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-import core
+import rigidlab.core
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -23,9 +23,9 @@ DOCS = ROOT / "docs"
 
 def _public_core_modules() -> list[str]:
     names = []
-    for info in pkgutil.iter_modules(core.__path__):
+    for info in pkgutil.iter_modules(rigidlab.core.__path__):
         if not info.name.startswith("_"):
-            names.append(f"core.{info.name}")
+            names.append(f"rigidlab.core.{info.name}")
     return sorted(names)
 
 

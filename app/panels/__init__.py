@@ -6,20 +6,20 @@ its readouts and its 3-D nodes (through the scene's presenter-aware
 ``add_label`` / ``add_arrows`` / ``add_lines``); small ``read`` / ``show``
 methods turn control values into core inputs and core results into node
 poses and text. Panels hold no physics: the rotation math is
-:mod:`core.rotations`, reached through the pure adapters of
-:mod:`app.panels._views`.
+:mod:`rigidlab.core.rotations`, reached through the pure adapters of
+:mod:`rigidlab.app.panels._views`.
 
-* :class:`~app.panels.orientation.OrientationInput`: Euler angles (24 sequences),
+* :class:`~rigidlab.app.panels.orientation.OrientationInput`: Euler angles (24 sequences),
   axis and angle, Euler parameters, Rodriguez parameters, rotation vector;
-* :class:`~app.panels.gimbal.Gimbal`: three nested rings and the cond(G) lock gauge;
-* :class:`~app.panels.compose.ComposePanel`: q1, q2, both products, Eq. 8.82;
-* :class:`~app.panels.angular_velocity.AngularVelocityPanel`: omega -> rates of
+* :class:`~rigidlab.app.panels.gimbal.Gimbal`: three nested rings and the cond(G) lock gauge;
+* :class:`~rigidlab.app.panels.compose.ComposePanel`: q1, q2, both products, Eq. 8.82;
+* :class:`~rigidlab.app.panels.angular_velocity.AngularVelocityPanel`: omega -> rates of
   every representation, constant-omega animation;
-* :class:`~app.panels.export.ExportPanel`: JSON with convention notes;
-* :mod:`app.panels.body`: the body, the global axes, the rotation-axis arrow.
+* :class:`~rigidlab.app.panels.export.ExportPanel`: JSON with convention notes;
+* :mod:`rigidlab.app.panels.body`: the body, the global axes, the rotation-axis arrow.
 """
 
-from app.panels._views import (
+from rigidlab.app.panels._views import (
     SEQUENCE_LABELS,
     SEQUENCES,
     ComposeViews,
@@ -40,12 +40,12 @@ from app.panels._views import (
     rate_views,
     ring_rotations,
 )
-from app.panels.angular_velocity import AngularVelocityPanel
-from app.panels.body import BodyView, GlobalAxes, RotationAxisView
-from app.panels.compose import ComposePanel
-from app.panels.export import ExportPanel
-from app.panels.gimbal import Gimbal
-from app.panels.orientation import INPUTS, InputReading, OrientationInput
+from rigidlab.app.panels.angular_velocity import AngularVelocityPanel
+from rigidlab.app.panels.body import BodyView, GlobalAxes, RotationAxisView
+from rigidlab.app.panels.compose import ComposePanel
+from rigidlab.app.panels.export import ExportPanel
+from rigidlab.app.panels.gimbal import Gimbal
+from rigidlab.app.panels.orientation import INPUTS, InputReading, OrientationInput
 
 __all__ = [
     "AngularVelocityPanel",

@@ -1,6 +1,6 @@
 """Pure adapters shared by the rotation panels: core results -> what a panel shows.
 
-Every function here calls :mod:`core.rotations` for the rotation math and
+Every function here calls :mod:`rigidlab.core.rotations` for the rotation math and
 returns a frozen dataclass (or a string); none touches viser, so they are
 tested without a server and reused by any scene. Conventions are the
 project's: active rotations, body to global (``r_global = A @ u_body``);
@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-import core.rotations as rot
+import rigidlab.core.rotations as rot
 
 __all__ = [
     "SEQUENCES",

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-import core.rotations as rot
-from app.controls import Choice, Toggle, VectorText
-from app.nodes import set_array, set_pose
-from app.panels._views import RateViews, fmt_g, fmt_vector, rate_names, set_readout, wxyz_z_to
+import rigidlab.core.rotations as rot
+from rigidlab.app.controls import Choice, Toggle, VectorText
+from rigidlab.app.nodes import set_array, set_pose
+from rigidlab.app.panels._views import RateViews, fmt_g, fmt_vector, rate_names, set_readout, wxyz_z_to
 
 __all__ = ["AngularVelocityPanel", "OMEGA_COLOR", "OMEGA_MAX", "OMEGA_FRAMES", "rates_markdown"]
 
@@ -131,7 +131,7 @@ class AngularVelocityPanel:
 
 
 def rates_markdown(r: RateViews, seq: str) -> str:
-    """Readout of the rates (Markdown subset of :mod:`app.readout`); rates as dφ/dt."""
+    """Readout of the rates (Markdown subset of :mod:`rigidlab.app.readout`); rates as dφ/dt."""
     names = rate_names(seq)
     if r.euler_rates is None:
         euler = (

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-import core.rotations as rot
-from app import meshes
-from app.nodes import set_array, set_pose
-from app.panels._views import wxyz_z_to
+import rigidlab.core.rotations as rot
+from rigidlab.app import meshes
+from rigidlab.app.nodes import set_array, set_pose
+from rigidlab.app.panels._views import wxyz_z_to
 
 __all__ = [
     "BodyView",
@@ -52,7 +52,7 @@ def add_body_meshes(
     scene_api: Any, parent: str, length: float, *, opacity: float | None = None,
     color: tuple[int, int, int] = HULL_COLOR,
 ) -> None:
-    """Hull, red nose (+x_b) and blue fin (+z_b) under node ``parent`` (see :func:`app.meshes.body_parts`)."""
+    """Hull, red nose (+x_b) and blue fin (+z_b) under node ``parent`` (see :func:`rigidlab.app.meshes.body_parts`)."""
     colors = {"hull": color, "nose": X_COLOR, "fin": Z_COLOR}
     for part, (vertices, faces) in meshes.body_parts(length).items():
         scene_api.add_mesh_simple(

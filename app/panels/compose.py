@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-import core.rotations as rot
-from app.controls import Button, Slider, VectorText
-from app.panels._views import ComposeViews, compose_views, fmt_vector, set_readout, unit_direction
-from app.panels.body import LABEL_SCALE, BodyView
+import rigidlab.core.rotations as rot
+from rigidlab.app.controls import Button, Slider, VectorText
+from rigidlab.app.panels._views import ComposeViews, compose_views, fmt_vector, set_readout, unit_direction
+from rigidlab.app.panels.body import LABEL_SCALE, BodyView
 
 __all__ = ["ComposePanel", "GHOST_COLORS", "compose_markdown"]
 
@@ -112,7 +112,7 @@ class ComposePanel:
 
 
 def compose_markdown(c: ComposeViews) -> str:
-    """Readout of a composition (Markdown subset of :mod:`app.readout`)."""
+    """Readout of a composition (Markdown subset of :mod:`rigidlab.app.readout`)."""
     same = c.difference < 1e-9
     verdict = (
         "The two products are equal: these rotations commute (same axis, or an angle is 0)."

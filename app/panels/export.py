@@ -1,6 +1,6 @@
 """Export panel: the current orientation as JSON, with convention notes for scipy, viser and MuJoCo.
 
-The document (:func:`app.panels._views.export_document`) holds every
+The document (:func:`rigidlab.app.panels._views.export_document`) holds every
 representation, the Euler angles of all 24 sequences too: 24 core calls,
 a few milliseconds, too much for one 60 Hz frame. So the preview in the
 panel is computed on the scene's background executor while the panel is
@@ -16,7 +16,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from app.panels._views import OrientationViews, export_document
+from rigidlab.app.panels._views import OrientationViews, export_document
 
 __all__ = ["ExportPanel", "export_json"]
 

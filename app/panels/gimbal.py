@@ -14,7 +14,7 @@ in the panel and a 3-D label at the gimbal.
 changed (one small core call each); at the readout rate
 :meth:`Gimbal.show_gauge` and :meth:`Gimbal.show_labels` update the gauge and
 the 3-D labels. What depends only on the sequence (ring axes, mounts) is
-cached by :func:`app.panels._views.gimbal_layout`.
+cached by :func:`rigidlab.app.panels._views.gimbal_layout`.
 """
 
 from __future__ import annotations
@@ -24,17 +24,17 @@ from typing import Any
 
 import numpy as np
 
-import core.rotations as rot
-from app import meshes
-from app.nodes import set_pose
-from app.panels._views import (
+import rigidlab.core.rotations as rot
+from rigidlab.app import meshes
+from rigidlab.app.nodes import set_pose
+from rigidlab.app.panels._views import (
     GimbalConditioning,
     angle_names,
     cond_text,
     gimbal_layout,
     set_readout,
 )
-from app.panels.body import LABEL_SCALE, add_body_meshes
+from rigidlab.app.panels.body import LABEL_SCALE, add_body_meshes
 
 __all__ = [
     "Gimbal", "RING_COLORS", "RING_COLOR_NAMES", "COND_WARN", "COND_LOCK", "lock_state", "gauge_fill", "gauge_html",
@@ -212,7 +212,7 @@ class Gimbal:
         Only rings whose angle changed are computed and sent (one slider
         turns one ring); the product of the ring rotations, outer to inner,
         is ``matrix_from_euler_angles(angles, seq)`` (see
-        :func:`app.panels._views.ring_rotations`).
+        :func:`rigidlab.app.panels._views.ring_rotations`).
         """
         self.set_sequence(seq)
         layout = gimbal_layout(seq)

@@ -9,8 +9,8 @@ Five inputs, chosen with *Input with*:
 * **Rodriguez parameters** gamma = axis tan(angle / 2) (Eqs. 8.58-8.60);
 * a **rotation vector** (axis times angle, rad).
 
-Numbers are typed into app-parsed text fields (:class:`app.controls.NumberText`,
-:class:`app.controls.VectorText`): scientific notation and full precision,
+Numbers are typed into app-parsed text fields (:class:`rigidlab.app.controls.NumberText`,
+:class:`rigidlab.app.controls.VectorText`): scientific notation and full precision,
 never rewritten. :class:`OrientationInput` builds the controls, reads the
 active input into Euler parameters (:meth:`OrientationInput.read`) and shows
 an orientation in the active input's fields (:meth:`OrientationInput.show`).
@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-import core.rotations as rot
-from app.controls import Button, Choice, NumberText, Slider, VectorText
-from app.panels._views import (
+import rigidlab.core.rotations as rot
+from rigidlab.app.controls import Button, Choice, NumberText, Slider, VectorText
+from rigidlab.app.panels._views import (
     SEQUENCE_LABELS,
     SEQUENCES,
     OrientationViews,
@@ -295,7 +295,7 @@ class OrientationInput:
 
 
 def representations_markdown(v: OrientationViews) -> str:
-    """Readout of every representation of ``v`` (Markdown subset of :mod:`app.readout`)."""
+    """Readout of every representation of ``v`` (Markdown subset of :mod:`rigidlab.app.readout`)."""
     return matrix_markdown(v) + "\n\n" + parameters_markdown(v)
 
 

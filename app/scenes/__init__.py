@@ -2,7 +2,7 @@
 
 Adding a scene means adding a module under ``app/scenes/``; nothing else is
 edited. :func:`discover_scenes` imports every module of the package (with
-:mod:`pkgutil`), collects the :class:`~app.scenes.base.Scene` subclasses that
+:mod:`pkgutil`), collects the :class:`~rigidlab.app.scenes.base.Scene` subclasses that
 are defined there and have a non-empty ``name``, and orders them by their
 ``order`` class attribute (sandbox 10, manipulator 20, free body 30,
 gyroscope 40; scenes without one go last, then by name).
@@ -19,7 +19,7 @@ import logging
 import pkgutil
 import threading
 
-from app.scenes.base import Scene
+from rigidlab.app.scenes.base import Scene
 
 __all__ = ["Scene", "discover_scenes", "discovery_errors", "get_scene_class"]
 
@@ -34,7 +34,7 @@ def _order_key(cls: type[Scene]) -> tuple[int, str]:
 
 
 def discover_scenes() -> dict[str, type[Scene]]:
-    """Import every module of ``app.scenes`` and return its scene classes.
+    """Import every module of ``rigidlab.app.scenes`` and return its scene classes.
 
     Returns
     -------

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from app.nodes import set_array, set_pose
+from rigidlab.app.nodes import set_array, set_pose
 
 __all__ = ["PointArrows", "saturated_tips", "vertex_rgb", "SINE_FLOOR"]
 

@@ -1,4 +1,4 @@
-"""Drawing the bodies of a :class:`core.multibody.System`: rods, balls, boxes and springs, batched.
+"""Drawing the bodies of a :class:`rigidlab.core.multibody.System`: rods, balls, boxes and springs, batched.
 
 A scene that shows a System describes each body by simple parts fixed in the
 body's frame (:class:`Parts`): rods (cylinders between two body points),
@@ -8,9 +8,9 @@ the instance poses of every part at once (a pure function of arrays, run
 where the poses are computed, e.g. on the app's executor), and
 :class:`PartsView` draws them with one batched mesh per kind of part and one
 line-segment buffer for the springs, created once; a frame then sends a few
-arrays (:func:`app.nodes.set_arrays`).
+arrays (:func:`rigidlab.app.nodes.set_arrays`).
 
-The rods of :mod:`app.scenes.linkages` follow the same rule: a unit cylinder
+The rods of :mod:`rigidlab.app.scenes.linkages` follow the same rule: a unit cylinder
 along its z axis, scaled to ``(r, r, L)`` and turned with its body.
 
 Conventions: metres, global frame, Euler parameters scalar first (viser's
@@ -28,11 +28,11 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from app.meshes import helix_tube
-from app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
-from app.scenes._arrows import vertex_rgb
-from app.scenes.base import PRESENTER_LINE_SCALE
-from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
+from rigidlab.app.meshes import helix_tube
+from rigidlab.app.nodes import set_array, set_arrays, set_pose, wxyz_z_to
+from rigidlab.app.scenes._arrows import vertex_rgb
+from rigidlab.app.scenes.base import PRESENTER_LINE_SCALE
+from rigidlab.core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
 __all__ = ["CoilSpring", "ForceArrow", "Parts", "Placed", "PartsView", "add_body_meshes", "add_disk", "body_point", "disk_meshes",
            "ring_mesh", "rod_mesh", "saturating_arrows", "spring_polyline"]
@@ -401,9 +401,9 @@ class ForceArrow:
     Parameters
     ----------
     scene : app.scenes.base.Scene
-        Its radii grow in presenter view (:meth:`~app.scenes.base.Scene.add_arrows`).
+        Its radii grow in presenter view (:meth:`~rigidlab.app.scenes.base.Scene.add_arrows`).
     name, color :
-        Path of the frame (the arrow is ``{name}/arrow``) and RGB colour (sRGB, as drawn: :func:`~app.scenes._arrows.vertex_rgb`).
+        Path of the frame (the arrow is ``{name}/arrow``) and RGB colour (sRGB, as drawn: :func:`~rigidlab.app.scenes._arrows.vertex_rgb`).
     sizes : dict
         ``shaft_radius``, ``head_radius``, ``head_length`` (m) at scale 1 (:meth:`resize`).
     tip_at_point : bool, keyword-only
@@ -444,7 +444,7 @@ class ForceArrow:
 
 
 class CoilSpring:
-    """A coil spring along +z between two heights: one helix mesh (:func:`app.meshes.helix_tube`) built at
+    """A coil spring along +z between two heights: one helix mesh (:func:`rigidlab.app.meshes.helix_tube`) built at
     ``length`` and moved and stretched along z every frame (one position and one scale, :meth:`span`); its
     wire ``PRESENTER_LINE_SCALE`` times thicker in presenter view (the scene calls :meth:`set_presenter` with
     its readouts).

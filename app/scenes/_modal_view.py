@@ -5,7 +5,7 @@ panel: the table of modes (:func:`modes_table`, Eqs. 8.130-8.131), the mode
 picker whose options are the table's rows (:class:`ModeChoice`), the
 eigenvalues in the complex plane (:func:`complex_plane_svg`) and the chosen
 mode animated with the joints closed (:func:`animate_group`, on
-:meth:`core.modal.Modes.animate`). :class:`Throttled` lets a sweep reach the
+:meth:`rigidlab.core.modal.Modes.animate`). :class:`Throttled` lets a sweep reach the
 executor one value at a time. Nothing here touches viser.
 """
 
@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from app.controls import Choice, Refused, describe
-from app.jobs import settle
-from app.scenes._svg import FONT, Chart
+from rigidlab.app.controls import Choice, Refused, describe
+from rigidlab.app.jobs import settle
+from rigidlab.app.scenes._svg import FONT, Chart
 
 __all__ = ["Animated", "Cancelled", "MAX_CYCLES", "MAX_MODES", "MODE_OPTIONS", "ModalStatus", "ModeChoice",
            "SAMPLES_PER_CYCLE", "SELECTED_COLOR", "STATUS_COLORS", "STATUS_TEXT", "Throttled", "animate_group",
@@ -82,7 +82,7 @@ class ModalStatus:
 
 
 def mode_groups(modes: Any, *, rigid: bool = False) -> tuple[tuple[int, ...], ...]:
-    """The selectable modes of :class:`core.modal.Modes` ``modes``: eigenvalue indices of each (a conjugate
+    """The selectable modes of :class:`rigidlab.core.modal.Modes` ``modes``: eigenvalue indices of each (a conjugate
     pair once, the +Im member first), rigid-body modes left out unless ``rigid``."""
     ev = modes.eigenvalues
     groups, k = [], 0
@@ -115,7 +115,7 @@ class Animated:
 def animate_group(modes: Any, system: Any, group: tuple[int, ...], mode: int, fraction: float,
                   size: float) -> Animated:
     """Mode ``group`` (eigenvalue indices, :func:`mode_groups`) of ``modes`` animated by
-    :meth:`core.modal.Modes.animate` (Eqs. 8.125-8.129), every sample projected onto the constraints.
+    :meth:`rigidlab.core.modal.Modes.animate` (Eqs. 8.125-8.129), every sample projected onto the constraints.
 
     An oscillating mode: whole periods of :data:`SAMPLES_PER_CYCLE` samples (a damped or growing one over
     up to :data:`MAX_CYCLES`, so its envelope shows); one that does not oscillate (real s, a rigid-body

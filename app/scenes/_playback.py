@@ -27,8 +27,8 @@ import threading
 from collections.abc import Sequence
 from typing import Any
 
-from app.controls import Button, ButtonGroup, Slider
-from app.panel import ControlPanel
+from rigidlab.app.controls import Button, ButtonGroup, Slider
+from rigidlab.app.panel import ControlPanel
 
 __all__ = ["Playback", "PlaybackRequests", "Tick", "TIME_SCALE_RANGE", "MAX_SIM_STEP", "PLAYBACK_OPTIONS"]
 
@@ -184,7 +184,7 @@ class PlaybackRequests:
     """Requests of a scene with a :class:`Playback` and a chunk timeline (tests, notebooks).
 
     A mixin for scenes that set ``self.playback`` (a :class:`Playback`) and
-    ``self.timeline`` (an :class:`app.jobs.ChunkTimeline`); what is
+    ``self.timeline`` (an :class:`rigidlab.app.jobs.ChunkTimeline`); what is
     requested is applied by the scene's next ``update``.
     """
 

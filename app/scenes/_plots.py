@@ -1,7 +1,7 @@
 """Histories, plot windows, CSV export and legends shared by the timed scenes.
 
 The gyroscope and free-body scenes compute their motion in chunks of
-simulated time on the app's executor (:class:`app.jobs.ChunkTimeline`).
+simulated time on the app's executor (:class:`rigidlab.app.jobs.ChunkTimeline`).
 Besides what a scene draws, every chunk carries a :class:`Table`: its sample
 times ``t`` (n,), the exported columns (n, m) and the same rows already
 formatted as CSV text, all built on the executor. :class:`History` keeps the
@@ -15,7 +15,7 @@ scene's arrows and curves (an HTML panel that grows in presenter view, as
 readouts do); :class:`PlotRefresh` spreads the refresh of several plots over
 consecutive frames at a rate a reader can follow.
 
-Axes that mean something (used by :meth:`app.scenes.base.Scene.show_series`,
+Axes that mean something (used by :meth:`rigidlab.app.scenes.base.Scene.show_series`,
 which a scene calls to send a plot's data): :func:`axis_offset` and
 :func:`offset_label` / :func:`label_with_offset` draw a flat series as
 ``y - offset`` with the offset in its label, :func:`y_limits` gives y limits
@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from app.readout import PRESENTER_FONT_SCALE
+from rigidlab.app.readout import PRESENTER_FONT_SCALE
 
 __all__ = [
     "History",

@@ -1,8 +1,8 @@
 """Meshes and wireframes of simple shapes, for ``add_mesh_simple`` and ``add_lines``.
 
 Geometry only: the caller gives sizes and placement from core (the parts of
-:func:`core.models.free_body_shape`, an energy ellipsoid's
-:class:`core.rigid_body.MomentumGeometry`). Metres; float32 vertices.
+:func:`rigidlab.core.models.free_body_shape`, an energy ellipsoid's
+:class:`rigidlab.core.rigid_body.MomentumGeometry`). Metres; float32 vertices.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from core.models import Cuboid, Prism
+from rigidlab.core.models import Cuboid, Prism
 
 __all__ = ["arrow_segments", "closed_path_segments", "ellipsoid_wireframe", "parts_mesh"]
 
@@ -23,7 +23,7 @@ _Z_ONTO = {0: (math.pi / 2, (0.0, 1.0, 0.0)), 1: (-math.pi / 2, (1.0, 0.0, 0.0))
 
 
 def parts_mesh(parts: Sequence[Prism | Cuboid], origin: Any = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
-    """One mesh of core's parts (:class:`core.models.Prism`, :class:`core.models.Cuboid`) with ``origin`` (3,)
+    """One mesh of core's parts (:class:`rigidlab.core.models.Prism`, :class:`rigidlab.core.models.Cuboid`) with ``origin`` (3,)
     of their frame at the mesh's origin (e.g. the centre of mass): vertices (n, 3) float32, faces (m, 3) uint32
     (read-only).
 

@@ -14,17 +14,17 @@ four things and gets the rest from this layer:
 * :meth:`SimulationScene.draw` -- the poses of the sample drawn
   (``draw(chunk, j)``, inside ``target.atomic()``).
 
-The layer owns the clock (:class:`app.scenes._playback.Playback`: play,
+The layer owns the clock (:class:`rigidlab.app.scenes._playback.Playback`: play,
 pause, reset, time scale, presets), the chunk timeline on the app's
-executor (:class:`app.jobs.ChunkTimeline`), the history of the chunks
-reached (:class:`app.scenes._plots.History`), the plot refresh spread over
-frames (:class:`app.scenes._plots.PlotRefresh`), error notices, the
+executor (:class:`rigidlab.app.jobs.ChunkTimeline`), the history of the chunks
+reached (:class:`rigidlab.app.scenes._plots.History`), the plot refresh spread over
+frames (:class:`rigidlab.app.scenes._plots.PlotRefresh`), error notices, the
 real-time-rate readout and the CSV export of the plotted window.
 
 Chunks
 ------
 A chunk is any object with ``k`` (its index), ``t`` ((n,) sample times,
-display time, increasing) and ``table`` (:class:`app.scenes._plots.Table`);
+display time, increasing) and ``table`` (:class:`rigidlab.app.scenes._plots.Table`);
 optionally ``final`` (True: the motion ends at ``t[-1]``, e.g. a fall),
 ``end`` (why, shown once in a notice) and ``failure`` (a non-fatal message
 shown once, e.g. a ghost integrator that stopped). Chunk ``k`` of a segment
@@ -57,12 +57,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from app.jobs import ChunkTimeline
-from app.nodes import set_plot_data
-from app.scenes._playback import Playback, PlaybackRequests
-from app.readout import significant
-from app.scenes._plots import History, Legend, PlotRefresh, capped_range
-from app.scenes.base import Scene
+from rigidlab.app.jobs import ChunkTimeline
+from rigidlab.app.nodes import set_plot_data
+from rigidlab.app.scenes._playback import Playback, PlaybackRequests
+from rigidlab.app.readout import significant
+from rigidlab.app.scenes._plots import History, Legend, PlotRefresh, capped_range
+from rigidlab.app.scenes.base import Scene
 
 __all__ = ["InputsRefused", "PlotSpec", "Segment", "SimulationScene", "RATE_WINDOW", "RATE_SHORTFALL", "power_of_ten"]
 
@@ -106,7 +106,7 @@ class PlotSpec:
         chunk drawn that the plot shows (None: ``chunk.table``), e.g. the
         closed form a run's chunk is compared with
     capped : the y range keeps the first series readable beside short peaks
-        of the last one far above it (:func:`app.scenes._plots.capped_range`,
+        of the last one far above it (:func:`rigidlab.app.scenes._plots.capped_range`,
         e.g. a landing's impact against a closed form); a peak cut off is
         named in the last series' label (``"..., peak 1234 off scale"``)
     """
@@ -331,7 +331,7 @@ class SimulationScene(PlaybackRequests, Scene):
         self.status = self.add_readout("Computing the motion…")
 
     def add_legend(self, items: Sequence[tuple[Sequence[int], str]], title: str = "") -> Legend:
-        """The colour key of the scene's arrows and curves (:class:`app.scenes._plots.Legend`), here in the
+        """The colour key of the scene's arrows and curves (:class:`rigidlab.app.scenes._plots.Legend`), here in the
         folder; it grows in presenter view. Give it the colour constants the nodes are drawn with."""
         legend = Legend(self.target.gui, items, title, presenter=self.presenter)
         self._readouts.append(legend)  # type: ignore[arg-type]  # (set_presenter, as a readout has)
@@ -590,7 +590,7 @@ class SimulationScene(PlaybackRequests, Scene):
 
     def set_plot_data(self, handle: Any, data: tuple) -> None:
         """Send a plot's data (non-finite values are sent as gaps by uPlot; nothing else reaches the page), one
-        message without viser's per-array type checks (:func:`app.nodes.set_plot_data`)."""
+        message without viser's per-array type checks (:func:`rigidlab.app.nodes.set_plot_data`)."""
         set_plot_data(handle, data)
 
     def readout_text(self) -> str:

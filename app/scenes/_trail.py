@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from app.nodes import set_array, set_pose, set_visible, wxyz_z_to
+from rigidlab.app.nodes import set_array, set_pose, set_visible, wxyz_z_to
 
 __all__ = ["ChunkedTrail", "HeadedTrail", "SampledTrack", "SphereTrail", "StickHead", "curve_pieces", "extend_trail",
            "sampled_curve", "trail_segments", "FAR_SEGMENTS"]

@@ -5,8 +5,8 @@ controls, its state and its update; the layer gives it, the same for every
 scene:
 
 * **validated controls** -- ``self.controls.add(Slider(...))`` creates the
-  element; every value a browser sends passes the gate (:mod:`app.gate`)
-  and the control's parser before the scene sees it (:mod:`app.panel`);
+  element; every value a browser sends passes the gate (:mod:`rigidlab.app.gate`)
+  and the control's parser before the scene sees it (:mod:`rigidlab.app.panel`);
 * **shareable state** -- :meth:`Scene.state` / :meth:`Scene.load_state`
   (the values of the controls, plus what a scene adds in
   :meth:`extra_state` / :meth:`load_extra_state`);
@@ -27,7 +27,7 @@ scene:
   browser that clicked it;
 * **a frame budget** -- :meth:`frame` times each update (wall and CPU time of
   the loop thread, ``frame_seconds``); long work goes to ``self.executor``
-  (see :mod:`app.jobs`).
+  (see :mod:`rigidlab.app.jobs`).
 
 Life cycle, driven by the session that owns the scene (one per server in
 ``shared`` mode, one per browser in ``per-client`` mode):
@@ -62,13 +62,13 @@ from typing import Any, ClassVar
 import numpy as np
 import viser
 
-from app.controls import Button
-from app.gate import Gate
-from app.panel import ControlPanel, NotifyClient
-from app.readout import PRESENTER_FONT_SCALE, Readout
-from app.scenes._plots import axis_offset, drift_title, label_with_offset, offset_label, y_limits
-from app.jobs import make_executor
-from app.nodes import set_array
+from rigidlab.app.controls import Button
+from rigidlab.app.gate import Gate
+from rigidlab.app.panel import ControlPanel, NotifyClient
+from rigidlab.app.readout import PRESENTER_FONT_SCALE, Readout
+from rigidlab.app.scenes._plots import axis_offset, drift_title, label_with_offset, offset_label, y_limits
+from rigidlab.app.jobs import make_executor
+from rigidlab.app.nodes import set_array
 
 __all__ = ["Scene", "SceneContext", "Notify", "PRESENTER_LABEL_SCALE", "PRESENTER_ARROW_SCALE", "aim_camera",
            "presenter_css"]
@@ -92,7 +92,7 @@ PLOT_Y_AXIS_PX, PLOT_FONT_PX = 62, 12
 
 def plot_axes(presenter: bool) -> tuple[dict, dict]:
     """uPlot options of a scene plot's x and y axes: tick labels at :data:`PLOT_FONT_PX`, times
-    :data:`app.readout.PRESENTER_FONT_SCALE` in presenter view, the y axis widened with them."""
+    :data:`rigidlab.app.readout.PRESENTER_FONT_SCALE` in presenter view, the y axis widened with them."""
     f = PRESENTER_FONT_SCALE if presenter else 1.0
     font = f"{PLOT_FONT_PX * f:.0f}px system-ui, -apple-system, sans-serif"
     return ({"font": font, "size": round(50 * f)}, {"font": font, "size": round(PLOT_Y_AXIS_PX * f)})
@@ -113,7 +113,7 @@ def plot_text_css(presenter: bool) -> str:
     sets ``.u-title`` at 0.875 em and ``.u-legend`` at 0.7 em of the plot's
     font), outside the options :func:`plot_axes` sets, so the session's panel
     carries this sheet. In presenter view a title takes a presenter
-    readout's size (:data:`app.readout.PRESENTER_FONT_SCALE` em of the panel's
+    readout's size (:data:`rigidlab.app.readout.PRESENTER_FONT_SCALE` em of the panel's
     font, which the plot's is; both are 0.875 em otherwise) and a legend
     keeps its proportion to the title.
     """
@@ -612,9 +612,9 @@ class Scene:
         return handle
 
     def add_legend(self, items: Any, title: str = "") -> Any:
-        """A colour key (:class:`app.scenes._plots.Legend`: ``(rgb, text)`` items) in the current GUI folder, its
+        """A colour key (:class:`rigidlab.app.scenes._plots.Legend`: ``(rgb, text)`` items) in the current GUI folder, its
         text enlarged in presenter view with the readouts'."""
-        from app.scenes._plots import Legend  # (the scenes' plotting helpers import nothing of this module)
+        from rigidlab.app.scenes._plots import Legend  # (the scenes' plotting helpers import nothing of this module)
 
         legend = Legend(self.target.gui, items, title, presenter=self.presenter)
         self._readouts.append(legend)  # set_presenter(on), as a Readout
@@ -634,14 +634,14 @@ class Scene:
         """Send new data to a plot made with :meth:`add_plot`, with axes that mean something.
 
         * **offset notation** -- a series whose spread is tiny beside its value (an energy that stays
-          26.886 J) is drawn as ``y - offset`` (:func:`app.scenes._plots.axis_offset`); the series'
+          26.886 J) is drawn as ``y - offset`` (:func:`rigidlab.app.scenes._plots.axis_offset`); the series'
           legend labels and the title say so ("E − 26.886 (J)"), and the ticks differ;
-        * **limits that follow the data** -- the y range is the data's (:func:`~app.scenes._plots.y_limits`,
+        * **limits that follow the data** -- the y range is the data's (:func:`~rigidlab.app.scenes._plots.y_limits`,
           at least ``min_span`` wide, containing ``include``), kept while the data stay inside it and
           fill at least 40 % of it, so it does not jitter every refresh;
         * **round-off** -- with ``drift_scale`` (the size of the quantity the series is an error of; ``log10``:
           the series are ``log10 |error|``) the title says "round-off level" when every value is
-          (:func:`~app.scenes._plots.drift_title`).
+          (:func:`~rigidlab.app.scenes._plots.drift_title`).
 
         Parameters
         ----------

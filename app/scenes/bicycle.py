@@ -1,11 +1,11 @@
 """Bicycle scene: the Whipple bicycle of Meijaard et al. (2007) steering itself upright.
 
-A :class:`~app.scenes._simulation.SimulationScene` whose job is
-:func:`core.models.whipple_ride_from` (0.5 s a chunk, each from the last one's
+A :class:`~rigidlab.app.scenes._simulation.SimulationScene` whose job is
+:func:`rigidlab.core.models.whipple_ride_from` (0.5 s a chunk, each from the last one's
 ``final_state``; *Push* starts a segment from the sample shown, pushed; times
 on the display clock). Side jobs in ``background``: the modes at the current
-speed (:func:`core.models.whipple_modes_at`) and the eigenvalues against speed
-(:func:`core.models.whipple_sweep`), drawn as the paper's figure. Per frame:
+speed (:func:`rigidlab.core.models.whipple_modes_at`) and the eigenvalues against speed
+(:func:`rigidlab.core.models.whipple_sweep`), drawn as the paper's figure. Per frame:
 four interpolated body poses under a *world* frame that keeps the bicycle in
 view, the ground grid shifted under it and the wheels' tracks.
 """
@@ -18,16 +18,16 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from app.controls import Button, Slider, Toggle
-from app.meshes import bicycle_meshes
-from app.nodes import set_pose, set_visible
-from app.readout import mode_table
-from app.scenes._plots import Legend, Table, hex_color
-from app.scenes._simulation import PlotSpec, SimulationScene, job
-from app.scenes._svg import Chart
-from app.scenes._trail import HeadedTrail
-from core.models import MEIJAARD_2007, WhippleRide, whipple_modes_at, whipple_ride_from, whipple_sweep
-from core.multibody import RunState
+from rigidlab.app.controls import Button, Slider, Toggle
+from rigidlab.app.meshes import bicycle_meshes
+from rigidlab.app.nodes import set_pose, set_visible
+from rigidlab.app.readout import mode_table
+from rigidlab.app.scenes._plots import Legend, Table, hex_color
+from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene, job
+from rigidlab.app.scenes._svg import Chart
+from rigidlab.app.scenes._trail import HeadedTrail
+from rigidlab.core.models import MEIJAARD_2007, WhippleRide, whipple_modes_at, whipple_ride_from, whipple_sweep
+from rigidlab.core.multibody import RunState
 
 __all__ = ["BicycleScene", "CSV_HEADER", "PRESETS", "RideChunk", "eigenvalue_svg"]
 

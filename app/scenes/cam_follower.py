@@ -1,8 +1,8 @@
 """Cam-follower scene: a disk cam at constant speed drives a spring-loaded translating follower.
 
-A :class:`~app.scenes._simulation.SimulationScene` whose chunk is one revolution, drawn from core's results as they
-are: the closed form (:meth:`core.models.CamFollower.revolution`, rows every 0.25 deg, chunk k the same a period
-later) or the compliant run (:meth:`~core.models.CamFollower.simulate`, 180 outputs, from the previous revolution's
+A :class:`~rigidlab.app.scenes._simulation.SimulationScene` whose chunk is one revolution, drawn from core's results as they
+are: the closed form (:meth:`rigidlab.core.models.CamFollower.revolution`, rows every 0.25 deg, chunk k the same a period
+later) or the compliant run (:meth:`~rigidlab.core.models.CamFollower.simulate`, 180 outputs, from the previous revolution's
 ``final_state``; DOP853 at rtol 1e-8, atol 1e-10: against 1e-8, 1e-6 moved the lift by 12-47 um and the impact
 peaks by 54-175 N, which a plot shows, for 20-30 % less cost). The help text states the equations (8.84-8.109).
 
@@ -21,16 +21,16 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app.controls import Choice, Slider, Toggle
-from app.meshes import box, cylinder_z, extrude, follower_stand, pack, translating_follower
-from app.nodes import set_array, set_arrays, set_pose, set_visible, wxyz_z_to
-from app.scenes._arrows import vertex_rgb
-from app.scenes._bodies import CoilSpring, ForceArrow
-from app.scenes._plots import Table, format_rows
-from app.scenes._shapes import closed_path_segments
-from app.scenes._simulation import InputsRefused, PlotSpec, SimulationScene
-from core import ArgumentError
-from core.models import CamFollower, CamMotion, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
+from rigidlab.app.controls import Choice, Slider, Toggle
+from rigidlab.app.meshes import box, cylinder_z, extrude, follower_stand, pack, translating_follower
+from rigidlab.app.nodes import set_array, set_arrays, set_pose, set_visible, wxyz_z_to
+from rigidlab.app.scenes._arrows import vertex_rgb
+from rigidlab.app.scenes._bodies import CoilSpring, ForceArrow
+from rigidlab.app.scenes._plots import Table, format_rows
+from rigidlab.app.scenes._shapes import closed_path_segments
+from rigidlab.app.scenes._simulation import InputsRefused, PlotSpec, SimulationScene
+from rigidlab.core import ArgumentError
+from rigidlab.core.models import CamFollower, CamMotion, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
 
 __all__ = ["CSV_HEADER", "CamFollowerScene", "Chunk", "FOLLOWERS", "Inputs", "Layout", "PROFILES",
            "REVOLUTION_SAMPLES", "RUN_SAMPLES", "build_cam", "compute_chunk", "compute_revolution", "layout"]
@@ -78,7 +78,7 @@ class Inputs:
 
 
 def build_cam(inputs: Inputs, *, shape_only: bool = False) -> CamFollower:
-    """The :class:`core.models.CamFollower` of ``inputs``, or :class:`~app.scenes._simulation.InputsRefused` in the
+    """The :class:`rigidlab.core.models.CamFollower` of ``inputs``, or :class:`~rigidlab.app.scenes._simulation.InputsRefused` in the
     panel's terms (rise = fall in degrees, roller in mm) naming the value that works. Only the cam's shape can be
     refused (the sliders keep ``F0 + m g > 0``): ``shape_only`` checks it alone. Off the loop thread (in the job,
     or before a state loads): a new shape costs about 5 ms, a refusal 25-75 ms (core names the largest roller)."""
@@ -129,7 +129,7 @@ def _cam(key: tuple, mass: float = 0.5, stiffness: float = 2000.0, preload: floa
 @dataclasses.dataclass(frozen=True)
 class Layout:
     """What is drawn of a cam and follower: meshes ``(vertices, faces)``, the cam's in its body frame (profile =
-    body x-y), the follower's in its frame (:func:`app.meshes.translating_follower`), the stand's global; metres."""
+    body x-y), the follower's in its frame (:func:`rigidlab.app.meshes.translating_follower`), the stand's global; metres."""
 
     key: tuple  # Inputs.geometry_key()
     contour: np.ndarray  # (_CONTOUR_POINTS, 2) the cam's contour (core's cam_curve), body frame
@@ -544,7 +544,7 @@ class CamFollowerScene(SimulationScene):
     @staticmethod
     def run_lines(chunk: Chunk, j: int) -> list[str]:
         """The readout's lines on sample ``j`` of a run's ``chunk``: the lifts, then core's words on the contact
-        and the events so far in this revolution (:meth:`core.models.CamMotion.describe`)."""
+        and the events so far in this revolution (:meth:`rigidlab.core.models.CamMotion.describe`)."""
         lift = chunk.table.columns[j]
         return [f"follower lift {lift[2]:.3f} mm, cam under it {lift[1]:.3f} mm", *_words(chunk.run.describe(j))]
 

@@ -1,9 +1,9 @@
 """Free rigid body scene: torque-free motion, polhode, and the Dzhanibekov flip.
 
-A body of :func:`core.models.free_body_shape` spins freely from :func:`core.models.free_body_start` (``L`` along
-+Z: a flip about the intermediate axis turns it upside down). Each 1 s chunk is :func:`core.models.free_body_window`,
+A body of :func:`rigidlab.core.models.free_body_shape` spins freely from :func:`rigidlab.core.models.free_body_start` (``L`` along
++Z: a flip about the intermediate axis turns it upside down). Each 1 s chunk is :func:`rigidlab.core.models.free_body_window`,
 the exact motion and, with a ghost integrator chosen, its run compared with it; a third picture shows the momentum
-sphere, the energy ellipsoid and the polhode. Runs on :class:`app.scenes._simulation.SimulationScene`; no physics.
+sphere, the energy ellipsoid and the polhode. Runs on :class:`rigidlab.app.scenes._simulation.SimulationScene`; no physics.
 """
 
 from __future__ import annotations
@@ -17,15 +17,15 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from app.controls import Choice, Slider
-from app.nodes import set_array, set_pose
-from app.readout import one_digit, significant
-from app.scenes._plots import Table, log10_floor, window_seconds
-from app.scenes._shapes import arrow_segments, ellipsoid_wireframe, parts_mesh
-from app.scenes._simulation import PlotSpec, SimulationScene
-from app.scenes._trail import SphereTrail
-from core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, IntegrationError
-from core.models import (FREE_BODY_NAMES, GHOST_COLUMNS, INVARIANT_ROUND_OFF, WINDOW_COLUMNS, FreeBodyStart,
+from rigidlab.app.controls import Choice, Slider
+from rigidlab.app.nodes import set_array, set_pose
+from rigidlab.app.readout import one_digit, significant
+from rigidlab.app.scenes._plots import Table, log10_floor, window_seconds
+from rigidlab.app.scenes._shapes import arrow_segments, ellipsoid_wireframe, parts_mesh
+from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene
+from rigidlab.app.scenes._trail import SphereTrail
+from rigidlab.core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, IntegrationError
+from rigidlab.core.models import (FREE_BODY_NAMES, GHOST_COLUMNS, INVARIANT_ROUND_OFF, WINDOW_COLUMNS, FreeBodyStart,
                          FreeBodyWindow, euler_parameters_momentum_up, free_body_shape, free_body_start,
                          free_body_window, spin_about_principal_axis)
 

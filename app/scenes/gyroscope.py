@@ -1,7 +1,7 @@
 """Gyroscope scene: a rotor in a cardan suspension, nested frames turned by the ZXZ angles φ, θ, ψ.
 
-Arrows from the fixed point show ω, L and the torque, labelled at their tips (:class:`app.scenes._arrows.
-PointArrows`); the rotor-axis tip leaves a trail. A chunk's job calls :func:`core.gyroscope.sample_motion` (the
+Arrows from the fixed point show ω, L and the torque, labelled at their tips (:class:`rigidlab.app.scenes._arrows.
+PointArrows`); the rotor-axis tip leaves a trail. A chunk's job calls :func:`rigidlab.core.gyroscope.sample_motion` (the
 closed form without applied torques, DOP853 from the previous chunk's ``final_state`` with them) and turns it
 into the frames' Euler parameters and the arrow tips on the executor: a frame sends poses only.
 """
@@ -16,19 +16,19 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app.controls import Slider, Toggle
-from app.nodes import set_pose
-from app.readout import one_digit, significant
-from app.scenes._arrows import PointArrows, saturated_tips, vertex_rgb
-from app.scenes._bodies import ring_mesh, rod_mesh
-from app.scenes._plots import LOG_FLOOR as DRIFT_FLOOR_LOG10
-from app.scenes._plots import Table, window_seconds
-from app.scenes._plots import log10_floor as drift_log10
-from app.scenes._simulation import PlotSpec, SimulationScene
-from app.scenes._trail import ChunkedTrail
-from core.gyroscope import (MotionSamples, MotionSummary, RotorParams, RotorSetup, motion_summary, sample_motion,
+from rigidlab.app.controls import Slider, Toggle
+from rigidlab.app.nodes import set_pose
+from rigidlab.app.readout import one_digit, significant
+from rigidlab.app.scenes._arrows import PointArrows, saturated_tips, vertex_rgb
+from rigidlab.app.scenes._bodies import ring_mesh, rod_mesh
+from rigidlab.app.scenes._plots import LOG_FLOOR as DRIFT_FLOOR_LOG10
+from rigidlab.app.scenes._plots import Table, window_seconds
+from rigidlab.app.scenes._plots import log10_floor as drift_log10
+from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene
+from rigidlab.app.scenes._trail import ChunkedTrail
+from rigidlab.core.gyroscope import (MotionSamples, MotionSummary, RotorParams, RotorSetup, motion_summary, sample_motion,
                             sleeping_top_critical_spin, steady_precession_rates, steady_precession_torque)
-from core.rotations import euler_parameters_from_rotation_vector
+from rigidlab.core.rotations import euler_parameters_from_rotation_vector
 
 __all__ = ["CSV_HEADER", "DRIFT_FLOOR_LOG10", "GyroscopeScene", "Inputs", "PRESETS", "SLIDERS", "drift_log10",
            "preset_inputs"]

@@ -1,8 +1,8 @@
-"""Linkages scene: the four linkages of :func:`core.models.linkage`, their joints' reactions and closed forms.
+"""Linkages scene: the four linkages of :func:`rigidlab.core.models.linkage`, their joints' reactions and closed forms.
 
-A :class:`~app.scenes._simulation.SimulationScene`: the job :func:`_compute_chunk` runs
-:func:`core.models.linkage_motion` for 1 s from the state the previous chunk ended in and places the rods and
-joint balls (:class:`~app.scenes._bodies.Parts`); a frame sends the poses of one sample.
+A :class:`~rigidlab.app.scenes._simulation.SimulationScene`: the job :func:`_compute_chunk` runs
+:func:`rigidlab.core.models.linkage_motion` for 1 s from the state the previous chunk ended in and places the rods and
+joint balls (:class:`~rigidlab.app.scenes._bodies.Parts`); a frame sends the poses of one sample.
 """
 
 from __future__ import annotations
@@ -18,26 +18,26 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app import meshes
-from app.controls import Choice, Slider, Toggle
-from app.nodes import set_pose
-from app.readout import one_digit, significant
-from app.scenes._arrows import vertex_rgb
-from app.scenes._bodies import Parts, PartsView, Placed, add_body_meshes, saturating_arrows
-from app.scenes._plots import Table, log10_floor
-from app.scenes._simulation import PlotSpec, SimulationScene
-from core.models import Linkage, LinkageInfo, LinkageMotion, linkage, linkage_motion
-from core.multibody import ADAPTIVE_METHODS, FIXED_STEP_METHODS
+from rigidlab.app import meshes
+from rigidlab.app.controls import Choice, Slider, Toggle
+from rigidlab.app.nodes import set_pose
+from rigidlab.app.readout import one_digit, significant
+from rigidlab.app.scenes._arrows import vertex_rgb
+from rigidlab.app.scenes._bodies import Parts, PartsView, Placed, add_body_meshes, saturating_arrows
+from rigidlab.app.scenes._plots import Table, log10_floor
+from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene
+from rigidlab.core.models import Linkage, LinkageInfo, LinkageMotion, linkage, linkage_motion
+from rigidlab.core.multibody import ADAPTIVE_METHODS, FIXED_STEP_METHODS
 
 __all__ = ["CHAIN", "CRANK", "DOUBLE", "LinkagesScene", "Inputs", "METHODS", "Model", "POSITION_TOL", "PRESETS",
            "RESIDUAL_BOUND", "RTOLS", "STEPS", "TOP"]
 
-#: Preset names (the *Preset* dropdown), and the linkage of :func:`core.models.linkage` each one is.
+#: Preset names (the *Preset* dropdown), and the linkage of :func:`rigidlab.core.models.linkage` each one is.
 CHAIN, DOUBLE, CRANK, TOP = ("Pendulum chain (N links)", "Spatial double pendulum", "Slider-crank with motor",
                              "Heavy top vs closed form")
 PRESETS = (CHAIN, DOUBLE, CRANK, TOP)
 _KINDS = {CHAIN: "chain", DOUBLE: "double_pendulum", CRANK: "slider_crank", TOP: "heavy_top"}
-#: Integrators :meth:`core.multibody.System.simulate` accepts; tolerances (atol = rtol / 100) and steps (s).
+#: Integrators :meth:`rigidlab.core.multibody.System.simulate` accepts; tolerances (atol = rtol / 100) and steps (s).
 METHODS = tuple(ADAPTIVE_METHODS) + tuple(FIXED_STEP_METHODS)
 RTOLS = ("1e-3", "1e-4", "1e-5", "1e-6", "1e-7", "1e-8", "1e-9", "1e-10")
 STEPS = ("1/60", "1/120", "1/240", "1/480", "1/960")

@@ -4,10 +4,10 @@ Three links and an end object (a gripper) turned by three joint-angle sliders.
 The core computes the link poses in two ways and the scene draws both:
 
 * solid links and their frames: successive relative rotations
-  ``A = A21 A32 A43`` (Eqs. 8.39-8.42, :func:`core.manipulator.link_frames_successive`);
+  ``A = A21 A32 A43`` (Eqs. 8.39-8.42, :func:`rigidlab.core.manipulator.link_frames_successive`);
 * longer, thinner ghost frames: Rodriguez rotations about the joint axes
   fixed in the global frame, applied joint 3 first (Eqs. 8.43-8.45,
-  :func:`core.manipulator.link_frames_global_axis_rotations`), with those
+  :func:`rigidlab.core.manipulator.link_frames_global_axis_rotations`), with those
   fixed global axes drawn as lines. A "Rodriguez steps" slider shows the
   construction after 0, 1 or 2 of its rotations with translucent ghost links.
 
@@ -15,9 +15,9 @@ A readout shows the end-link matrix, the largest difference between the two
 procedures, and the Euler-angle form of the result (Z-X-Z for these joints);
 it is rewritten at most every 0.1 s, while poses stream at the loop rate.
 "Animate joints" sweeps the three joints smoothly. The scene holds no
-kinematics of its own: it calls :mod:`core.manipulator` and converts matrices
+kinematics of its own: it calls :mod:`rigidlab.core.manipulator` and converts matrices
 to viser's ``wxyz`` (Euler parameters, scalar first) with
-:func:`core.rotations.euler_parameters_from_matrix`.
+:func:`rigidlab.core.rotations.euler_parameters_from_matrix`.
 """
 
 from __future__ import annotations
@@ -31,17 +31,17 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app.controls import Slider, Toggle
-from app.nodes import set_arrays, set_pose
-from app.scenes.base import Scene
-from core.manipulator import (
+from rigidlab.app.controls import Slider, Toggle
+from rigidlab.app.nodes import set_arrays, set_pose
+from rigidlab.app.scenes.base import Scene
+from rigidlab.core.manipulator import (
     DEFAULT_GEOMETRY,
     ManipulatorGeometry,
     euler_form,
     link_frames_global_axis_rotations,
     link_frames_successive,
 )
-from core.rotations import (
+from rigidlab.core.rotations import (
     euler_angles_from_matrix,
     euler_parameters_from_matrix,
     matrix_from_euler_angles,
@@ -144,7 +144,7 @@ class ManipulatorScene(Scene):
     Parameters
     ----------
     target, notify, context
-        As for every scene (see :mod:`app.scenes.base`).
+        As for every scene (see :mod:`rigidlab.app.scenes.base`).
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default Z, X, Z joints.
     readout_period : float, keyword-only

@@ -2,23 +2,23 @@
 
 One scene class per model file (:func:`model_scene_class`), titled by the
 file's name; the files are loaded and checked at start
-(:func:`app.model_file.load_model_file`), so a browser can never choose a
-path. The scene is a :class:`~app.scenes._simulation.SimulationScene`:
+(:func:`rigidlab.app.model_file.load_model_file`), so a browser can never choose a
+path. The scene is a :class:`~rigidlab.app.scenes._simulation.SimulationScene`:
 
 * **Parameters** -- each entry of the file's ``PARAMETERS`` is a validated
   slider; a change builds the System again (on the executor).
-* **Simulation** -- :meth:`core.multibody.System.simulate` in chunks of 1 s
+* **Simulation** -- :meth:`rigidlab.core.multibody.System.simulate` in chunks of 1 s
   from the state the file builds (or from the equilibrium displaced along the
   chosen mode); the energy, the constraint residual ``max |C|`` and the joint
   reactions ``|F|`` (from the multipliers) are plotted live, exported as CSV.
-* **Modes** -- :func:`core.modal.linearize` about the built state when it is
+* **Modes** -- :func:`rigidlab.core.modal.linearize` about the built state when it is
   an equilibrium or steady motion, else about the nearest static equilibrium
-  (:meth:`~core.multibody.System.equilibrium`); the table of modes (Hz, rad/s,
+  (:meth:`~rigidlab.core.multibody.System.equilibrium`); the table of modes (Hz, rad/s,
   ξ, stability) is the mode picker, the chosen mode moves with the joints
-  closed (:func:`app.scenes._modal_view.animate_group`) beside a translucent
+  closed (:func:`rigidlab.app.scenes._modal_view.animate_group`) beside a translucent
   ghost of the equilibrium, the eigenvalues are drawn in the complex plane
   and, with ``SWEEP``, the modes over the swept parameter are computed in the
-  background (:func:`core.modal.sweep`) with a progress bar. CSV and JSON
+  background (:func:`rigidlab.core.modal.sweep`) with a progress bar. CSV and JSON
   export of the modes.
 
 Drawing: a URDF's visual meshes (STL, OBJ, DAE, GLB through trimesh, and its
@@ -51,17 +51,17 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from app.controls import Choice, Slider, Toggle
-from app.model_file import ModelFile, ModelFileError, load_model_file
-from app.nodes import set_pose
-from app.readout import one_digit, significant
-from app.scenes._bodies import Parts, PartsView, Placed
-from app.scenes._modal_view import (MAX_MODES, MODE_OPTIONS, Cancelled, ModalStatus, ModeChoice, STATUS_TEXT,
+from rigidlab.app.controls import Choice, Slider, Toggle
+from rigidlab.app.model_file import ModelFile, ModelFileError, load_model_file
+from rigidlab.app.nodes import set_pose
+from rigidlab.app.readout import one_digit, significant
+from rigidlab.app.scenes._bodies import Parts, PartsView, Placed
+from rigidlab.app.scenes._modal_view import (MAX_MODES, MODE_OPTIONS, Cancelled, ModalStatus, ModeChoice, STATUS_TEXT,
                                     Throttled, animate_group, complex_plane_svg, mode_groups, mode_row, modes_table,
                                     remember, ro, sig, xi_text)
-from app.scenes._plots import Table, log10_floor
-from app.scenes._simulation import PlotSpec, SimulationScene
-from app.scenes._svg import FONT, PRESENTER_FONT, Chart
+from rigidlab.app.scenes._plots import Table, log10_floor
+from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene
+from rigidlab.app.scenes._svg import FONT, PRESENTER_FONT, Chart
 
 __all__ = ["ALONG_MODE", "AS_BUILT", "Clip", "Key", "MODE_VIEW", "ModelScene", "SIM_VIEW", "Solution",
            "model_scene_class", "model_scene_classes"]
@@ -215,7 +215,7 @@ class _Reference:
 def _reference(key: Key) -> _Reference:
     """The linear model of ``key`` about the built state when it is an equilibrium or a steady motion, else about
     the nearest static equilibrium (cached: once per parameter set in each worker)."""
-    from core.modal import linearize
+    from rigidlab.core.modal import linearize
 
     system = _build(key)
     try:
@@ -238,7 +238,7 @@ def _reference(key: Key) -> _Reference:
 class Solution(ModalStatus):
     """The eigen solution of one parameter set, as the panel shows it (picklable, read-only arrays).
 
-    Attributes as :class:`app.scenes.modes.Solution`; ``groups`` includes the rigid-body modes (animating one
+    Attributes as :class:`rigidlab.app.scenes.modes.Solution`; ``groups`` includes the rigid-body modes (animating one
     warns); ``ghost`` the equilibrium placed, ``ghost_R``, ``ghost_P`` (n, 3), (n, 4) its body poses.
     """
 
@@ -265,7 +265,7 @@ class Solution(ModalStatus):
 
 @dataclasses.dataclass(frozen=True)
 class Clip:
-    """One mode animated (global coordinates): see :class:`app.scenes._modal_view.Animated`."""
+    """One mode animated (global coordinates): see :class:`rigidlab.app.scenes._modal_view.Animated`."""
 
     key: Key
     mode: int
@@ -330,7 +330,7 @@ def _modal_job(key: Key, meshed: frozenset[int], mode: int, fraction: float) -> 
 
 def _sweep_model(key: Key, name: str, value: float) -> Any:
     """The linear model of ``key`` with parameter ``name`` at ``value`` (a sweep's ``build``; picklable)."""
-    from core.modal import linearize
+    from rigidlab.core.modal import linearize
 
     system = _build(key.with_value(name, value))
     try:
@@ -367,7 +367,7 @@ def _simulated_system(key: Key) -> Any:
 
 def _start_state(key: Key, mode: int, fraction: float) -> Any:
     """The equilibrium displaced along mode ``mode`` (at rest), as a RunState any System of ``key`` runs from."""
-    from core.multibody import RunState
+    from rigidlab.core.multibody import RunState
 
     ref = _reference(key)
     if not ref.groups:
@@ -611,7 +611,7 @@ class _SweepRun:
             raise Cancelled()
 
     def _run(self) -> None:
-        from core.modal import sweep
+        from rigidlab.core.modal import sweep
 
         wall0 = time.perf_counter()
         throttled = Throttled(self._executor, 1)
@@ -651,7 +651,7 @@ class ModelScene(SimulationScene):
         "- **Simulation**: `System.simulate` (DOP853, rtol 1e-8, every step projected back onto C = 0) in "
         "chunks of 1 s; plots of the energy change E − E0, log10 max |C| and the joints' reaction forces |F| "
         "(from the multipliers, −Dᵀλ of each joint's rows). *Download CSV* exports the plotted window.\n"
-        "- **Modes**: `core.modal.linearize` about the state the file builds when it is an equilibrium or a "
+        "- **Modes**: `rigidlab.core.modal.linearize` about the state the file builds when it is an equilibrium or a "
         "steady motion, else about the nearest static equilibrium (Eqs. 8.110-8.112); the table gives f = "
         "|Im s|/2π, ω_n = |s|, ξ = −Re s/|s| (Eqs. 8.130-8.131) and the stability. The chosen mode moves as "
         "q0 + a Re(S e^(st)) (Eqs. 8.125-8.129), every sample projected onto the constraints, beside a "
@@ -661,7 +661,7 @@ class ModelScene(SimulationScene):
         "body's mass and principal moments; joints as small cylinders on their axes (revolute, prismatic) "
         "or balls; springs as zigzags.\n"
         "- **Sweep** (a file with SWEEP): the modes over the swept parameter in the background, tracked "
-        "by shape (`core.modal.sweep`)."
+        "by shape (`rigidlab.core.modal.sweep`)."
     )
 
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
@@ -1201,7 +1201,7 @@ class ModelScene(SimulationScene):
 
     # -- export ------------------------------------------------------------------------------------------
     def modes_csv(self) -> bytes:
-        """The modes shown, as CSV (:meth:`core.modal.Modes.to_csv`)."""
+        """The modes shown, as CSV (:meth:`rigidlab.core.modal.Modes.to_csv`)."""
         if self.solution is None:
             raise ValueError("no modes computed yet")
         return self.solution.csv.encode()
@@ -1234,7 +1234,7 @@ def model_scene_class(model: ModelFile, index: int = 0) -> type[ModelScene]:
     lowest = min([float(state.position(b)[2]) for b in system.bodies] + [float(j.point[2]) for j in system.joints],
                  default=0.0)
     try:
-        from core.modal import linearize
+        from rigidlab.core.modal import linearize
 
         linearize(model.build())
         start = ALONG_MODE  # built at rest in equilibrium (or in a steady motion): it would not move

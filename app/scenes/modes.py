@@ -1,16 +1,16 @@
 """Mode-shapes scene: the eigen solutions of constrained multibody systems, animated (Eqs. 8.110-8.131).
 
-Five models of :mod:`core.models`, chosen in the *Model* dropdown: a chain of
+Five models of :mod:`rigidlab.core.models`, chosen in the *Model* dropdown: a chain of
 ``N`` pendulum links (uniform rods or point masses), a rod on a spherical
 joint, a disk spinning on a flexible shaft (forward and backward whirl), the
 heavy top sleeping or in steady precession, and two masses with
 non-proportional damping. Each is linearized about its equilibrium or steady
-motion with :func:`core.modal.linearize` and solved with
-:meth:`core.modal.LinearModel.modes`; the panel shows the table of modes, the
+motion with :func:`rigidlab.core.modal.linearize` and solved with
+:meth:`rigidlab.core.modal.LinearModel.modes`; the panel shows the table of modes, the
 eigenvalues in the complex plane and, for the rotor and the top, the modes
-over the spin (a Campbell diagram, a root locus) from :func:`core.modal.sweep`.
+over the spin (a Campbell diagram, a root locus) from :func:`rigidlab.core.modal.sweep`.
 The chosen mode moves as ``q0 + a Re(S e^(s t))``
-(:meth:`core.modal.Modes.animate`, projected back onto the constraints by
+(:meth:`rigidlab.core.modal.Modes.animate`, projected back onto the constraints by
 Newton at every sample) beside a translucent ghost of the equilibrium.
 
 The scene holds no physics and does no long work on the loop thread:
@@ -19,13 +19,13 @@ The scene holds no physics and does no long work on the loop thread:
   model's System from the frozen :class:`Params`, linearizes it, solves the
   eigenproblem (cached per parameter set in the worker), and animates the
   chosen mode over whole periods, 120 samples per period; it returns the
-  poses of every drawn part at every sample (:class:`app.scenes._bodies.Placed`),
+  poses of every drawn part at every sample (:class:`rigidlab.app.scenes._bodies.Placed`),
   the table, the CSV and JSON of the modes. The loop thread keeps the last
   results per parameter set and per mode, so nothing is solved again while
   the parameters are unchanged, and submits a job only when a control that
   matters changed and the scene is shown, one at a time (a slider being
   dragged gets the result of one value after another).
-* The sweep runs :func:`core.modal.sweep` in a thread of this process that
+* The sweep runs :func:`rigidlab.core.modal.sweep` in a thread of this process that
   only waits: its values are computed on the same executor, one at a time
   (so a mode the user picks meanwhile is not queued behind the whole sweep);
   a progress bar follows it, a parameter change cancels it, and finished
@@ -52,26 +52,26 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app.controls import Choice, Slider, Toggle
-from app.nodes import set_pose, set_visible
-from app.scenes._bodies import Parts, PartsView, Placed
-from app.scenes._modal_view import MAX_MODES, MODE_OPTIONS, SAMPLES_PER_CYCLE, ModalStatus, ModeChoice
-from app.scenes._modal_view import Cancelled as _Cancelled
-from app.scenes._modal_view import SELECTED_COLOR as _SELECTED_COLOR
-from app.scenes._modal_view import STATUS_TEXT as _STATUS_TEXT
-from app.scenes._modal_view import Throttled as _Throttled
-from app.scenes._modal_view import (animate_group, complex_plane_svg, mode_groups, mode_row, modes_table)
-from app.scenes._modal_view import remember as _remember
-from app.scenes._modal_view import ro as _ro
-from app.scenes._modal_view import sig as _sig
-from app.scenes._modal_view import xi_text as _xi_text
-from app.scenes._plots import Legend
-from app.scenes._svg import FONT, PRESENTER_FONT, Chart
-from app.scenes.base import Scene
-from core.gyroscope import RotorParams, sleeping_top_critical_spin
-from core.modal import LinearModel, Modes, linearize, sweep
-from core.models import disk_rotor, pendulum_chain, spherical_pendulum, steady_top, two_mass_oscillator
-from core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
+from rigidlab.app.controls import Choice, Slider, Toggle
+from rigidlab.app.nodes import set_pose, set_visible
+from rigidlab.app.scenes._bodies import Parts, PartsView, Placed
+from rigidlab.app.scenes._modal_view import MAX_MODES, MODE_OPTIONS, SAMPLES_PER_CYCLE, ModalStatus, ModeChoice
+from rigidlab.app.scenes._modal_view import Cancelled as _Cancelled
+from rigidlab.app.scenes._modal_view import SELECTED_COLOR as _SELECTED_COLOR
+from rigidlab.app.scenes._modal_view import STATUS_TEXT as _STATUS_TEXT
+from rigidlab.app.scenes._modal_view import Throttled as _Throttled
+from rigidlab.app.scenes._modal_view import (animate_group, complex_plane_svg, mode_groups, mode_row, modes_table)
+from rigidlab.app.scenes._modal_view import remember as _remember
+from rigidlab.app.scenes._modal_view import ro as _ro
+from rigidlab.app.scenes._modal_view import sig as _sig
+from rigidlab.app.scenes._modal_view import xi_text as _xi_text
+from rigidlab.app.scenes._plots import Legend
+from rigidlab.app.scenes._svg import FONT, PRESENTER_FONT, Chart
+from rigidlab.app.scenes.base import Scene
+from rigidlab.core.gyroscope import RotorParams, sleeping_top_critical_spin
+from rigidlab.core.modal import LinearModel, Modes, linearize, sweep
+from rigidlab.core.models import disk_rotor, pendulum_chain, spherical_pendulum, steady_top, two_mass_oscillator
+from rigidlab.core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
 __all__ = [
     "CHAIN",
@@ -379,7 +379,7 @@ class Solution(ModalStatus):
     Attributes
     ----------
     params : Params
-    eigenvalues : (k,) complex, sorted as :class:`core.modal.Modes` (pairs adjacent, +Im first)
+    eigenvalues : (k,) complex, sorted as :class:`rigidlab.core.modal.Modes` (pairs adjacent, +Im first)
     omega_n, damping_ratio, frequency_hz : (k,) rad/s, -, Hz
     stable, critical, rigid : (k,) bool
     method : "symmetric" or "state-space"
@@ -391,7 +391,7 @@ class Solution(ModalStatus):
     ghost : the reference configuration, placed (one instant)
     ghost_R, ghost_P : (n, 3), (n, 4) the reference, display coordinates
     supports : model name of the static supports to show
-    csv, json : :meth:`core.modal.Modes.to_csv` and a JSON document of the modes
+    csv, json : :meth:`rigidlab.core.modal.Modes.to_csv` and a JSON document of the modes
     """
 
     params: Params
@@ -493,7 +493,7 @@ def _solution(params: Params, built: _Built) -> Solution:
 
 
 def _clip(params: Params, built: _Built, group: tuple[int, ...], mode: int, fraction: float) -> Clip:
-    """Mode ``group`` animated by :meth:`core.modal.Modes.animate` (runs in the worker; :func:`animate_group`)."""
+    """Mode ``group`` animated by :meth:`rigidlab.core.modal.Modes.animate` (runs in the worker; :func:`animate_group`)."""
     a = animate_group(built.modes, built.system, group, mode, fraction, built.size)
     t, s, res, amplitude, unit = a.t, a.eigenvalue, a.residual, a.amplitude, a.unit
     period, cycles, reduced, still = a.period, a.cycles, a.reduced, a.still
@@ -548,7 +548,7 @@ class SweepOutcome:
     eigenvalues : (v, k) tracked eigenvalues
     rigid : (v, k) bool
     boundaries : spins where a mode crosses Re s = 0 (root finding)
-    csv : :meth:`core.modal.SweepResult.to_csv`
+    csv : :meth:`rigidlab.core.modal.SweepResult.to_csv`
     seconds : wall time of the sweep (s)
     charts : ``{font: (chart, caption)}``, the chart drawn once per font size
         (normal and presenter view) off the loop thread
@@ -797,7 +797,7 @@ class ModesScene(Scene):
     order: ClassVar[int] = 60
     help: ClassVar[str] = (
         "A System linearized about its equilibrium or steady motion and its eigen solution "
-        "(`core.modal`):\n\n"
+        "(`rigidlab.core.modal`):\n\n"
         "- **Linearization** (Eqs. 8.110-8.112): perturbations z = (dR, dθ) of every body, "
         "embedded in the degrees of freedom by an orthonormal null space N of the constraint "
         "Jacobian (z = N u), giving M ü + (C + G) u̇ + K u = 0. K holds the geometric stiffness "
@@ -820,7 +820,7 @@ class ModesScene(Scene):
         "- **Complex plane**: every eigenvalue (teal damped, blue neutral, orange unstable, hollow "
         "grey rigid), the chosen mode ringed, the unstable half shaded.\n"
         "- **Sweep** (rotor, top): the modes over the spin, tracked by shape correlation "
-        "(`core.modal.sweep`, in the background): the rotor's Campbell diagram with its forward "
+        "(`rigidlab.core.modal.sweep`, in the background): the rotor's Campbell diagram with its forward "
         "and backward whirl, the top's root locus with the stability boundary found by root "
         "finding. *Download* gives the modes (CSV, JSON) and the sweep (CSV)."
     )
@@ -1380,7 +1380,7 @@ class ModesScene(Scene):
         return self.solution
 
     def csv_bytes(self) -> bytes:
-        """The modes shown, as CSV (:meth:`core.modal.Modes.to_csv`)."""
+        """The modes shown, as CSV (:meth:`rigidlab.core.modal.Modes.to_csv`)."""
         return self._need_solution().csv.encode()
 
     def json_bytes(self) -> bytes:
@@ -1388,7 +1388,7 @@ class ModesScene(Scene):
         return self._need_solution().json.encode()
 
     def sweep_bytes(self) -> bytes:
-        """The sweep shown, as CSV (:meth:`core.modal.SweepResult.to_csv`)."""
+        """The sweep shown, as CSV (:meth:`rigidlab.core.modal.SweepResult.to_csv`)."""
         if self.sweep is None:
             raise ValueError("no sweep for this model (the rotor and the top have one), or it is not done yet")
         return self.sweep.csv.encode()

@@ -1,10 +1,10 @@
 """Rolling disk scene: a coin (Euler's disk) on the ground, rolling without slip or sliding.
 
-The disk of :func:`core.models.rolling_disk` on a :class:`SimulationScene`: each chunk (0.5 s, 30
-samples) is one call of :func:`core.models.rolling_disk_run` in a worker process, continued from the
+The disk of :func:`rigidlab.core.models.rolling_disk` on a :class:`SimulationScene`: each chunk (0.5 s, 30
+samples) is one call of :func:`rigidlab.core.models.rolling_disk_run` in a worker process, continued from the
 chunk before's ``final_state``; core says where the disk leaves the ground, falls flat or the run fails
 (the layer's final chunk). The chunk also forms the contact point's track
-(:func:`app.scenes._trail.sampled_curve`), which :class:`app.scenes._trail.SampledTrack` draws up to the
+(:func:`rigidlab.app.scenes._trail.sampled_curve`), which :class:`rigidlab.app.scenes._trail.SampledTrack` draws up to the
 contact point in every page frame; a frame only slices arrays.
 """
 
@@ -21,14 +21,14 @@ from typing import Any, ClassVar
 import numpy as np
 import trimesh
 
-from app.controls import Choice, Slider, Toggle
-from app.nodes import set_pose
-from app.readout import one_digit, relation, significant
-from app.scenes._bodies import ForceArrow, add_disk
-from app.scenes._plots import Table, log10_floor
-from app.scenes._simulation import PlotSpec, SimulationScene, job
-from app.scenes._trail import SampledTrack, curve_pieces as track_pieces, sampled_curve
-from core.models import RollingDisk, rolling_disk_critical_spin, rolling_disk_run
+from rigidlab.app.controls import Choice, Slider, Toggle
+from rigidlab.app.nodes import set_pose
+from rigidlab.app.readout import one_digit, relation, significant
+from rigidlab.app.scenes._bodies import ForceArrow, add_disk
+from rigidlab.app.scenes._plots import Table, log10_floor
+from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene, job
+from rigidlab.app.scenes._trail import SampledTrack, curve_pieces as track_pieces, sampled_curve
+from rigidlab.core.models import RollingDisk, rolling_disk_critical_spin, rolling_disk_run
 
 __all__ = ["CONTACTS", "CSV_HEADER", "Inputs", "Model", "PRESETS", "ROLLING", "RTOL", "RollingDiskScene", "SLIDING",
            "preset_inputs", "track_pieces"]

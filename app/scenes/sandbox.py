@@ -2,18 +2,18 @@
 
 A body (hull, red nose along +x_b, blue fin along +z_b, labelled axes) turns
 in the fixed global frame. The scene composes the panels of
-:mod:`app.panels`:
+:mod:`rigidlab.app.panels`:
 
-* :class:`~app.panels.orientation.OrientationInput` drives the orientation
+* :class:`~rigidlab.app.panels.orientation.OrientationInput` drives the orientation
   from one representation at a time (Euler angles of 24 sequences, axis and
   angle, Euler parameters, Rodriguez parameters, rotation vector); a readout
   shows all the others;
-* :class:`~app.panels.gimbal.Gimbal` realises the chosen sequence with three
+* :class:`~rigidlab.app.panels.gimbal.Gimbal` realises the chosen sequence with three
   nested rings and gauges the distance from gimbal lock (cond G, Eq. 8.8);
-* :class:`~app.panels.body.RotationAxisView` draws the rotation axis and angle;
-* :class:`~app.panels.compose.ComposePanel`,
-  :class:`~app.panels.angular_velocity.AngularVelocityPanel` and
-  :class:`~app.panels.export.ExportPanel` are the other three panels.
+* :class:`~rigidlab.app.panels.body.RotationAxisView` draws the rotation axis and angle;
+* :class:`~rigidlab.app.panels.compose.ComposePanel`,
+  :class:`~rigidlab.app.panels.angular_velocity.AngularVelocityPanel` and
+  :class:`~rigidlab.app.panels.export.ExportPanel` are the other three panels.
 
 The scene keeps the one orientation (``p``, and the Euler angles the gimbal
 shows) and decides, per frame, what changed; the panels turn control values
@@ -31,9 +31,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-import core.rotations as rot
-from app.controls import Choice
-from app.panels import (
+import rigidlab.core.rotations as rot
+from rigidlab.app.controls import Choice
+from rigidlab.app.panels import (
     INPUTS,
     AngularVelocityPanel,
     BodyView,
@@ -49,9 +49,9 @@ from app.panels import (
     orientation_views,
     rate_views,
 )
-from app.panels._views import euler_angles_of, set_readout
-from app.panels.orientation import matrix_markdown, parameters_markdown
-from app.scenes.base import Scene
+from rigidlab.app.panels._views import euler_angles_of, set_readout
+from rigidlab.app.panels.orientation import matrix_markdown, parameters_markdown
+from rigidlab.app.scenes.base import Scene
 
 __all__ = ["SandboxScene", "PANELS", "INPUTS"]
 
@@ -90,7 +90,7 @@ class SandboxScene(Scene):
     Parameters
     ----------
     target, notify, context
-        As for every scene (see :mod:`app.scenes.base`).
+        As for every scene (see :mod:`rigidlab.app.scenes.base`).
     readout_period : float, keyword-only
         Shortest time (s) between two rewrites of the readouts and label texts.
     """

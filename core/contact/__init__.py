@@ -5,7 +5,7 @@ derivatives up to the third (:class:`Plane`, :class:`Sphere`,
 :class:`Ellipsoid`, :class:`Torus`, :class:`ParametricSurface`), planar
 profiles by one (:class:`PlanarCurve`, curve-on-curve contact of a planar
 cam). ``System.add_contact`` adds a contact between two of them to a
-:class:`core.multibody.System`: the five contact constraints with the
+:class:`rigidlab.core.multibody.System`: the five contact constraints with the
 surface parameters as non-generalized coordinates and the normal force as
 the one independent multiplier, or a compliant (Hunt-Crossley) force.
 ``MultibodyTrajectory.contact(c)`` returns a :class:`ContactHistory`;
@@ -14,8 +14,8 @@ The formulation is explained in ``docs/contact.md``.
 
 Example::
 
-    from core.contact import Plane, Sphere
-    from core.multibody import System
+    from rigidlab.core.contact import Plane, Sphere
+    from rigidlab.core.multibody import System
     system = System(gravity=(0.0, 0.0, -9.81))
     ball = system.add_body("ball", mass=1.0, inertia=(0.004, 0.004, 0.004), position=(0, 0, 0.1))
     c = system.add_contact(system.ground, Plane(), ball, Sphere(0.1))

@@ -2,14 +2,14 @@
 
 The same arithmetic as the float path (``_scalar``: ``newton_one``,
 ``geometry_one``, ``evaluate_one`` and the surfaces' ``_derivs_float``), in
-the same order, on the closed forms of :class:`~core.contact.Plane`,
-:class:`~core.contact.Sphere`, :class:`~core.contact.Ellipsoid`,
-:class:`~core.contact.Torus` and the built-in planar curves
-(:meth:`~core.contact.PlanarCurve.circle`,
-:meth:`~core.contact.PlanarCurve.line`). A planar curve of user callables
+the same order, on the closed forms of :class:`~rigidlab.core.contact.Plane`,
+:class:`~rigidlab.core.contact.Sphere`, :class:`~rigidlab.core.contact.Ellipsoid`,
+:class:`~rigidlab.core.contact.Torus` and the built-in planar curves
+(:meth:`~rigidlab.core.contact.PlanarCurve.circle`,
+:meth:`~rigidlab.core.contact.PlanarCurve.line`). A planar curve of user callables
 (a cam profile) takes the kernel too: Python evaluates its derivatives at
 each Newton iterate and hands them in (status ``DERIVATIVES``, arrays ``X``
-and ``xs``). A contact with a :class:`~core.contact.ParametricSurface` keeps
+and ``xs``). A contact with a :class:`~rigidlab.core.contact.ParametricSurface` keeps
 the float path.
 
 One entry point, :func:`contact_packed`, does for one contact what the float
@@ -76,7 +76,7 @@ _CHART_LIMIT = 1.0  # (= _errors._CHART_LIMIT)
 
 def describe(surface):
     """(16,) description of a surface for the kernel (a planar curve of user callables: the kind ``CURVE``,
-    its derivatives handed in), or None (a :class:`~core.contact.ParametricSurface`: the float path)."""
+    its derivatives handed in), or None (a :class:`~rigidlab.core.contact.ParametricSurface`: the float path)."""
     from ._curves import PlanarCurve
     from ._surfaces import Ellipsoid, Plane, Sphere, Torus
 

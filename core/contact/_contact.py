@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from core._errors import ArgumentError
+from rigidlab.core._errors import ArgumentError
 
 __all__ = ["CONTACT_MODELS", "Contact", "ContactHistory", "Separation", "gap_crossings"]
 

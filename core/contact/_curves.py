@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, short_repr
+from rigidlab.core._validation import float_array, short_repr
 
 from ._surfaces import Surface, _call_user, _call_user_tensor, _ContourDerivatives, _positive, _trig_cycle
 

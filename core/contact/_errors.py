@@ -1,6 +1,6 @@
 """Contact constants and errors (a leaf module: the kernel, the float path and the search import it).
 
-``ContactError`` is a ``core.integrators.RunFailure`` and a ``ValueError``;
+``ContactError`` is a ``rigidlab.core.integrators.RunFailure`` and a ``ValueError``;
 the tolerances are those of the Newton iteration on the surface parameters
 (Eqs. 8.90-8.109).
 """
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from core.integrators import RunFailure
+from rigidlab.core.integrators import RunFailure
 
 __all__ = ["COMPLIANT", "CONSTRAINT", "CONTACT_RANK_TOL", "ContactError"]
 
@@ -33,7 +33,7 @@ class ContactError(RunFailure, ValueError):
 
     Raised at a trial stage of an adaptive step (a state far from the
     accepted ones), it makes the integrator retry the step shorter
-    (``retry_shorter``, see ``core.integrators``); at an accepted state it
+    (``retry_shorter``, see ``rigidlab.core.integrators``); at an accepted state it
     stops the run.
     """
 

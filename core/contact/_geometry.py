@@ -1,9 +1,9 @@
 """Batched contact geometry: the extremal conditions, Newton on the surface parameters and the contact rows.
 
-The vectorized functions of ``core.contact._kernel`` (see its docstring for
+The vectorized functions of ``rigidlab.core.contact._kernel`` (see its docstring for
 the notation and Eqs. 8.84-8.109), over groups of contacts with the same
 number of parameters; the kernel and the global search
-(``core.contact._search``) call them.
+(``rigidlab.core.contact._search``) call them.
 """
 
 from __future__ import annotations

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, real_number, short_repr
+from rigidlab.core._validation import float_array, real_number, short_repr
 
 __all__ = ["Ellipsoid", "ParametricSurface", "Plane", "Sphere", "Surface", "Torus"]
 
@@ -153,7 +153,7 @@ class Surface:
     Attributes
     ----------
     n_parameters : int
-        2 for surfaces (1 for :class:`~core.contact.PlanarCurve`).
+        2 for surfaces (1 for :class:`~rigidlab.core.contact.PlanarCurve`).
     length_scale : float
         A characteristic length of the surface (m; ``inf`` for a plane):
         the scale of the rank test of Eq. 8.109 and of the contact search.

@@ -1,6 +1,6 @@
-"""Model builders: textbook systems on :class:`core.multibody.System`, shared by scenes, tests and benchmarks.
+"""Model builders: textbook systems on :class:`rigidlab.core.multibody.System`, shared by scenes, tests and benchmarks.
 
-Each builder returns an assembled :class:`~core.multibody.System` at its
+Each builder returns an assembled :class:`~rigidlab.core.multibody.System` at its
 initial state (and, where a scene needs more, a small frozen dataclass with
 the body and joint handles). Global +z is up; SI units.
 """

@@ -3,9 +3,9 @@ r"""The Whipple bicycle: four rigid bodies, three revolute joints and two rollin
 The benchmark bicycle of Meijaard, Papadopoulos, Ruina and Schwab (Proc. R.
 Soc. A 463, 2007) built from the general engine: a rear wheel, a rear frame
 with the rider, a front fork with the handlebar and a front wheel
-(:meth:`core.multibody.System.add_body`), the hubs and the steer axis as
-revolute joints, and each wheel's rim a :class:`core.contact.Torus` of minor
-radius zero rolling without slip on the ground :class:`core.contact.Plane`
+(:meth:`rigidlab.core.multibody.System.add_body`), the hubs and the steer axis as
+revolute joints, and each wheel's rim a :class:`rigidlab.core.contact.Torus` of minor
+radius zero rolling without slip on the ground :class:`rigidlab.core.contact.Plane`
 (``System.add_contact(..., rolling=True)``). No bicycle-specific equation
 enters the model; the paper's linearized equations in lean and steer,
 
@@ -13,7 +13,7 @@ enters the model; the paper's linearized equations in lean and steer,
 
 are built from the same parameters by its Appendix A formulas in
 :func:`whipple_bicycle_reference`, as an independent check of
-:func:`core.modal.linearize`.
+:func:`rigidlab.core.modal.linearize`.
 
 Conventions. The parameters (:class:`WhippleParameters`, Table 1 of the
 paper) are in the paper's frame: origin at the rear contact point, ``x``
@@ -44,9 +44,9 @@ import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
 
-from core._constants import RIDE_ATOL, RIDE_RTOL
-from core._errors import ArgumentError
-from core._validation import float_array, real_number, short_repr
+from rigidlab.core._constants import RIDE_ATOL, RIDE_RTOL
+from rigidlab.core._errors import ArgumentError
+from rigidlab.core._validation import float_array, real_number, short_repr
 
 __all__ = [
     "MEIJAARD_2007",
@@ -268,8 +268,8 @@ def whipple_bicycle(speed: float = 5.0, parameters: Any = "meijaard2007"):
     steer axis pointing down, so a positive joint angle steers right) and
     ``"front_hub"`` (fork, front wheel); two contacts in the constraint
     model, rolling without slip: ``"rear_contact"`` and ``"front_contact"``,
-    each between the ground's :class:`~core.contact.Plane` and the wheel's
-    rim, a :class:`~core.contact.Torus` of minor radius 0 about the wheel's
+    each between the ground's :class:`~rigidlab.core.contact.Plane` and the wheel's
+    rim, a :class:`~rigidlab.core.contact.Torus` of minor radius 0 about the wheel's
     body y axis. Gravity ``g`` acts along -z.
 
     Reference configuration (engine frame, z up): rear contact point at the
@@ -277,7 +277,7 @@ def whipple_bicycle(speed: float = 5.0, parameters: Any = "meijaard2007"):
     + c``; the steer joint sits where the perpendicular from the front hub
     meets the steer axis. Every body moves at ``(speed, 0, 0)`` and the
     wheels turn at ``speed / r`` about +y: a steady motion, ready for
-    :func:`core.modal.linearize`.
+    :func:`rigidlab.core.modal.linearize`.
 
     Parameters
     ----------
@@ -316,8 +316,8 @@ def whipple_bicycle(speed: float = 5.0, parameters: Any = "meijaard2007"):
 @functools.lru_cache(maxsize=8)
 def _upright(p: WhippleParameters):
     """The assembled System of :func:`whipple_bicycle` at 1 m/s (one per parameter set; never handed out)."""
-    from core.contact import Plane, Torus
-    from core.multibody import System
+    from rigidlab.core.contact import Plane, Torus
+    from rigidlab.core.multibody import System
 
     w, c, rR, rF = p.wheelbase, p.trail, p.rear_radius, p.front_radius
     v = 1.0
@@ -497,8 +497,8 @@ def whipple_angles(q: Any, parameters: Any = "meijaard2007") -> WhippleAngles:
     -------
     WhippleAngles
     """
-    from core.multibody._engine import matrices
-    from core.rotations import euler_angles_from_matrix
+    from rigidlab.core.multibody._engine import matrices
+    from rigidlab.core.rotations import euler_angles_from_matrix
 
     p = _parameters(parameters)
     q = float_array(q, "q", expected="positions (..., 28) of the bicycle's four bodies")
@@ -554,7 +554,7 @@ class WhippleMode:
 def whipple_modes(model: Any, parameters: Any = "meijaard2007") -> tuple[WhippleMode, ...]:
     """The four non-rigid modes of a linearized :func:`whipple_bicycle`, named and in lean and steer.
 
-    ``model`` is ``core.modal.linearize(system)`` of the System; its
+    ``model`` is ``rigidlab.core.modal.linearize(system)`` of the System; its
     embedding maps each mode shape to the bodies' small rotations
     ``dtheta`` (global), from which lean ``= dtheta_frame . x`` and steer ``=
     (dtheta_fork - dtheta_frame) . a`` (``a`` the steer axis pointing
@@ -574,7 +574,7 @@ def whipple_modes(model: Any, parameters: Any = "meijaard2007") -> tuple[Whipple
         For a model that is not a linearized System of four bodies, or one
         that does not have four non-rigid modes.
     """
-    from core.modal import LinearModel
+    from rigidlab.core.modal import LinearModel
 
     p = _parameters(parameters)
     if not isinstance(model, LinearModel) or model.embedding is None or model.embedding.n_bodies != 4:
@@ -652,7 +652,7 @@ class WhippleSpeedModel:
     ``omega x I omega`` and the inertial terms the reference velocities
     carry are quadratic in ``v``, the coupling of the perturbation rates
     with them linear, and so is ``E = d(D_r v)/dz`` of the rolling rows.
-    In the embedding of :func:`core.modal.linearize`, the same at every
+    In the embedding of :func:`rigidlab.core.modal.linearize`, the same at every
     speed (it depends on the configuration only), the linear model is
 
     .. math::
@@ -708,7 +708,7 @@ class WhippleSpeedModel:
         ValueError
             For a non-finite speed.
         """
-        from core.modal import LinearModel
+        from rigidlab.core.modal import LinearModel
 
         v = real_number(speed, "speed", expected="a finite forward speed (m/s)")
         emb = dataclasses.replace(self.embedding, v0=_read_only(v * self.embedding.v0))
@@ -722,7 +722,7 @@ class WhippleSpeedModel:
 def whipple_speed_model(parameters: Any = "meijaard2007", *, reference_speed: float = 10.0) -> WhippleSpeedModel:
     """The coefficients of the linearized bicycle in the speed (see :class:`WhippleSpeedModel`); cached.
 
-    Two calls of :func:`core.modal.linearize`, on :func:`whipple_bicycle`
+    Two calls of :func:`rigidlab.core.modal.linearize`, on :func:`whipple_bicycle`
     at rest and at ``reference_speed``; the result is kept per parameter
     set and reference speed (eight of them), so a sweep over the speed, a
     root search for the weave and capsize speeds or a scene's modes cost
@@ -754,7 +754,7 @@ def whipple_speed_model(parameters: Any = "meijaard2007", *, reference_speed: fl
 
 @functools.lru_cache(maxsize=8)
 def _speed_model(p: WhippleParameters, vr: float) -> WhippleSpeedModel:
-    from core.modal import linearize
+    from rigidlab.core.modal import linearize
 
     rest = linearize(whipple_bicycle(0.0, p))
     ride = linearize(whipple_bicycle(vr, p))
@@ -836,7 +836,7 @@ def whipple_linear_response(model: Any, velocity_change: Any, t: Any, parameters
     n = emb.n_bodies
     dv = float_array(velocity_change, "velocity_change").reshape(-1)
     times = float_array(t, "t").reshape(-1)
-    from core.multibody._engine import matrices
+    from rigidlab.core.multibody._engine import matrices
 
     A_bodies = matrices(emb.q0[3 * n :].reshape(n, 4))
     zd = np.concatenate([dv[: 3 * n], np.einsum("nij,nj->ni", A_bodies, dv[3 * n :].reshape(n, 3)).ravel()])
@@ -912,7 +912,7 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
                  initial: Any = None) -> WhippleRide:
     """Ride a :func:`whipple_bicycle` from its current state (or ``initial``) over the output times ``t`` (DOP853).
 
-    The System's :meth:`~core.multibody.System.simulate` runs in pieces of
+    The System's :meth:`~rigidlab.core.multibody.System.simulate` runs in pieces of
     ``piece`` seconds, each continuing from the last one's final state; the
     ride ends after the first sample whose lean passes ``lean_limit``, at a
     separation (a wheel's normal force reaching zero), or when the contact
@@ -947,9 +947,9 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
     -------
     WhippleRide
     """
-    from core.contact import ContactError
-    from core.integrators import IntegrationError
-    from core.multibody import AssemblyError, RunState, SingularSystemError
+    from rigidlab.core.contact import ContactError
+    from rigidlab.core.integrators import IntegrationError
+    from rigidlab.core.multibody import AssemblyError, RunState, SingularSystemError
 
     p = _parameters(parameters)
     times = float_array(t, "t", expected="output times (s)").reshape(-1)
@@ -1017,8 +1017,8 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
 
 
 def _run_state_of(system: Any):
-    """The System's current state as a :class:`~core.multibody.RunState` (no contact warm start)."""
-    from core.multibody import RunState
+    """The System's current state as a :class:`~rigidlab.core.multibody.RunState` (no contact warm start)."""
+    from rigidlab.core.multibody import RunState
 
     st = system.state
     return RunState(st.t, st.q, st.v)
@@ -1058,7 +1058,7 @@ def whipple_ride_from(speed: float, t: Any, *, initial: Any = None, impulse: flo
     WhippleRide
         Its ``end`` text gives times on the same clock as ``t``.
     """
-    from core.multibody import RunState
+    from rigidlab.core.multibody import RunState
 
     P = real_number(impulse, "impulse", expected="a finite impulse (N s)")
     if initial is not None and not isinstance(initial, RunState):

@@ -25,9 +25,9 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from core._constants import CAM_ATOL, CAM_RTOL, SEPARATION_XTOL
-from core._errors import ArgumentError
-from core._validation import float_array, output_times, real_number, short_repr
+from rigidlab.core._constants import CAM_ATOL, CAM_RTOL, SEPARATION_XTOL
+from rigidlab.core._errors import ArgumentError
+from rigidlab.core._validation import float_array, output_times, real_number, short_repr
 
 __all__ = [
     "CAM_CONTACT_MODELS",
@@ -906,10 +906,10 @@ class CamFollower:
         The follower leaves the cam where :meth:`contact_force` ``N(theta)``
         turns negative and lands where it returns to ``>= 0`` (one boundary
         convention for every contact test in core: the contact holds while
-        ``N >= 0``, see :func:`core.contact.gap_crossings`). The force is
+        ``N >= 0``, see :func:`rigidlab.core.contact.gap_crossings`). The force is
         tabulated at ``samples + 1`` angles ``2 pi j / samples`` (``j = 0 ..
         samples``); each sign change is refined by Brent's method on
-        :meth:`contact_force` to ``core._constants.SEPARATION_XTOL``
+        :meth:`contact_force` to ``rigidlab.core._constants.SEPARATION_XTOL``
         (1e-12 rad); a sample where ``N == 0`` exactly is the boundary
         itself. ``start`` is in ``[0, 2 pi)``; ``end > start`` and may
         exceed ``2 pi`` (an interval across cam angle 0 ends in the next
@@ -931,7 +931,7 @@ class CamFollower:
         """
         from scipy.optimize import brentq
 
-        from core._validation import positive_integer
+        from rigidlab.core._validation import positive_integer
 
         w = real_number(speed, "speed", expected="a finite cam speed (rad/s)")
         count = positive_integer(samples, "samples")
@@ -988,7 +988,7 @@ class CamFollower:
         -------
         CamRevolution
         """
-        from core._validation import positive_integer
+        from rigidlab.core._validation import positive_integer
 
         w = abs(real_number(speed, "speed", expected="a finite nonzero cam speed (rad/s)"))
         if w == 0.0:
@@ -1044,7 +1044,7 @@ class CamFollower:
         contact_damping: float = 0.5,
         contact_exponent: float = 1.5,
     ) -> CamSystem:
-        """The cam and follower as a :class:`core.multibody.System` at time ``start``, assembled.
+        """The cam and follower as a :class:`rigidlab.core.multibody.System` at time ``start``, assembled.
 
         Bodies: the cam (1 kg, a disk's inertia; it only loads the motor)
         on a revolute joint driven by a motor at ``speed``, and the follower
@@ -1052,7 +1052,7 @@ class CamFollower:
         (``add_spring_damper`` with free length set for ``preload`` at zero
         lift; a constant force when ``stiffness = 0``) and gravity, in
         contact with the cam through ``system.add_contact`` between the cam
-        contour (:meth:`cam_curve` as a :class:`~core.contact.PlanarCurve`
+        contour (:meth:`cam_curve` as a :class:`~rigidlab.core.contact.PlanarCurve`
         in the cam's body x-y plane) and a line (flat face) or a circle
         (roller) of the follower. See :class:`CamSystem` for the frames.
 
@@ -1095,7 +1095,7 @@ class CamFollower:
         method: str | None = None,
         initial: Any = None,
     ) -> CamMotion:
-        """Run the cam at constant ``speed`` on :class:`core.multibody.System` (see :meth:`build_system`).
+        """Run the cam at constant ``speed`` on :class:`rigidlab.core.multibody.System` (see :meth:`build_system`).
 
         Parameters
         ----------
@@ -1119,7 +1119,7 @@ class CamFollower:
         contact_stiffness, contact_damping, contact_exponent : float, keyword-only
             The Hunt-Crossley law (see :meth:`build_system`).
         rtol, atol : float, keyword-only
-            DOP853's tolerances (defaults ``core._constants.CAM_RTOL`` 1e-10,
+            DOP853's tolerances (defaults ``rigidlab.core._constants.CAM_RTOL`` 1e-10,
             ``CAM_ATOL`` 1e-12).
         method : str or None, keyword-only
             ``System.simulate``'s method: ``"kinematic"``, ``"DOP853"`` or
@@ -1535,7 +1535,7 @@ class CamSample(NamedTuple):
 
 @dataclass(frozen=True)
 class CamMotion:
-    """A cam-follower run on :class:`core.multibody.System` (see :meth:`CamFollower.simulate`).
+    """A cam-follower run on :class:`rigidlab.core.multibody.System` (see :meth:`CamFollower.simulate`).
 
     Attributes
     ----------
@@ -1612,7 +1612,7 @@ class CamMotion:
         outputs around it: what a display shows between outputs (the outputs themselves exactly).
 
         The contact holds (``in_contact``) while the contact is in the constraint model at the nearer output or
-        the interpolated gap is ``<= 0`` (the one boundary convention of :func:`core.contact.gap_crossings`);
+        the interpolated gap is ``<= 0`` (the one boundary convention of :func:`rigidlab.core.contact.gap_crossings`);
         else the follower is in flight, ``contact_point`` is the cam's point nearest it and ``contact_normal``
         (unit, renormalized after the interpolation) points from it to the follower.
 
@@ -1659,7 +1659,7 @@ class CamMotion:
 
 @dataclass(frozen=True)
 class CamSystem:
-    """The cam-follower as a :class:`core.multibody.System` (see :meth:`CamFollower.build_system`).
+    """The cam-follower as a :class:`rigidlab.core.multibody.System` (see :meth:`CamFollower.build_system`).
 
     The profile plane is the global x-z plane (profile x -> global x,
     profile y -> global z): the follower slides along global +z above the
@@ -1680,7 +1680,7 @@ class CamSystem:
         The follower spring (a constant force ``F_0`` when ``stiffness =
         0``).
     contact : Contact
-        Cam contour (a :class:`~core.contact.PlanarCurve` on the cam) on the
+        Cam contour (a :class:`~rigidlab.core.contact.PlanarCurve` on the cam) on the
         flat face (a line) or the roller (a circle) of the follower.
     lift_origin : float
         Global z of the follower's centre of mass at zero lift (m).
@@ -1712,7 +1712,7 @@ def _cam_planar_curve(cam: CamFollower):
     """
     import threading
 
-    from core.contact import PlanarCurve
+    from rigidlab.core.contact import PlanarCurve
 
     lock = threading.Lock()
     last: list[Any] = [None, None]
@@ -1753,9 +1753,9 @@ MAX_CAM_SPEED = 1e100
 
 def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_stiffness: Any,
                   contact_damping: Any, contact_exponent: Any) -> CamSystem:
-    from core.contact import PlanarCurve
-    from core.multibody import System
-    from core.rotations import quaternion_product
+    from rigidlab.core.contact import PlanarCurve
+    from rigidlab.core.multibody import System
+    from rigidlab.core.rotations import quaternion_product
 
     w = real_number(speed, "speed", expected="a finite cam speed (rad/s)")
     if abs(w) > MAX_CAM_SPEED:
@@ -1830,9 +1830,9 @@ def _build_system(cam: CamFollower, speed: Any, start: Any, model: Any, contact_
 
 def _gap_crossings(t: np.ndarray, speed: float, gap: np.ndarray, compliant: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Openings and closings of a compliant contact between outputs: ``(k, 2)`` times and cam angles each
-    (:func:`core.contact.gap_crossings`: only pairs of outputs both in the compliant model; ``gap <= 0``
+    (:func:`rigidlab.core.contact.gap_crossings`: only pairs of outputs both in the compliant model; ``gap <= 0``
     counts as closed; the time interpolated linearly in the gap)."""
-    from core.contact import gap_crossings
+    from rigidlab.core.contact import gap_crossings
 
     return tuple(np.stack([times, speed * times], axis=-1).reshape(-1, 2)
                  for times in gap_crossings(t, gap, compliant=compliant))
@@ -1845,7 +1845,7 @@ _CAM_METHODS = ("kinematic", "DOP853", "RK45")
 def _simulate(cam: CamFollower, speed: Any, t: Any, model: Any, on_separation: Any, contact_stiffness: Any,
               contact_damping: Any, contact_exponent: Any, rtol: Any, atol: Any, method: Any = None,
               initial: Any = None) -> CamMotion:
-    from core.multibody import RunState
+    from rigidlab.core.multibody import RunState
 
     times = output_times(t)
     if initial is not None and not isinstance(initial, RunState):

@@ -1,8 +1,8 @@
 """The free rigid body of the Dzhanibekov demonstration: bodies, initial states, the polhode, a ghost run.
 
-Torque-free rotation, state ``(p, omega_body)`` of :class:`core.rigid_body.FreeBodyModel`:
+Torque-free rotation, state ``(p, omega_body)`` of :class:`rigidlab.core.rigid_body.FreeBodyModel`:
 ``I omega_body_dot = (I omega_body) x omega_body`` and ``p_dot = G_bar(p).T omega_body / 2``
-(Eqs. 8.53-8.54), solved exactly by :func:`core.rigid_body.free_body_solution` (Landau & Lifshitz
+(Eqs. 8.53-8.54), solved exactly by :func:`rigidlab.core.rigid_body.free_body_solution` (Landau & Lifshitz
 sec. 37). This module gives what a demonstration of it needs beyond the equations:
 
 * :func:`free_body_shape` -- three bodies (a T-handle, a brick, a disc) as parts of uniform density
@@ -12,7 +12,7 @@ sec. 37). This module gives what a demonstration of it needs beyond the equation
 * :func:`polhode_class` -- which axis the polhode circles, how close it passes to the intermediate
   axis, and whether the body flips (the Dzhanibekov effect), with a sentence saying so;
 * :func:`free_body_window` -- the exact motion over a time window and, optionally, a numerical run
-  of :mod:`core.integrators` from a state, compared with the exact motion sample by sample
+  of :mod:`rigidlab.core.integrators` from a state, compared with the exact motion sample by sample
   (orientation angle error, Eq. 8.82; drifts of the invariants E, ``|L|`` and ``|p|``).
 
 SI units; ``omega_body`` in the body frame, ``omega`` and ``L`` in the global frame; Euler
@@ -27,9 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import real_number
-from core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, integrate
-from core.rigid_body import (
+from rigidlab.core._validation import real_number
+from rigidlab.core.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS, integrate
+from rigidlab.core.rigid_body import (
     FreeBodyModel,
     FreeBodySolution,
     MomentumGeometry,
@@ -41,7 +41,7 @@ from core.rigid_body import (
     principal_axes,
     rotation_angle_between,
 )
-from core.rotations import euler_parameters_from_axis_angle, normalize_euler_parameters, rotate_vector
+from rigidlab.core.rotations import euler_parameters_from_axis_angle, normalize_euler_parameters, rotate_vector
 
 __all__ = [
     "FREE_BODY_NAMES",
@@ -197,7 +197,7 @@ def spin_about_principal_axis(inertia: Any, axis: str, *, rate: float, offset: f
     """``omega_body`` (3,) of a spin ``rate`` (rad/s) about principal axis ``axis`` (one of
     :data:`PRINCIPAL_AXIS_NAMES`), plus ``offset * rate`` about each of the other two principal axes.
 
-    The principal axes are :func:`core.rigid_body.principal_axes` (columns, ascending moments).
+    The principal axes are :func:`rigidlab.core.rigid_body.principal_axes` (columns, ascending moments).
 
     Raises
     ------
@@ -238,8 +238,8 @@ class FreeBodyStart:
     inertia : (3, 3) inertia tensor about the centre of mass, body frame (kg m^2)
     omega_body0 : (3,) initial angular velocity, body frame (rad/s)
     p0 : (4,) initial Euler parameters (scalar first): :func:`euler_parameters_momentum_up`
-    solution : :class:`core.rigid_body.FreeBodySolution` from ``p0``, ``omega_body0``
-    geometry : :class:`core.rigid_body.MomentumGeometry` (momentum sphere, energy ellipsoid)
+    solution : :class:`rigidlab.core.rigid_body.FreeBodySolution` from ``p0``, ``omega_body0``
+    geometry : :class:`rigidlab.core.rigid_body.MomentumGeometry` (momentum sphere, energy ellipsoid)
     L_global : (3,) the constant angular momentum, global frame: ``(0, 0, |L|)`` to round-off (kg m^2/s)
     polhode : :class:`PolhodeClass`
     body : the name of the :class:`FreeBodyShape` it was started from ("" for a bare inertia tensor)
@@ -256,7 +256,7 @@ class FreeBodyStart:
 
     @property
     def state0(self) -> np.ndarray:
-        """(7,) ``(p0, omega_body0)``: the state of :class:`core.rigid_body.FreeBodyModel` at t = 0."""
+        """(7,) ``(p0, omega_body0)``: the state of :class:`rigidlab.core.rigid_body.FreeBodyModel` at t = 0."""
         return np.concatenate([self.p0, self.omega_body0])
 
     @property
@@ -277,7 +277,7 @@ def free_body_start(body: FreeBodyShape | Any, omega_body0: Any) -> FreeBodyStar
     Raises
     ------
     ValueError
-        For a bad inertia tensor (:func:`core.rigid_body.principal_axes`) or ``omega_body0``.
+        For a bad inertia tensor (:func:`rigidlab.core.rigid_body.principal_axes`) or ``omega_body0``.
     """
     shape = body if isinstance(body, FreeBodyShape) else None
     J = _inertia(shape.inertia if shape is not None else body)
@@ -350,7 +350,7 @@ class PolhodeClass:
 
 
 def polhode_class(solution: FreeBodySolution) -> PolhodeClass:
-    """Classify the polhode of ``solution`` (:func:`core.rigid_body.free_body_solution`).
+    """Classify the polhode of ``solution`` (:func:`rigidlab.core.rigid_body.free_body_solution`).
 
     With principal moments ``J1 <= J2 <= J3`` and ``omega_k`` the principal components of
     ``omega_body``, ``1 - 2 E J2 / |L|^2 = sum_k J_k (J_k - J2) omega_k^2 / |L|^2`` (no cancellation
@@ -460,8 +460,8 @@ def free_body_window(solution: FreeBodySolution, t0: float, t1: float, *, sample
     """The exact motion of ``solution`` over ``[t0, t1]`` and, with ``method``, a numerical run compared with it.
 
     Without ``method``: the exact motion at ``round((t1 - t0) / sample_dt) + 1`` equally spaced times.
-    With ``method`` (one of :data:`core.integrators.FIXED_STEP_METHODS` or ``ADAPTIVE_METHODS``):
-    :func:`core.integrators.integrate` on :class:`core.rigid_body.FreeBodyModel` from ``state0`` (7,)
+    With ``method`` (one of :data:`rigidlab.core.integrators.FIXED_STEP_METHODS` or ``ADAPTIVE_METHODS``):
+    :func:`rigidlab.core.integrators.integrate` on :class:`rigidlab.core.rigid_body.FreeBodyModel` from ``state0`` (7,)
     at ``t0``, sampled at the same times (a fixed step ``dt`` finer than ``sample_dt`` is shortened to
     a whole number of steps per sample; a coarser one samples every step; adaptive methods use
     ``rtol`` and ``atol = rtol / 100`` with the samples as ``t_eval``), and the exact motion at the
@@ -471,7 +471,7 @@ def free_body_window(solution: FreeBodySolution, t0: float, t1: float, *, sample
     ------
     ValueError
         For an empty window, a non-positive ``sample_dt`` or ``dt``, a missing ``state0``, an unknown
-        method; :class:`core.integrators.IntegrationError` when the run fails (e.g. an implicit step
+        method; :class:`rigidlab.core.integrators.IntegrationError` when the run fails (e.g. an implicit step
         that does not converge).
     """
     a, b, h = real_number(t0, "t0"), real_number(t1, "t1"), real_number(sample_dt, "sample_dt")

@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from core.gyroscope import RotorParams, top_motion
-from core.multibody import JOINT_KINDS, Joint, Motor, System
-from core.rigid_body import rotation_angle_between
-from core.rotations import euler_parameters_from_euler_angles, rotate_vector
+from rigidlab.core.gyroscope import RotorParams, top_motion
+from rigidlab.core.multibody import JOINT_KINDS, Joint, Motor, System
+from rigidlab.core.rigid_body import rotation_angle_between
+from rigidlab.core.rotations import euler_parameters_from_euler_angles, rotate_vector
 
 from ._linkages import SliderCrank, slider_crank, spatial_double_pendulum
 from ._pendulum import pendulum_chain
@@ -219,7 +219,7 @@ class LinkageMotion:
     residual : (n,) ``max |C(q, t)|``
     closed_form : (n,) or (n, 4) or None
         The textbook's closed form at ``t``: the slider's x (m), or the heavy top's Euler parameters
-        (:func:`core.gyroscope.top_motion`, Eqs. 8.19-8.21, ZXZ angles turned into Euler parameters).
+        (:func:`rigidlab.core.gyroscope.top_motion`, Eqs. 8.19-8.21, ZXZ angles turned into Euler parameters).
     closed_form_center : (n, 3) or None, the closed-form top's centre of mass (m; its fixed point at the origin)
     difference : (n,) or None
         Multibody minus closed form: the slider's x (m), or the rotation angle between the two tops'

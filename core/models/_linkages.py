@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import real_number
-from core.multibody import Body, Joint, Motor, System
+from rigidlab.core._validation import real_number
+from rigidlab.core.multibody import Body, Joint, Motor, System
 
 from ._pendulum import ROD_RADIUS_RATIO
 

@@ -1,4 +1,4 @@
-"""Model files: a :class:`~core.multibody.System` from a URDF (through ``yourdfpy``) or an MJCF (through MuJoCo).
+"""Model files: a :class:`~rigidlab.core.multibody.System` from a URDF (through ``yourdfpy``) or an MJCF (through MuJoCo).
 
 Both loaders build the System at one pose and at rest: every rigid group of
 links (links joined by fixed joints, or MuJoCo bodies without joints) becomes
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import real_number, short_repr
+from rigidlab.core._validation import real_number, short_repr
 
 __all__ = ["from_mjcf", "from_urdf"]
 
@@ -82,7 +82,7 @@ def _snap_round_off(J: np.ndarray, m: float) -> np.ndarray:
 
 def _add_groups(system: Any, groups: list[_Group], where: Any) -> None:
     """Add a body per moving group; ``where(group)`` names the file and element for an error."""
-    from core.rotations import euler_parameters_from_matrix
+    from rigidlab.core.rotations import euler_parameters_from_matrix
 
     for g in groups:
         if g.fixed_to_world:
@@ -285,7 +285,7 @@ def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -
         within ``SNAP_MOMENT`` (1e-12) kg m^2 per kg of zero count as zero),
         an unknown joint name in ``joint_positions``.
     """
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     path = _check_path(path)
     if not isinstance(fixed_base, (bool, np.bool_)):
@@ -393,7 +393,7 @@ def from_urdf(path: Any, *, fixed_base: bool = True, gravity: Any = (0.0, 0.0, -
                 if jt.type in ("revolute", "continuous"):
                     if degrees:
                         q = math.radians(q)
-                    from core.rotations import matrix_from_axis_angle
+                    from rigidlab.core.rotations import matrix_from_axis_angle
 
                     motion[:3, :3] = matrix_from_axis_angle(axis, q)
                 else:
@@ -481,7 +481,7 @@ def from_mjcf(path: Any, *, joint_positions: Any = None, degrees: bool = False, 
         whose joints do not combine into one, a moving body without mass, an
         unknown joint name in ``joint_positions``.
     """
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     path = _check_path(path)
     if not isinstance(degrees, (bool, np.bool_)):

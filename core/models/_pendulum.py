@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import output_times, positive_integer, real_number
-from core.integrators import integrate
-from core.multibody import System
+from rigidlab.core._validation import output_times, positive_integer, real_number
+from rigidlab.core.integrators import integrate
+from rigidlab.core.multibody import System
 
 __all__ = ["MAX_LINKS", "ROD_RADIUS_RATIO", "ReducedChainMotion", "pendulum_chain", "pendulum_chain_reduced"]
 
@@ -141,7 +141,7 @@ class ReducedChainMotion:
 
 @dataclass(frozen=True)
 class _ReducedChain:
-    """The reduced equations as a model of :func:`core.integrators.integrate`."""
+    """The reduced equations as a model of :func:`rigidlab.core.integrators.integrate`."""
 
     state_size: int
     rhs: Any
@@ -164,7 +164,7 @@ def pendulum_chain_reduced(
     An independent formulation of the same model (minimal coordinates, no
     constraints), integrated by scipy's DOP853 from the straight chain
     tilted by ``tilt`` and at rest at ``t[0]``: the reference that tests
-    and benchmarks compare :meth:`core.multibody.System.simulate` with.
+    and benchmarks compare :meth:`rigidlab.core.multibody.System.simulate` with.
 
     With ``a_ik = L`` for ``i < k``, ``c L`` for ``i = k`` (``c = 1/2`` for
     rods, 1 for point masses) and 0 otherwise, the centre of link ``k`` is
@@ -200,12 +200,12 @@ def pendulum_chain_reduced(
     ------
     ValueError
         For bad arguments (``n`` above :data:`MAX_LINKS`, ``rtol`` below
-        ``core.integrators.MIN_RTOL``).
+        ``rigidlab.core.integrators.MIN_RTOL``).
     core.integrators.IntegrationError
-        When DOP853 fails or needs more than ``core.integrators.MAX_STEPS``
+        When DOP853 fails or needs more than ``rigidlab.core.integrators.MAX_STEPS``
         right-hand sides (a run too long for its tolerances stops after
-        ``core.integrators.PACE_CHECK_CALLS``, see
-        :func:`core.integrators.integrate`).
+        ``rigidlab.core.integrators.PACE_CHECK_CALLS``, see
+        :func:`rigidlab.core.integrators.integrate`).
     """
     n, L, m, tilt, g = _chain_arguments(n, length, mass, kind, tilt, gravity)
     times = output_times(t)

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from core._validation import float_array, output_times, real_number, short_repr
-from core.rotations import (
+from rigidlab.core._validation import float_array, output_times, real_number, short_repr
+from rigidlab.core.rotations import (
     GimbalLockWarning,
     euler_angle_rates_from_omega,
     euler_angles_from_euler_parameters,
@@ -97,8 +97,8 @@ def rolling_disk(
 
     The disk (mass ``m``, moments ``m R^2 / 4`` about its diameters, body
     x and z, and ``m R^2 / 2`` about its symmetry axis, body y) touches the
-    ground's plane (:class:`~core.contact.Plane`, the ground's ``z = 0``,
-    normal +z) with its rim (:class:`~core.contact.Torus` of major radius
+    ground's plane (:class:`~rigidlab.core.contact.Plane`, the ground's ``z = 0``,
+    normal +z) with its rim (:class:`~rigidlab.core.contact.Torus` of major radius
     ``R`` and minor radius 0, axis = body y), through
     ``system.add_contact(system.ground, Plane(), disk, Torus(R, 0),
     rolling=rolling)`` in the constraint model: the normal force is the
@@ -140,8 +140,8 @@ def rolling_disk(
     rolling_disk_reference : the same disk from its reduced equations.
     rolling_disk_critical_spin : the spin above which upright rolling is stable.
     """
-    from core.contact import Plane, Torus
-    from core.multibody import System
+    from rigidlab.core.contact import Plane, Torus
+    from rigidlab.core.multibody import System
 
     R, m, lean, spin, rolling, heading_rate, g = _disk_arguments(radius, mass, lean, spin, rolling, heading_rate,
                                                                  gravity)
@@ -519,9 +519,9 @@ def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: A
         For bad times, or when not even the first piece of a failed run
         works, or the motion leaves the finite range.
     """
-    from core.contact import ContactError
-    from core.integrators import IntegrationError
-    from core.multibody import AssemblyError, SingularSystemError
+    from rigidlab.core.contact import ContactError
+    from rigidlab.core.integrators import IntegrationError
+    from rigidlab.core.multibody import AssemblyError, SingularSystemError
 
     times = float_array(t, "t", expected="output times (s)").reshape(-1)
     if times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):

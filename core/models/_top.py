@@ -7,10 +7,10 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, real_number
-from core.gyroscope import RotorParams
-from core.multibody import Body, Joint, System
-from core.rotations import euler_angle_G_bar, euler_parameters_from_euler_angles
+from rigidlab.core._validation import float_array, real_number
+from rigidlab.core.gyroscope import RotorParams
+from rigidlab.core.multibody import Body, Joint, System
+from rigidlab.core.rotations import euler_angle_G_bar, euler_parameters_from_euler_angles
 
 __all__ = ["HeavyTop", "heavy_top"]
 
@@ -41,7 +41,7 @@ class HeavyTop:
 
 
 def heavy_top(params: RotorParams, state0: Any, *, mass: float = 1.0, gravity: float = 9.81) -> HeavyTop:
-    """A heavy top equivalent to ``core.gyroscope``'s rotor with ``params`` in ``state0``.
+    """A heavy top equivalent to ``rigidlab.core.gyroscope``'s rotor with ``params`` in ``state0``.
 
     The rotor's moments about O (``I`` transverse, ``I3`` axial) and
     ``mgl`` fix the body: mass ``m``, centre of mass at ``l = mgl / (m g)``
@@ -54,7 +54,7 @@ def heavy_top(params: RotorParams, state0: Any, *, mass: float = 1.0, gravity: f
     params : RotorParams
     state0 : (6,)
         ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)``, ZXZ angles and
-        their rates (rad, rad/s), as in :func:`core.gyroscope.simulate`.
+        their rates (rad, rad/s), as in :func:`rigidlab.core.gyroscope.simulate`.
     mass : float, keyword-only
         m (kg), > 0.
     gravity : float, keyword-only
@@ -104,6 +104,6 @@ def heavy_top(params: RotorParams, state0: Any, *, mass: float = 1.0, gravity: f
 
 
 def _matrix(p: np.ndarray) -> np.ndarray:
-    from core.rotations import matrix_from_euler_parameters
+    from rigidlab.core.rotations import matrix_from_euler_parameters
 
     return matrix_from_euler_parameters(p)

@@ -2,7 +2,7 @@
 shaft, the heavy top in steady precession or sleeping, a damped two-mass oscillator.
 
 Each builder returns an assembled System in an equilibrium or a steady
-motion, ready for :func:`core.modal.linearize` (a steady precession needs
+motion, ready for :func:`rigidlab.core.modal.linearize` (a steady precession needs
 ``frame_omega=model.frame_omega``).
 """
 
@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, real_number
-from core.gyroscope import RotorParams, steady_precession_rates
-from core.multibody import Body, Joint, SpringDamper, System
+from rigidlab.core._validation import float_array, real_number
+from rigidlab.core.gyroscope import RotorParams, steady_precession_rates
+from rigidlab.core.multibody import Body, Joint, SpringDamper, System
 
 from ._pendulum import ROD_RADIUS_RATIO
 from ._top import heavy_top
@@ -203,7 +203,7 @@ class SteadyTop:
     phi_dot, psi_dot : float
         Precession and spin rates (rad/s).
     frame_omega : (3,) ndarray
-        ``(0, 0, phi_dot)``: pass it to :func:`core.modal.linearize`.
+        ``(0, 0, phi_dot)``: pass it to :func:`rigidlab.core.modal.linearize`.
     """
 
     system: System
@@ -220,12 +220,12 @@ class SteadyTop:
 
 def steady_top(params: RotorParams, *, spin: float, theta: float = 0.0, precession: str = "slow",
                mass: float = 1.0, gravity: float = 9.81) -> SteadyTop:
-    """The heavy top of :func:`core.models.heavy_top` in steady precession, or sleeping at ``theta = 0``.
+    """The heavy top of :func:`rigidlab.core.models.heavy_top` in steady precession, or sleeping at ``theta = 0``.
 
     At ``theta = 0`` the top spins upright at ``spin`` (stable above
-    :func:`core.gyroscope.sleeping_top_critical_spin`); otherwise it
+    :func:`rigidlab.core.gyroscope.sleeping_top_critical_spin`); otherwise it
     precesses at the slow or fast rate of
-    :func:`core.gyroscope.steady_precession_rates` (Eq. 8.23), a motion that
+    :func:`rigidlab.core.gyroscope.steady_precession_rates` (Eq. 8.23), a motion that
     is steady seen from the frame turning with the precession,
     ``frame_omega = (0, 0, phi_dot)``.
 
@@ -239,7 +239,7 @@ def steady_top(params: RotorParams, *, spin: float, theta: float = 0.0, precessi
     precession : str, keyword-only
         ``"slow"`` or ``"fast"`` (ignored at ``theta = 0``).
     mass, gravity : float, keyword-only
-        As :func:`core.models.heavy_top`.
+        As :func:`rigidlab.core.models.heavy_top`.
 
     Returns
     -------

@@ -11,7 +11,7 @@ The formulation is explained step by step in ``docs/multibody.md``.
 
 Example::
 
-    from core.multibody import System
+    from rigidlab.core.multibody import System
     system = System(gravity=(0.0, 0.0, -9.81))
     link = system.add_body("link", mass=1.0, inertia=(1 / 12, 1 / 12, 1e-4),
                            position=(0.0, 0.0, -0.5))

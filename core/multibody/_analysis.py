@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import positive_integer, real_number
+from rigidlab.core._validation import positive_integer, real_number
 
 from ._engine import _Engine
 from ._state import _make_state, retract

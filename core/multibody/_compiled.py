@@ -1,6 +1,6 @@
 """The compiled description of a System: flat typed arrays for the kernels of ``_kernel``.
 
-A :class:`Compiled` is made once from an :class:`~core.multibody._engine._Engine`
+A :class:`Compiled` is made once from an :class:`~rigidlab.core.multibody._engine._Engine`
 (itself made once per change of the System) and holds
 
 * per table row (see ``_engine``): the body and body-frame vector of ``a``,

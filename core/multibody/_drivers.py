@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import short_repr
+from rigidlab.core._validation import short_repr
 
 _H1 = 1e-30
 _H2 = 1e-4

@@ -1,4 +1,4 @@
-"""Handles of the items of a :class:`~core.multibody.System` (bodies, joints, drivers, forces).
+"""Handles of the items of a :class:`~rigidlab.core.multibody.System` (bodies, joints, drivers, forces).
 
 Every ``System.add_*`` call returns one of these small frozen objects. They
 describe the model (constant data fixed when the item was added: masses,

@@ -64,7 +64,7 @@ try:  # numpy's C einsum: the same contraction without the Python wrapper's argu
 except ImportError:  # numpy < 2
     from numpy.core.multiarray import c_einsum as einsum
 
-from core.integrators import RunFailure
+from rigidlab.core.integrators import RunFailure
 
 from ._compiled import compile_engine
 
@@ -182,7 +182,7 @@ def parameter_rates(p: np.ndarray, omega_body: np.ndarray) -> np.ndarray:
 
 class SingularSystemError(RunFailure, ValueError):
     """The constrained equations have no unique solution (see the message); raised during a run, it carries
-    the outputs before it (``trajectory``, see ``core.integrators.RunFailure``)."""
+    the outputs before it (``trajectory``, see ``rigidlab.core.integrators.RunFailure``)."""
 
     def __init__(self, message: str, *, t: float | None = None):
         super().__init__(message)
@@ -544,7 +544,7 @@ class _Engine:
         self._jacobian_of = None
 
     def _contact_rows(self, contacts, starts) -> None:
-        """Rows of the contacts after the joint and motor rows (see ``core.contact._kernel``).
+        """Rows of the contacts after the joint and motor rows (see ``rigidlab.core.contact._kernel``).
 
         Holonomic rows first (one reduced row per constraint-model contact,
         Eqs. 8.105-8.107), then the velocity-only rows of rolling contacts
@@ -578,7 +578,7 @@ class _Engine:
              self.rolling_rows[c.index] if self.rolling_rows[c.index].size else None)
             for c in self.contacts if self.contact_row[c.index] >= 0)
         if self.contacts:
-            from core.contact._kernel import ContactKernel
+            from rigidlab.core.contact._kernel import ContactKernel
 
             self.contact_kernel = ContactKernel(self.contacts, self.n)
             self.contact_state = self.contact_kernel.initial_state(list(starts))
@@ -706,7 +706,7 @@ class _Engine:
         in ``self.Dt`` (body velocities) when ``level >= 1``. The contacts
         are evaluated too (``self.contact_eval``); ``commit`` makes their
         surface parameters the warm start of later evaluations (see
-        ``core.contact._kernel.ContactKernel.evaluate``).
+        ``rigidlab.core.contact._kernel.ContactKernel.evaluate``).
         """
         # the Jacobian depends on the positions only: at the positions of the last table that formed it, with
         # no other writer since (the generation), the buffers already hold it (the accelerations after a

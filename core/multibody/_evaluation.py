@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import real_number
+from rigidlab.core._validation import real_number
 
 from ._analysis import analyze_rank, check_constrained_mass
 

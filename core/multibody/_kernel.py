@@ -1,10 +1,10 @@
 """Compiled kernels of the multibody engine (numba, ``cache=True``).
 
-Small functions over the flat arrays of :class:`core.multibody._compiled.Compiled`
+Small functions over the flat arrays of :class:`rigidlab.core.multibody._compiled.Compiled`
 (no objects, no allocation in the inner loops). Three groups:
 
 * **Rows** (:func:`body_vectors`, :func:`rows_eval`): every row of the engine's
-  row table has the form ``Phi = a . (y_b1 - y_b2)`` (see ``core.multibody._engine``),
+  row table has the form ``Phi = a . (y_b1 - y_b2)`` (see ``rigidlab.core.multibody._engine``),
   with ``a`` a direction fixed in a body and ``y_b1``, ``y_b2`` points (``h = 1``)
   or directions (``h = 0``) fixed in bodies. The distinct body vectors of the
   table (a revolute joint's five rows share two points and three axes) are
@@ -1097,7 +1097,7 @@ def project_packed(I, F, TI, W, y, tol):
 
 # ---------------------------------------------------------------- the step loop (DOP853 with projection)
 #
-# The loop of ``core.integrators._run_adaptive_projected`` with scipy's DOP853
+# The loop of ``rigidlab.core.integrators._run_adaptive_projected`` with scipy's DOP853
 # (``scipy.integrate._ivp.rk``: the same coefficients, passed in from scipy,
 # the same initial step, error norm, step control and dense output), the
 # projection after every accepted step and the outputs, all compiled: one

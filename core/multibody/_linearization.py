@@ -1,4 +1,4 @@
-"""Hooks of the compiled model for linearization (used by :mod:`core.modal`).
+"""Hooks of the compiled model for linearization (used by :mod:`rigidlab.core.modal`).
 
 Everything here works on the generic constraint rows of a System (the row
 table of ``_engine``, with its motors) and on its force elements, never on
@@ -199,7 +199,7 @@ def tree_null_space(eng: _Engine, ref: Reference) -> np.ndarray | None:
     every joint adds its free directions and carries its parent's columns:
     O(n f). The k secondary rows (loops) then restrict the tree's motions
     to the null space of the small ``E = D_sec B`` (k x f). The columns are
-    not orthonormal (see ``core.modal``).
+    not orthonormal (see ``rigidlab.core.modal``).
 
     None (the caller takes the dense null space) without the compiled
     kernels, with contacts or rolling rows, or when a tree joint's rows are

@@ -27,11 +27,11 @@ import numpy as np
 from scipy.linalg import lapack
 from scipy.optimize import brentq
 
-from core._constants import DEFAULT_ATOL, DEFAULT_RTOL
-from core._errors import ArgumentError
-from core._validation import output_times, positive_integer, real_number, short_repr
-from core import integrators
-from core.integrators import (
+from rigidlab.core._constants import DEFAULT_ATOL, DEFAULT_RTOL
+from rigidlab.core._errors import ArgumentError
+from rigidlab.core._validation import output_times, positive_integer, real_number, short_repr
+from rigidlab.core import integrators
+from rigidlab.core.integrators import (
     MAX_STEPS,
     STALLED_STEP,
     DriftReport,
@@ -84,7 +84,7 @@ ADAPTIVE_METHODS = ("DOP853", "RK45")
 KINEMATIC_METHOD = "kinematic"
 #: Integrator of a kinematic run after a separation gave it a degree of freedom.
 KINEMATIC_CONTINUATION = "DOP853"
-#: The project's fixed-step methods, run through :func:`core.integrators.integrate`.
+#: The project's fixed-step methods, run through :func:`rigidlab.core.integrators.integrate`.
 FIXED_STEP_METHODS = ("rk4", "midpoint")
 #: Constraint stabilization options of :func:`simulate`.
 STABILIZATIONS = ("projection", "baumgarte", "none")
@@ -155,12 +155,12 @@ class _Dynamics:
 
     def failure(self, t: float, y: np.ndarray, exc: BaseException | None) -> BaseException | None:
         """The error of a run that failed after its last accepted state ``(t, y)``, or (``exc`` None) whose
-        steps have shrunk to nothing there (``core.integrators`` asks): a dead point's
+        steps have shrunk to nothing there (``rigidlab.core.integrators`` asks): a dead point's
         :class:`SingularSystemError` when the state is one (see :func:`dead_point_error`), else ``exc``."""
         return dead_point_error(self.eng, t, y, exc)
 
     def stage_rejected(self) -> None:
-        """A step's trial stage could not be evaluated (see ``core.integrators``): the retried step's
+        """A step's trial stage could not be evaluated (see ``rigidlab.core.integrators``): the retried step's
         contacts start again from the accepted states, not from the failed stages' parameters."""
         if self.eng.contact_kernel is not None:
             self.eng.contact_kernel.forget_trials(self.eng.contact_state)
@@ -671,8 +671,8 @@ def _switch_to_compliant(eng: _Engine, c: int, t: float, y: np.ndarray) -> None:
 
 
 def _separation(system: Any, eng: _Engine, event: tuple):
-    """A :class:`~core.contact.Separation` from an event ``(t, contact index, state, action)``."""
-    from core.contact import Separation
+    """A :class:`~rigidlab.core.contact.Separation` from an event ``(t, contact index, state, action)``."""
+    from rigidlab.core.contact import Separation
 
     t, c, y, action = event
     res = eng.contact_kernel.evaluate(y, matrices(y[3 * eng.n : 7 * eng.n].reshape(eng.n, 4)), 0,
@@ -897,7 +897,7 @@ class MultibodyTrajectory:
     n_rhs : int
         Right-hand-side evaluations of the integrator (projections and
         output evaluations not counted).
-    separations : tuple of :class:`~core.contact.Separation`
+    separations : tuple of :class:`~rigidlab.core.contact.Separation`
         Zero crossings of the normal forces of constraint-model contacts, in
         time order (see ``simulate(..., on_separation=...)``).
     status : str
@@ -1056,7 +1056,7 @@ class MultibodyTrajectory:
             nan)``); ``tangential_force``, ``force`` (n, 3) on ``body_j``;
             ``multipliers`` (n, 5); ``constraint`` (n,) bool.
         """
-        from core.contact import Contact, ContactHistory
+        from rigidlab.core.contact import Contact, ContactHistory
 
         if not isinstance(contact, Contact):
             raise ValueError(f"contact: expected a Contact (from System.add_contact), got {short_repr(contact)}")
@@ -1417,7 +1417,7 @@ def _run_kinematic(model: _Dynamics, y0: np.ndarray, t0: float, t_eval: np.ndarr
     track are put back as they were before it. The separation check runs at every
     step's end (``model.stop_time``); a crossing is located by Brent's method
     on the normal force of kinematic solutions inside the step. Returns what
-    :func:`core.integrators.integrate` returns (``t[0] = t0``).
+    :func:`rigidlab.core.integrators.integrate` returns (``t[0] = t0``).
     """
     n = model.eng.n
     pending = [float(x) for x in t_eval if x > t0]
@@ -1531,7 +1531,7 @@ def simulate(
         ``"DOP853"`` (default, order 8) or ``"RK45"`` (order 5): scipy's
         adaptive methods, stepped one accepted step at a time, outputs by
         dense output; ``"rk4"`` or ``"midpoint"``: fixed steps of at most
-        ``dt`` through :func:`core.integrators.integrate`;
+        ``dt`` through :func:`rigidlab.core.integrators.integrate`;
         ``"kinematic"``: for a System whose constraints fix every
         coordinate (zero degrees of freedom: a driven mechanism, a cam
         turned by a motor with its follower on it), no integration: at
@@ -1548,7 +1548,7 @@ def simulate(
         is refused.
     rtol, atol : float, keyword-only
         Adaptive methods: scipy's tolerances (default
-        ``core.integrators.DEFAULT_RTOL`` 1e-8 and ``DEFAULT_ATOL`` 1e-10);
+        ``rigidlab.core.integrators.DEFAULT_RTOL`` 1e-8 and ``DEFAULT_ATOL`` 1e-10);
         ``"kinematic"``: those of its DOP853 continuation.
     dt : float, keyword-only
         Fixed-step methods: the largest step (required).
@@ -1904,7 +1904,7 @@ def _run_compiled(model: _Dynamics, method: str, y0: np.ndarray, t0: float, t_ou
     (motor laws, user loads) in the right-hand side, or a run the compiled loop handed back (a pivot, a
     projection or a step it could not take: the interpreted loop diagnoses it).
 
-    It takes the same steps as ``core.integrators`` with scipy's DOP853 (the same coefficients, initial
+    It takes the same steps as ``rigidlab.core.integrators`` with scipy's DOP853 (the same coefficients, initial
     step, error norm, step control and dense output), at a few microseconds per step instead of a few
     hundred of interpreter overhead.
     """

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, short_repr
+from rigidlab.core._validation import float_array, short_repr
 
 from ._elements import Body
 from ._engine import matrices

@@ -5,8 +5,8 @@ one *current state* ``(t, q, v)``: the configuration and velocities that
 ``add_joint`` and friends read their global points in, that
 :meth:`System.assemble` and :meth:`System.equilibrium` update and that
 :meth:`System.simulate` starts from. Results of analyses are separate frozen
-objects (:class:`~core.multibody.MultibodyTrajectory`,
-:class:`~core.multibody.AssemblyReport`, ...); a simulation never changes
+objects (:class:`~rigidlab.core.multibody.MultibodyTrajectory`,
+:class:`~rigidlab.core.multibody.AssemblyReport`, ...); a simulation never changes
 the System. This is MuJoCo's model/data split with the data's one
 persistent state kept on the System.
 """
@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from core._validation import float_array, output_times, positive_integer, real_number, short_repr
-from core.integrators import ADAPTIVE_METHODS, MAX_STEPS, MIN_RTOL
-from core.rotations import UNIT_NORM_TOL
+from rigidlab.core._validation import float_array, output_times, positive_integer, real_number, short_repr
+from rigidlab.core.integrators import ADAPTIVE_METHODS, MAX_STEPS, MIN_RTOL
+from rigidlab.core.rotations import UNIT_NORM_TOL
 
 from ._drivers import driver_function
 from ._elements import (
@@ -127,7 +127,7 @@ def _unit_parameters(p: Any) -> np.ndarray:
         raise ValueError(
             f"orientation: expected unit Euler parameters (theta0, theta1, theta2, theta3), scalar first "
             f"(| |p| - 1 | <= {UNIT_NORM_TOL:g}), got norm {norm!r}; renormalize with "
-            "core.rotations.normalize_euler_parameters"
+            "rigidlab.core.rotations.normalize_euler_parameters"
         )
     return a / norm
 
@@ -171,8 +171,8 @@ def _check_run_limits(t: Any, method: Any, rtol: Any, stabilization: Any, baumga
                       adaptive: tuple[str, ...]) -> None:
     """Refuse the options of ``System.simulate`` that would make a run overflow or never end: ``baumgarte``
     above :data:`MAX_BAUMGARTE`, or with ``alpha (t[-1] - t[0])`` above ``max_steps`` for an adaptive run with
-    Baumgarte's stabilization; ``rtol`` below ``core.integrators.MIN_RTOL`` (the other checks are
-    ``core.multibody._simulate.simulate``'s)."""
+    Baumgarte's stabilization; ``rtol`` below ``rigidlab.core.integrators.MIN_RTOL`` (the other checks are
+    ``rigidlab.core.multibody._simulate.simulate``'s)."""
     alpha = real_number(baumgarte, "baumgarte", expected="a finite rate > 0 (rad/s)")
     if not 0.0 < alpha <= MAX_BAUMGARTE:
         raise ValueError(f"baumgarte: expected a finite rate > 0 and <= core.multibody._system.MAX_BAUMGARTE = "
@@ -208,7 +208,7 @@ class System:
     current configuration (the current state). Analyses:
     :meth:`assemble` (Newton onto the constraints), :meth:`equilibrium`
     (statics), :meth:`simulate` (dynamics; returns a
-    :class:`~core.multibody.MultibodyTrajectory` and leaves the System
+    :class:`~rigidlab.core.multibody.MultibodyTrajectory` and leaves the System
     unchanged), :meth:`evaluate` (all matrices of the equations of motion
     at the current state).
 
@@ -431,7 +431,7 @@ class System:
             Centre of mass R, global (m).
         orientation : (4,)
             Euler parameters (theta0, theta1, theta2, theta3), scalar first,
-            unit within ``core.rotations.UNIT_NORM_TOL`` (1e-6); normalized.
+            unit within ``rigidlab.core.rotations.UNIT_NORM_TOL`` (1e-6); normalized.
         velocity : (3,)
             Velocity of the centre of mass, global (m/s).
         omega : (3,) or None
@@ -944,10 +944,10 @@ class System:
             Two different bodies of this System (either may be the ground).
         surface_i, surface_j : Surface
             In the frames of ``body_i`` and ``body_j``: two surfaces
-            (:class:`~core.contact.Plane`, :class:`~core.contact.Sphere`,
-            :class:`~core.contact.Ellipsoid`, :class:`~core.contact.Torus`,
-            :class:`~core.contact.ParametricSurface`) or two
-            :class:`~core.contact.PlanarCurve` in parallel body x-y planes.
+            (:class:`~rigidlab.core.contact.Plane`, :class:`~rigidlab.core.contact.Sphere`,
+            :class:`~rigidlab.core.contact.Ellipsoid`, :class:`~rigidlab.core.contact.Torus`,
+            :class:`~rigidlab.core.contact.ParametricSurface`) or two
+            :class:`~rigidlab.core.contact.PlanarCurve` in parallel body x-y planes.
         model : ``"constraint"`` or ``"compliant"``, keyword-only
         rolling : bool, keyword-only
             Rolling without slip: the contact points' relative velocity
@@ -981,8 +981,8 @@ class System:
             rank of ``C_s``, Eq. 8.109), curves in planes that are not
             parallel.
         """
-        from core.contact import CONTACT_MODELS, Contact, Surface
-        from core.contact._search import check_rank, find_contact
+        from rigidlab.core.contact import CONTACT_MODELS, Contact, Surface
+        from rigidlab.core.contact._search import check_rank, find_contact
 
         bi = self._body(body_i, "body_i")
         bj = self._body(body_j, "body_j")
@@ -1176,15 +1176,15 @@ class System:
             ``"DOP853"`` (default, order 8) or ``"RK45"`` (order 5): scipy's
             adaptive methods stepped one accepted step at a time, outputs by
             dense output; ``"rk4"`` or ``"midpoint"``: fixed steps of at
-            most ``dt`` through :func:`core.integrators.integrate`;
+            most ``dt`` through :func:`rigidlab.core.integrators.integrate`;
             ``"kinematic"``: a System without a degree of freedom (a driven
             mechanism, a cam on its motor with the follower held on it) is
             solved at every output from its constraints, positions,
             velocities, accelerations and multipliers (Eqs. 8.105-8.107),
-            without integration error (see ``core.multibody._simulate.simulate``).
+            without integration error (see ``rigidlab.core.multibody._simulate.simulate``).
         rtol, atol : float, keyword-only
             Adaptive methods: scipy's tolerances (defaults
-            ``core.integrators.DEFAULT_RTOL`` 1e-8, ``DEFAULT_ATOL`` 1e-10;
+            ``rigidlab.core.integrators.DEFAULT_RTOL`` 1e-8, ``DEFAULT_ATOL`` 1e-10;
             ``rtol >= core.integrators.MIN_RTOL``, 2.2e-14);
             ``"kinematic"``: those of DOP853 after a compliant continuation.
         dt : float, keyword-only
@@ -1205,13 +1205,13 @@ class System:
             Newton tolerance of the position projection, ``max |C|``.
         max_steps : int, keyword-only
             Limit on steps (fixed) or right-hand-side evaluations
-            (adaptive); default ``core.integrators.MAX_STEPS`` (1e7). An
+            (adaptive); default ``rigidlab.core.integrators.MAX_STEPS`` (1e7). An
             adaptive run takes at least one evaluation per radian of its
             fastest body's turn: one whose ``|omega| (t[-1] - t[0])`` at the
             start exceeds ``max_steps`` is refused before it starts, and one
-            above ``core.multibody._simulate.LONG_RUN_RADIANS`` (1e5 rad,
+            above ``rigidlab.core.multibody._simulate.LONG_RUN_RADIANS`` (1e5 rad,
             minutes of CPU) warns (RuntimeWarning). One whose pace after
-            ``core.integrators.PACE_CHECK_CALLS`` (1e4) evaluations, or any
+            ``rigidlab.core.integrators.PACE_CHECK_CALLS`` (1e4) evaluations, or any
             doubling of them, needs more than ``PACE_MARGIN`` (2) times
             ``max_steps`` stops then with ``IntegrationError`` (a horizon of
             1e300 s ends within seconds).

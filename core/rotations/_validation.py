@@ -1,6 +1,6 @@
 """Input validation shared by every representation.
 
-Every public function of :mod:`core.rotations` validates its inputs here and
+Every public function of :mod:`rigidlab.core.rotations` validates its inputs here and
 raises :class:`ValueError` naming the argument, what was expected and what
 was given. Conventions are stated once in ``docs/conventions.md``.
 """
@@ -12,7 +12,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from core._validation import _holds_bool
+from rigidlab.core._validation import _holds_bool
 
 #: Largest accepted deviation ``| ||p|| - 1 |`` of Euler parameters (and of
 #: unit axes) from unit norm. Inputs within it are accepted (and normalized

@@ -1,7 +1,7 @@
 """What a browser receives: a plain websocket client that decodes every server frame.
 
 :class:`Recorder` connects to a viser server as a browser would (see
-:mod:`app.wire`), decodes each frame (``[u64 inner size][u64 compressed
+:mod:`rigidlab.app.wire`), decodes each frame (``[u64 inner size][u64 compressed
 size]`` + zstd msgpack + 8-byte aligned raw buffers, viser 1.1.1's
 ``_message_producer``) with its numpy buffers put back in place, and keeps
 every message in arrival order. :meth:`Recorder.nodes` replays the scene
@@ -19,7 +19,7 @@ import msgpack
 import numpy as np
 import zstandard
 
-from app.wire import SUBPROTOCOL, camera_message, frame_payload
+from rigidlab.app.wire import SUBPROTOCOL, camera_message, frame_payload
 
 
 def decode_frame(frame: bytes, decompressor: zstandard.ZstdDecompressor) -> list[tuple[dict[str, Any], int]]:

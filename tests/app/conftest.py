@@ -17,10 +17,10 @@ from typing import Any
 import pytest
 import viser
 
-from app.gate import Gate
-from app.scenes.base import Scene, SceneContext
-from app.server import RigidlabApp, create_app
-from app.wire import SUBPROTOCOL, camera_message, gui_value_message
+from rigidlab.app.gate import Gate
+from rigidlab.app.scenes.base import Scene, SceneContext
+from rigidlab.app.server import RigidlabApp, create_app
+from rigidlab.app.wire import SUBPROTOCOL, camera_message, gui_value_message
 from tests.helpers import wait_until
 
 
@@ -120,7 +120,7 @@ class WsClient:
             self._ready.set()
 
     def send(self, payload: bytes) -> None:
-        """Send one packed client message (see :mod:`app.wire`)."""
+        """Send one packed client message (see :mod:`rigidlab.app.wire`)."""
         import asyncio
 
         future = asyncio.run_coroutine_threadsafe(self._ws.send(payload), self._loop)  # type: ignore[attr-defined]

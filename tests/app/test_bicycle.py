@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.scenes.bicycle import CSV_HEADER, PRESETS, BicycleScene, _ride_chunk, eigenvalue_svg
-from core.models import MEIJAARD_2007_EIGENVALUES, whipple_bicycle_reference, whipple_modes_at, whipple_sweep
-from core.multibody import RunState
+from rigidlab.app.scenes.bicycle import CSV_HEADER, PRESETS, BicycleScene, _ride_chunk, eigenvalue_svg
+from rigidlab.core.models import MEIJAARD_2007_EIGENVALUES, whipple_bicycle_reference, whipple_modes_at, whipple_sweep
+from rigidlab.core.multibody import RunState
 from tests.helpers import click, send_value, wait_until
 
 RECOVERED = math.radians(1.0)  # |lean| below this: recovered
@@ -47,7 +47,7 @@ def _window_leans(scene):
 
 
 def test_scene_is_registered_last():
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     scenes = discover_scenes()
     assert "bicycle" in scenes and BicycleScene.order == 90

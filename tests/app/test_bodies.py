@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.scenes._bodies import SPRING_COILS, Parts, saturating_arrows, spring_polyline
-from app.scenes._svg import Chart, nice_ticks
+from rigidlab.app.scenes._bodies import SPRING_COILS, Parts, saturating_arrows, spring_polyline
+from rigidlab.app.scenes._svg import Chart, nice_ticks
 
 
 def test_parts_are_placed_with_their_bodies() -> None:
@@ -85,7 +85,7 @@ def test_saturating_arrows_point_along_their_vectors_and_never_exceed_the_longes
 def test_add_body_meshes_puts_every_mesh_under_one_frame(server) -> None:
     import trimesh
 
-    from app.scenes._bodies import add_body_meshes
+    from rigidlab.app.scenes._bodies import add_body_meshes
 
     box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
     frame = add_body_meshes(server.scene, "/bodies_test/ghost", [(box, (10, 20, 30)), ((box.vertices, box.faces),

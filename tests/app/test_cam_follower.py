@@ -24,11 +24,11 @@ import re
 import numpy as np
 import pytest
 
-from app.readout import significant
-from app.scenes._arrows import vertex_rgb
-from app.scenes._plots import capped_range
-from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
-from app.scenes.cam_follower import (
+from rigidlab.app.readout import significant
+from rigidlab.app.scenes._arrows import vertex_rgb
+from rigidlab.app.scenes._plots import capped_range
+from rigidlab.app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
+from rigidlab.app.scenes.cam_follower import (
     CSV_HEADER,
     ECCENTRIC_RADIUS,
     ECCENTRICITY,
@@ -115,7 +115,7 @@ def numbers(text: str, label: str) -> str:
 
 
 def test_scene_is_registered_after_the_multibody_scenes():
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     scenes = discover_scenes()
     assert "cam_follower" in scenes and CamFollowerScene.order == 70
@@ -544,7 +544,7 @@ def test_every_cam_and_follower_gives_a_closed_mesh_and_finite_tables():
 
 
 def test_extruded_contours_are_closed_with_outward_faces():
-    from app.meshes import extrude as _extrude
+    from rigidlab.app.meshes import extrude as _extrude
 
     # star-shaped about the origin (fan caps) and a C shape that is not (ear clipping)
     t = np.linspace(0, 2 * math.pi, 200, endpoint=False)

@@ -25,8 +25,8 @@ import time
 
 import pytest
 
-from app.supervisor import reuse_port_supported
-from app.wire import SUBPROTOCOL, camera_message
+from rigidlab.app.supervisor import reuse_port_supported
+from rigidlab.app.wire import SUBPROTOCOL, camera_message
 from tests.app.conftest import WsClient
 from tests.helpers import failure_lines, start_serving, stop_serving, wait_until
 

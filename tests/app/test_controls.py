@@ -11,7 +11,7 @@ import re
 
 import pytest
 
-from app.controls import (
+from rigidlab.app.controls import (
     Button,
     ButtonGroup,
     Choice,
@@ -147,8 +147,8 @@ def test_a_browser_value_not_yet_taken_survives_the_loop_showing_another(server)
     """The loop fills a field that only shows the scene's state (``set(..., keep_browser=True)``) in the
     frame a browser typed into it: the browser's value is newer, so it stays and is taken as a change next
     frame. A plain ``set`` (a preset, a scene's own change) and a loaded state replace it."""
-    from app.gate import Gate
-    from app.panel import ControlPanel
+    from rigidlab.app.gate import Gate
+    from rigidlab.app.panel import ControlPanel
     from tests.helpers import send_value
 
     with server.gui.add_folder("Race test") as folder:

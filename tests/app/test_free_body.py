@@ -21,8 +21,8 @@ import time
 import numpy as np
 import pytest
 
-from app.scenes._playback import MAX_SIM_STEP
-from app.scenes.free_body import (
+from rigidlab.app.scenes._playback import MAX_SIM_STEP
+from rigidlab.app.scenes.free_body import (
     _LABEL_SCALE,
     BODIES,
     CSV_HEADER,
@@ -34,13 +34,13 @@ from app.scenes.free_body import (
     initial_orientation,
     preset_omega,
 )
-from core.rigid_body import (
+from rigidlab.core.rigid_body import (
     free_body_exact,
     free_body_solution,
     principal_axes,
     rotation_angle_between,
 )
-from core.rotations import matrix_from_euler_parameters
+from rigidlab.core.rotations import matrix_from_euler_parameters
 from tests.app._views import Camera, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
 from tests.helpers import click, send_value, wait_until
@@ -66,7 +66,7 @@ def free(running_scene):
 
 
 def test_scene_is_registered_between_manipulator_and_gyroscope():
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     names = list(discover_scenes())
     assert FreeBodyScene.order == 30 and "free_body" in names

@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.scenes._playback import MAX_SIM_STEP
-from app.scenes.gyroscope import (
+from rigidlab.app.scenes._playback import MAX_SIM_STEP
+from rigidlab.app.scenes.gyroscope import (
     _ARROW_LABELS,
     _LABEL_SCALE,
     BODY_LABELS,
@@ -33,7 +33,7 @@ from app.scenes.gyroscope import (
     Inputs,
     preset_inputs,
 )
-from core.gyroscope import (
+from rigidlab.core.gyroscope import (
     RotorParams,
     invariants,
     nutation,
@@ -55,7 +55,7 @@ def notices_with(app, text):
 
 
 def test_scene_is_registered_after_the_others():
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     scenes = discover_scenes()
     assert "gyroscope" in scenes
@@ -279,7 +279,7 @@ def test_framing_shows_the_suspension_large_and_left_of_the_gui_panel():
     suspension's centre must project into the left two thirds, and it must
     fill a good part of the height, seen from above (elevated 3/4 view).
     """
-    from app.scenes import gyroscope as g
+    from rigidlab.app.scenes import gyroscope as g
 
     camera = Camera(GyroscopeScene.camera_position, GyroscopeScene.camera_look_at)
     centre = np.array([0.0, 0.0, 0.5 * (g._BASE_Z + g._TIP_RADIUS)])
@@ -319,7 +319,7 @@ def test_plots_use_seconds_a_readable_log_drift_and_a_window_of_two_periods(gyro
     calendar dates by default), the drift plot is log10 |drift| (round-off
     drifts ~1e-15 printed as '0' on a linear axis), and the window spans at
     least two nutation periods."""
-    from app.scenes.gyroscope import DRIFT_FLOOR_LOG10, drift_log10
+    from rigidlab.app.scenes.gyroscope import DRIFT_FLOOR_LOG10, drift_log10
 
     app, scene = gyro
     plots = scene.plot_handles
@@ -637,7 +637,7 @@ def test_body_labels_stay_apart_in_presenter_view_while_the_rotor_moves(bare_sce
     angles only; over 4 s of the default motion and of every preset, seen from the default camera on a
     1600 x 900 page with the labels 1.8 x larger, no body label overlaps another (before: 7 of 140 views;
     labels of bodies and arrows overlapped in 95 pair-views, now 41, mostly L passing φ)."""
-    from app.scenes.base import PRESENTER_LABEL_SCALE
+    from rigidlab.app.scenes.base import PRESENTER_LABEL_SCALE
 
     scale = _LABEL_SCALE * PRESENTER_LABEL_SCALE
     camera = Camera(GyroscopeScene.camera_position, GyroscopeScene.camera_look_at, viewport=(1600, 900))

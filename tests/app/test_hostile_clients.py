@@ -1,6 +1,6 @@
 """No browser can break a shared session: every registered scene, every control.
 
-A plain websocket client speaking viser's protocol (``app.wire``) sends what
+A plain websocket client speaking viser's protocol (``rigidlab.app.wire``) sends what
 a browser's controls never would, to every control of the active scene and
 of the session shell: NaN, +-inf, +-1e308, values far outside the declared
 range, integers beyond 64 bits' float range, text, None, lists, objects and
@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app.controls import Button, ButtonGroup, Choice, NumberText, Refused, Slider, Text, Toggle, VectorText
-from app.scenes import discover_scenes
-from app.wire import gui_value_message
+from rigidlab.app.controls import Button, ButtonGroup, Choice, NumberText, Refused, Slider, Text, Toggle, VectorText
+from rigidlab.app.scenes import discover_scenes
+from rigidlab.app.wire import gui_value_message
 from tests.helpers import wait_until
 
 SCENES = list(discover_scenes())
@@ -43,7 +43,7 @@ MODEL_FILE = Path(__file__).resolve().parents[2] / "examples" / "four_bar.py"
 
 
 def _model_scenes() -> dict[str, Any]:
-    from app.scenes.model import model_scene_classes
+    from rigidlab.app.scenes.model import model_scene_classes
 
     return {**model_scene_classes([MODEL_FILE]), **discover_scenes()}
 
@@ -238,7 +238,7 @@ def test_hostile_client_cannot_break_a_shared_session(
 
 
 def _camera(**changes: Any) -> bytes:
-    """A browser's camera message (as :func:`app.wire.camera_message`) with ``changes``."""
+    """A browser's camera message (as :func:`rigidlab.app.wire.camera_message`) with ``changes``."""
     import msgpack
 
     message = {"type": "ViewerCameraMessage", "wxyz": (1.0, 0.0, 0.0, 0.0), "position": (3.0, -4.0, 2.5),
@@ -263,7 +263,7 @@ def test_hostile_camera_messages_are_dropped_with_one_log_line(
     """viser stores the camera a browser reports as it comes; with a non-finite position or look-at stored,
     the next scene switch (which aims the camera) raised in viser's camera setter, a traceback in the log.
     Such messages are dropped before viser sees them, with one log line (not one per message)."""
-    from app.server import DEFAULT_CAMERA_LOOK_AT
+    from rigidlab.app.server import DEFAULT_CAMERA_LOOK_AT
     from tests.app.test_server import fake_app
 
     caplog.set_level(logging.INFO)

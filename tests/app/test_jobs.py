@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from app.jobs import ChunkTimeline, make_executor
+from rigidlab.app.jobs import ChunkTimeline, make_executor
 from tests.app import _jobs
 from tests.helpers import wait_until
 
@@ -154,7 +154,7 @@ def test_a_failed_job_fails_every_submitter_and_is_not_kept(executor) -> None:
 
 
 def test_jobs_that_do_not_pickle_by_name_are_not_shared() -> None:
-    from app.jobs import _job_key
+    from rigidlab.app.jobs import _job_key
 
     assert _job_key(_jobs.square, (2.0,), {}) == _job_key(_jobs.square, (2.0,), {})
     assert _job_key(_jobs.square, (2.0,), {}) != _job_key(_jobs.square, (3.0,), {})
@@ -183,7 +183,7 @@ def test_a_pool_wakeup_is_not_closed_under_a_write() -> None:
     for the write."""
     from concurrent.futures import process
 
-    from app.jobs import _guard_thread_wakeup
+    from rigidlab.app.jobs import _guard_thread_wakeup
 
     _guard_thread_wakeup()  # (as make_executor(processes=True) does)
     wakeup = process._ThreadWakeup()

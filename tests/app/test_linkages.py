@@ -21,8 +21,8 @@ import os
 import numpy as np
 import pytest
 
-from app.scenes._playback import MAX_SIM_STEP
-from app.scenes.linkages import (
+from rigidlab.app.scenes._playback import MAX_SIM_STEP
+from rigidlab.app.scenes.linkages import (
     CHAIN,
     CRANK,
     DOUBLE,
@@ -36,7 +36,7 @@ from app.scenes.linkages import (
     Model,
     _compute_chunk,
 )
-from core.models import pendulum_chain
+from rigidlab.core.models import pendulum_chain
 from tests.app._views import Camera, drawn_instances, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
 from tests.helpers import click, send_value, wait_for_frames, wait_until
@@ -59,13 +59,13 @@ def wait_for_model(scene, timeout=30.0, **fields):
 
 
 def test_scene_is_registered_after_the_gyroscope():
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     scenes = discover_scenes()
     assert "linkages" in scenes and LinkagesScene.order == 50
     assert list(scenes).index("linkages") == list(scenes).index("gyroscope") + 1
     # the integrators offered are exactly those simulate accepts
-    from core.multibody import ADAPTIVE_METHODS, FIXED_STEP_METHODS
+    from rigidlab.core.multibody import ADAPTIVE_METHODS, FIXED_STEP_METHODS
 
     assert set(METHODS) == set(ADAPTIVE_METHODS) | set(FIXED_STEP_METHODS)
 

@@ -1,4 +1,4 @@
-"""Writes from other threads wake viser's event loop thread-safely (:mod:`app.loop_thread`).
+"""Writes from other threads wake viser's event loop thread-safely (:mod:`rigidlab.app.loop_thread`).
 
 The race of issue 28: the session loop's thread pushes messages
 (``AsyncMessageBuffer.push``) and viser 1.1.1 sets the buffer's
@@ -9,7 +9,7 @@ generators do. The loop's futures let other threads run whenever a thread
 other than the loop's asks whether they are done, as a preemption inside
 ``Event.set`` would: with asyncio's own event the pushing threads then get
 "deque mutated during iteration" (or ``InvalidStateError``) in every run,
-with :class:`app.loop_thread.LoopEvent` no thread ever iterates the waiters.
+with :class:`rigidlab.app.loop_thread.LoopEvent` no thread ever iterates the waiters.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import time
 from viser import _messages
 from viser.infra._async_message_buffer import AsyncMessageBuffer
 
-from app import loop_thread
+from rigidlab.app import loop_thread
 from tests.helpers import wait_until
 
 WAITERS = 100

@@ -19,8 +19,8 @@ import pytest
 import viser
 from scipy.spatial.transform import Rotation
 
-from app.scenes.manipulator import ManipulatorScene, joint_sweep, wrap_deg
-from core.manipulator import ManipulatorGeometry
+from rigidlab.app.scenes.manipulator import ManipulatorScene, joint_sweep, wrap_deg
+from rigidlab.core.manipulator import ManipulatorGeometry
 from tests.helpers import send_value, wait_until
 
 DT = 1.0 / 60.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.meshes import pedestal, spinning_top
+from rigidlab.app.meshes import pedestal, spinning_top
 
 
 @pytest.mark.parametrize("depth", [0.2, 0.5])
@@ -31,7 +31,7 @@ def test_pedestal_stands_on_the_ground_below_its_pivot() -> None:
 
 @pytest.mark.parametrize("roller", [0.0, 0.012])
 def test_translating_follower_sits_on_its_face_or_roller_and_carries_a_seat(roller: float) -> None:
-    from app.meshes import follower_stand, translating_follower
+    from rigidlab.app.meshes import follower_stand, translating_follower
 
     (vertices, faces), roller_mesh, seat = translating_follower(travel=0.05, face_halfwidth=0.02, roller_radius=roller)
     assert faces.max() < len(vertices) and vertices[:, 2].max() == pytest.approx(seat + 0.05, abs=1e-6)

@@ -7,12 +7,12 @@ import textwrap
 import numpy as np
 import pytest
 
-from app.model_file import ModelFileError, load_model_file
-from core.multibody import System
+from rigidlab.app.model_file import ModelFileError, load_model_file
+from rigidlab.core.multibody import System
 
 PENDULUM = '''
 import numpy as np
-from core.multibody import System
+from rigidlab.core.multibody import System
 
 PARAMETERS = {
     "length": (1.0, 0.2, 3.0, "m", "Length"),
@@ -65,7 +65,7 @@ BAD = [
     ("raises at import", "x = 1\nraise RuntimeError('no')\n", r"model.py:2: running the file raised RuntimeError: no"),
     ("no build", "x = 1\n", r"expected a function build\(\*\*parameters\) -> System, found none"),
     ("build raises", "def build():\n    return 1 / 0\n", r"model.py:2: build\(\) raised ZeroDivisionError"),
-    ("not a System", "def build():\n    return 42\n", r"build\(\) expected to return a core.multibody.System, got int"),
+    ("not a System", "def build():\n    return 42\n", r"build\(\) expected to return a rigidlab.core.multibody.System, got int"),
     ("parameters not a dict", "PARAMETERS = [1]\ndef build():\n    pass\n", r"PARAMETERS: expected a dict"),
     ("short spec", "PARAMETERS = {'a': (1, 2)}\ndef build(a):\n    pass\n",
      r"PARAMETERS\['a'\]: expected \(default, low, high, unit, label\)"),

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.scenes import discover_scenes
-from app.scenes.model import SIM_VIEW, ModelScene, model_scene_classes
-from app.server import create_app
+from rigidlab.app.scenes import discover_scenes
+from rigidlab.app.scenes.model import SIM_VIEW, ModelScene, model_scene_classes
+from rigidlab.app.server import create_app
 from tests.helpers import send_value, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -71,7 +71,7 @@ def joint_gaps(scene, clip) -> np.ndarray:
                 continue
             u = state.rotation_matrix(body).T @ (joint.point - state.position(body))
             R, P = clip.positions[:, body.index], clip.orientations[:, body.index]
-            from core.rotations import rotate_vector
+            from rigidlab.core.rotations import rotate_vector
 
             ends.append(R + rotate_vector(P, u))
         gaps.append(np.linalg.norm(ends[0] - ends[1], axis=1))
@@ -154,7 +154,7 @@ def test_a_state_for_another_model_is_refused(model_app):
 def test_a_model_file_with_a_syntax_error_exits_2_with_one_line(tmp_path):
     bad = tmp_path / "bad_model.py"
     bad.write_text("def build(:\n    pass\n")
-    done = subprocess.run([sys.executable, "-m", "app.cli", "serve", "--port", "0", "--model", str(bad)], cwd=ROOT,
+    done = subprocess.run([sys.executable, "-m", "rigidlab.app.cli", "serve", "--port", "0", "--model", str(bad)], cwd=ROOT,
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
@@ -165,8 +165,8 @@ def test_a_model_file_with_a_syntax_error_exits_2_with_one_line(tmp_path):
 def test_the_spring_chain_example_has_the_closed_form_frequencies():
     """examples/spring_chain.py: N equal masses and springs, fixed at one end, free at the other:
     omega_r = 2 sqrt(k/m) sin((2r - 1) pi / (2 (2N + 1)))."""
-    from app.model_file import load_model_file
-    from app.scenes.model import Key, _reference
+    from rigidlab.app.model_file import load_model_file
+    from rigidlab.app.scenes.model import Key, _reference
 
     model = load_model_file(EXAMPLES / "spring_chain.py")
     key = Key(str(model.path), model.sha256, (("stiffness", 900.0), ("mass", 2.5), ("stretch", 0.1)))

@@ -25,7 +25,7 @@ import time
 import numpy as np
 import pytest
 
-from app.scenes.modes import (
+from rigidlab.app.scenes.modes import (
     CHAIN,
     MODE_OPTIONS,
     ROTOR,
@@ -36,8 +36,8 @@ from app.scenes.modes import (
     ModesScene,
     Params,
 )
-from core.gyroscope import RotorParams, sleeping_top_critical_spin
-from core.rotations import rotate_vector
+from rigidlab.core.gyroscope import RotorParams, sleeping_top_critical_spin
+from rigidlab.core.rotations import rotate_vector
 from tests.helpers import send_value, wait_for_frames, wait_until
 
 #: Joint gap of the animated poses (float64, as computed). Every sample is
@@ -92,7 +92,7 @@ def table_rows(scene):
 
 
 def test_scene_is_registered_after_the_linkages():
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     scenes = discover_scenes()
     assert "modes" in scenes and ModesScene.order == 60
@@ -448,13 +448,13 @@ def test_params_keep_only_the_chosen_models_values():
 
 # -- a bare scene, frames driven by the test ------------------------------------------------
 class SlowSweeps(concurrent.futures.ThreadPoolExecutor):
-    """One thread; every value of a sweep (``core.modal._solve``) takes 50 ms longer."""
+    """One thread; every value of a sweep (``rigidlab.core.modal._solve``) takes 50 ms longer."""
 
     def __init__(self) -> None:
         super().__init__(max_workers=1)
 
     def submit(self, fn, /, *args, **kwargs):  # type: ignore[no-untyped-def]
-        from core import modal
+        from rigidlab.core import modal
 
         if fn is modal._solve:
             def slow(*a, **k):  # type: ignore[no-untyped-def]
@@ -519,7 +519,7 @@ def test_nothing_is_solved_on_the_loop_thread_while_the_scene_solves_and_sweeps(
     its sweep. (What a frame costs is measured by bench/frames.py, not asserted here.)"""
     import threading
 
-    from core.modal import LinearModel, Modes
+    from rigidlab.core.modal import LinearModel, Modes
 
     threads: dict[str, set[int]] = {"modes": set(), "animate": set()}
     solve, animate = LinearModel.modes, Modes.animate
@@ -565,7 +565,7 @@ def test_a_dragged_slider_is_solved_one_value_after_another(modes):
 def test_the_camera_looks_across_a_modes_motion():
     """The spherical rod's mode 2 swung along the default camera's line of sight: the scene's camera for a
     mode looks perpendicular to the bodies' principal displacement, at the default distance and elevation."""
-    from app.scenes.modes import ModesScene, mode_camera
+    from rigidlab.app.scenes.modes import ModesScene, mode_camera
 
     position, look_at = np.array(ModesScene.camera_position), np.array(ModesScene.camera_look_at)
     sight = (look_at - position) / np.linalg.norm(look_at - position)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.nodes import set_plot_data
+from rigidlab.app.nodes import set_plot_data
 from tests.app._wire import Recorder
 from tests.helpers import wait_until
 

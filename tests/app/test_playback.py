@@ -11,9 +11,9 @@ import math
 
 import pytest
 
-from app.gate import Gate
-from app.panel import ControlPanel
-from app.scenes._playback import MAX_SIM_STEP, PLAYBACK_OPTIONS, TIME_SCALE_RANGE, Playback, Tick
+from rigidlab.app.gate import Gate
+from rigidlab.app.panel import ControlPanel
+from rigidlab.app.scenes._playback import MAX_SIM_STEP, PLAYBACK_OPTIONS, TIME_SCALE_RANGE, Playback, Tick
 from tests.helpers import click, send_value, wait_until
 
 PRESETS = ("first", "second")

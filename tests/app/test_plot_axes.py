@@ -8,9 +8,9 @@ from typing import Any
 
 import pytest
 
-from app.readout import PRESENTER_FONT_SCALE
-from app.scenes import discover_scenes
-from app.scenes.base import (PLOT_FONT_PX, PLOT_Y_AXIS_PX, PRESENTER_CONTROL_PX, plot_axes, plot_padding,
+from rigidlab.app.readout import PRESENTER_FONT_SCALE
+from rigidlab.app.scenes import discover_scenes
+from rigidlab.app.scenes.base import (PLOT_FONT_PX, PLOT_Y_AXIS_PX, PRESENTER_CONTROL_PX, plot_axes, plot_padding,
                              plot_text_css, presenter_css)
 from tests.helpers import send_value, wait_until
 

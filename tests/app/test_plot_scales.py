@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app.scenes._plots import (
+from rigidlab.app.scenes._plots import (
     axis_offset,
     drift_title,
     label_with_offset,
@@ -16,7 +16,7 @@ from app.scenes._plots import (
     round_off_level,
     y_limits,
 )
-from app.scenes.base import Scene
+from rigidlab.app.scenes.base import Scene
 
 
 def test_a_flat_series_gets_an_offset_and_its_remainders_differ_at_four_significant_digits() -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.scenes._plots import History, PlotRefresh, Table
+from rigidlab.app.scenes._plots import History, PlotRefresh, Table
 
 DT = 1.0 / 64.0  # (exact in binary: a period of 0.25 s is 16 frames)
 
@@ -94,7 +94,7 @@ def test_history_windows_and_csv_hold_each_sample_once():
 
 
 def test_capped_range_keeps_the_reference_readable_and_names_the_cut_peak():
-    from app.scenes._plots import capped_range
+    from rigidlab.app.scenes._plots import capped_range
 
     reference = np.array([-20.0, 10.0, 40.0])
     (lo, hi), peak = capped_range(reference, np.array([0.0, 30.0, 5000.0]))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from app.readout import markdown_to_html, one_digit
+from rigidlab.app.readout import markdown_to_html, one_digit
 
 
 def test_pipe_table_aligns_and_escapes() -> None:

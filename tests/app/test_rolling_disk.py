@@ -1,7 +1,7 @@
 """Rolling disk scene (app/scenes/rolling_disk.py) on a running rigidlab app.
 
 The session loop drives the scene at about 60 Hz and the chunks run on the
-app's process pool through the System path (``core.models.rolling_disk``,
+app's process pool through the System path (``rigidlab.core.models.rolling_disk``,
 ``System.simulate``); tests act as a browser does (values through the gate
 with ``send_value``, preset clicks) and check what the scene streams and
 exports: upright rolling above the critical spin stays upright and below
@@ -21,7 +21,7 @@ import os
 import numpy as np
 import pytest
 
-from app.scenes.rolling_disk import (
+from rigidlab.app.scenes.rolling_disk import (
     CONTACTS,
     CSV_HEADER,
     PRESETS,
@@ -35,8 +35,8 @@ from app.scenes.rolling_disk import (
     preset_inputs,
     track_pieces,
 )
-from core.models import rolling_disk_critical_spin
-from core.rotations import matrix_from_euler_parameters
+from rigidlab.core.models import rolling_disk_critical_spin
+from rigidlab.core.rotations import matrix_from_euler_parameters
 from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 # simulated time runs at up to 4 s per second while the pool keeps up
@@ -72,7 +72,7 @@ def csv_rows(scene):
 
 
 def test_scene_is_registered_after_the_multibody_scenes():
-    from app.scenes import discover_scenes
+    from rigidlab.app.scenes import discover_scenes
 
     scenes = discover_scenes()
     assert scenes["rolling_disk"] is RollingDiskScene and RollingDiskScene.order == 80

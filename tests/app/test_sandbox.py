@@ -25,19 +25,19 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from app.controls import format_vector
-from app.panels import (
+from rigidlab.app.controls import format_vector
+from rigidlab.app.panels import (
     SEQUENCES,
     export_document,
     gimbal_conditioning,
     gimbal_layout,
     orientation_views,
 )
-from app.panels.angular_velocity import OMEGA_FRAMES
-from app.panels.gimbal import COND_LOCK, COND_WARN, gauge_fill, lock_state
-from app.panels.orientation import INPUTS
-from app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
-from app.scenes.sandbox import PANELS, SandboxScene
+from rigidlab.app.panels.angular_velocity import OMEGA_FRAMES
+from rigidlab.app.panels.gimbal import COND_LOCK, COND_WARN, gauge_fill, lock_state
+from rigidlab.app.panels.orientation import INPUTS
+from rigidlab.app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
+from rigidlab.app.scenes.sandbox import PANELS, SandboxScene
 from tests.helpers import click, send_value, wait_for_frames, wait_until
 
 TOL = 1e-9
@@ -723,8 +723,8 @@ def test_presenter_view_enlarges_labels_arrows_and_readouts(sandbox: Any) -> Non
 
 
 def test_arrow_colours_are_not_axis_colours_and_the_legend_names_them(sandbox: Any) -> None:
-    from app.panels.angular_velocity import OMEGA_COLOR
-    from app.panels.body import ROTATION_AXIS_COLOR
+    from rigidlab.app.panels.angular_velocity import OMEGA_COLOR
+    from rigidlab.app.panels.body import ROTATION_AXIS_COLOR
 
     axis_colours = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255]])
     for colour in (ROTATION_AXIS_COLOR, OMEGA_COLOR):

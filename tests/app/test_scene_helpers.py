@@ -7,8 +7,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from app.readout import PRESENTER_FONT_SCALE
-from app.scenes.base import Scene
+from rigidlab.app.readout import PRESENTER_FONT_SCALE
+from rigidlab.app.scenes.base import Scene
 
 
 class _Plain(Scene):

@@ -15,11 +15,11 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
-from app import cli
-from app.controls import Slider
-from app.scenes import discover_scenes, get_scene_class
-from app.scenes.base import Scene
-from app.server import create_app
+from rigidlab.app import cli
+from rigidlab.app.controls import Slider
+from rigidlab.app.scenes import discover_scenes, get_scene_class
+from rigidlab.app.scenes.base import Scene
+from rigidlab.app.server import create_app
 from tests.helpers import MIN_WAIT, process_group_gone, wait_until
 
 
@@ -333,7 +333,7 @@ def _serve_until_ready(*args: str, sigint_ignored: bool = False, new_session: bo
     import sys
 
     process = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())", "serve", "--port", "0",
+        [sys.executable, "-c", "import sys; from rigidlab.app.cli import main; sys.exit(main())", "serve", "--port", "0",
          *args],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
         preexec_fn=_ignore_sigint if sigint_ignored else None, start_new_session=new_session,
@@ -426,7 +426,7 @@ def test_rigidlab_serve_stopped_while_it_starts_leaves_no_process() -> None:
     import sys
 
     process = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from app.cli import main; sys.exit(main())", "serve", "--port", "0"],
+        [sys.executable, "-c", "import sys; from rigidlab.app.cli import main; sys.exit(main())", "serve", "--port", "0"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
@@ -467,21 +467,21 @@ def test_rigidlab_serve_stopped_while_it_starts_leaves_no_process() -> None:
 def test_registry_skips_a_module_that_fails_to_import(monkeypatch: Any) -> None:
     import importlib
 
-    import app.scenes as registry
+    import rigidlab.app.scenes as registry
 
     real_import = importlib.import_module
 
     def failing_import(name: str, *args: Any) -> Any:
-        if name == "app.scenes.sandbox":
+        if name == "rigidlab.app.scenes.sandbox":
             raise ImportError("simulated broken scene")
         return real_import(name, *args)
 
     monkeypatch.setattr(registry.importlib, "import_module", failing_import)
     scenes = discover_scenes()
     assert "sandbox" not in scenes
-    assert "simulated broken scene" in registry.discovery_errors()["app.scenes.sandbox"]
+    assert "simulated broken scene" in registry.discovery_errors()["rigidlab.app.scenes.sandbox"]
     monkeypatch.undo()
-    assert "sandbox" in discover_scenes() and "app.scenes.sandbox" not in registry.discovery_errors()
+    assert "sandbox" in discover_scenes() and "rigidlab.app.scenes.sandbox" not in registry.discovery_errors()
 
 
 # -- the session shell: presenter view, share state, refused values --------------------
@@ -548,7 +548,7 @@ def test_create_app_present_and_state(fake_apps: Any) -> None:
 
 
 def test_copy_and_load_state_through_the_share_panel(fake_apps: Any, ws_client: Any) -> None:
-    from app import state as codec
+    from rigidlab.app import state as codec
 
     app = fake_apps()
     client, client_id = ws_client(app)
@@ -608,7 +608,7 @@ def test_download_state_sends_json_to_the_clicking_browser(fake_apps: Any, ws_cl
 
 
 def test_a_state_link_opens_its_values_in_a_per_client_session(fake_apps: Any) -> None:
-    from app import state as codec
+    from rigidlab.app import state as codec
     from tests.app.conftest import WsClient
 
     app = fake_apps(mode="per-client")
@@ -627,7 +627,7 @@ def test_a_state_link_opens_its_values_in_a_per_client_session(fake_apps: Any) -
 
 
 def test_a_state_link_does_not_change_a_shared_session(fake_apps: Any) -> None:
-    from app import state as codec
+    from rigidlab.app import state as codec
     from tests.app.conftest import WsClient
 
     app = fake_apps()
@@ -687,7 +687,7 @@ def test_cli_host_that_cannot_be_served_gives_one_line_and_status_2(host: str, m
 
 
 def test_page_urls_put_ipv6_addresses_in_brackets() -> None:
-    from app.server import page_url
+    from rigidlab.app.server import page_url
 
     assert page_url("::1", 8080) == "http://[::1]:8080"
     assert page_url("fe80::1%eth0", 80) == "http://[fe80::1%eth0]:80"

@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from app.scenes._plots import Table
-from app.scenes._shapes import arrow_segments, ellipsoid_wireframe, parts_mesh
-from app.scenes._trail import SphereTrail
-from core.models import FREE_BODY_NAMES, Cuboid, Prism, free_body_shape
-from core.rotations import matrix_from_axis_angle
+from rigidlab.app.scenes._plots import Table
+from rigidlab.app.scenes._shapes import arrow_segments, ellipsoid_wireframe, parts_mesh
+from rigidlab.app.scenes._trail import SphereTrail
+from rigidlab.core.models import FREE_BODY_NAMES, Cuboid, Prism, free_body_shape
+from rigidlab.core.rotations import matrix_from_axis_angle
 
 
 @pytest.mark.parametrize("name", FREE_BODY_NAMES)
@@ -110,7 +110,7 @@ def test_sphere_trail_traces_on_its_sphere_and_marks_the_newest_point(server):
 
 
 def test_closed_path_segments_follow_the_marked_stretches_across_the_start():
-    from app.scenes._shapes import closed_path_segments
+    from rigidlab.app.scenes._shapes import closed_path_segments
 
     n = 12
     points = np.column_stack([np.cos(np.arange(n)), np.sin(np.arange(n)), np.zeros(n)])

@@ -7,10 +7,10 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from app.meshes import bicycle_meshes, spoked_wheel, tube
-from app.readout import markdown_to_html, mode_table
-from app.scenes._svg import Chart
-from core.models import MEIJAARD_2007
+from rigidlab.app.meshes import bicycle_meshes, spoked_wheel, tube
+from rigidlab.app.readout import markdown_to_html, mode_table
+from rigidlab.app.scenes._svg import Chart
+from rigidlab.core.models import MEIJAARD_2007
 
 
 def test_mode_table_rows_times_and_shape_column():

@@ -16,10 +16,10 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
-from app.controls import Slider
-from app.readout import significant
-from app.scenes._plots import Table, capped_range
-from app.scenes._simulation import RATE_WINDOW, InputsRefused, PlotSpec, SimulationScene, power_of_ten
+from rigidlab.app.controls import Slider
+from rigidlab.app.readout import significant
+from rigidlab.app.scenes._plots import Table, capped_range
+from rigidlab.app.scenes._simulation import RATE_WINDOW, InputsRefused, PlotSpec, SimulationScene, power_of_ten
 from tests.app.conftest import GatedExecutor
 from tests.helpers import wait_until
 

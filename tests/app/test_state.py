@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from app import state as codec
+from rigidlab.app import state as codec
 
 STATE = {"format": codec.FORMAT, "scene": "gyroscope",
          "values": {"theta0_deg": 60.0, "psi_dot0": 12.345678901234567, "method": "rk4", "show": True}}
@@ -115,8 +115,8 @@ def test_only_small_regular_files_are_read(tmp_path: Any) -> None:
 def test_a_wrong_typed_value_is_refused_by_name_and_the_rest_loads() -> None:
     """``{"axis": 1.0}`` (a number where the sandbox's axis field takes three) raised TypeError in the check, and
     nothing of the state loaded; now that value is refused with its control's name and the others are used."""
-    from app.scenes.sandbox import SandboxScene
-    from app.server import create_app
+    from rigidlab.app.scenes.sandbox import SandboxScene
+    from rigidlab.app.server import create_app
     from tests.helpers import wait_until
 
     state = {"scene": "sandbox", "values": {"axis": 1.0, "angle": 30.0, "input": "Axis and angle"}}

@@ -1,4 +1,4 @@
-"""Per-client mode on several worker processes (``rigidlab serve --workers N``, :mod:`app.supervisor`).
+"""Per-client mode on several worker processes (``rigidlab serve --workers N``, :mod:`rigidlab.app.supervisor`).
 
 The multi-worker test starts the real command in a subprocess: two workers
 share one port, plain websocket clients connect until both workers hold
@@ -19,9 +19,9 @@ import signal
 
 import pytest
 
-from app import cli
-from app.supervisor import reuse_port_supported
-from app.wire import SUBPROTOCOL, camera_message
+from rigidlab.app import cli
+from rigidlab.app.supervisor import reuse_port_supported
+from rigidlab.app.wire import SUBPROTOCOL, camera_message
 from tests.app.conftest import WsClient
 from tests.helpers import ProcessOutput, failure_lines, process_group_gone, start_serving, stop_serving, wait_until
 

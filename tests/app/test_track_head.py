@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from app.scenes._trail import StickHead
-from app.scenes.rolling_disk import RollingDiskScene
-from core.rotations import matrix_from_euler_parameters
+from rigidlab.app.scenes._trail import StickHead
+from rigidlab.app.scenes.rolling_disk import RollingDiskScene
+from rigidlab.core.rotations import matrix_from_euler_parameters
 from tests.app._wire import Recorder
 from tests.helpers import click, wait_until
 
@@ -217,7 +217,7 @@ def test_the_disk_track_reaches_the_contact_point_in_every_page_frame(running_sc
 def test_headed_trail_feeds_both_and_hides_both(server) -> None:
     """HeadedTrail (the bicycle's wheel tracks): one point feeds the line ring and the sticks; hidden, neither
     shows; the ring's newest chunk is sent at most once per period; clear empties both."""
-    from app.scenes._trail import HeadedTrail
+    from rigidlab.app.scenes._trail import HeadedTrail
 
     track = HeadedTrail(_Owner(server), "/headed", (0, 150, 140), thickness=2.0, capacity=64, min_step=0.01,
                         length=0.05, count=8, period=3600.0)
@@ -242,7 +242,7 @@ def test_headed_trail_feeds_both_and_hides_both(server) -> None:
 def test_a_held_frame_sends_no_track_buffer_and_the_next_frame_does(server) -> None:
     """HeadedTrail and SampledTrack: ``draw(hold=True)`` (a frame that sends a plot) moves the head but keeps
     the ring's newest chunk for the next frame that is not held."""
-    from app.scenes._trail import HeadedTrail, SampledTrack, sampled_curve
+    from rigidlab.app.scenes._trail import HeadedTrail, SampledTrack, sampled_curve
 
     headed = HeadedTrail(_Owner(server), "/held", (0, 150, 140), thickness=2.0, capacity=64, min_step=0.01,
                          length=0.05, count=8, period=0.0)

@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from app.scenes._trail import ChunkedTrail, SampledTrack, extend_trail, sampled_curve, trail_segments
+from rigidlab.app.scenes._trail import ChunkedTrail, SampledTrack, extend_trail, sampled_curve, trail_segments
 from tests.app._wire import Recorder
 from tests.helpers import wait_until
 

@@ -1,7 +1,7 @@
 """A scene started while the kernels' warm-up runs (``rigidlab serve`` on a new install).
 
 The worker's kernels wait for the warm-up instead of compiling beside it
-(:mod:`core._warm`, :mod:`app.jobs`), and the audience is told why the scene
+(:mod:`rigidlab.core._warm`, :mod:`rigidlab.app.jobs`), and the audience is told why the scene
 waits. A child process stands in for the warm-up: it holds the warm-up's lock
 until the test closes its stdin.
 """
@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-import core._warm as warm
-from app.scenes.gyroscope import GyroscopeScene
-from app.scenes.linkages import LinkagesScene
+import rigidlab.core._warm as warm
+from rigidlab.app.scenes.gyroscope import GyroscopeScene
+from rigidlab.app.scenes.linkages import LinkagesScene
 from tests.helpers import wait_until
 
 #: the warm-up lock is one per machine: tests that hold it run on one xdist worker, one after another
@@ -28,7 +28,7 @@ COMPILING = "Compiling the kernels (first start only)…"
 
 _HOLDER = textwrap.dedent("""
     import sys
-    from core._warm import hold_lock
+    from rigidlab.core._warm import hold_lock
     print(hold_lock() is not None, flush=True)
     sys.stdin.read()
 """)

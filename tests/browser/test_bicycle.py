@@ -15,7 +15,7 @@ import re
 
 import numpy as np
 
-from app.scenes.bicycle import BicycleScene
+from rigidlab.app.scenes.bicycle import BicycleScene
 from tests.browser._page import view, view_changed_from, wait_for_drawn_canvas
 from tests.helpers import wait_until
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.scenes.cam_follower import (
+from rigidlab.app.scenes.cam_follower import (
     ECCENTRIC_RADIUS,
     ECCENTRICITY,
     FOLLOWERS,

@@ -15,7 +15,7 @@ import io
 import numpy as np
 import pytest
 
-from app.scenes.free_body import (
+from rigidlab.app.scenes.free_body import (
     CSV_HEADER_GHOST,
     PRESETS,
     FreeBodyScene,

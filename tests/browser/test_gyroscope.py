@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from app.scenes.gyroscope import CSV_HEADER, PRESETS, GyroscopeScene, preset_inputs
+from rigidlab.app.scenes.gyroscope import CSV_HEADER, PRESETS, GyroscopeScene, preset_inputs
 from tests.browser._page import choose_scene, wait_for_drawn_canvas
 from tests.helpers import wait_until
 

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app import state as codec
+from rigidlab.app import state as codec
 from tests.browser._page import field
 from tests.helpers import send_value, wait_until
 

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from app.scenes.linkages import RESIDUAL_BOUND, LinkagesScene
+from rigidlab.app.scenes.linkages import RESIDUAL_BOUND, LinkagesScene
 from tests.app._views import drawn_instances
 from tests.browser._page import (
     changed_pixels,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from app.scenes.manipulator import ManipulatorScene
+from rigidlab.app.scenes.manipulator import ManipulatorScene
 from tests.browser._page import settled_view, view_changed_from
 from tests.helpers import wait_until
 

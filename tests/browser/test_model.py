@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from app.scenes import discover_scenes
-from app.scenes.model import ModelScene, model_scene_classes
+from rigidlab.app.scenes import discover_scenes
+from rigidlab.app.scenes.model import ModelScene, model_scene_classes
 from tests.browser._page import view, view_changed_from, wait_for_drawn_canvas
 from tests.helpers import wait_until
 

@@ -14,8 +14,8 @@ import re
 import numpy as np
 import pytest
 
-from app.scenes.modes import ModesScene
-from core.rotations import rotate_vector
+from rigidlab.app.scenes.modes import ModesScene
+from rigidlab.core.rotations import rotate_vector
 from tests.browser._page import view, view_changed_from, wait_for_drawn_canvas
 from tests.helpers import wait_until
 

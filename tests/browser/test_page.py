@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from app.scenes.base import NORMAL_PANEL_PX, PRESENTER_PANEL_PX
+from rigidlab.app.scenes.base import NORMAL_PANEL_PX, PRESENTER_PANEL_PX
 from tests.helpers import send_value, wait_until
 
 WIDE = {"width": 1600, "height": 900}

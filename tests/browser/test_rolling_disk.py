@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from app.scenes.rolling_disk import SLIDING, RollingDiskScene
-from core.rotations import matrix_from_euler_parameters
+from rigidlab.app.scenes.rolling_disk import SLIDING, RollingDiskScene
+from rigidlab.core.rotations import matrix_from_euler_parameters
 from tests.browser._page import settled_view, view_changed_from, wait_for_drawn_canvas
 from tests.helpers import wait_until
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from app.panel import TEXT_RESTORE_SECONDS
+from rigidlab.app.panel import TEXT_RESTORE_SECONDS
 from tests.browser._page import field, settled_view, view_changed_from
 from tests.helpers import send_value, wait_until
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from app.scenes import get_scene_class
-from app.server import create_app
+from rigidlab.app.scenes import get_scene_class
+from rigidlab.app.server import create_app
 from tests.app.test_server import OtherScene
 from tests.browser._page import choose_scene, drawn_fraction
 from tests.helpers import wait_until

@@ -16,8 +16,8 @@ import math
 import numpy as np
 import pytest
 
-from core.modal import linearize, sweep
-from core.models import (
+from rigidlab.core.modal import linearize, sweep
+from rigidlab.core.models import (
     MEIJAARD_2007,
     MEIJAARD_2007_EIGENVALUES,
     MEIJAARD_2007_SPEEDS,
@@ -31,8 +31,8 @@ from core.models import (
     whipple_ride,
     whipple_speed_model,
 )
-from core.rotations import matrix_from_axis_angle
-from core.rotations import euler_parameters_from_matrix
+from rigidlab.core.rotations import matrix_from_axis_angle
+from rigidlab.core.rotations import euler_parameters_from_matrix
 
 PUBLISHED = MEIJAARD_2007_EIGENVALUES["eigenvalues"]
 # The paper's matrices of the benchmark (Table 2), typed from the paper.
@@ -152,8 +152,8 @@ def test_modes_named_and_shaped_as_the_reference(speed):
 # ------------------------------------------------------------------ built once, copied per speed
 def _built_afresh(speed, p=MEIJAARD_2007):
     """The System of ``whipple_bicycle`` built and assembled at ``speed`` step by step (no cache): the oracle."""
-    from core.contact import Plane, Torus
-    from core.multibody import System
+    from rigidlab.core.contact import Plane, Torus
+    from rigidlab.core.multibody import System
 
     T = np.diag([1.0, -1.0, -1.0])
 
@@ -363,7 +363,7 @@ def test_linear_and_nonlinear_lean_agree_for_a_small_push():
 
 
 def test_mode_names_of_the_references_eigenvalues():
-    from core.models import whipple_mode_names
+    from rigidlab.core.models import whipple_mode_names
 
     ref = whipple_bicycle_reference()
     assert sorted(whipple_mode_names(ref.eigenvalues(0.5))) == ["capsize", "castering", "weave", "weave"]

@@ -6,15 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core._errors import ArgumentError
-from core.models import (
+from rigidlab.core._errors import ArgumentError
+from rigidlab.core.models import (
     MEIJAARD_2007_EIGENVALUES,
     whipple_bicycle_reference,
     whipple_modes_at,
     whipple_ride_from,
     whipple_sweep,
 )
-from core.multibody import RunState
+from rigidlab.core.multibody import RunState
 
 
 def test_stretches_continue_one_ride():

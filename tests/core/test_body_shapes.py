@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from core.modal import LinearModel, linearize
-from core.multibody import System
-from core.rotations import matrix_from_euler_parameters
+from rigidlab.core.modal import LinearModel, linearize
+from rigidlab.core.multibody import System
+from rigidlab.core.rotations import matrix_from_euler_parameters
 
 
 def _global_tensor(system, body):

@@ -27,7 +27,7 @@ import math
 import numpy as np
 import pytest
 
-from core.models import CAM_LAWS, CamCurve, CamFollower, CamKinematics, CamMotion, CamProfile, CamSystem
+from rigidlab.core.models import CAM_LAWS, CamCurve, CamFollower, CamKinematics, CamMotion, CamProfile, CamSystem
 
 TWO_PI = 2.0 * math.pi
 
@@ -348,7 +348,7 @@ def test_float_contour_is_the_array_contour(profile, follower, rf, eo):
 def test_written_out_derivative_rules_are_the_general_ones():
     """Leibniz products, square roots and reciprocals of 4 and 5 derivatives, written out, against the
     general recurrences (random stacks; other lengths take the recurrences)."""
-    from core.models import _cam
+    from rigidlab.core.models import _cam
 
     rng = np.random.default_rng(7)
     for m in (2, 3, 4, 5):

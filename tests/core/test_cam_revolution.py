@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from core import ArgumentError
-from core.models import CamFollower, CamMotion, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
+from rigidlab.core import ArgumentError
+from rigidlab.core.models import CamFollower, CamMotion, CamProfile, CamRevolution, largest_roller_radius, smallest_convex_rise
 
 TWO_PI = 2.0 * math.pi
 

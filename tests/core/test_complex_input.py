@@ -16,11 +16,11 @@ import inspect
 import numpy as np
 import pytest
 
-import core.gyroscope as gy
-import core.integrators as itg
-import core.manipulator as mp
-import core.rigid_body as rb
-import core.rotations as cr
+import rigidlab.core.gyroscope as gy
+import rigidlab.core.integrators as itg
+import rigidlab.core.manipulator as mp
+import rigidlab.core.rigid_body as rb
+import rigidlab.core.rotations as cr
 
 P = np.array([0.5, 0.5, 0.5, 0.5])
 Q = np.array([np.cos(0.3), 0.0, np.sin(0.3), 0.0])

@@ -1,4 +1,4 @@
-"""The compiled contact kernel (``core.contact._compiled``) against the float path it replaces (the oracle).
+"""The compiled contact kernel (``rigidlab.core.contact._compiled``) against the float path it replaces (the oracle).
 
 Every pair of built-in surfaces the contact code supports (plane, sphere,
 ellipsoid, torus, a rim, and the planar circle and line), with body i the
@@ -24,12 +24,12 @@ import math
 import numpy as np
 import pytest
 
-import core.contact._kernel as kernel
-from core.contact import Ellipsoid, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
-from core.contact._kernel import COMPLIANT, CONSTRAINT
-from core.multibody import System
-from core.multibody._engine import matrices
-from core.rotations import euler_parameters_from_matrix, matrix_from_axis_angle
+import rigidlab.core.contact._kernel as kernel
+from rigidlab.core.contact import Ellipsoid, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
+from rigidlab.core.contact._kernel import COMPLIANT, CONSTRAINT
+from rigidlab.core.multibody import System
+from rigidlab.core.multibody._engine import matrices
+from rigidlab.core.rotations import euler_parameters_from_matrix, matrix_from_axis_angle
 
 SEED = 20261129
 

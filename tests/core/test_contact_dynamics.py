@@ -8,8 +8,8 @@ import pickle
 import numpy as np
 import pytest
 
-from core.contact import PlanarCurve, Plane, Sphere, Torus
-from core.multibody import System
+from rigidlab.core.contact import PlanarCurve, Plane, Sphere, Torus
+from rigidlab.core.multibody import System
 
 G = 9.81
 
@@ -314,7 +314,7 @@ def test_follower_leaves_the_cam_and_lands_with_the_compliant_model():
 
 def _rolling_disk(lean, spin, *, rolling=True, radius=0.1, mass=1.0):
     """A thin disk on its rim (symmetry axis = body y), leaning by ``lean`` about x, rolling about its axis."""
-    from core.rotations import euler_parameters_from_axis_angle
+    from rigidlab.core.rotations import euler_parameters_from_axis_angle
 
     system = System(gravity=(0.0, 0.0, -G))
     A = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(lean), -math.sin(lean)], [0.0, math.sin(lean), math.cos(lean)]])
@@ -362,8 +362,8 @@ def test_cam_force_over_ten_revolutions():
 
 def test_a_frictionless_disk_falling_flat_keeps_its_motion_up_to_the_failure():
     # sliding without spin it falls: C_s loses rank as it lies flat (Eq. 8.109); the error carries the outputs
-    from core.contact import ContactError
-    from core.models import rolling_disk
+    from rigidlab.core.contact import ContactError
+    from rigidlab.core.models import rolling_disk
 
     system, disk, contact = rolling_disk(lean=math.radians(10.0), spin=0.0, rolling=False)
     t = np.linspace(0.0, 1.0, 101)
@@ -382,8 +382,8 @@ def test_a_frictionless_disk_falling_flat_keeps_its_motion_up_to_the_failure():
 
 
 def test_a_failed_kinematic_analysis_keeps_the_outputs_it_solved():
-    from core.integrators import IntegrationError
-    from core.models import CamFollower, CamProfile
+    from rigidlab.core.integrators import IntegrationError
+    from rigidlab.core.models import CamFollower, CamProfile
 
     cam = CamFollower(CamProfile.eccentric())
     speed = 0.9 * cam.jump_speed()

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from core.contact import (
+from rigidlab.core.contact import (
     CONTACT_RANK_TOL,
     ContactError,
     Ellipsoid,
@@ -17,8 +17,8 @@ from core.contact import (
     Sphere,
     Torus,
 )
-from core.multibody import System
-from core.rotations import euler_parameters_from_axis_angle
+from rigidlab.core.multibody import System
+from rigidlab.core.rotations import euler_parameters_from_axis_angle
 
 
 def _ball_system(z=0.1, radius=0.1, vz=0.0):
@@ -289,7 +289,7 @@ def test_rank_tolerance_is_public():
 
 def _rank_at_start(surface_i, surface_j, z):
     """The rank indicator (Eq. 8.109) that add_contact tests, for surface_j on a body at height z."""
-    import core.contact._search as search
+    import rigidlab.core.contact._search as search
 
     seen = []
     real = search.check_rank

@@ -29,13 +29,13 @@ import math
 import numpy as np
 import pytest
 
-from core.contact import Ellipsoid, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
-from core.contact._scalar import _glob, _sub, _add, _dot
-from core.contact._kernel import COMPLIANT, CONSTRAINT
-from core.multibody import System
-from core.multibody._engine import matrices
-from core.multibody._system import retract
-from core.rotations import euler_parameters_from_matrix, matrix_from_axis_angle
+from rigidlab.core.contact import Ellipsoid, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
+from rigidlab.core.contact._scalar import _glob, _sub, _add, _dot
+from rigidlab.core.contact._kernel import COMPLIANT, CONSTRAINT
+from rigidlab.core.multibody import System
+from rigidlab.core.multibody._engine import matrices
+from rigidlab.core.multibody._system import retract
+from rigidlab.core.rotations import euler_parameters_from_matrix, matrix_from_axis_angle
 
 SEED = 20251124
 
@@ -155,7 +155,7 @@ def _evaluate(system, y, level, state=None, t=None):
 
 def _rows_at(system, c, y, s, charts):
     """The chapter's five (curves: three) constraints at configuration y and fixed surface parameters s."""
-    from core.contact._kernel import _Static
+    from rigidlab.core.contact._kernel import _Static
 
     n = system.state.n_bodies
     cs = _Static(c, n)

@@ -7,7 +7,7 @@ more than its radius, or through it, where the nearest points are no longer
 the contact's. Such a stage raises ``ContactError`` (the Hunt-Crossley law
 refuses a press deeper than the surfaces' length scale, Eqs. 8.84-8.94 then
 describe another pair of points), and the integrator retries the step
-shorter (``core.integrators.STAGE_RETRIES``). Regressions: the ball on a
+shorter (``rigidlab.core.integrators.STAGE_RETRIES``). Regressions: the ball on a
 fixed sphere ended 900 m away with its energy grown from 11 J to 1e12 J and
 the run reported as completed; on a tilted plane the run stopped with
 "no pair of points with opposed normals found".
@@ -31,9 +31,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from core.contact import Plane, Sphere
-from core.contact._kernel import ContactError
-from core.multibody import System
+from rigidlab.core.contact import Plane, Sphere
+from rigidlab.core.contact._kernel import ContactError
+from rigidlab.core.multibody import System
 
 BALL = 0.05  # m, radius
 
@@ -124,7 +124,7 @@ def test_a_ball_sliding_kilometres_down_an_incline_in_one_step(monkeypatch, batc
     length scale per iteration (the plane is linear in them), and a point far along a plane is no jump.
     (Regression: "the contact point jumped by 2.22e+03 m on a body at t=39.46".) Closed form: distance
     g sin(a) t^2 / 2 down the slope, normal force m g cos(a); DOP853 at rtol 1e-9 on a quadratic: 1e-9."""
-    import core.contact._kernel as kernel
+    import rigidlab.core.contact._kernel as kernel
 
     if batched:
         monkeypatch.setattr(kernel, "SCALAR_MAX", 0)

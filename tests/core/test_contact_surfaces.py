@@ -17,8 +17,8 @@ import math
 import numpy as np
 import pytest
 
-from core.contact import Ellipsoid, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
-from core.contact._surfaces import _dicts_from_arrays
+from rigidlab.core.contact import Ellipsoid, ParametricSurface, PlanarCurve, Plane, Sphere, Torus
+from rigidlab.core.contact._surfaces import _dicts_from_arrays
 
 SEED = 20251123
 H = 1e-5

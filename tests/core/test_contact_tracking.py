@@ -2,7 +2,7 @@
 
 The surface parameters are solved from the extremal conditions at every
 evaluation, warm-started from the solution tracked along the accepted steps
-(see ``core.contact._kernel.ContactKernel.evaluate``). Regressions:
+(see ``rigidlab.core.contact._kernel.ContactKernel.evaluate``). Regressions:
 
 * a cam follower in flight above the jump speed at a loose tolerance: the
   outputs inside a long step were projected after the step's end and moved
@@ -27,11 +27,11 @@ import math
 import numpy as np
 import pytest
 
-from core.contact import Plane, Torus
-from core.contact._kernel import ContactError, _Group, frames_of, solve_parameters
-from core.models import CamFollower, CamProfile, rolling_disk
-from core.multibody import System
-from core.rotations import euler_parameters_from_axis_angle, matrix_from_euler_parameters
+from rigidlab.core.contact import Plane, Torus
+from rigidlab.core.contact._kernel import ContactError, _Group, frames_of, solve_parameters
+from rigidlab.core.models import CamFollower, CamProfile, rolling_disk
+from rigidlab.core.multibody import System
+from rigidlab.core.rotations import euler_parameters_from_axis_angle, matrix_from_euler_parameters
 
 
 def _cam_run(cam, factor, n_out, rtol, revolutions=4):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.models import rolling_disk
+from rigidlab.core.models import rolling_disk
 
 
 @pytest.mark.parametrize("spin", [20.0, 40.0])

@@ -26,11 +26,11 @@ import pickle
 import numpy as np
 import pytest
 
-from core import ArgumentError
-from core.contact import Plane, Sphere, gap_crossings
-from core.integrators import DEFAULT_ATOL, DEFAULT_RTOL
-from core.models import CamFollower, CamProfile, rolling_disk, whipple_bicycle, whipple_push, whipple_ride
-from core.multibody import RunState, System
+from rigidlab.core import ArgumentError
+from rigidlab.core.contact import Plane, Sphere, gap_crossings
+from rigidlab.core.integrators import DEFAULT_ATOL, DEFAULT_RTOL
+from rigidlab.core.models import CamFollower, CamProfile, rolling_disk, whipple_bicycle, whipple_push, whipple_ride
+from rigidlab.core.multibody import RunState, System
 
 
 def _pendulum() -> System:
@@ -269,7 +269,7 @@ def test_a_refused_argument_carries_its_name():
 def test_the_default_tolerances_live_in_one_place():
     import inspect
 
-    from core import integrators
+    from rigidlab.core import integrators
 
     signature = inspect.signature(integrators.integrate)
     assert signature.parameters["rtol"].default is DEFAULT_RTOL

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.integrators import IntegrationError
-from core.models import (
+from rigidlab.core.integrators import IntegrationError
+from rigidlab.core.models import (
     FREE_BODY_NAMES,
     GHOST_COLUMNS,
     INVARIANT_ROUND_OFF,
@@ -30,8 +30,8 @@ from core.models import (
     polhode_class,
     spin_about_principal_axis,
 )
-from core.rigid_body import free_body_solution, principal_axes, rotation_angle_between
-from core.rotations import matrix_from_euler_parameters
+from rigidlab.core.rigid_body import free_body_solution, principal_axes, rotation_angle_between
+from rigidlab.core.rotations import matrix_from_euler_parameters
 
 RNG_SEED = 28
 

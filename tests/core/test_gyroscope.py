@@ -1,4 +1,4 @@
-"""core.gyroscope: equations of motion, invariants, steady precession, errors.
+"""rigidlab.core.gyroscope: equations of motion, invariants, steady precession, errors.
 
 Oracles: a finite-difference Euler-Lagrange derivation from the kinetic
 energy (Eq. 8.14) and potential, closed-form conditions of steady precession,
@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from core.gyroscope import (
+from rigidlab.core.gyroscope import (
     RotorParams,
     equations_of_motion,
     invariants,
@@ -309,8 +309,8 @@ def test_torques_singular_at_gimbal_lock_raise_a_clear_error():
 # ------------------------------------------------ huge angles, the lower pole, the horizontal
 def test_state_angles_beyond_the_max_angle_are_refused():
     # phi = psi = 1e300 used to run: sin and cos of an angle known to no digit
-    from core.gyroscope import GYROSCOPE_MAX_ANGLE, top_motion
-    from core.rigid_body import FREE_BODY_MAX_PHASE
+    from rigidlab.core.gyroscope import GYROSCOPE_MAX_ANGLE, top_motion
+    from rigidlab.core.rigid_body import FREE_BODY_MAX_PHASE
 
     assert GYROSCOPE_MAX_ANGLE == FREE_BODY_MAX_PHASE == 1e14
     params = RotorParams(I=1.0, I3=1.5, mgl=0.5)

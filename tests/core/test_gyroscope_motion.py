@@ -1,4 +1,4 @@
-"""core.gyroscope.top_motion (constants once, evaluation per chunk) and fuzz findings of simulate.
+"""rigidlab.core.gyroscope.top_motion (constants once, evaluation per chunk) and fuzz findings of simulate.
 
 Oracles: simulate itself (the closed form it had before, now routed through
 TopMotion), the vectorized cubic-root bisection for the float one, and the
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-import core.gyroscope as gy
-from core.gyroscope import RotorParams, invariants, simulate, top_motion
+import rigidlab.core.gyroscope as gy
+from rigidlab.core.gyroscope import RotorParams, invariants, simulate, top_motion
 
 HEAVY = RotorParams(I=1.0, I3=0.8, mgl=2.0)
 BALANCED = RotorParams(I=1.0, I3=0.6, mgl=0.0)

@@ -1,4 +1,4 @@
-"""core.gyroscope against independent simulations and closed forms.
+"""rigidlab.core.gyroscope against independent simulations and closed forms.
 
 The reference is a Newton-Euler simulation in Euler parameters written here
 from scratch: state (p, omega_body), p_dot = 1/2 p * (0, omega_body), Euler's
@@ -18,7 +18,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from core.gyroscope import (
+from rigidlab.core.gyroscope import (
     RotorParams,
     equations_of_motion,
     invariants,

@@ -1,4 +1,4 @@
-"""core.gyroscope.RotorSetup, motion_summary and sample_motion: one motion sampled stretch by stretch.
+"""rigidlab.core.gyroscope.RotorSetup, motion_summary and sample_motion: one motion sampled stretch by stretch.
 
 Oracles: simulate (the closed form, and DOP853 from the same start),
 rotor_vectors and invariants at the same states, nutation for the summary,
@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from core.gyroscope import (
+from rigidlab.core.gyroscope import (
     RotorParams,
     RotorSetup,
     invariants,

@@ -18,7 +18,7 @@ def _module_name(path: Path) -> str:
     parts = list(path.relative_to(CORE.parent).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
-    return ".".join(parts)
+    return ".".join(["rigidlab", *parts])
 
 
 def _modules() -> dict[str, Path]:
@@ -90,11 +90,11 @@ def test_the_checker_finds_a_cycle_and_accepts_a_tree():
 def test_the_graph_sees_imports_inside_functions_and_relative_imports():
     graph = import_graph()
     # core/multibody/_evaluation.py: `from ._simulate import _Dynamics` inside evaluate()
-    assert "core.multibody._simulate" in graph["core.multibody._evaluation"]
+    assert "rigidlab.core.multibody._simulate" in graph["rigidlab.core.multibody._evaluation"]
     # core/contact/_kernel.py: `from . import _compiled, _scalar`
-    assert {"core.contact._compiled", "core.contact._scalar"} <= graph["core.contact._kernel"]
+    assert {"rigidlab.core.contact._compiled", "rigidlab.core.contact._scalar"} <= graph["rigidlab.core.contact._kernel"]
     # an absolute import of a package runs its __init__
-    assert "core.contact" in graph["core.models._cam"]
+    assert "rigidlab.core.contact" in graph["rigidlab.core.models._cam"]
 
 
 def test_core_has_no_import_cycle():

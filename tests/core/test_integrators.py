@@ -14,7 +14,7 @@ from dataclasses import FrozenInstanceError
 import numpy as np
 import pytest
 
-from core import integrators as itg
+from rigidlab.core import integrators as itg
 
 
 class Oscillator:

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from core import integrators as itg
+from rigidlab.core import integrators as itg
 
 
 class Circle:

@@ -17,13 +17,13 @@ import math
 import numpy as np
 import pytest
 
-from core.contact import _search
-from core.contact._kernel import ContactKernel
-from core.models import CamFollower, CamProfile, pendulum_chain, rolling_disk, slider_crank
-from core.multibody import SingularSystemError
-from core.multibody._engine import parameter_rates
-from core.multibody._simulate import _Dynamics, _kinematic_prediction
-from core.multibody._system import exp_parameters
+from rigidlab.core.contact import _search
+from rigidlab.core.contact._kernel import ContactKernel
+from rigidlab.core.models import CamFollower, CamProfile, pendulum_chain, rolling_disk, slider_crank
+from rigidlab.core.multibody import SingularSystemError
+from rigidlab.core.multibody._engine import parameter_rates
+from rigidlab.core.multibody._simulate import _Dynamics, _kinematic_prediction
+from rigidlab.core.multibody._system import exp_parameters
 
 TWO_PI = 2.0 * math.pi
 #: The position Newton stops at max |C| <= 1e-12 (m); with a lift of about 1e-2 m
@@ -235,7 +235,7 @@ def _non_grashof_four_bar():
     """Crank 1.5 m, coupler 1 m, rocker 1.2 m, ground 2 m (no link turns fully: 1.5 + 2 > 1 + 1.2), the crank
     turned by a motor at 1 rad/s from 1 rad. Coupler and rocker stretch out (|B - D| = 1 + 1.2) when the crank
     is at acos((1.5^2 + 2^2 - 2.2^2) / (2 1.5 2)), at t = 0.3335777587 s: the dead point."""
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     a, b, c, d = 1.5, 1.0, 1.2, 2.0
     A, D = np.zeros(3), np.array([d, 0.0, 0.0])

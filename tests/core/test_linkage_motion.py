@@ -15,8 +15,8 @@ import pickle
 import numpy as np
 import pytest
 
-from core.models import LINKAGE_KINDS, linkage, linkage_motion
-from core.rotations import rotate_vector
+from rigidlab.core.models import LINKAGE_KINDS, linkage, linkage_motion
+from rigidlab.core.rotations import rotate_vector
 
 
 @pytest.mark.parametrize(("kind", "counts"), [

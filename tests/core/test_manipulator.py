@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from core.manipulator import (
+from rigidlab.core.manipulator import (
     DEFAULT_GEOMETRY,
     ManipulatorGeometry,
     end_link_angular_velocity,
@@ -29,7 +29,7 @@ from core.manipulator import (
     matrix_from_successive_rotations,
     relative_rotation_matrices,
 )
-from core.rotations import euler_angle_G, matrix_from_euler_angles
+from rigidlab.core.rotations import euler_angle_G, matrix_from_euler_angles
 
 # Products of three rotation matrices of unit-size entries: rounding stays
 # within a few dozen ulps (2.2e-16 each) of the exact result.

@@ -1,4 +1,4 @@
-"""core.modal against independent oracles: closed-form frequencies, hand-built state-space
+"""rigidlab.core.modal against independent oracles: closed-form frequencies, hand-built state-space
 matrices, the gyroscope's critical spin, the reduced top and the nonlinear simulation."""
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from core.gyroscope import RotorParams, sleeping_top_critical_spin
-from core.multibody import AssemblyError
-from core.modal import RIGID_TOL, LinearModel, Modes, _linearize, linearize, sweep
-from core.models import (
+from rigidlab.core.gyroscope import RotorParams, sleeping_top_critical_spin
+from rigidlab.core.multibody import AssemblyError
+from rigidlab.core.modal import RIGID_TOL, LinearModel, Modes, _linearize, linearize, sweep
+from rigidlab.core.models import (
     disk_rotor,
     pendulum_chain,
     rolling_disk,
@@ -68,7 +68,7 @@ def test_point_pendulum_needs_geometric_stiffness():
     modes = lin.modes()
     np.testing.assert_allclose(_pairs(modes) ** 2, [G / 0.5], rtol=1e-10)
     # the applied force (gravity) alone has no stiffness: everything comes from the multipliers
-    from core.multibody import _linearization as hooks
+    from rigidlab.core.multibody import _linearization as hooks
 
     system = pendulum_chain(1, 0.5, 2.0, "point")
     eng, ref = hooks.reference(system, 0.0, np.zeros(3))
@@ -96,7 +96,7 @@ def test_constraint_stiffness_is_the_derivative_of_the_constraint_forces(make):
     """Every row of the table (motors included), random multipliers, off equilibrium."""
     from dataclasses import replace
 
-    from core.multibody import _linearization as hooks
+    from rigidlab.core.multibody import _linearization as hooks
 
     system = make()
     eng, ref = hooks.reference(system, 0.37, np.zeros(3))
@@ -382,7 +382,7 @@ def test_body_shapes_keep_the_joints_closed_to_first_order():
     shapes = modes.body_shapes(system)
     assert shapes.shape == (6, 18)
     eng = system._engine()
-    from core.multibody._analysis import constraints_at
+    from rigidlab.core.multibody._analysis import constraints_at
 
     for eps in (1e-3, 5e-4):
         y = np.concatenate([system.state.displaced(dq=eps * shapes[4]).q, system.state.v])
@@ -409,7 +409,7 @@ def test_animate_projects_onto_the_constraints():
 @pytest.mark.slow
 def test_linearized_response_against_nonlinear_simulation():
     """Tangent displacement from the nonlinear run minus eps Re(N S e^(st)): error ~ eps^2."""
-    from core.multibody._engine import matrices
+    from rigidlab.core.multibody._engine import matrices
 
     system = pendulum_chain(2, kind="rod")
     lin = linearize(system)
@@ -562,7 +562,7 @@ def test_errors():
         modes.body_shapes(pendulum_chain(3))
     with pytest.raises(ValueError, match="index: expected an integer mode index"):
         modes.animate(pendulum_chain(2), 9, [0.0], amplitude=0.1)
-    with pytest.raises(ValueError, match="system: expected a core.multibody.System"):
+    with pytest.raises(ValueError, match="system: expected a rigidlab.core.multibody.System"):
         linearize("chain")
     with pytest.raises(ValueError, match="frame_omega: expected a finite"):
         linearize(pendulum_chain(1), frame_omega=(0.0, 1.0))
@@ -581,7 +581,7 @@ def test_errors():
 def _spring_block(arm: float, *, attach: float | None = None, gravity=(0.0, 0.0, 0.0)):
     """A 1 kg block on a prismatic guide along x at x = ``arm``, held by a 100 N/m spring from the origin to the
     block point at x = ``attach`` (default: its centre of mass); sqrt(k / m) = 10 rad/s."""
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     s = System(gravity=gravity)
     b = s.add_body("m", mass=1.0, inertia=(0.01,) * 3, position=(arm, 0.0, 0.0))
@@ -617,7 +617,7 @@ def test_a_state_off_the_constraints_is_refused():
 
 
 def test_a_body_turning_in_the_frame_without_symmetry_is_warned_about():
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     # spin about the intermediate axis: unstable, s = +-w sqrt((I1 - I2)(I2 - I3) / (I1 I3)) = +-1 in its own frame
     s = System(gravity=(0.0, 0.0, 0.0))
@@ -641,7 +641,7 @@ def test_a_body_turning_in_the_frame_without_symmetry_is_warned_about():
 
 @pytest.mark.parametrize("axis", [0, 2])
 def test_a_free_spinner_in_its_own_frame_is_stable_about_its_major_and_minor_axes(axis):
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     w = np.zeros(3)
     w[axis] = 3.0
@@ -661,7 +661,7 @@ def test_a_free_spinner_in_its_own_frame_is_stable_about_its_major_and_minor_axe
 
 
 def test_animate_refuses_a_motion_that_left_the_floating_point_range():
-    from core.multibody import System
+    from rigidlab.core.multibody import System
 
     s = System(gravity=(0.0, 0.0, -9.81))
     b = s.add_body("bob", mass=1.0, inertia=(0.0,) * 3, position=(0.0, 0.0, 0.8))  # inverted: s = sqrt(g / L)

@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from core.modal import _orthonormal_columns, linearize
-from core.gyroscope import RotorParams
-from core.models import disk_rotor, pendulum_chain, spatial_double_pendulum, steady_top, two_mass_oscillator
-from core.multibody import System
-from core.multibody import _linearization as hooks
-from core.multibody import _simulate
+from rigidlab.core.modal import _orthonormal_columns, linearize
+from rigidlab.core.gyroscope import RotorParams
+from rigidlab.core.models import disk_rotor, pendulum_chain, spatial_double_pendulum, steady_top, two_mass_oscillator
+from rigidlab.core.multibody import System
+from rigidlab.core.multibody import _linearization as hooks
+from rigidlab.core.multibody import _simulate
 
 # Eigenvalues: the two paths differ by the multipliers of the reference (Baraff's O(N) solve against the dense
 # solve: ~1e-13 relative on these systems, conditions up to ~1e3), the orthonormal basis of the null space and the

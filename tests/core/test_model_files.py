@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from core.modal import linearize
-from core.models import from_mjcf, from_urdf
+from rigidlab.core.modal import linearize
+from rigidlab.core.models import from_mjcf, from_urdf
 
 DATA = Path(__file__).resolve().parent / "data"
 PENDULUM_URDF = DATA / "double_pendulum.urdf"
@@ -91,7 +91,7 @@ def _joint_space_mass(system_at, names, q, h=1e-6):
     (truncation ~h^2 = 1e-12, round-off ~eps/h = 1e-10, relative); the body mass matrix is the System's own
     Newton-Euler ``M = diag(m I, J_body)`` (``System.evaluate().M``).
     """
-    from core.rotations import matrix_from_euler_parameters
+    from rigidlab.core.rotations import matrix_from_euler_parameters
 
     base = system_at(q)
     n = len(base.bodies)

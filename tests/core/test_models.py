@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from scipy.special import ellipk
 
-from core.gyroscope import RotorParams
-from core.integrators import IntegrationError
-from core.models import (
+from rigidlab.core.gyroscope import RotorParams
+from rigidlab.core.integrators import IntegrationError
+from rigidlab.core.models import (
     ROD_RADIUS_RATIO,
     HeavyTop,
     SliderCrank,
@@ -33,8 +33,8 @@ from core.models import (
     slider_crank,
     spatial_double_pendulum,
 )
-from core.models._pendulum import MAX_LINKS
-from core.multibody import System
+from rigidlab.core.models._pendulum import MAX_LINKS
+from rigidlab.core.multibody import System
 
 
 @pytest.mark.parametrize("kind", ["rod", "point"])

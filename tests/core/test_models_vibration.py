@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from core.gyroscope import RotorParams, steady_precession_rates
-from core.models import disk_rotor, spherical_pendulum, steady_top, two_mass_oscillator
+from rigidlab.core.gyroscope import RotorParams, steady_precession_rates
+from rigidlab.core.models import disk_rotor, spherical_pendulum, steady_top, two_mass_oscillator
 
 TOP = RotorParams(I=0.05, I3=0.02, mgl=0.5)
 

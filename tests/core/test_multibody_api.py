@@ -13,9 +13,9 @@ import warnings
 import numpy as np
 import pytest
 
-from core.integrators import IntegrationError
-from core.models import pendulum_chain
-from core.multibody import (
+from rigidlab.core.integrators import IntegrationError
+from rigidlab.core.models import pendulum_chain
+from rigidlab.core.multibody import (
     JOINT_KINDS,
     AssemblyError,
     AssemblyReport,
@@ -295,7 +295,7 @@ def test_joints_added_in_incompatible_configurations_cannot_be_assembled():
 
 
 def test_conflicting_drivers_cannot_be_assembled():
-    from core.models import slider_crank
+    from rigidlab.core.models import slider_crank
 
     model = slider_crank(phi0=0.5)
     model.system.add_motor(model.slider_joint, displacement=lambda t: 0.05, name="push")
@@ -597,7 +597,7 @@ def test_a_step_too_small_to_count_is_refused_without_a_warning():
 def test_runs_that_could_not_end_are_refused_before_they_start(t, kwargs, message):
     # MAX_BAUMGARTE: 1e5 rad/s took 1e6 right-hand sides (a minute) for 1 s of this chain, 1e6 diverged in 5 ms,
     # 1e300 overflowed alpha^2; an rtol of 1e-16 over 1e4 s, or a horizon of 1e300 s, ran until max_steps
-    from core.multibody._system import MAX_BAUMGARTE
+    from rigidlab.core.multibody._system import MAX_BAUMGARTE
 
     assert MAX_BAUMGARTE == 1e5
     system = pendulum_chain(2, tilt=0.3)
@@ -610,7 +610,7 @@ def test_a_horizon_of_1e300_seconds_stops_at_the_first_pace_check(method, monkey
     """It ran until max_steps (ten million right-hand sides: about ten minutes for this chain). The interpreted
     loop checks its pace after core.integrators.PACE_CHECK_CALLS (1e4) evaluations, a compiled loop at
     LONG_RUN_CALLS (scaled down here to keep the test short either way)."""
-    import core.integrators as integrators
+    import rigidlab.core.integrators as integrators
 
     monkeypatch.setattr(integrators, "LONG_RUN_CALLS", 20_000)
     system = pendulum_chain(2, tilt=0.3)
@@ -627,7 +627,7 @@ def test_a_run_that_would_take_most_of_an_hour_warns_early(monkeypatch):
     # a 1e10 N/m spring on a 1 kg block: DOP853 needs about 2e8 right-hand sides for 100 s, which the default
     # max_steps (1e7) would stop only after about 40 minutes; the warning comes at LONG_RUN_CALLS (scaled
     # down here, with max_steps, to keep the test short)
-    import core.integrators as integrators
+    import rigidlab.core.integrators as integrators
 
     monkeypatch.setattr(integrators, "LONG_RUN_CALLS", 2000)
     s = System()

@@ -29,8 +29,8 @@ import math
 import numpy as np
 import pytest
 
-from core.multibody import JOINT_KINDS, System
-from core.multibody._system import retract
+from rigidlab.core.multibody import JOINT_KINDS, System
+from rigidlab.core.multibody._system import retract
 
 SEED = 20240610
 
@@ -156,7 +156,7 @@ def test_motor_derivatives(kind, coordinate, rule):
 @pytest.mark.parametrize("f", [lambda t: np.sin(3 * t) + t**3, lambda t: np.exp(0.5 * t) * np.cos(t)])
 def test_motor_function_derivative_rules(f):
     """The derivative rules of add_motor against the exact derivatives (complex step ~1e-12, differences ~1e-7)."""
-    from core.multibody._drivers import driver_function
+    from rigidlab.core.multibody._drivers import driver_function
 
     ts = np.array([0.0, 0.37, 2.5, 11.0])
     cs, how = driver_function(f, "angle", 0.0)

@@ -23,11 +23,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from core.gyroscope import RotorParams
-from core.gyroscope import simulate as gyroscope_simulate
-from core.models import heavy_top, pendulum_chain, pendulum_chain_reduced, slider_crank, spatial_double_pendulum
-from core.multibody import System
-from core.rotations import (
+from rigidlab.core.gyroscope import RotorParams
+from rigidlab.core.gyroscope import simulate as gyroscope_simulate
+from rigidlab.core.models import heavy_top, pendulum_chain, pendulum_chain_reduced, slider_crank, spatial_double_pendulum
+from rigidlab.core.multibody import System
+from rigidlab.core.rotations import (
     constant_relative_rotation_residual,
     euler_angle_G,
     matrix_from_euler_angles,

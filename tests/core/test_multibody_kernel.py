@@ -18,11 +18,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.models import pendulum_chain
-from core.multibody import System
-from core.multibody._analysis import analyze_rank
-from core.multibody._simulate import _Dynamics
-import core.multibody._simulate as simulate_module
+from rigidlab.core.models import pendulum_chain
+from rigidlab.core.multibody import System
+from rigidlab.core.multibody._analysis import analyze_rank
+from rigidlab.core.multibody._simulate import _Dynamics
+import rigidlab.core.multibody._simulate as simulate_module
 
 KINDS = ("spherical", "revolute", "fixed", "universal", "cylindrical", "prismatic")
 

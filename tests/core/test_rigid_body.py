@@ -17,9 +17,9 @@ import re
 import numpy as np
 import pytest
 
-from core import integrators as itg
-from core import rigid_body as rb
-from core.rotations import (
+from rigidlab.core import integrators as itg
+from rigidlab.core import rigid_body as rb
+from rigidlab.core.rotations import (
     euler_parameter_G_bar,
     euler_parameters_from_rodriguez_parameters,
     matrix_from_euler_parameters,
@@ -584,7 +584,7 @@ def test_every_orientation_entry_applies_one_unit_norm_rule(scale):
     # core.rotations.UNIT_NORM_TOL: within it the parameters are normalized,
     # beyond it (norm 0, 2, or just past 1e-6) a ValueError names the
     # argument and the norm. (free_body_exact refused 1 + 1e-8 before.)
-    from core.rotations import UNIT_NORM_TOL
+    from rigidlab.core.rotations import UNIT_NORM_TOL
 
     J, w = [1.0, 2.0, 3.0], [0.3, -0.5, 0.2]
     p = scale * P0

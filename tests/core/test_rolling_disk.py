@@ -23,14 +23,14 @@ import math
 import numpy as np
 import pytest
 
-from core.models import (
+from rigidlab.core.models import (
     FLAT_LEAN,
     RollingDiskMotion,
     rolling_disk,
     rolling_disk_critical_spin,
     rolling_disk_reference,
 )
-from core.rotations import matrix_from_euler_parameters
+from rigidlab.core.rotations import matrix_from_euler_parameters
 
 G = 9.81
 
@@ -302,7 +302,7 @@ def test_rolling_disk_arguments():
 def test_a_run_too_long_for_its_spin_is_refused_or_announced():
     """At least one right-hand side a radian: a coin spun at 1e6 rad/s for 20 s cannot end within max_steps
     (refused before it starts), and 0.2 s of it (2e5 rad, minutes of CPU) is announced with a warning."""
-    from core.multibody._simulate import LONG_RUN_RADIANS, _check_turns
+    from rigidlab.core.multibody._simulate import LONG_RUN_RADIANS, _check_turns
 
     system, disk, _ = rolling_disk(spin=1e6)
     with pytest.raises(ValueError, match=r"t: body 'disk' turns at 1e\+06 rad/s, about 2e\+07 rad by t=20, .*"

@@ -1,4 +1,4 @@
-"""core.models.rolling_disk_run: the disk's System run until it cannot go on, against independent oracles.
+"""rigidlab.core.models.rolling_disk_run: the disk's System run until it cannot go on, against independent oracles.
 
 * The run's lean, spin, heading rate, speed, normal force and energy equal the
   reduced equations (:func:`rolling_disk_reference`), and its Euler angle
@@ -19,7 +19,7 @@ import pickle
 import numpy as np
 import pytest
 
-from core.models import RollingDiskRun, rolling_disk, rolling_disk_reference, rolling_disk_run
+from rigidlab.core.models import RollingDiskRun, rolling_disk, rolling_disk_reference, rolling_disk_run
 
 
 @pytest.mark.parametrize("rolling", [True, False])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import core.rotations as cr
+import rigidlab.core.rotations as cr
 
 DESIGN_NAMES = [
     "skew",
@@ -114,6 +114,6 @@ def test_import_does_not_load_scipy_spatial():
     import subprocess
     import sys
 
-    code = "import sys, core.rotations; print('scipy.spatial' in sys.modules)"
+    code = "import sys, rigidlab.core.rotations; print('scipy.spatial' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

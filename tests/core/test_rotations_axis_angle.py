@@ -5,7 +5,7 @@ import pytest
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
-import core.rotations as cr
+import rigidlab.core.rotations as cr
 
 N = 1000
 

@@ -1,7 +1,7 @@
 """The compiled large-batch path of core.rotations against the numpy path and scipy.
 
-Batches of at least ``core.rotations._batch.COMPILED_MIN`` rotations run the
-numba kernels of ``core.rotations._kernels``; smaller batches the blocked
+Batches of at least ``rigidlab.core.rotations._batch.COMPILED_MIN`` rotations run the
+numba kernels of ``rigidlab.core.rotations._kernels``; smaller batches the blocked
 numpy kernels; one rotation (no batch axes) a path on Python floats. Each
 test forces a path by setting ``COMPILED_MIN`` (0: every batch compiled,
 huge: none) and checks that the paths agree with each other (to the last
@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import core.rotations as cr
-from core.rotations import _batch
+import rigidlab.core.rotations as cr
+from rigidlab.core.rotations import _batch
 
 ROOT = Path(__file__).resolve().parents[2]
 NUMPY_ONLY = 10**12
@@ -279,13 +279,13 @@ def test_kernels_are_cached_and_compiled_on_first_use_only():
     code = """
 import sys
 import numpy as np
-import core.rotations as cr
-from core.rotations import _batch
-assert "numba" not in sys.modules and "core.rotations._kernels" not in sys.modules
+import rigidlab.core.rotations as cr
+from rigidlab.core.rotations import _batch
+assert "numba" not in sys.modules and "rigidlab.core.rotations._kernels" not in sys.modules
 p = np.array([[1.0, 0.0, 0.0, 0.0]] * (_batch.COMPILED_MIN - 1))
 cr.matrix_from_euler_parameters(p)
-assert "core.rotations._kernels" not in sys.modules, "small batch loaded the kernels"
-from core.rotations import _kernels
+assert "rigidlab.core.rotations._kernels" not in sys.modules, "small batch loaded the kernels"
+from rigidlab.core.rotations import _kernels
 kernels = [_kernels.matrix_from_euler_parameters, _kernels.euler_parameters_from_matrix,
            _kernels.matrix_from_axis_angle]
 assert all(k.signatures == [] for k in kernels), "compiled at import"

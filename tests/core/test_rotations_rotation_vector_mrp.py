@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import core.rotations as cr
+import rigidlab.core.rotations as cr
 
 N = 1000
 

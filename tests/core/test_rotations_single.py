@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import core.rotations as cr
+import rigidlab.core.rotations as cr
 
 SEQUENCES = [
     "".join(axes)

@@ -17,7 +17,7 @@ import numba
 import pytest
 from numba.core.dispatcher import Dispatcher
 
-import core._warm as warm
+import rigidlab.core._warm as warm
 from tests.helpers import wait_until
 
 #: the warm-up lock is one per machine: tests that hold it run on one xdist worker, one after another
@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 _HOLDER = textwrap.dedent("""
     import sys
-    from core._warm import hold_lock
+    from rigidlab.core._warm import hold_lock
     print(hold_lock() is not None, flush=True)
     sys.stdin.read()  # held until the test closes stdin
 """)
