@@ -53,6 +53,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Callable, Sequence
+from concurrent.futures import CancelledError
 from typing import Any, ClassVar
 
 import numpy as np
@@ -221,6 +222,7 @@ class SimulationScene(PlaybackRequests, Scene):
         self._rate: collections.deque[tuple[float, float]] = collections.deque()
         self._rate_sums = [0.0, 0.0]  # wall and simulated seconds in self._rate (running sums: O(1) a frame)
         self.real_time_rate = math.nan
+        self.side_jobs: dict[str, Any] = {}  # key -> future of a job beside the motion (submit_side_job)
 
     @staticmethod
     def _no_job(k: int, previous: Any) -> Any:  # pragma: no cover - replaced at the first frame
@@ -298,7 +300,28 @@ class SimulationScene(PlaybackRequests, Scene):
         return f"**t** = {self.display_time:.2f} s"
 
     def background(self) -> None:
-        """Hook: once per frame after the clock moved, for side jobs (modes, sweeps) on ``self.executor``."""
+        """Hook: once per frame after the clock moved, for side jobs (modes, sweeps): :meth:`submit_side_job`."""
+
+    # -- side jobs --------------------------------------------------------------------------------------
+    def submit_side_job(self, key: str, fn: Callable[..., Any], /, *args: Any) -> None:
+        """Run ``fn(*args)`` on the scene's executor beside the motion (modes, a sweep); :meth:`side_results`
+        hands the result back on the loop thread. ``key`` names the job in a notice if it fails."""
+        self.side_jobs[key] = self.executor.submit(fn, *args)
+
+    def side_results(self) -> list[tuple[str, Any]]:
+        """``(key, result)`` of the side jobs finished since the last call, in submission order; one that
+        raised (or was cancelled) is dropped with a warning notice naming its key and the error."""
+        finished = []
+        for key, future in list(self.side_jobs.items()):
+            if not future.done():
+                continue
+            del self.side_jobs[key]
+            error = CancelledError() if future.cancelled() else future.exception()
+            if error is None:
+                finished.append((key, future.result()))
+            else:
+                self.notify(f"{key} not computed", f"{type(error).__name__}: {error}", "warning")
+        return finished
 
     # -- building -----------------------------------------------------------------------------------
     def build(self) -> None:

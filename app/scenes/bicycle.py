@@ -158,7 +158,6 @@ class BicycleScene(SimulationScene):
         self.center = np.zeros(2)  # the world offset: the bicycle's place on the ground (m)
         self.modes: tuple[float, tuple] | None = None  # (speed, core's WhippleModes) at the current speed
         self.sweep: Any = None  # core's WhippleSweep (eigenvalues against speed)
-        self._jobs: dict[str, Any] = {}
         self._drawn_segment: Any = None
         self._chart_due, self._base = True, (None, None)
 
@@ -279,17 +278,12 @@ class BicycleScene(SimulationScene):
 
     # -- side jobs: the modes at the current speed, then the eigenvalues against speed --------------
     def background(self) -> None:
-        for key, future in list(self._jobs.items()):
-            if future.done():
-                del self._jobs[key]
-                if future.cancelled() or future.exception() is not None:
-                    error = future.exception()
-                    self.notify(f"{key} not computed", f"{type(error).__name__}: {error}", "warning")
-                elif key == "Sweep":
-                    self.sweep = future.result()
-                else:
-                    self.modes = (float(key.split()[1]), future.result())
-                self._chart_due = True
+        for key, result in self.side_results():
+            if key == "Sweep":
+                self.sweep = result
+            else:
+                self.modes = (float(key.split()[1]), result)
+            self._chart_due = True
         if self._chart_due and self.config is not None:
             self._chart_due = False
             if self.modes is not None and self.modes[0] == self.config.speed:
@@ -304,13 +298,13 @@ class BicycleScene(SimulationScene):
         timeline = self.timeline
         ahead = not timeline.busy and (timeline.ready(timeline.index(self.local_time) + 1) or self.ended
                                        or not self.playback.playing or timeline.error is not None)
-        if self._jobs or self.config is None or (not ahead and self.sim_time < 1.0):
+        if self.side_jobs or self.config is None or (not ahead and self.sim_time < 1.0):
             return
         speed = self.config.speed
         if self.modes is None or self.modes[0] != speed:
-            self._jobs[f"Modes {speed}"] = self.executor.submit(whipple_modes_at, speed, _P)
+            self.submit_side_job(f"Modes {speed}", whipple_modes_at, speed, _P)
         elif self.sweep is None and ahead:
-            self._jobs["Sweep"] = self.executor.submit(whipple_sweep, np.linspace(0.0, 10.0, 101), _P)
+            self.submit_side_job("Sweep", whipple_sweep, np.linspace(0.0, 10.0, 101), _P)
 
     def readout_lines(self) -> list[str]:
         lines = [f"**v** = {self.config.speed:.2f} m/s · lean φ = {math.degrees(self.lean):+.2f}° · "

@@ -443,3 +443,23 @@ def test_a_restart_with_another_initial_extra_runs_it_anew(make_bare_scene) -> N
     _play_until(scene, 0.3)
     t, x = scene.drawn[-1]
     assert x == pytest.approx(3.0 * math.sin(t), abs=1e-14)
+
+
+def _side_value(x: float) -> float:
+    if x < 0:
+        raise ValueError(f"x: expected >= 0, got {x}")
+    return math.sqrt(x)
+
+
+def test_side_jobs_hand_back_their_results_once_and_a_failure_is_a_notice(make_bare_scene) -> None:
+    """Jobs beside the motion (the bicycle's modes and sweep): each result comes back once, on the loop
+    thread (in submission order among those finished by then); a job that raises is dropped with a warning naming its key and the error."""
+    scene, notices = make_bare_scene(_Toy)
+    scene.submit_side_job("Root of 4", _side_value, 4.0)
+    scene.submit_side_job("Root of -1", _side_value, -1.0)
+    scene.submit_side_job("Root of 9", _side_value, 9.0)
+    got: list[tuple[str, Any]] = []
+    wait_until(lambda: (got.extend(scene.side_results()), not scene.side_jobs)[1], timeout=60.0, interval=0.0)
+    assert sorted(got) == [("Root of 4", 2.0), ("Root of 9", 3.0)]
+    assert ("Root of -1 not computed", "ValueError: x: expected >= 0, got -1.0", "warning") in notices
+    assert scene.side_results() == []
