@@ -57,6 +57,7 @@ from rigidlab.core._validation import float_array, real_number, short_repr
 
 __all__ = [
     "RIGID_TOL",
+    "RigidModeWarning",
     "STABILITY_TOL",
     "Embedding",
     "LinearModel",
@@ -109,7 +110,13 @@ def _ro(a: np.ndarray) -> np.ndarray:
     return a
 
 
+class RigidModeWarning(UserWarning):
+    """:meth:`Modes.animate` of a rigid-body (zero-eigenvalue) mode: the mechanism moves along it as a rigid
+    body, it does not oscillate (:attr:`Modes.flexible` leaves such modes out)."""
+
+
 # ------------------------------------------------------------------ embedding
+
 @dataclass(frozen=True)
 class Embedding:
     """How the degrees of freedom of a :func:`linearize` model map to the bodies.
@@ -611,6 +618,11 @@ class Modes:
             For another System, a bad index, times or amplitude;
             ``AssemblyError`` when the amplitude is so large that the
             constraints cannot be met.
+
+        Warns
+        -----
+        RigidModeWarning
+            For a rigid-body mode (:attr:`rigid`): it does not oscillate.
         """
         from rigidlab.core.multibody._analysis import AssemblyError
         from rigidlab.core.multibody._engine import matrices
@@ -620,6 +632,10 @@ class Modes:
         emb = self._embedding(system)
         j = self._index(index)
         a = real_number(amplitude, "amplitude", expected="a finite amplitude (m or rad)")
+        if self.rigid[j]:
+            warnings.warn(f"animate: mode {j} is a rigid-body mode (s = {complex(self.eigenvalues[j]):.3g}): the "
+                          "mechanism moves along it as a rigid body and does not oscillate (Modes.flexible leaves "
+                          "such modes out)", RigidModeWarning, stacklevel=2)
         times = float_array(t, "t", expected="times (s)")
         if times.ndim > 1:
             raise ValueError(f"t: expected a time or a 1-D array of times (s), got shape {times.shape}")

@@ -687,3 +687,21 @@ def test_linear_model_refuses_scales_out_of_range_and_bad_derivative_errors():
     # an undamped mode's damping ratio is 0, not -0.0 (written "-0.0" in the CSV)
     ratio = LinearModel(np.eye(1), np.eye(1)).modes().damping_ratio
     assert np.all(ratio == 0.0) and not np.any(np.signbit(ratio))
+
+
+def test_animating_a_rigid_body_mode_warns_and_a_vibration_mode_does_not():
+    """The spherical pendulum's free spin about the rod is a rigid-body mode: animating it warns (it drifts,
+    it does not oscillate); its swing modes animate silently."""
+    import warnings
+
+    from rigidlab.core.modal import RigidModeWarning
+
+    sp = spherical_pendulum(0.8, 1.5)
+    modes = linearize(sp.system).modes()
+    rigid, swing = int(np.flatnonzero(modes.rigid)[0]), int(np.flatnonzero(~modes.rigid)[0])
+    with pytest.warns(RigidModeWarning, match=rf"mode {rigid} is a rigid-body mode"):
+        modes.animate(sp.system, rigid, [0.0, 0.1], amplitude=0.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RigidModeWarning)
+        modes.animate(sp.system, swing, [0.0, 0.1], amplitude=0.1)
+        modes.flexible.animate(sp.system, 0, [0.0, 0.1], amplitude=0.1)
