@@ -35,7 +35,7 @@ import trimesh
 from rigidlab.app.nodes import set_array, set_pose, set_visible, wxyz_z_to
 
 __all__ = ["ChunkedTrail", "HeadedTrail", "SampledTrack", "SphereTrail", "StickHead", "curve_pieces", "extend_trail",
-           "sampled_curve", "trail_segments", "FAR_SEGMENTS"]
+           "ring_due", "sampled_curve", "trail_segments", "FAR_SEGMENTS"]
 
 Vec = tuple[float, float, float]
 
@@ -127,8 +127,10 @@ class ChunkedTrail(_Framed):
     between ``(chunks - 1) * chunk_segments`` and ``chunks * chunk_segments``
     of the newest segments are drawn. Consecutive chunks share their joining
     point, so the curve has no gaps. viser keeps every node's latest points,
-    so a browser that connects later receives the whole curve. Every chunk
-    node also carries :data:`FAR_SEGMENTS`. A hidden node holds segments out
+    so a browser that connects later receives the whole curve.
+    :attr:`unsent_length` is the length of the curve added since the last
+    flush (not on the page yet). Every chunk node also carries
+    :data:`FAR_SEGMENTS`. A hidden node holds segments out
     of sight, so that a node shown again does not show its old stretch for
     the page frame before its new points arrive. The page draws new points a
     frame after the poses sent with them: a curve drawn up to a moving body
@@ -180,6 +182,7 @@ class ChunkedTrail(_Framed):
         self._head = 0  # chunk holding the newest segment
         self._count = 0  # segments in the head chunk
         self._last: tuple[float, float, float] | None = None  # newest point
+        self.unsent_length = 0.0  # length of the segments added since the last flush (units of the points)
 
     @property
     def newest(self) -> np.ndarray | None:
@@ -214,6 +217,7 @@ class ChunkedTrail(_Framed):
         self._head = 0
         self._count = 0
         self._last = None
+        self.unsent_length = 0.0
 
     def add(self, point: Any) -> bool:
         """Append ``point`` (3,) unless it is within ``min_step`` of the newest one; whether it was added.
@@ -221,14 +225,17 @@ class ChunkedTrail(_Framed):
         A point costs the loop thread a few float operations and one row of
         the chunk's buffer (it is called for every point of a curve, every
         frame): the unused segments of the newest chunk collapse onto the
-        newest point when :meth:`flush` sends it.
+        newest point when :meth:`flush` sends it. Its segment's length adds
+        to :attr:`unsent_length`.
         """
         p = (float(point[0]), float(point[1]), float(point[2]))
         last = self._last
         if last is not None:
             dx, dy, dz = p[0] - last[0], p[1] - last[1], p[2] - last[2]
-            if not dx * dx + dy * dy + dz * dz > self.min_step * self.min_step:
+            step2 = dx * dx + dy * dy + dz * dz
+            if not step2 > self.min_step * self.min_step:
                 return False
+            self.unsent_length += math.sqrt(step2)
         self._last = p
         if last is None:  # the first point: a dot (every segment on it, at the flush) in the head chunk
             self._used[self._head] = True
@@ -260,6 +267,7 @@ class ChunkedTrail(_Framed):
                 node.visible = bool(self._used[k])
                 self._shown[k] = self._used[k]
         self._dirty = set()
+        self.unsent_length = 0.0
 
     @property
     def pending(self) -> bool:
@@ -288,9 +296,13 @@ class StickHead(_Framed):
     for 3 cm sticks on a circle of 2 m). Everything sent after the nodes are created is a pose or a
     visibility, which the page draws in the frame it receives them, so the
     drawn curve reaches the body in every frame. The stretch covered,
-    ``count * length``, must be longer than the body travels in a page frame
-    plus the period at which the :class:`ChunkedTrail` behind it is flushed:
-    the two overlap, and the chunks may end anywhere along the sticks.
+    :attr:`reach` ``= count * length`` (at least, along the curve), must be
+    longer than the body travels in a page frame plus the stretch that the
+    :class:`ChunkedTrail` behind it has not sent yet: the two overlap, and the
+    chunks may end anywhere along the sticks. :class:`SampledTrack` and
+    :class:`HeadedTrail` send the trail's chunk at the latest when that
+    stretch reaches half the reach (:func:`ring_due`), a frame that sends a
+    plot or not; the other half is left for a page frame's motion.
 
     Parameters
     ----------
@@ -333,6 +345,12 @@ class StickHead(_Framed):
         self._anchor: Vec | None = None  # the newest chord's end (the first point before any chord)
         self._last: Vec | None = None  # the newest point
         self._direction: Vec | None = None  # unit direction of the newest chord
+
+    @property
+    def reach(self) -> float:
+        """The stretch of the curve the sticks cover back from the newest chord's end once the ring is full,
+        ``count * length`` (a chord is no longer than the curve between its ends)."""
+        return self.count * self.length
 
     @property
     def segments(self) -> np.ndarray:
@@ -545,6 +563,24 @@ def sampled_curve(t: np.ndarray, points: np.ndarray, *, before: tuple[float, np.
     return curve, starts
 
 
+def ring_due(trail: ChunkedTrail, head: StickHead, *, waited: float, period: float, hold: bool) -> bool:
+    """Whether a track drawn as ``trail`` ended by ``head`` sends the trail's changed chunks in this frame.
+
+    They go when ``period`` s of wall time have passed since the last send
+    (``waited``), but not in a frame that sends a plot or the readout already
+    (``hold``: the loop thread's work per frame stays small) -- unless the
+    stretch not sent yet (``trail.unsent_length``) has reached half the
+    head's reach. The head covers that stretch plus a page frame's motion
+    only while their sum is below its reach, and ``hold`` alone may hold the
+    chunk back for good: a slow server sends a plot or the readout in every
+    frame (they are refreshed one a frame, each every 0.25 s: the rolling
+    disk's five at 20 frames a second or fewer).
+    """
+    if not trail.pending:
+        return False
+    return trail.unsent_length >= 0.5 * head.reach or (not hold and waited >= period)
+
+
 class SampledTrack:
     """A track that a moving point leaves, up to that point in every frame: a :class:`ChunkedTrail` and a
     :class:`StickHead`, fed with the :func:`sampled_curve` points of the samples a clock passes.
@@ -615,11 +651,12 @@ class SampledTrack:
 
     def draw(self, *, hold: bool = False) -> None:
         """Send what changed (inside ``target.atomic()``, every frame the point moves); ``hold``: the frame
-        sends a plot or a readout already, the trail's chunk waits for the next frame (the head's poses go)."""
+        sends a plot or a readout already, the trail's chunk waits for a later frame unless the head would no
+        longer cover what it holds back (:func:`ring_due`; the head's poses go)."""
         if not self.visible:
             return
         now = time.monotonic()
-        if not hold and self.trail.pending and now - self._flushed >= self.period:
+        if ring_due(self.trail, self.head, waited=now - self._flushed, period=self.period, hold=hold):
             self.trail.flush()
             self._flushed = now
         self.head.draw()
@@ -631,7 +668,8 @@ class HeadedTrail:
 
     ``add(point)`` feeds both; ``draw(visible)`` (inside ``atomic()``) shows or hides them, sends the
     trail's newest chunk when ``period`` s of wall time have passed (not in a frame that sends a plot:
-    ``hold=True``) and the head's poses; ``clear()`` empties both.
+    ``hold=True``, unless the head would no longer cover what the trail holds back: :func:`ring_due`) and
+    the head's poses; ``clear()`` empties both.
     """
 
     def __init__(self, scene: Any, name: str, color: Any, *, thickness: float, capacity: int, min_step: float,
@@ -655,7 +693,7 @@ class HeadedTrail:
         for part in (self.trail, self.head):
             set_visible(part, visible)
         now = time.monotonic()
-        if visible and not hold and now - self._sent >= self.period and self.trail.pending:
+        if visible and ring_due(self.trail, self.head, waited=now - self._sent, period=self.period, hold=hold):
             self._sent = now
             self.trail.flush()  # the newest chunk only
         if visible:

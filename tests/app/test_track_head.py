@@ -16,6 +16,7 @@ import math
 import time
 
 import numpy as np
+import pytest
 
 from rigidlab.app.scenes._trail import StickHead
 from rigidlab.app.scenes.rolling_disk import RollingDiskScene
@@ -241,11 +242,12 @@ def test_headed_trail_feeds_both_and_hides_both(server) -> None:
 
 def test_a_held_frame_sends_no_track_buffer_and_the_next_frame_does(server) -> None:
     """HeadedTrail and SampledTrack: ``draw(hold=True)`` (a frame that sends a plot) moves the head but keeps
-    the ring's newest chunk for the next frame that is not held."""
+    the ring's newest chunk for the next frame that is not held (the stretch held back, 1 m, is shorter than
+    half the head's reach, 2.4 m)."""
     from rigidlab.app.scenes._trail import HeadedTrail, SampledTrack, sampled_curve
 
     headed = HeadedTrail(_Owner(server), "/held", (0, 150, 140), thickness=2.0, capacity=64, min_step=0.01,
-                         length=0.05, count=8, period=0.0)
+                         length=0.3, count=8, period=0.0)
     for x in np.linspace(0.0, 1.0, 51):
         headed.add((x, 0.0, 0.0))
     with server.atomic():
@@ -259,7 +261,7 @@ def test_a_held_frame_sends_no_track_buffer_and_the_next_frame_does(server) -> N
     u = np.linspace(0.0, 1.0, 11)
     curve = sampled_curve(u, np.column_stack([u, np.zeros_like(u), np.zeros_like(u)]))
     sampled = SampledTrack(_Owner(server), "/held_sampled", (0, 150, 140), thickness=2.0, capacity=100,
-                           min_step=1e-6, head_length=0.05, head_count=8, period=0.0)
+                           min_step=1e-6, head_length=0.3, head_count=8, period=0.0)
     sampled.follow("a", *curve, 10, (1.0, 0.0, 0.0))
     with server.atomic():
         sampled.draw(hold=True)
@@ -267,3 +269,57 @@ def test_a_held_frame_sends_no_track_buffer_and_the_next_frame_does(server) -> N
     with server.atomic():
         sampled.draw()
     assert not sampled.trail.pending
+
+
+def _posed_segments(ring, head) -> np.ndarray:
+    """(n, 2, 3) the segments of a track's visible nodes as sent: the ring's chunk nodes (``ring``: their
+    (points, visible) when the page draws them) and the head's sticks placed by their poses."""
+    out = [points[np.all(np.abs(points) < 1000.0, axis=(1, 2))] for points, visible in ring if visible]
+    for node in (*head.nodes, head.tip):
+        if node.visible:
+            A = matrix_from_euler_parameters(np.array(node.wxyz))
+            out.append(np.array(node.points, dtype=float) @ A.T + np.array(node.position))
+    return np.concatenate(out) if out else np.zeros((0, 2, 3))
+
+
+@pytest.mark.parametrize("kind", ["SampledTrack", "HeadedTrail"])
+def test_a_track_held_in_every_frame_reaches_back_along_its_whole_path(server, kind) -> None:
+    """A server whose frames are 50 ms or more apart sends a plot or the readout in every frame (the rolling
+    disk's five, one a frame, each every 0.25 s), so every frame holds the ring's chunk back (``draw(hold=True)``); the ring must still be
+    sent before the stretch it holds back outruns the head: the drawn track runs back from the point along
+    its whole path in every page frame. (The rolling disk's track: sticks of 3 cm, 64 of them, a point every
+    19 mm, 3 points a server frame, a page frame every 7 server frames: 0.4 m, a page at 3 fps.)"""
+    from rigidlab.app.scenes._trail import HeadedTrail, SampledTrack, sampled_curve
+
+    u = np.arange(320) * 0.019 / 1.5  # 6 m of a circle of radius 1.5 m
+    path = np.column_stack([1.5 * np.sin(u), 1.5 * (1.0 - np.cos(u)), np.full_like(u, 0.0015)])
+    options = dict(thickness=2.0, capacity=1000, min_step=0.002, period=0.0)
+    if kind == "SampledTrack":
+        track = SampledTrack(_Owner(server), "/held_always_sampled", (0, 150, 140), head_length=0.03,
+                             head_count=64, **options)
+        curve = sampled_curve(u, path)
+    else:
+        track = HeadedTrail(_Owner(server), "/held_always_headed", (0, 150, 140), length=0.03, count=64, **options)
+    ring, head = track.trail, track.head
+    page_ring: list[tuple[np.ndarray, bool]] = []  # the ring as the page draws it: points a page frame late
+    checked = 0
+    for frame, j in enumerate(range(2, path.shape[0], 3)):
+        with server.atomic():
+            if kind == "SampledTrack":
+                track.follow("chunk", *curve, j, path[j])
+                track.draw(hold=True)
+            else:
+                for point in path[j - 2:j + 1]:
+                    track.add(point)
+                track.draw(True, hold=True)
+        if frame % 7:
+            continue
+        segments = _posed_segments(page_ring, head)
+        assert distance_to_segments(path[j][None], segments)[0] < 1e-4  # the track ends at the point
+        behind = path_behind(path[:j + 1], path[j], 10.0, 0.01)  # back to the path's start
+        gap = distance_to_segments(behind, segments)
+        assert gap.max() < 2e-3, f"no track drawn {0.01 * np.argmax(gap >= 2e-3):.2f} m behind the point"
+        page_ring = [(np.array(node.points, dtype=float), bool(node.visible)) for node in ring.nodes]
+        checked += 1
+    assert checked >= 10
+    assert ring.unsent_length < 0.5 * head.reach
