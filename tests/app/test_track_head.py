@@ -166,7 +166,11 @@ def test_after_creation_the_head_sends_only_poses_and_visibility(server) -> None
 # -- the rolling disk as a page at 3 fps draws it ------------------------------------------------------
 
 
-def test_the_disk_track_reaches_the_contact_point_in_every_page_frame(running_scene) -> None:
+def test_the_disk_track_reaches_the_contact_point_in_every_page_frame(running_scene, monkeypatch) -> None:
+    """Every server frame sends a plot or the readout (refreshed as often as frames come), as on a server whose
+    frames are 50 ms or more apart: every frame holds the track's ring back (``draw(hold=True)``), however
+    loaded the machine is; the track must still reach back along the whole run."""
+    monkeypatch.setattr(RollingDiskScene, "refresh_period", 0.0)
     app, scene = running_scene(RollingDiskScene)
     recorder = Recorder(app.url)
     try:
@@ -202,15 +206,19 @@ def test_the_disk_track_reaches_the_contact_point_in_every_page_frame(running_sc
     # a page frame every 0.38 m of motion: the page at 3 fps at the disk's 1.14 m/s, whatever the server's rate
     for i, nodes in page_frames(messages, ground, travel=0.38):
         point = nodes[f"{ground}/point"]["position"]  # the dot's pose: on the ground, lifted as the track
-        if i < start[0] or np.linalg.norm(point[:2]) < 0.5:
-            continue  # before the preset's run has gone half a metre
+        if i <= start[0] or np.linalg.norm(point[:2]) < 0.5:
+            continue  # before the preset's run has gone half a metre (the page frame drawn before its first
+            # pose is not of it: viser may have replaced the poses of the frame that cleared the track by newer
+            # ones, sent after that frame's visibility messages)
         segments = drawn_segments(nodes, f"{ground}/track")
         # the drawn track ends at the contact point drawn in the same page frame
         end = distance_to_segments(point[None], segments)[0]
         assert end < 1e-4, f"the track drawn ends {end:.3f} m from the contact point"
-        # and runs back from it without a gap, along the path the contact point took
-        behind = path_behind(path, point, 0.5, 0.01)
-        assert distance_to_segments(behind, segments).max() < 2e-3
+        # and runs back from it without a gap, along the path the contact point took since the preset (3.4 m:
+        # farther than the head's sticks reach, 1.92 m)
+        behind = path_behind(path, point, 10.0, 0.01)
+        gap = distance_to_segments(behind, segments)
+        assert gap.max() < 2e-3, f"no track drawn {0.01 * np.argmax(gap >= 2e-3):.2f} m behind the contact point"
         checked += 1
     assert checked >= 5
 
