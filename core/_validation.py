@@ -132,3 +132,63 @@ def output_times(t: Any, name: str = "t") -> np.ndarray:
                             f"{name}: expected non-decreasing times (s), got {name}[{i}] = {float(tt[i])!r} after "
                          f"{name}[{i - 1}] = {float(tt[i - 1])!r}")
     return tt
+
+
+#: Radians per degree: the factor of ``degrees=True`` (the product rounds once,
+#: bit for bit as ``np.deg2rad`` and ``math.radians``).
+RADIANS_PER_DEGREE = math.pi / 180.0
+
+
+def check_degrees(degrees: Any) -> bool:
+    """The ``degrees`` flag of a public function: True or False, else ``degrees: expected ...``."""
+    if not isinstance(degrees, (bool, np.bool_)):
+        raise ArgumentError("degrees", f"degrees: expected True or False, got {short_repr(degrees)}")
+    return bool(degrees)
+
+
+class _DefaultAngle(float):
+    """A default angle (rad) in a signature: ``degrees=True`` leaves it as it is."""
+
+    __slots__ = ()
+
+    def __reduce__(self):
+        return (float, (float(self),))
+
+
+class _DefaultAngles(tuple):
+    """Default angles (rad) in a signature: ``degrees=True`` leaves them as they are."""
+
+    __slots__ = ()
+
+    def __reduce__(self):
+        return (tuple, (tuple(self),))
+
+
+def default_angle(value: Any) -> Any:
+    """``value`` (a number or a tuple of numbers, rad) marked as a default angle: with
+    ``degrees=True`` an argument left at its default keeps this angle (it is not read
+    as degrees); it prints and computes as the plain float or tuple."""
+    return _DefaultAngles(value) if isinstance(value, tuple) else _DefaultAngle(value)
+
+
+def radians(x: Any, name: str, degrees: Any) -> Any:
+    """An angle (or angle rate) argument in radians (rad/s): ``x`` itself unless
+    ``degrees``, else ``x`` times pi/180, once per call (a number stays a
+    float, anything else becomes a float64 array; None stays None).
+
+    The conversion comes before the argument's own validation, which then
+    names ``name`` as usual; input that is not real numbers raises here,
+    naming ``name`` too. A default marked by :func:`default_angle` (the
+    argument was not given) is returned as it is."""
+    if not check_degrees(degrees) or x is None:
+        return x
+    if isinstance(x, (_DefaultAngle, _DefaultAngles)):  # left at its default: already radians
+        return x
+    if isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_)):
+        return float(x) * RADIANS_PER_DEGREE
+    return np.deg2rad(float_array(x, name, expected="angles in degrees"))
+
+
+def degrees_out(x: Any, degrees: bool) -> Any:
+    """A returned angle (or angle rate) in degrees when ``degrees``: ``x`` times 180/pi."""
+    return np.rad2deg(x) if degrees else x

@@ -41,7 +41,7 @@ import numpy as np
 from scipy.special import ellipj, ellipkm1, elliprf, elliprj
 
 from rigidlab.core._elliptic import agm_sn_cn
-from rigidlab.core._validation import float_array, real_number, short_repr
+from rigidlab.core._validation import check_degrees, degrees_out, float_array, real_number, short_repr
 from rigidlab.core.rotations import (
     UNIT_NORM_TOL,
     euler_parameters_from_matrix,
@@ -315,18 +315,19 @@ def _G_bar(p: np.ndarray) -> np.ndarray:
     return G
 
 
-def rotation_angle_between(p: Any, q: Any) -> np.ndarray:
+def rotation_angle_between(p: Any, q: Any, *, degrees: bool = False) -> np.ndarray:
     """Angle (rad, in [0, pi]) of the rotation taking ``A(p)`` to ``A(q)``.
 
     ``p``, ``q`` (..., 4) Euler parameters (scalar first; sign-insensitive,
     not renormalized). Uses ``2 atan2(|v|, |w|)`` of ``conj(p) q`` (Eq. 8.82),
-    accurate for small angles too. Returns (...).
+    accurate for small angles too. Returns (...); ``degrees=True`` returns degrees.
     """
+    check_degrees(degrees)
     p = float_array(p, "p", expected="(..., 4) Euler parameters of real numbers")
     q = float_array(q, "q", expected="(..., 4) Euler parameters of real numbers")
     pc = p * np.array([1.0, -1.0, -1.0, -1.0])
     r = _qmul_arr(pc, q)
-    return 2.0 * np.arctan2(np.linalg.norm(r[..., 1:], axis=-1), np.abs(r[..., 0]))
+    return degrees_out(2.0 * np.arctan2(np.linalg.norm(r[..., 1:], axis=-1), np.abs(r[..., 0])), degrees)
 
 
 @dataclass(frozen=True)

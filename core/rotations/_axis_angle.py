@@ -16,6 +16,9 @@ from ._euler_parameters import (
 )
 from ._batch import BLOCK, blocks, compiled
 from ._validation import (
+    check_degrees,
+    degrees_out,
+    radians_in,
     UNIT_NORM2_TOL,
     as_float_array,
     broadcast_batch,
@@ -51,7 +54,7 @@ def _matrix_from_axis_angle_single(x, y, z, angle):
     return _matrix_single(w, x * h, y * h, z * h)
 
 
-def matrix_from_axis_angle(axis, angle):
+def matrix_from_axis_angle(axis, angle, *, degrees=False):
     """Rotation matrix of a rotation about an axis: the Rodriguez formula (Eq. 8.29).
 
     .. math::
@@ -71,6 +74,8 @@ def matrix_from_axis_angle(axis, angle):
         unit norm within :data:`UNIT_NORM_TOL` (normalized before use).
     angle : array_like, shape (...)
         Rotation angle ``theta`` in radians, right-hand rule about ``axis``.
+    degrees : bool, keyword-only
+        True: ``angle`` is in degrees.
 
     Returns
     -------
@@ -78,6 +83,7 @@ def matrix_from_axis_angle(axis, angle):
         Active rotation matrix, body to global; batch shape is the broadcast
         of the batch shapes of ``axis`` and ``angle``.
     """
+    angle = radians_in(angle, "angle", degrees)
     single = _axis_and_angle_floats(axis, angle)
     if single is not None:
         out = _matrix_from_axis_angle_single(*single)
@@ -163,7 +169,7 @@ def _matrix_from_axis_angle_blocks(ax, an, out):
     return bool(ok.all())
 
 
-def axis_angle_from_matrix(A):
+def axis_angle_from_matrix(A, *, degrees=False):
     """Axis and angle of a rotation matrix (inverse of Eq. 8.29).
 
     Computed through Euler parameters with Shepperd's pivoting, so the axis
@@ -173,6 +179,8 @@ def axis_angle_from_matrix(A):
     ----------
     A : array_like, shape (..., 3, 3)
         Rotation matrices (active, body to global).
+    degrees : bool, keyword-only
+        True: ``angle`` is returned in degrees.
 
     Returns
     -------
@@ -183,8 +191,10 @@ def axis_angle_from_matrix(A):
     angle : ndarray, shape (...)
         Rotation angle in ``[0, pi]``.
     """
+    check_degrees(degrees)
     A = check_matrix(A, "A")
-    return _axis_angle_from_unit_p(_p_from_matrix(A))
+    axis, angle = _axis_angle_from_unit_p(_p_from_matrix(A))
+    return axis, degrees_out(angle, degrees)
 
 
 def _omega_axis_angle(axis, angle, axis_dot, angle_dot, sign):
@@ -213,7 +223,7 @@ def _omega_axis_angle(axis, angle, axis_dot, angle_dot, sign):
     )
 
 
-def omega_from_axis_angle_rates(axis, angle, axis_dot, angle_dot):
+def omega_from_axis_angle_rates(axis, angle, axis_dot, angle_dot, *, degrees=False):
     """Global angular velocity from axis, angle and their rates (Eqs. 8.31-8.38).
 
     .. math::
@@ -231,16 +241,20 @@ def omega_from_axis_angle_rates(axis, angle, axis_dot, angle_dot):
         Time derivative of the axis (perpendicular to it), 1/s.
     angle_dot : array_like, shape (...)
         Time derivative of the angle, rad/s.
+    degrees : bool, keyword-only
+        True: ``angle`` in degrees and ``angle_dot`` in deg/s (the result stays rad/s).
 
     Returns
     -------
     omega : ndarray, shape (..., 3)
         Angular velocity in the global frame.
     """
+    angle = radians_in(angle, "angle", degrees)
+    angle_dot = radians_in(angle_dot, "angle_dot", degrees)
     return _omega_axis_angle(axis, angle, axis_dot, angle_dot, 1.0)
 
 
-def omega_body_from_axis_angle_rates(axis, angle, axis_dot, angle_dot):
+def omega_body_from_axis_angle_rates(axis, angle, axis_dot, angle_dot, *, degrees=False):
     """Body angular velocity from axis, angle and their rates (Eqs. 8.31-8.38).
 
     .. math::
@@ -258,10 +272,14 @@ def omega_body_from_axis_angle_rates(axis, angle, axis_dot, angle_dot):
         Time derivative of the axis (perpendicular to it), 1/s.
     angle_dot : array_like, shape (...)
         Time derivative of the angle, rad/s.
+    degrees : bool, keyword-only
+        True: ``angle`` in degrees and ``angle_dot`` in deg/s (the result stays rad/s).
 
     Returns
     -------
     omega_body : ndarray, shape (..., 3)
         Angular velocity in the body frame (omega-bar).
     """
+    angle = radians_in(angle, "angle", degrees)
+    angle_dot = radians_in(angle_dot, "angle_dot", degrees)
     return _omega_axis_angle(axis, angle, axis_dot, angle_dot, -1.0)

@@ -21,6 +21,9 @@ from ._batch import blocks
 from ._matrix import elementary_matrix
 from ._quaternion import _product
 from ._validation import (
+    check_degrees,
+    degrees_out,
+    radians_in,
     _index_str,
     as_float_array,
     broadcast_batch,
@@ -184,7 +187,7 @@ def _matrix_from_angles_single(angles, seq):
     return np.array(M)
 
 
-def matrix_from_euler_angles(angles, seq="ZXZ"):
+def matrix_from_euler_angles(angles, seq="ZXZ", *, degrees=False):
     """Rotation matrix of Euler angles (precession-nutation-spin product for ``"ZXZ"``).
 
     Parameters
@@ -195,6 +198,8 @@ def matrix_from_euler_angles(angles, seq="ZXZ"):
     seq : str
         One of the 12 sequences; upper case intrinsic (moving axes),
         lower case extrinsic (fixed axes), as in scipy.
+    degrees : bool, keyword-only
+        True: ``angles`` are in degrees.
 
     Returns
     -------
@@ -203,6 +208,7 @@ def matrix_from_euler_angles(angles, seq="ZXZ"):
         ``R_I(a) @ R_J(b) @ R_K(c)``; extrinsic ``"ijk"``:
         ``R_k(c) @ R_j(b) @ R_i(a)``.
     """
+    angles = radians_in(angles, "angles", degrees)
     parse_seq(seq)
     arr = as_float_array(angles, "angles")
     if arr.shape == (3,):
@@ -313,7 +319,7 @@ def _angles_from_p_single(p, seq, warn=True):
     return np.array(out)
 
 
-def euler_angles_from_matrix(A, seq="ZXZ"):
+def euler_angles_from_matrix(A, seq="ZXZ", *, degrees=False):
     """Euler angles of a rotation matrix (any sequence).
 
     Computed from the Euler parameters of ``A`` (Shepperd's method) with the
@@ -326,6 +332,8 @@ def euler_angles_from_matrix(A, seq="ZXZ"):
         Rotation matrices (active, body to global).
     seq : str
         One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    degrees : bool, keyword-only
+        True: ``angles`` are returned in degrees.
 
     Returns
     -------
@@ -350,17 +358,18 @@ def euler_angles_from_matrix(A, seq="ZXZ"):
         pi/2) the third angle is set to 0 and the first angle carries the
         rotation about the aligned axes.
     """
+    check_degrees(degrees)
     parse_seq(seq)
     arr = as_float_array(A, "A")
     if arr.shape == (3, 3):  # one rotation: the float path, same formulas
         p = _p_from_matrix_single(*arr.ravel().tolist())
         if p is not None:
-            return _angles_from_p_single(p.tolist(), seq)
+            return degrees_out(_angles_from_p_single(p.tolist(), seq), degrees)
     A = check_matrix(arr, "A")
-    return _angles_from_p(_p_from_matrix(A), seq)
+    return degrees_out(_angles_from_p(_p_from_matrix(A), seq), degrees)
 
 
-def euler_angles_from_euler_parameters(p, seq="ZXZ"):
+def euler_angles_from_euler_parameters(p, seq="ZXZ", *, degrees=False):
     """Euler angles of Euler parameters, any sequence.
 
     Parameters
@@ -369,6 +378,8 @@ def euler_angles_from_euler_parameters(p, seq="ZXZ"):
         Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
     seq : str
         One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    degrees : bool, keyword-only
+        True: ``angles`` are returned in degrees.
 
     Returns
     -------
@@ -376,11 +387,12 @@ def euler_angles_from_euler_parameters(p, seq="ZXZ"):
         As :func:`euler_angles_from_matrix`, including its gimbal-lock
         warning and choice.
     """
+    check_degrees(degrees)
     parse_seq(seq)
     p = check_euler_parameters(p, "p")
     if p.shape == (4,):  # one rotation: the float path, same formulas
-        return _angles_from_p_single(p.tolist(), seq)
-    return _angles_from_p(p, seq)
+        return degrees_out(_angles_from_p_single(p.tolist(), seq), degrees)
+    return degrees_out(_angles_from_p(p, seq), degrees)
 
 
 def _p_from_angles_single(angles, seq):
@@ -414,7 +426,7 @@ def _product_floats(a, b):
     )
 
 
-def euler_parameters_from_euler_angles(angles, seq="ZXZ"):
+def euler_parameters_from_euler_angles(angles, seq="ZXZ", *, degrees=False):
     """Euler parameters of Euler angles, any sequence.
 
     The product of the three elementary rotations' parameters
@@ -426,12 +438,15 @@ def euler_parameters_from_euler_angles(angles, seq="ZXZ"):
         Angles in radians, in the order of ``seq``.
     seq : str
         One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    degrees : bool, keyword-only
+        True: ``angles`` are in degrees.
 
     Returns
     -------
     p : ndarray, shape (..., 4)
         Unit Euler parameters, scalar first, with ``theta0 >= 0``.
     """
+    angles = radians_in(angles, "angles", degrees)
     parse_seq(seq)
     arr = as_float_array(angles, "angles")
     if arr.shape == (3,):
@@ -471,7 +486,7 @@ def _intrinsic_angles(angles, seq):
     return axes, angles[..., list(cols)], intrinsic
 
 
-def euler_angle_G(angles, seq="ZXZ"):
+def euler_angle_G(angles, seq="ZXZ", *, degrees=False):
     """Matrix G with ``omega = G @ angle_rates`` (Eq. 8.8 for ``"ZXZ"``).
 
     For ``"ZXZ"`` (phi, theta, psi):
@@ -484,6 +499,8 @@ def euler_angle_G(angles, seq="ZXZ"):
         Euler angles in radians, in the order of ``seq``.
     seq : str
         One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    degrees : bool, keyword-only
+        True: ``angles`` are in degrees.
 
     Returns
     -------
@@ -491,6 +508,7 @@ def euler_angle_G(angles, seq="ZXZ"):
         Column n is the global-frame axis of the n-th rotation of ``seq``.
         Singular where :func:`euler_angles_near_singularity` is true.
     """
+    angles = radians_in(angles, "angles", degrees)
     parse_seq(seq)
     angles = check_vector(angles, "angles", 3)
     return _G(angles, seq)
@@ -502,7 +520,7 @@ def _G(angles, seq):
     return G if intrinsic else G[..., ::-1].copy()
 
 
-def euler_angle_G_bar(angles, seq="ZXZ"):
+def euler_angle_G_bar(angles, seq="ZXZ", *, degrees=False):
     """Matrix G_bar with ``omega_body = G_bar @ angle_rates`` (Eq. 8.9 for ``"ZXZ"``).
 
     For ``"ZXZ"`` (phi, theta, psi):
@@ -515,19 +533,22 @@ def euler_angle_G_bar(angles, seq="ZXZ"):
         Euler angles in radians, in the order of ``seq``.
     seq : str
         One of the 12 sequences; upper case intrinsic, lower case extrinsic.
+    degrees : bool, keyword-only
+        True: ``angles`` are in degrees.
 
     Returns
     -------
     G_bar : ndarray, shape (..., 3, 3)
         Column n is the body-frame axis of the n-th rotation of ``seq``.
     """
+    angles = radians_in(angles, "angles", degrees)
     parse_seq(seq)
     angles = check_vector(angles, "angles", 3)
     A = _matrix_from_angles(angles, seq)
     return np.swapaxes(A, -1, -2) @ _G(angles, seq)
 
 
-def euler_angles_near_singularity(angles, seq="ZXZ", tol=1e-6):
+def euler_angles_near_singularity(angles, seq="ZXZ", tol=1e-6, *, degrees=False):
     """Whether Euler angles are near the singular configuration of ``seq``.
 
     G and G_bar (Eqs. 8.8-8.9) are singular when the first and third
@@ -544,11 +565,14 @@ def euler_angles_near_singularity(angles, seq="ZXZ", tol=1e-6):
         One of the 12 sequences; upper case intrinsic, lower case extrinsic.
     tol : float
         Threshold on ``|det G|``.
+    degrees : bool, keyword-only
+        True: ``angles`` are in degrees.
 
     Returns
     -------
     near : ndarray of bool, shape (...)
     """
+    angles = radians_in(angles, "angles", degrees)
     return np.abs(_det_G(angles, seq)) <= tol
 
 
@@ -581,7 +605,7 @@ def _solve_rates(angles, omega, seq, tol, name, body):
     return np.linalg.solve(G, omega[..., None])[..., 0]
 
 
-def euler_angle_rates_from_omega(angles, omega, seq="ZXZ", *, tol=1e-6):
+def euler_angle_rates_from_omega(angles, omega, seq="ZXZ", *, tol=1e-6, degrees=False):
     """Euler angle rates from the global angular velocity (Eq. 8.8 inverted).
 
     Parameters
@@ -595,6 +619,8 @@ def euler_angle_rates_from_omega(angles, omega, seq="ZXZ", *, tol=1e-6):
     tol : float
         Angles with ``|det G| <= tol`` are rejected
         (see :func:`euler_angles_near_singularity`).
+    degrees : bool, keyword-only
+        True: ``angles`` in degrees, ``rates`` returned in deg/s (``omega`` stays rad/s).
 
     Returns
     -------
@@ -606,10 +632,11 @@ def euler_angle_rates_from_omega(angles, omega, seq="ZXZ", *, tol=1e-6):
     ValueError
         At (or within ``tol`` of) the singular configuration.
     """
-    return _solve_rates(angles, omega, seq, tol, "omega", False)
+    angles = radians_in(angles, "angles", degrees)
+    return degrees_out(_solve_rates(angles, omega, seq, tol, "omega", False), degrees)
 
 
-def euler_angle_rates(angles, omega_body, seq="ZXZ", *, tol=1e-6):
+def euler_angle_rates(angles, omega_body, seq="ZXZ", *, tol=1e-6, degrees=False):
     """Euler angle rates from the body angular velocity (Eq. 8.9 inverted).
 
     Parameters
@@ -622,6 +649,8 @@ def euler_angle_rates(angles, omega_body, seq="ZXZ", *, tol=1e-6):
         One of the 12 sequences; upper case intrinsic, lower case extrinsic.
     tol : float
         Angles with ``|det G_bar| <= tol`` are rejected.
+    degrees : bool, keyword-only
+        True: ``angles`` in degrees, ``rates`` returned in deg/s (``omega_body`` stays rad/s).
 
     Returns
     -------
@@ -632,7 +661,8 @@ def euler_angle_rates(angles, omega_body, seq="ZXZ", *, tol=1e-6):
     ValueError
         At (or within ``tol`` of) the singular configuration.
     """
-    return _solve_rates(angles, omega_body, seq, tol, "omega_body", True)
+    angles = radians_in(angles, "angles", degrees)
+    return degrees_out(_solve_rates(angles, omega_body, seq, tol, "omega_body", True), degrees)
 
 
 def _angles_rates(angles, rates, seq):
@@ -643,7 +673,7 @@ def _angles_rates(angles, rates, seq):
     return angles, rates
 
 
-def omega_from_euler_angle_rates(angles, rates, seq="ZXZ"):
+def omega_from_euler_angle_rates(angles, rates, seq="ZXZ", *, degrees=False):
     """Global angular velocity ``omega = G @ rates`` (Eq. 8.8).
 
     Parameters
@@ -654,17 +684,21 @@ def omega_from_euler_angle_rates(angles, rates, seq="ZXZ"):
         Their time derivatives, rad/s.
     seq : str
         One of the 12 sequences.
+    degrees : bool, keyword-only
+        True: ``angles`` in degrees and ``rates`` in deg/s (the result stays rad/s).
 
     Returns
     -------
     omega : ndarray, shape (..., 3)
         Angular velocity in the global frame.
     """
+    angles = radians_in(angles, "angles", degrees)
+    rates = radians_in(rates, "rates", degrees)
     angles, rates = _angles_rates(angles, rates, seq)
     return np.einsum("...ij,...j->...i", _G(angles, seq), rates)
 
 
-def omega_body_from_euler_angle_rates(angles, rates, seq="ZXZ"):
+def omega_body_from_euler_angle_rates(angles, rates, seq="ZXZ", *, degrees=False):
     """Body angular velocity ``omega_body = G_bar @ rates`` (Eq. 8.9).
 
     Parameters
@@ -675,12 +709,16 @@ def omega_body_from_euler_angle_rates(angles, rates, seq="ZXZ"):
         Their time derivatives, rad/s.
     seq : str
         One of the 12 sequences.
+    degrees : bool, keyword-only
+        True: ``angles`` in degrees and ``rates`` in deg/s (the result stays rad/s).
 
     Returns
     -------
     omega_body : ndarray, shape (..., 3)
         Angular velocity in the body frame (omega-bar).
     """
+    angles = radians_in(angles, "angles", degrees)
+    rates = radians_in(rates, "rates", degrees)
     angles, rates = _angles_rates(angles, rates, seq)
     A = _matrix_from_angles(angles, seq)
     omega = np.einsum("...ij,...j->...i", _G(angles, seq), rates)
@@ -711,7 +749,7 @@ def _alpha(angles, rates, rates_dot, seq):
     return angles, alpha
 
 
-def alpha_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
+def alpha_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ", *, degrees=False):
     """Global angular acceleration ``alpha = G @ rates_dot + G_dot @ rates`` (Eqs. 8.10-8.11).
 
     Parameters
@@ -724,16 +762,21 @@ def alpha_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
         Second time derivatives of the angles, rad/s**2.
     seq : str
         One of the 12 sequences.
+    degrees : bool, keyword-only
+        True: ``angles``, ``rates``, ``rates_dot`` in deg, deg/s, deg/s**2 (the result stays rad/s**2).
 
     Returns
     -------
     alpha : ndarray, shape (..., 3)
         Angular acceleration in the global frame.
     """
+    angles = radians_in(angles, "angles", degrees)
+    rates = radians_in(rates, "rates", degrees)
+    rates_dot = radians_in(rates_dot, "rates_dot", degrees)
     return _alpha(angles, rates, rates_dot, seq)[1]
 
 
-def alpha_body_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
+def alpha_body_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ", *, degrees=False):
     """Body angular acceleration ``alpha_body = G_bar @ rates_dot + G_bar_dot @ rates`` (Eqs. 8.10-8.11).
 
     Equal to ``A.T @ alpha``.
@@ -748,12 +791,17 @@ def alpha_body_from_euler_angle_rates(angles, rates, rates_dot, seq="ZXZ"):
         Second time derivatives of the angles, rad/s**2.
     seq : str
         One of the 12 sequences.
+    degrees : bool, keyword-only
+        True: ``angles``, ``rates``, ``rates_dot`` in deg, deg/s, deg/s**2 (the result stays rad/s**2).
 
     Returns
     -------
     alpha_body : ndarray, shape (..., 3)
         Angular acceleration in the body frame.
     """
+    angles = radians_in(angles, "angles", degrees)
+    rates = radians_in(rates, "rates", degrees)
+    rates_dot = radians_in(rates_dot, "rates_dot", degrees)
     angles, alpha = _alpha(angles, rates, rates_dot, seq)
     A = _matrix_from_angles(angles, seq)
     return np.einsum("...ji,...j->...i", A, alpha)

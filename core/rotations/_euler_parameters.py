@@ -16,6 +16,9 @@ import numpy as np
 
 from ._batch import BLOCK, blocks, compiled
 from ._validation import (
+    check_degrees,
+    degrees_out,
+    radians_in,
     ORTHOGONALITY_TOL,
     NORMALIZED_TOL,
     UNIT_NORM2_TOL,
@@ -405,7 +408,7 @@ def euler_parameters_from_matrix(A):
     return out.reshape(arr.shape[:-2] + (4,))
 
 
-def euler_parameters_from_axis_angle(axis, angle):
+def euler_parameters_from_axis_angle(axis, angle, *, degrees=False):
     """Euler parameters of a rotation about an axis (Eq. 8.46).
 
     ``theta0 = cos(angle / 2)``, ``(theta1, theta2, theta3) = axis sin(angle / 2)``.
@@ -417,6 +420,8 @@ def euler_parameters_from_axis_angle(axis, angle):
     angle : array_like, shape (...)
         Rotation angle in radians, right-hand rule about ``axis``. Any real
         value; for ``|angle| > pi`` theta0 is negative (no sign is changed).
+    degrees : bool, keyword-only
+        True: ``angle`` is in degrees.
 
     Returns
     -------
@@ -424,6 +429,7 @@ def euler_parameters_from_axis_angle(axis, angle):
         Euler parameters, scalar first; batch shape is the broadcast of the
         batch shapes of ``axis`` and ``angle``.
     """
+    angle = radians_in(angle, "angle", degrees)
     single = _axis_and_angle_floats(axis, angle)
     if single is not None:
         x, y, z, a = single
@@ -446,13 +452,15 @@ def euler_parameters_from_axis_angle(axis, angle):
     return out
 
 
-def axis_angle_from_euler_parameters(p):
+def axis_angle_from_euler_parameters(p, *, degrees=False):
     """Axis and angle of Euler parameters (inverse of Eq. 8.46).
 
     Parameters
     ----------
     p : array_like, shape (..., 4)
         Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    degrees : bool, keyword-only
+        True: ``angle`` is returned in degrees.
 
     Returns
     -------
@@ -463,13 +471,16 @@ def axis_angle_from_euler_parameters(p):
         Rotation angle in ``[0, pi]`` (``p`` and ``-p`` give the same
         result).
     """
+    check_degrees(degrees)
     arr = as_float_array(p, "p")
     if arr.shape == (4,):
         unit = _unit_p_single(*arr.tolist())
         if unit is not None:
-            return _axis_angle_from_p_single(*unit)
+            axis, angle = _axis_angle_from_p_single(*unit)
+            return axis, degrees_out(angle, degrees)
     p = check_euler_parameters(arr, "p")
-    return _axis_angle_from_unit_p(p)
+    axis, angle = _axis_angle_from_unit_p(p)
+    return axis, degrees_out(angle, degrees)
 
 
 def _axis_angle_from_p_single(w, x, y, z):

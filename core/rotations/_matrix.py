@@ -5,6 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ._validation import (
+    check_degrees,
+    degrees_out,
+    radians_in,
     as_float_array,
     check_finite,
     check_matrix,
@@ -67,7 +70,7 @@ def vector_from_skew(S, *, tol=1e-9):
     return np.stack([S[..., 2, 1], S[..., 0, 2], S[..., 1, 0]], axis=-1)
 
 
-def elementary_matrix(axis, angle):
+def elementary_matrix(axis, angle, *, degrees=False):
     """Rotation matrix about a coordinate axis.
 
     Parameters
@@ -76,6 +79,8 @@ def elementary_matrix(axis, angle):
         0, 1 or 2 for the x, y or z axis.
     angle : array_like, shape (...)
         Rotation angle in radians (right-hand rule).
+    degrees : bool, keyword-only
+        True: ``angle`` is in degrees.
 
     Returns
     -------
@@ -83,6 +88,7 @@ def elementary_matrix(axis, angle):
         Active rotation matrix; for axis 2 and angle phi this is the
         chapter's precession matrix.
     """
+    angle = radians_in(angle, "angle", degrees)
     if axis not in (0, 1, 2):
         raise ValueError(f"Expected `axis` to be 0, 1 or 2, got {axis!r}")
     angle = check_scalar_array(angle, "angle")

@@ -9,6 +9,9 @@ import numpy as np
 from ._axis_angle import _matrix_from_unit_axis_angle
 from ._euler_parameters import _p_from_matrix
 from ._validation import (
+    check_degrees,
+    degrees_out,
+    radians_in,
     _index_str,
     as_float_array,
     check_euler_parameters,
@@ -37,13 +40,15 @@ _PI = float(np.pi)
 _TWO_PI = 2.0 * _PI
 
 
-def euler_parameters_from_rotation_vector(r):
+def euler_parameters_from_rotation_vector(r, *, degrees=False):
     """Euler parameters of rotation vectors (Eq. 8.46 with ``angle = |r|``).
 
     Parameters
     ----------
     r : array_like, shape (..., 3)
         Rotation vectors: unit axis times angle in radians.
+    degrees : bool, keyword-only
+        True: ``r`` (``axis * angle``) is in degrees.
 
     Returns
     -------
@@ -56,6 +61,7 @@ def euler_parameters_from_rotation_vector(r):
     ValueError
         If ``|r|`` (the angle) exceeds the float64 range.
     """
+    r = radians_in(r, "r", degrees)
     arr = as_float_array(r, "r")
     if arr.shape == (3,):
         out = _p_from_rotation_vector_single(*arr.tolist())
@@ -99,21 +105,24 @@ def _angle(r):
     return angle
 
 
-def rotation_vector_from_euler_parameters(p):
+def rotation_vector_from_euler_parameters(p, *, degrees=False):
     """Rotation vectors of Euler parameters.
 
     Parameters
     ----------
     p : array_like, shape (..., 4)
         Unit Euler parameters (theta0, theta1, theta2, theta3), scalar first.
+    degrees : bool, keyword-only
+        True: ``r`` is returned in degrees.
 
     Returns
     -------
     r : ndarray, shape (..., 3)
         ``axis * angle`` with angle in ``[0, pi]``.
     """
+    check_degrees(degrees)
     p = check_euler_parameters(p, "p")
-    return _rotvec_from_unit_p(p)
+    return degrees_out(_rotvec_from_unit_p(p), degrees)
 
 
 def _rotvec_from_unit_p(p):
@@ -128,13 +137,15 @@ def _rotvec_from_unit_p(p):
     return v * scale[..., None]
 
 
-def matrix_from_rotation_vector(r):
+def matrix_from_rotation_vector(r, *, degrees=False):
     """Rotation matrices of rotation vectors (Rodriguez formula, Eq. 8.29).
 
     Parameters
     ----------
     r : array_like, shape (..., 3)
         Rotation vectors: unit axis times angle in radians.
+    degrees : bool, keyword-only
+        True: ``r`` (``axis * angle``) is in degrees.
 
     Returns
     -------
@@ -146,6 +157,7 @@ def matrix_from_rotation_vector(r):
     ValueError
         If ``|r|`` (the angle) exceeds the float64 range.
     """
+    r = radians_in(r, "r", degrees)
     r = check_vector(r, "r", 3)
     angle = _angle(r)
     zero = angle == 0.0
@@ -154,18 +166,21 @@ def matrix_from_rotation_vector(r):
     return _matrix_from_unit_axis_angle(axis, angle, angle.shape)
 
 
-def rotation_vector_from_matrix(A):
+def rotation_vector_from_matrix(A, *, degrees=False):
     """Rotation vectors of rotation matrices.
 
     Parameters
     ----------
     A : array_like, shape (..., 3, 3)
         Rotation matrices (active, body to global).
+    degrees : bool, keyword-only
+        True: ``r`` is returned in degrees.
 
     Returns
     -------
     r : ndarray, shape (..., 3)
         ``axis * angle`` with angle in ``[0, pi]``.
     """
+    check_degrees(degrees)
     A = check_matrix(A, "A")
-    return _rotvec_from_unit_p(_p_from_matrix(A))
+    return degrees_out(_rotvec_from_unit_p(_p_from_matrix(A)), degrees)

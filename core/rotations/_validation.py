@@ -12,7 +12,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from rigidlab.core._validation import _holds_bool
+from rigidlab.core._validation import _holds_bool, check_degrees, degrees_out
 
 #: Largest accepted deviation ``| ||p|| - 1 |`` of Euler parameters (and of
 #: unit axes) from unit norm. Inputs within it are accepted (and normalized
@@ -427,3 +427,13 @@ def broadcast_batch(*triples):
         ) from exc
     out = [np.broadcast_to(a, batch + a.shape[a.ndim - n :]) for _, a, n in triples]
     return out, batch
+
+
+def radians_in(x, name, degrees):
+    """An angle argument in radians: ``x`` unless ``degrees`` (checked to be
+    True or False), else ``x`` (degrees) converted once, with ``np.deg2rad``,
+    after :func:`as_float_array` (so bad input names ``name``) and before the
+    caller's own validation."""
+    if not check_degrees(degrees):
+        return x
+    return np.deg2rad(as_float_array(x, name))
