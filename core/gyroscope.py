@@ -45,7 +45,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, InitVar, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -53,7 +53,7 @@ from scipy.integrate import solve_ivp
 from scipy.special import elliprf, elliprj
 
 from rigidlab.core._elliptic import complete_k, jacobi
-from rigidlab.core._validation import float_array, output_times, positive_integer, short_repr
+from rigidlab.core._validation import degrees_out, float_array, output_times, positive_integer, radians, short_repr
 from rigidlab.core.integrators import MAX_STEPS
 
 __all__ = [
@@ -274,7 +274,8 @@ def _check_array(value: Any, name: str) -> np.ndarray:
 
 
 # ------------------------------------------------------- equations of motion
-def equations_of_motion(params: RotorParams, state: Any, torques: Any = (0.0, 0.0, 0.0)) -> np.ndarray:
+def equations_of_motion(params: RotorParams, state: Any, torques: Any = (0.0, 0.0, 0.0), *,
+                        degrees: bool = False) -> np.ndarray:
     r"""Angle accelerations of the rotor from the Lagrange equations (Eq. 8.16).
 
     With ``s = sin theta``, ``c = cos theta`` and the spin
@@ -297,6 +298,8 @@ def equations_of_motion(params: RotorParams, state: Any, torques: Any = (0.0, 0.
     torques : (..., 3) generalized torques ``(M_phi, M_theta, M_psi)`` (N m),
         the virtual-work partners of the three angles (motor torques about
         Z1, X2 and Z3 of massless gimbals); broadcast against ``state``.
+    degrees : bool, keyword-only
+        True: ``state`` in degrees and deg/s, the result in deg/s^2.
 
     Returns
     -------
@@ -309,6 +312,7 @@ def equations_of_motion(params: RotorParams, state: Any, torques: Any = (0.0, 0.
         the Euler-angle equations are singular (use :func:`simulate`, which
         switches to Euler parameters there).
     """
+    state = radians(state, "state", degrees)
     params = _check_params(params)
     s_ = _check_state(state)
     m = _check_array(torques, "torques")
@@ -327,10 +331,10 @@ def equations_of_motion(params: RotorParams, state: Any, torques: Any = (0.0, 0.
     theta_dd = (I * phid**2 * sn * cs - I3 * omega3 * phid * sn + mgl * sn + m_theta) / I
     phi_dd = (m_phi - m_psi * cs + thetad * sn * (I3 * omega3 - 2.0 * I * phid * cs)) / (I * sn**2)
     psi_dd = m_psi / I3 - phi_dd * cs + phid * thetad * sn
-    return np.stack(np.broadcast_arrays(phi_dd, theta_dd, psi_dd), axis=-1)
+    return degrees_out(np.stack(np.broadcast_arrays(phi_dd, theta_dd, psi_dd), axis=-1), degrees)
 
 
-def invariants(params: RotorParams, state: Any) -> Invariants:
+def invariants(params: RotorParams, state: Any, *, degrees: bool = False) -> Invariants:
     """Momenta d1, d2 of the ignorable angles (Eqs. 8.19-8.20) and the energy.
 
     ``d1 = I3 (psi_dot + phi_dot cos theta)``,
@@ -343,12 +347,15 @@ def invariants(params: RotorParams, state: Any) -> Invariants:
     ----------
     params : RotorParams
     state : (..., 6) ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)``.
+    degrees : bool, keyword-only
+        True: the angles of ``state`` in degrees, its rates in deg/s (the result holds radians).
 
     Returns
     -------
     Invariants
         ``d1``, ``d2``, ``energy``, each of shape ``(...)``.
     """
+    state = radians(state, "state", degrees)
     params = _check_params(params)
     s_ = _check_state(state)
     theta, phid, thetad, psid = s_[..., 1], s_[..., 3], s_[..., 4], s_[..., 5]
@@ -381,7 +388,8 @@ class RotorVectors:
     torque: np.ndarray  # (..., 3)
 
 
-def rotor_vectors(params: RotorParams, state: Any, torques: Any = (0.0, 0.0, 0.0)) -> RotorVectors:
+def rotor_vectors(params: RotorParams, state: Any, torques: Any = (0.0, 0.0, 0.0), *,
+                  degrees: bool = False) -> RotorVectors:
     r"""Rotor axis, angular velocity, angular momentum and torque (global frame).
 
     With ``G = [Z1, X2, e3]`` the ZXZ velocity matrix (Eq. 8.8),
@@ -398,12 +406,15 @@ def rotor_vectors(params: RotorParams, state: Any, torques: Any = (0.0, 0.0, 0.0
     params : RotorParams
     state : (..., 6) ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)``.
     torques : (..., 3) ``(M_phi, M_theta, M_psi)`` (N m).
+    degrees : bool, keyword-only
+        True: the angles of ``state`` in degrees, its rates in deg/s (the result holds radians).
 
     Returns
     -------
     RotorVectors
         Each field (..., 3), global frame.
     """
+    state = radians(state, "state", degrees)
     params = _check_params(params)
     s_ = _check_state(state)
     m = _check_array(torques, "torques")
@@ -431,7 +442,8 @@ def rotor_vectors(params: RotorParams, state: Any, torques: Any = (0.0, 0.0, 0.0
 
 
 # ---------------------------------------------------------- steady precession
-def steady_precession_torque(params: RotorParams, theta: Any, phi_dot: Any, psi_dot: Any) -> np.ndarray:
+def steady_precession_torque(params: RotorParams, theta: Any, phi_dot: Any, psi_dot: Any, *,
+                             degrees: bool = False) -> np.ndarray:
     r"""Generalized torque M_theta that holds theta constant (Eq. 8.23).
 
     Setting ``theta_dot = theta_ddot = 0`` and constant ``phi_dot``,
@@ -450,11 +462,16 @@ def steady_precession_torque(params: RotorParams, theta: Any, phi_dot: Any, psi_
     params : RotorParams
     theta, phi_dot, psi_dot : (...) nutation angle (rad), precession and
         spin rates (rad/s); broadcast together.
+    degrees : bool, keyword-only
+        True: ``theta`` in degrees, ``phi_dot`` and ``psi_dot`` in deg/s.
 
     Returns
     -------
     (...) M_theta in N m (about the line of nodes X2).
     """
+    theta = radians(theta, "theta", degrees)
+    phi_dot = radians(phi_dot, "phi_dot", degrees)
+    psi_dot = radians(psi_dot, "psi_dot", degrees)
     params = _check_params(params)
     th = _check_array(theta, "theta")
     pd = _check_array(phi_dot, "phi_dot")
@@ -463,7 +480,8 @@ def steady_precession_torque(params: RotorParams, theta: Any, phi_dot: Any, psi_
     return pd * sn * (params.I3 * sd + (params.I3 - params.I) * pd * cs) - params.mgl * sn
 
 
-def steady_precession_rates(params: RotorParams, theta: Any, spin: Any) -> SteadyPrecessionRates:
+def steady_precession_rates(params: RotorParams, theta: Any, spin: Any, *,
+                            degrees: bool = False) -> SteadyPrecessionRates:
     r"""Slow and fast steady precession rates of the heavy top (Eq. 8.23, M = 0).
 
     With ``M_theta = 0`` and ``sin theta != 0`` the steady condition is the
@@ -491,6 +509,8 @@ def steady_precession_rates(params: RotorParams, theta: Any, spin: Any) -> Stead
     params : RotorParams
     theta : (...) nutation angle (rad), with ``sin theta != 0``.
     spin : (...) ``omega3 = psi_dot + phi_dot cos theta`` (rad/s).
+    degrees : bool, keyword-only
+        True: ``theta`` in degrees and ``spin`` in deg/s (the result holds rad/s).
 
     Returns
     -------
@@ -505,6 +525,8 @@ def steady_precession_rates(params: RotorParams, theta: Any, spin: Any) -> Stead
         above the horizontal), or ``spin = 0`` at ``theta = pi/2`` with
         ``mgl > 0``, or ``sin theta = 0``.
     """
+    theta = radians(theta, "theta", degrees)
+    spin = radians(spin, "spin", degrees)
     params = _check_params(params)
     th = _check_array(theta, "theta")
     w3 = _check_array(spin, "spin")
@@ -794,7 +816,7 @@ def _q_incomplete(v, n, one_minus_n, mc, K, qc):
     return 2.0 * j * qc + part
 
 
-def nutation(params: RotorParams, state: Any) -> NutationResult:
+def nutation(params: RotorParams, state: Any, *, degrees: bool = False) -> NutationResult:
     r"""Nutation bounds, period and mean precession of the heavy top.
 
     From the cubic of Eq. 8.21 (Goldstein sec. 5.7),
@@ -815,6 +837,8 @@ def nutation(params: RotorParams, state: Any) -> NutationResult:
     params : RotorParams
     state : (..., 6) ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)``; no
         applied torques (gravity only).
+    degrees : bool, keyword-only
+        True: the angles of ``state`` in degrees, its rates in deg/s (the result holds radians).
 
     Returns
     -------
@@ -822,6 +846,7 @@ def nutation(params: RotorParams, state: Any) -> NutationResult:
         Each field of shape ``(...)``; ``period = inf`` and
         ``theta_min = theta_max`` when theta stays constant.
     """
+    state = radians(state, "state", degrees)
     params = _check_params(params)
     s = _normalize_state(_check_state(state))
     c = _top_constants(params, s)
@@ -1038,7 +1063,7 @@ def _check_motion_angles(t: np.ndarray, angles: np.ndarray) -> None:
         )
 
 
-def top_motion(params: RotorParams, state0: Any) -> TopMotion:
+def top_motion(params: RotorParams, state0: Any, *, degrees: bool = False) -> TopMotion:
     """Precompute the exact torque-free (gravity only) motion from ``state0`` at t = 0.
 
     The closed form of :func:`simulate` without applied torques, split into
@@ -1052,6 +1077,8 @@ def top_motion(params: RotorParams, state0: Any) -> TopMotion:
     state0 : (6,) ``(phi, theta, psi, phi_dot, theta_dot, psi_dot)`` at
         t = 0. A theta outside [0, pi] is first mapped to the same
         orientation with ``(phi + pi, -theta, psi + pi)``.
+    degrees : bool, keyword-only
+        True: the angles of ``state0`` in degrees, its rates in deg/s (the result holds radians).
 
     Returns
     -------
@@ -1063,6 +1090,7 @@ def top_motion(params: RotorParams, state0: Any) -> TopMotion:
     ValueError
         For bad parameters or a bad state.
     """
+    state0 = radians(state0, "state0", degrees)
     params = _check_params(params)
     s0 = _check_state(state0, "state0")
     if s0.shape != (6,):
@@ -1455,6 +1483,7 @@ def simulate(
     rtol: float = 1e-11,
     atol: float = 1e-12,
     max_steps: int = MAX_STEPS,
+    degrees: bool = False,
 ) -> GyroscopeTrajectory:
     """Motion of the rotor from ``state0`` at time 0, sampled at times ``t``.
 
@@ -1490,6 +1519,8 @@ def simulate(
         million); a run that needs more stops with a ValueError naming
         ``t`` instead of running for hours. The closed form costs O(n)
         whatever the time span.
+    degrees : bool, keyword-only
+        True: the angles of ``state0`` in degrees, its rates in deg/s (the result holds radians).
 
     Returns
     -------
@@ -1504,6 +1535,7 @@ def simulate(
         non-finite, or a numerical run that would need more than
         ``max_steps`` right-hand-side evaluations.
     """
+    state0 = radians(state0, "state0", degrees)
     params = _check_params(params)
     s0 = _check_state(state0, "state0")
     if s0.shape != (6,):
@@ -1546,6 +1578,8 @@ class RotorSetup:
         (rad, rad/s), stored as a tuple of floats.
     torques : (3,) constant generalized torques ``(M_phi, M_theta, M_psi)``
         (N m) of Eq. 8.16, stored as a tuple of floats.
+    degrees : bool, keyword-only
+        True: ``state0`` in degrees and deg/s (stored in radians).
 
     Raises
     ------
@@ -1557,10 +1591,12 @@ class RotorSetup:
     params: RotorParams
     state0: tuple[float, ...]  # (6,)
     torques: tuple[float, ...] = (0.0, 0.0, 0.0)  # (3,)
+    _: KW_ONLY
+    degrees: InitVar[bool] = False
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, degrees: bool) -> None:
         _check_params(self.params)
-        s0 = _check_state(self.state0, "state0")
+        s0 = _check_state(radians(self.state0, "state0", degrees), "state0")
         if s0.shape != (6,):
             raise ValueError(f"state0: expected shape (6,), got {s0.shape}")
         m = _check_array(self.torques, "torques")

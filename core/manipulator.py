@@ -53,7 +53,7 @@ import math
 
 import numpy as np
 
-from rigidlab.core._validation import float_array
+from rigidlab.core._validation import float_array, radians
 from rigidlab.core.rotations import matrix_from_axis_angle
 
 __all__ = [
@@ -233,7 +233,8 @@ def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
 
 
 def relative_rotation_matrices(
-    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY
+    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
+    degrees: bool = False
 ) -> np.ndarray:
     """Relative rotation matrices ``A21``, ``A32``, ``A43`` of the three joints.
 
@@ -246,6 +247,8 @@ def relative_rotation_matrices(
         Joint angles ``theta1, theta2, theta3`` in radians.
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default :data:`DEFAULT_GEOMETRY`.
+    degrees : bool, keyword-only
+        True: ``joint_angles`` are in degrees.
 
     Returns
     -------
@@ -259,6 +262,7 @@ def relative_rotation_matrices(
         If ``joint_angles`` is not (..., 3) or not finite, or ``geometry`` is
         not a :class:`ManipulatorGeometry`.
     """
+    joint_angles = radians(joint_angles, "joint_angles", degrees)
     geometry, theta = _check_arguments(joint_angles, geometry)
     return np.stack(
         [_axis_rotation(geometry.joint_axes[k], theta[..., k]) for k in range(3)],
@@ -267,7 +271,8 @@ def relative_rotation_matrices(
 
 
 def link_frames_successive(
-    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY
+    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
+    degrees: bool = False
 ) -> LinkFrames:
     """Link poses by successive relative rotations, procedure (a) (Eqs. 8.39-8.42).
 
@@ -281,6 +286,8 @@ def link_frames_successive(
         Joint angles ``theta1, theta2, theta3`` in radians.
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default :data:`DEFAULT_GEOMETRY`.
+    degrees : bool, keyword-only
+        True: ``joint_angles`` are in degrees.
 
     Returns
     -------
@@ -293,6 +300,7 @@ def link_frames_successive(
     ValueError
         As :func:`relative_rotation_matrices`.
     """
+    joint_angles = radians(joint_angles, "joint_angles", degrees)
     geometry, theta = _check_arguments(joint_angles, geometry)
     if theta.ndim == 1:  # one configuration: the scalar path of the rotation core
         return _successive_single(theta, geometry)
@@ -405,7 +413,8 @@ def _global_single(theta: np.ndarray, geometry: ManipulatorGeometry, steps: int)
 
 
 def matrix_from_successive_rotations(
-    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY
+    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
+    degrees: bool = False
 ) -> np.ndarray:
     """End-link orientation ``A = A21 A32 A43``, procedure (a) (Eq. 8.42).
 
@@ -415,6 +424,8 @@ def matrix_from_successive_rotations(
         Joint angles ``theta1, theta2, theta3`` in radians.
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default :data:`DEFAULT_GEOMETRY`.
+    degrees : bool, keyword-only
+        True: ``joint_angles`` are in degrees.
 
     Returns
     -------
@@ -426,6 +437,7 @@ def matrix_from_successive_rotations(
     ValueError
         As :func:`relative_rotation_matrices`.
     """
+    joint_angles = radians(joint_angles, "joint_angles", degrees)
     relative = relative_rotation_matrices(joint_angles, geometry=geometry)
     return relative[..., 0, :, :] @ relative[..., 1, :, :] @ relative[..., 2, :, :]
 
@@ -435,6 +447,7 @@ def link_frames_global_axis_rotations(
     *,
     geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
     steps: int = 3,
+    degrees: bool = False,
 ) -> LinkFrames:
     """Link poses by Rodriguez rotations about global joint axes, procedure (b) (Eqs. 8.43-8.45).
 
@@ -462,6 +475,8 @@ def link_frames_global_axis_rotations(
         How many of the three rotations to apply, 0 to 3 (joint 3 first).
         ``steps=3`` (default) is the full procedure; fewer steps give the
         intermediate configurations of the construction.
+    degrees : bool, keyword-only
+        True: ``joint_angles`` are in degrees.
 
     Returns
     -------
@@ -475,6 +490,7 @@ def link_frames_global_axis_rotations(
         If ``steps`` is not an integer in 0..3, or as
         :func:`relative_rotation_matrices`.
     """
+    joint_angles = radians(joint_angles, "joint_angles", degrees)
     geometry, theta = _check_arguments(joint_angles, geometry)
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not 0 <= steps <= 3:
         raise ValueError(f"steps must be an integer from 0 to 3, got {steps!r}")
@@ -502,7 +518,8 @@ def link_frames_global_axis_rotations(
 
 
 def matrix_from_global_axis_rotations(
-    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY
+    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
+    degrees: bool = False
 ) -> np.ndarray:
     """End-link orientation from Rodriguez rotations about global axes, procedure (b) (Eqs. 8.43-8.45).
 
@@ -516,6 +533,8 @@ def matrix_from_global_axis_rotations(
         Joint angles ``theta1, theta2, theta3`` in radians.
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default :data:`DEFAULT_GEOMETRY`.
+    degrees : bool, keyword-only
+        True: ``joint_angles`` are in degrees.
 
     Returns
     -------
@@ -528,6 +547,7 @@ def matrix_from_global_axis_rotations(
     ValueError
         As :func:`relative_rotation_matrices`.
     """
+    joint_angles = radians(joint_angles, "joint_angles", degrees)
     geometry, theta = _check_arguments(joint_angles, geometry)
     matrix = np.broadcast_to(np.eye(3), theta.shape[:-1] + (3, 3))
     for joint in (2, 1, 0):
@@ -536,7 +556,8 @@ def matrix_from_global_axis_rotations(
 
 
 def euler_form(
-    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY
+    joint_angles: object, *, geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
+    degrees: bool = False
 ) -> EulerForm:
     """Write the end-link orientation as an Euler-angle matrix.
 
@@ -553,6 +574,8 @@ def euler_form(
         Joint angles ``theta1, theta2, theta3`` in radians.
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default :data:`DEFAULT_GEOMETRY`.
+    degrees : bool, keyword-only
+        True: ``joint_angles`` are in degrees (the returned angles stay radians).
 
     Returns
     -------
@@ -567,6 +590,7 @@ def euler_form(
         axes are about the same coordinate axis, or as
         :func:`relative_rotation_matrices`.
     """
+    joint_angles = radians(joint_angles, "joint_angles", degrees)
     geometry, theta = _check_arguments(joint_angles, geometry)
     letters = []
     signs = np.empty(3)
@@ -593,6 +617,7 @@ def end_link_angular_velocity(
     joint_rates: object,
     *,
     geometry: ManipulatorGeometry = DEFAULT_GEOMETRY,
+    degrees: bool = False,
 ) -> np.ndarray:
     """Angular velocity of the end link in the global frame.
 
@@ -613,6 +638,8 @@ def end_link_angular_velocity(
         Joint rates in rad/s; broadcast against ``joint_angles``.
     geometry : ManipulatorGeometry, keyword-only
         Joint axes and links; default :data:`DEFAULT_GEOMETRY`.
+    degrees : bool, keyword-only
+        True: ``joint_angles`` in degrees and ``joint_rates`` in deg/s (``omega`` stays rad/s).
 
     Returns
     -------
@@ -625,6 +652,8 @@ def end_link_angular_velocity(
         If ``joint_rates`` is not (..., 3), not finite or does not broadcast
         against ``joint_angles``, or as :func:`relative_rotation_matrices`.
     """
+    joint_angles = radians(joint_angles, "joint_angles", degrees)
+    joint_rates = radians(joint_rates, "joint_rates", degrees)
     rates = _check_joint_vector(joint_rates, "joint_rates")
     frames = link_frames_successive(joint_angles, geometry=geometry)
     try:

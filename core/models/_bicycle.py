@@ -37,7 +37,7 @@ import dataclasses
 import functools
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, InitVar, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -46,7 +46,7 @@ from scipy.optimize import brentq
 
 from rigidlab.core._constants import RIDE_ATOL, RIDE_RTOL
 from rigidlab.core._errors import ArgumentError
-from rigidlab.core._validation import float_array, real_number, short_repr
+from rigidlab.core._validation import default_angle, float_array, radians, real_number, short_repr
 
 __all__ = [
     "MEIJAARD_2007",
@@ -126,6 +126,8 @@ class WhippleParameters:
         ``r_F`` (m), ``m_F`` (kg).
     front_inertia : (2,) tuple
         ``(I_Fxx, I_Fyy)`` (kg m^2); ``I_Fzz = I_Fxx``.
+    degrees : bool, keyword-only
+        True: ``steer_axis_tilt`` given in degrees (stored in radians).
 
     Raises
     ------
@@ -153,8 +155,11 @@ class WhippleParameters:
     front_radius: float
     front_mass: float
     front_inertia: tuple[float, float]
+    _: KW_ONLY
+    degrees: InitVar[bool] = False
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, degrees: bool) -> None:
+        object.__setattr__(self, "steer_axis_tilt", radians(self.steer_axis_tilt, "steer_axis_tilt", degrees))
         for name in ("wheelbase", "rear_radius", "rear_mass", "frame_mass", "fork_mass", "front_radius",
                      "front_mass"):
             v = real_number(getattr(self, name), name, expected="a finite number > 0")
@@ -907,9 +912,11 @@ class WhippleRide:
         return np.linalg.norm(self.v[:, 0:3], axis=1)
 
 
-def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_limit: float = WHIPPLE_FALL_LEAN,
+def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007",
+                 lean_limit: float = default_angle(WHIPPLE_FALL_LEAN),
                  rtol: float = RIDE_RTOL, atol: float = RIDE_ATOL, piece: float = 0.25,
-                 initial: Any = None) -> WhippleRide:
+                 initial: Any = None,
+                 degrees: bool = False) -> WhippleRide:
     """Ride a :func:`whipple_bicycle` from its current state (or ``initial``) over the output times ``t`` (DOP853).
 
     The System's :meth:`~rigidlab.core.multibody.System.simulate` runs in pieces of
@@ -942,11 +949,14 @@ def whipple_ride(system: Any, t: Any, *, parameters: Any = "meijaard2007", lean_
         parameters) instead of the System's current one: the ride continues
         that ride, the wheels' contact Newton from the parameters it ended
         with. ``t[0] >= initial.t``.
+    degrees : bool, keyword-only
+        True: ``lean_limit`` is in degrees (the result holds radians).
 
     Returns
     -------
     WhippleRide
     """
+    lean_limit = radians(lean_limit, "lean_limit", degrees)
     from rigidlab.core.contact import ContactError
     from rigidlab.core.integrators import IntegrationError
     from rigidlab.core.multibody import AssemblyError, RunState, SingularSystemError
@@ -1026,8 +1036,9 @@ def _run_state_of(system: Any):
 
 # ------------------------------------------------------------------ a ride in stretches, and the modes over speed
 def whipple_ride_from(speed: float, t: Any, *, initial: Any = None, impulse: float = 0.0,
-                      parameters: Any = "meijaard2007", lean_limit: float = WHIPPLE_FALL_LEAN,
-                      rtol: float = RIDE_RTOL, atol: float = RIDE_ATOL) -> WhippleRide:
+                      parameters: Any = "meijaard2007", lean_limit: float = default_angle(WHIPPLE_FALL_LEAN),
+                      rtol: float = RIDE_RTOL, atol: float = RIDE_ATOL,
+                      degrees: bool = False) -> WhippleRide:
     """A stretch of a ride of a new :func:`whipple_bicycle` at ``speed``: from upright, or from ``initial``,
     pushed by ``impulse`` at the start.
 
@@ -1052,12 +1063,15 @@ def whipple_ride_from(speed: float, t: Any, *, initial: Any = None, impulse: flo
         Lateral push at the start (N s, positive to the right; :func:`whipple_push`).
     parameters, lean_limit, rtol, atol :
         As :func:`whipple_ride`.
+    degrees : bool, keyword-only
+        True: ``lean_limit`` is in degrees (the result holds radians).
 
     Returns
     -------
     WhippleRide
         Its ``end`` text gives times on the same clock as ``t``.
     """
+    lean_limit = radians(lean_limit, "lean_limit", degrees)
     from rigidlab.core.multibody import RunState
 
     P = real_number(impulse, "impulse", expected="a finite impulse (N s)")

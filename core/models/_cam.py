@@ -19,7 +19,7 @@ Conventions (cam profile plane, the cam's body frame seen along its shaft):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, InitVar, dataclass, field
 from typing import Any, Callable, NamedTuple
 
 import numpy as np
@@ -27,7 +27,8 @@ from scipy.optimize import minimize_scalar
 
 from rigidlab.core._constants import CAM_ATOL, CAM_RTOL, SEPARATION_XTOL
 from rigidlab.core._errors import ArgumentError
-from rigidlab.core._validation import float_array, output_times, real_number, short_repr
+from rigidlab.core._validation import (default_angle, degrees_out, float_array, output_times, radians, real_number,
+                                       short_repr)
 
 __all__ = [
     "CAM_CONTACT_MODELS",
@@ -284,15 +285,21 @@ class CamRevolution(NamedTuple):
     separations: tuple
     min_force: tuple
 
-    def separated(self, theta: Any) -> np.ndarray:
+    def separated(self, theta: Any, *, degrees: bool = False) -> np.ndarray:
         """Whether the cam angles ``theta`` (rad, any shape, taken modulo 2 pi) lie in a separation interval
         (:attr:`separations`, ends included): where the closed-form contact force ``N < 0`` (the contact would
         have to pull), up to the intervals' ends (found to ``SEPARATION_XTOL``, 1e-12 rad).
+
+        Parameters
+        ----------
+        degrees : bool, keyword-only
+            True: ``theta`` is in degrees.
 
         Returns
         -------
         ndarray of bool, the shape of ``theta``.
         """
+        theta = radians(theta, "theta", degrees)
         th = np.mod(_angles(theta), _TWO_PI)
         out = np.zeros(th.shape, dtype=bool)
         for a, b in self.separations:
@@ -391,6 +398,8 @@ class CamProfile:
         dwell and fall (rad); the lower dwell fills the rest of the turn.
     law : str or None
         Rise-dwell-return: ``"cycloidal"``, ``"harmonic"`` or ``"345"``.
+    degrees : bool, keyword-only
+        True: ``rise``, ``dwell``, ``fall`` given in degrees (stored in radians).
     """
 
     kind: str
@@ -402,8 +411,12 @@ class CamProfile:
     dwell: float | None = None
     fall: float | None = None
     law: str | None = None
+    _: KW_ONLY
+    degrees: InitVar[bool] = False
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, degrees: bool) -> None:
+        for name in ("rise", "dwell", "fall"):
+            object.__setattr__(self, name, radians(getattr(self, name), name, degrees))
         # built directly rather than by eccentric() or rise_dwell_return(): the same checks, and the fields
         # of the other kind left out
         how = "build a profile with CamProfile.eccentric(...) or CamProfile.rise_dwell_return(...)"
@@ -460,10 +473,12 @@ class CamProfile:
         cls,
         base_radius: float = 0.04,
         lift: float = 0.02,
-        rise: float = math.pi / 2,
-        dwell: float = math.pi / 6,
-        fall: float = math.pi / 2,
+        rise: float = default_angle(math.pi / 2),
+        dwell: float = default_angle(math.pi / 6),
+        fall: float = default_angle(math.pi / 2),
         law: str = "cycloidal",
+        *,
+        degrees: bool = False,
     ) -> CamProfile:
         """A rise-dwell-return-dwell motion law.
 
@@ -496,11 +511,16 @@ class CamProfile:
             fall <= 2 pi`` (the lower dwell is the rest).
         law : str
             ``"cycloidal"``, ``"harmonic"`` or ``"345"``.
+        degrees : bool, keyword-only
+            True: ``rise``, ``dwell``, ``fall`` are in degrees.
 
         Returns
         -------
         CamProfile
         """
+        rise = radians(rise, "rise", degrees)
+        dwell = radians(dwell, "dwell", degrees)
+        fall = radians(fall, "fall", degrees)
         Rb, L, b1, b2, b3, law = _rise_dwell_return_fields(base_radius, lift, rise, dwell, fall, law)
         return cls("rise_dwell_return", Rb, lift=L, rise=b1, dwell=b2, fall=b3, law=law)
 
@@ -552,7 +572,7 @@ class CamProfile:
             segments.append(_Segment(a3, _TWO_PI, *constant(0.0)))
         return tuple(segments)
 
-    def motion_law(self, theta: Any) -> CamKinematics:
+    def motion_law(self, theta: Any, *, degrees: bool = False) -> CamKinematics:
         """The rise-dwell-return law ``s(theta)`` with its first and second derivatives.
 
         For these profiles this is the lift of every follower (the cam is
@@ -563,6 +583,8 @@ class CamProfile:
         ----------
         theta : array_like
             Cam angles (rad), any shape; taken modulo 2 pi.
+        degrees : bool, keyword-only
+            True: ``theta`` is in degrees (the result holds radians).
 
         Returns
         -------
@@ -570,6 +592,7 @@ class CamProfile:
             ``lift``, ``dlift``, ``d2lift`` of the shape of ``theta`` (m,
             m/rad, m/rad^2).
         """
+        theta = radians(theta, "theta", degrees)
         if self.kind != "rise_dwell_return":
             raise ArgumentError("kind",
                 "kind: the eccentric cam has no motion law of its own (its lift depends on the follower); "
@@ -795,7 +818,7 @@ class CamFollower:
     def _stack(self, theta: np.ndarray) -> np.ndarray:
         return _evaluate_segments(self._segments, theta)
 
-    def kinematics(self, theta: Any) -> CamKinematics:
+    def kinematics(self, theta: Any, *, degrees: bool = False) -> CamKinematics:
         """Lift ``s`` and its derivatives ``s'``, ``s''`` with respect to the cam angle.
 
         Closed forms (eccentric cam of radius R, eccentricity e):
@@ -814,6 +837,8 @@ class CamFollower:
         ----------
         theta : array_like
             Cam angles (rad), any shape; periodic with period 2 pi.
+        degrees : bool, keyword-only
+            True: ``theta`` is in degrees (the result holds radians).
 
         Returns
         -------
@@ -821,10 +846,11 @@ class CamFollower:
             ``(lift, dlift, d2lift)``, each of the shape of ``theta`` (m,
             m/rad, m/rad^2).
         """
+        theta = radians(theta, "theta", degrees)
         D = self._stack(_angles(theta))
         return CamKinematics(D[0], D[1], D[2])
 
-    def pressure_angle(self, theta: Any) -> np.ndarray:
+    def pressure_angle(self, theta: Any, *, degrees: bool = False) -> np.ndarray:
         """Pressure angle ``varphi`` (rad) between the follower axis and the common normal.
 
         0 for a flat face; for a roller ``tan varphi = (s' - e_o) / (s_0 +
@@ -835,18 +861,21 @@ class CamFollower:
         ----------
         theta : array_like
             Cam angles (rad), any shape.
+        degrees : bool, keyword-only
+            True: ``theta`` in degrees, the pressure angle returned in degrees.
 
         Returns
         -------
         ndarray of the shape of ``theta`` (rad), in (-pi/2, pi/2).
         """
+        theta = radians(theta, "theta", degrees)
         th = _angles(theta)
         if self.follower == "flat":
             return np.zeros(th.shape)
         D = self._stack(th)
-        return np.arctan2(D[1] - self.offset, self._pitch_height + D[0])
+        return degrees_out(np.arctan2(D[1] - self.offset, self._pitch_height + D[0]), degrees)
 
-    def contact_force(self, theta: Any, speed: float) -> np.ndarray:
+    def contact_force(self, theta: Any, speed: float, *, degrees: bool = False) -> np.ndarray:
         """Contact force ``N`` (N) at cam angles ``theta`` with the cam turning at constant ``speed``.
 
         ``N = (m omega^2 s'' + k s + F_0 + m g) / cos varphi`` (see the class
@@ -859,11 +888,15 @@ class CamFollower:
             Cam angles (rad), any shape.
         speed : float
             omega (rad/s); its sign does not matter.
+        degrees : bool, keyword-only
+            True: ``theta`` in degrees and ``speed`` in deg/s.
 
         Returns
         -------
         ndarray of the shape of ``theta`` (N).
         """
+        theta = radians(theta, "theta", degrees)
+        speed = radians(speed, "speed", degrees)
         th = _angles(theta)
         w = real_number(speed, "speed", expected="a finite cam speed (rad/s)")
         D = self._stack(th)
@@ -1005,7 +1038,7 @@ class CamFollower:
                              np.asarray(touch.point), np.asarray(touch.normal),
                              self.separation_intervals(w, samples=n), (float(force[k]), float(theta[k])))
 
-    def touch_location(self, theta: Any) -> CamTouch:
+    def touch_location(self, theta: Any, *, degrees: bool = False) -> CamTouch:
         """The contact point and common normal at cam angle ``theta`` in the fixed profile plane.
 
         The cam frame's :meth:`cam_curve` ``(theta).point`` and
@@ -1018,12 +1051,15 @@ class CamFollower:
         ----------
         theta : array_like
             Cam angles (rad), any shape.
+        degrees : bool, keyword-only
+            True: ``theta`` is in degrees (the result holds radians).
 
         Returns
         -------
         CamTouch
             ``point`` (m) and ``normal``, each ``theta.shape + (2,)``.
         """
+        theta = radians(theta, "theta", degrees)
         th = _angles(theta)
         c, s = np.cos(th)[..., None], np.sin(th)[..., None]
         p = np.asarray(self.cam_curve(th).point)
@@ -1292,16 +1328,22 @@ class CamFollower:
         rot = np.stack([-d[..., 1], d[..., 0]], axis=-1)
         return _mul(rot, inv[..., None])
 
-    def contact_normal(self, theta: Any) -> np.ndarray:
+    def contact_normal(self, theta: Any, *, degrees: bool = False) -> np.ndarray:
         """Common normal at cam angle ``theta``, in the cam frame, pointing from the cam to the follower.
 
         ``n(theta)`` for a flat face; the pitch curve's outward normal for a
         roller.
 
+        Parameters
+        ----------
+        degrees : bool, keyword-only
+            True: ``theta`` is in degrees.
+
         Returns
         -------
         ndarray, shape ``theta.shape + (2,)``.
         """
+        theta = radians(theta, "theta", degrees)
         th = _angles(theta)
         if self.follower == "flat":
             return _trig_stack(th, 0)[0][0]
@@ -1458,7 +1500,8 @@ def largest_roller_radius(profile: CamProfile, *, offset: float = 0.0) -> float:
     return float(brentq(margin, lo, hi, xtol=1e-9))
 
 
-def smallest_convex_rise(base_radius: float, lift: float, dwell: float, law: str, *, xtol: float = 1e-9) -> float:
+def smallest_convex_rise(base_radius: float, lift: float, dwell: float, law: str, *, xtol: float = default_angle(1e-9),
+                         degrees: bool = False) -> float:
     """The smallest rise = fall angle (rad) whose :meth:`CamProfile.rise_dwell_return` cam is convex.
 
     A flat-faced follower needs ``R_b + s + s'' > 0`` at every cam angle
@@ -1475,12 +1518,16 @@ def smallest_convex_rise(base_radius: float, lift: float, dwell: float, law: str
         As in :meth:`CamProfile.rise_dwell_return` (m, m, rad).
     xtol : float, keyword-only
         Bracket width (rad), > 0; the returned angle is the bracket's convex end.
+    degrees : bool, keyword-only
+        True: ``dwell`` and ``xtol`` in degrees, the rise returned in degrees.
 
     Returns
     -------
     float
         The rise (rad); inf when even the longest rise leaves the cam concave.
     """
+    dwell = radians(dwell, "dwell", degrees)
+    xtol = radians(xtol, "xtol", degrees)
     b2 = _non_negative(dwell, "dwell", "rad")
     if not b2 < _TWO_PI:
         raise ArgumentError("dwell", f"dwell: expected less than 2 pi (room for a rise and a fall), got {b2!r} rad")
@@ -1503,7 +1550,7 @@ def smallest_convex_rise(base_radius: float, lift: float, dwell: float, law: str
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
         lo, hi = (lo, mid) if convex(mid) else (mid, hi)
-    return hi
+    return float(degrees_out(hi, degrees))
 
 
 # ------------------------------------------------------------------ simulation on the multibody System

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from rigidlab.core._validation import default_angle, radians
 from rigidlab.core.gyroscope import RotorParams, top_motion
 from rigidlab.core.multibody import JOINT_KINDS, Joint, Motor, System
 from rigidlab.core.rigid_body import rotation_angle_between
@@ -139,8 +140,10 @@ class Linkage:
     info: LinkageInfo
 
 
-def linkage(kind: str, *, n_links: int = 5, tilt: float = math.radians(60.0), speed: float = 2.0 * math.pi,
-            gravity: float = 9.81) -> Linkage:
+def linkage(kind: str, *, n_links: int = 5, tilt: float = default_angle(math.radians(60.0)),
+            speed: float = default_angle(2.0 * math.pi),
+            gravity: float = 9.81,
+            degrees: bool = False) -> Linkage:
     """One of the chapter's four linkages at t = 0, assembled.
 
     * ``"chain"``: :func:`pendulum_chain` of ``n_links`` uniform 1 kg rods of total length 2 m on revolute
@@ -157,12 +160,16 @@ def linkage(kind: str, *, n_links: int = 5, tilt: float = math.radians(60.0), sp
     n_links, tilt : keyword-only, the chain's (see :func:`pendulum_chain`)
     speed : keyword-only, the slider-crank's crank speed (rad/s)
     gravity : keyword-only, g along -z (m/s^2)
+    degrees : bool, keyword-only
+        True: ``tilt`` in degrees and ``speed`` in deg/s.
 
     Raises
     ------
     ValueError
         For an unknown ``kind`` (and what the builders refuse).
     """
+    tilt = radians(tilt, "tilt", degrees)
+    speed = radians(speed, "speed", degrees)
     motor = crank = top = state0 = None
     links: list[tuple[int, float]] = []
     if kind == "chain":

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from rigidlab.core._validation import real_number
+from rigidlab.core._validation import default_angle, radians, real_number
 from rigidlab.core.multibody import Body, Joint, Motor, System
 
 from ._pendulum import ROD_RADIUS_RATIO
@@ -83,15 +83,18 @@ class SliderCrank:
     phi0: float
     speed: float
 
-    def slider_position(self, phi: Any) -> np.ndarray:
-        """Closed form x of the slider pin: ``r cos phi + sqrt(l^2 - r^2 sin^2 phi)`` (m), any shape."""
-        phi = np.asarray(phi, dtype=float)
+    def slider_position(self, phi: Any, *, degrees: bool = False) -> np.ndarray:
+        """Closed form x of the slider pin: ``r cos phi + sqrt(l^2 - r^2 sin^2 phi)`` (m), any shape
+        (``degrees=True``: ``phi`` in degrees)."""
+        phi = np.asarray(radians(phi, "phi", degrees), dtype=float)
         r, l = self.crank_length, self.rod_length
         return r * np.cos(phi) + np.sqrt(l * l - (r * np.sin(phi)) ** 2)
 
-    def slider_velocity(self, phi: Any, phi_dot: Any) -> np.ndarray:
-        """Closed form x_dot: ``-r phi_dot sin phi (1 + r cos phi / sqrt(l^2 - r^2 sin^2 phi))`` (m/s)."""
-        phi = np.asarray(phi, dtype=float)
+    def slider_velocity(self, phi: Any, phi_dot: Any, *, degrees: bool = False) -> np.ndarray:
+        """Closed form x_dot: ``-r phi_dot sin phi (1 + r cos phi / sqrt(l^2 - r^2 sin^2 phi))`` (m/s)
+        (``degrees=True``: ``phi`` in degrees, ``phi_dot`` in deg/s)."""
+        phi = np.asarray(radians(phi, "phi", degrees), dtype=float)
+        phi_dot = radians(phi_dot, "phi_dot", degrees)
         r, l = self.crank_length, self.rod_length
         root = np.sqrt(l * l - (r * np.sin(phi)) ** 2)
         return -r * np.asarray(phi_dot) * np.sin(phi) * (1.0 + r * np.cos(phi) / root)
@@ -104,9 +107,10 @@ def slider_crank(
     crank_mass: float = 0.5,
     rod_mass: float = 1.0,
     slider_mass: float = 2.0,
-    speed: float = 2.0 * math.pi,
+    speed: float = default_angle(2.0 * math.pi),
     phi0: float = 0.0,
     gravity: float = 9.81,
+    degrees: bool = False,
 ) -> SliderCrank:
     """A motor-driven slider-crank (crank, connecting rod, slider) at its initial angle, assembled.
 
@@ -123,11 +127,15 @@ def slider_crank(
         Crank angle at t = 0 (rad), from +x towards +z.
     gravity : float
         g (m/s^2) along -z, >= 0.
+    degrees : bool
+        True: ``phi0`` in degrees and ``speed`` in deg/s.
 
     Returns
     -------
     SliderCrank
     """
+    phi0 = radians(phi0, "phi0", degrees)
+    speed = radians(speed, "speed", degrees)
     r = _positive(crank_length, "crank_length", "m")
     l = _positive(rod_length, "rod_length", "m")
     if not l > r:
@@ -190,10 +198,11 @@ def spatial_double_pendulum(
     length: float = 1.0,
     mass: float = 1.0,
     *,
-    tilt: tuple[float, float] = (0.7, 1.2),
-    azimuth: tuple[float, float] = (0.0, 1.0),
-    spin: float = 1.5,
+    tilt: tuple[float, float] = default_angle((0.7, 1.2)),
+    azimuth: tuple[float, float] = default_angle((0.0, 1.0)),
+    spin: float = default_angle(1.5),
     gravity: float = 9.81,
+    degrees: bool = False,
 ) -> SpatialDoublePendulum:
     """A spatial double pendulum of two uniform rods on spherical joints, assembled.
 
@@ -213,11 +222,16 @@ def spatial_double_pendulum(
         Initial angular velocity about +z (rad/s).
     gravity : float, keyword-only
         g (m/s^2) along -z, >= 0.
+    degrees : bool, keyword-only
+        True: ``tilt`` and ``azimuth`` in degrees, ``spin`` in deg/s.
 
     Returns
     -------
     SpatialDoublePendulum
     """
+    tilt = radians(tilt, "tilt", degrees)
+    azimuth = radians(azimuth, "azimuth", degrees)
+    spin = radians(spin, "spin", degrees)
     L = _positive(length, "length", "m")
     m = _positive(mass, "mass", "kg")
     tilts = [real_number(v, "tilt") for v in np.asarray(tilt, dtype=object).ravel()]

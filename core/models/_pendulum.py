@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from rigidlab.core._validation import output_times, positive_integer, real_number
+from rigidlab.core._validation import output_times, positive_integer, radians, real_number
 from rigidlab.core.integrators import integrate
 from rigidlab.core.multibody import System
 
@@ -56,6 +56,7 @@ def pendulum_chain(
     *,
     tilt: float = 0.0,
     gravity: float = 9.81,
+    degrees: bool = False,
 ) -> System:
     """A chain of ``n`` pendulum links hanging from the origin, at rest.
 
@@ -86,6 +87,8 @@ def pendulum_chain(
         at rest either way.
     gravity : float, keyword-only
         g (m/s^2) along -z, >= 0.
+    degrees : bool, keyword-only
+        True: ``tilt`` is in degrees.
 
     Returns
     -------
@@ -93,6 +96,7 @@ def pendulum_chain(
         Assembled; ``system.bodies[k]`` and ``system.joints[k]`` are link
         ``k`` and the joint above it (named ``"link<k>"``, ``"joint<k>"``).
     """
+    tilt = radians(tilt, "tilt", degrees)
     n, L, m, tilt, g = _chain_arguments(n, length, mass, kind, tilt, gravity)
     system = System(gravity=(0.0, 0.0, -g))
     down = np.array([0.0, math.sin(tilt), -math.cos(tilt)])
@@ -158,6 +162,7 @@ def pendulum_chain_reduced(
     gravity: float = 9.81,
     rtol: float = 1e-13,
     atol: float = 1e-13,
+    degrees: bool = False,
 ) -> ReducedChainMotion:
     """The chain of :func:`pendulum_chain` from its reduced Lagrange equations in the joint angles.
 
@@ -191,6 +196,8 @@ def pendulum_chain_reduced(
     rtol, atol : float, keyword-only
         DOP853's tolerances on the angles (rad) and rates (rad/s), > 0;
         ``rtol >= core.integrators.MIN_RTOL`` (2.2e-14).
+    degrees : bool, keyword-only
+        True: ``tilt`` is in degrees (the result holds radians).
 
     Returns
     -------
@@ -207,6 +214,7 @@ def pendulum_chain_reduced(
         ``rigidlab.core.integrators.PACE_CHECK_CALLS``, see
         :func:`rigidlab.core.integrators.integrate`).
     """
+    tilt = radians(tilt, "tilt", degrees)
     n, L, m, tilt, g = _chain_arguments(n, length, mass, kind, tilt, gravity)
     times = output_times(t)
     tolerances = []

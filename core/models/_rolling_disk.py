@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, InitVar, dataclass, field
 from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from rigidlab.core._validation import float_array, output_times, real_number, short_repr
+from rigidlab.core._validation import check_degrees, default_angle, float_array, output_times, radians, real_number, short_repr
 from rigidlab.core.rotations import (
     GimbalLockWarning,
     euler_angle_rates_from_omega,
@@ -86,12 +86,13 @@ def rolling_disk(
     radius: float = 0.1,
     mass: float = 1.0,
     lean: float = 0.0,
-    spin: float = 20.0,
+    spin: float = default_angle(20.0),
     rolling: bool = True,
     *,
     heading_rate: float = 0.0,
     lean_rate: float = 0.0,
     gravity: float = 9.81,
+    degrees: bool = False,
 ):
     """A thin uniform disk standing on the ground, as a System with one contact, assembled.
 
@@ -128,6 +129,8 @@ def rolling_disk(
         Initial heading rate about +z and lean rate (rad/s).
     gravity : float, keyword-only
         g (m/s^2) along -z, >= 0.
+    degrees : bool, keyword-only
+        True: ``lean`` in degrees; ``spin``, ``heading_rate``, ``lean_rate`` in deg/s.
 
     Returns
     -------
@@ -140,6 +143,10 @@ def rolling_disk(
     rolling_disk_reference : the same disk from its reduced equations.
     rolling_disk_critical_spin : the spin above which upright rolling is stable.
     """
+    lean = radians(lean, "lean", degrees)
+    spin = radians(spin, "spin", degrees)
+    heading_rate = radians(heading_rate, "heading_rate", degrees)
+    lean_rate = radians(lean_rate, "lean_rate", degrees)
     from rigidlab.core.contact import Plane, Torus
     from rigidlab.core.multibody import System
 
@@ -252,7 +259,7 @@ def rolling_disk_reference(
     radius: float = 0.1,
     mass: float = 1.0,
     lean: float = 0.0,
-    spin: float = 20.0,
+    spin: float = default_angle(20.0),
     rolling: bool = True,
     *,
     heading_rate: float = 0.0,
@@ -260,6 +267,7 @@ def rolling_disk_reference(
     gravity: float = 9.81,
     rtol: float = 1e-13,
     atol: float = 1e-13,
+    degrees: bool = False,
 ) -> RollingDiskMotion:
     """The thin uniform disk from its reduced equations in lean, heading and spin (DOP853).
 
@@ -315,6 +323,8 @@ def rolling_disk_reference(
     The disk starts with heading 0 and spin angle 0, its contact point at
     the origin and the centre's velocity that of rolling without slip
     (also when sliding, which then keeps its horizontal part).
+    degrees : bool, keyword-only
+        True: ``lean`` in degrees; ``spin``, ``heading_rate``, ``lean_rate`` in deg/s (the result holds radians).
 
     Returns
     -------
@@ -328,6 +338,10 @@ def rolling_disk_reference(
         When the disk falls (``|lean|`` reaches ``FLAT_LEAN``) or DOP853
         fails.
     """
+    lean = radians(lean, "lean", degrees)
+    spin = radians(spin, "spin", degrees)
+    heading_rate = radians(heading_rate, "heading_rate", degrees)
+    lean_rate = radians(lean_rate, "lean_rate", degrees)
     R, m, lean, spin, rolling, heading_rate, g = _disk_arguments(radius, mass, lean, spin, rolling, heading_rate,
                                                                  gravity)
     lean_rate = real_number(lean_rate, "lean_rate", expected="a finite lean rate (rad/s)")
@@ -476,7 +490,8 @@ class RollingDiskRun:
 
 
 def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: Any = None, rtol: float = 1e-6,
-                     atol: float = 1e-8, lean_limit: float = FLAT_LEAN, pieces: int = 20) -> RollingDiskRun:
+                     atol: float = 1e-8, lean_limit: float = default_angle(FLAT_LEAN), pieces: int = 20,
+                     degrees: bool = False) -> RollingDiskRun:
     """Run the :func:`rolling_disk` System over the output times ``t`` (DOP853) until the disk cannot go on.
 
     The run stops where the disk leaves the ground (the normal force, the
@@ -508,6 +523,8 @@ def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: A
         keeps it clear of the contact's loss of rank at pi / 2.
     pieces : int, keyword-only
         Pieces of a failed run's second try.
+    degrees : bool, keyword-only
+        True: ``lean_limit`` is in degrees (the result holds radians).
 
     Returns
     -------
@@ -519,6 +536,7 @@ def rolling_disk_run(system: Any, disk: Any, contact: Any, t: Any, *, initial: A
         For bad times, or when not even the first piece of a failed run
         works, or the motion leaves the finite range.
     """
+    lean_limit = radians(lean_limit, "lean_limit", degrees)
     from rigidlab.core.contact import ContactError
     from rigidlab.core.integrators import IntegrationError
     from rigidlab.core.multibody import AssemblyError, SingularSystemError
@@ -625,6 +643,8 @@ class RollingDisk:
         Rolling without slip (True) or frictionless sliding.
     lean_rate, gravity : float
         Initial lean rate (rad/s); g (m/s^2) along -z, >= 0.
+    degrees : bool, keyword-only
+        True: ``lean`` given in degrees; ``spin``, ``heading_rate``, ``lean_rate`` in deg/s (stored in radians).
 
     Raises
     ------
@@ -635,13 +655,18 @@ class RollingDisk:
     radius: float = 0.1
     mass: float = 1.0
     lean: float = 0.0
-    spin: float = 20.0
+    spin: float = default_angle(20.0)
     heading_rate: float = 0.0
     rolling: bool = True
     lean_rate: float = 0.0
     gravity: float = 9.81
+    _: KW_ONLY
+    degrees: InitVar[bool] = False
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, degrees: bool) -> None:
+        if check_degrees(degrees):
+            for name in ("lean", "spin", "heading_rate", "lean_rate"):
+                object.__setattr__(self, name, radians(getattr(self, name), name, True))
         _disk_arguments(self.radius, self.mass, self.lean, self.spin, self.rolling, self.heading_rate, self.gravity)
         real_number(self.lean_rate, "lean_rate", expected="a finite lean rate (rad/s)")
 

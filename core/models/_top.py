@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from rigidlab.core._validation import float_array, real_number
+from rigidlab.core._validation import float_array, radians, real_number
 from rigidlab.core.gyroscope import RotorParams
 from rigidlab.core.multibody import Body, Joint, System
 from rigidlab.core.rotations import euler_angle_G_bar, euler_parameters_from_euler_angles
@@ -40,7 +40,8 @@ class HeavyTop:
     length: float
 
 
-def heavy_top(params: RotorParams, state0: Any, *, mass: float = 1.0, gravity: float = 9.81) -> HeavyTop:
+def heavy_top(params: RotorParams, state0: Any, *, mass: float = 1.0, gravity: float = 9.81,
+              degrees: bool = False) -> HeavyTop:
     """A heavy top equivalent to ``rigidlab.core.gyroscope``'s rotor with ``params`` in ``state0``.
 
     The rotor's moments about O (``I`` transverse, ``I3`` axial) and
@@ -59,6 +60,8 @@ def heavy_top(params: RotorParams, state0: Any, *, mass: float = 1.0, gravity: f
         m (kg), > 0.
     gravity : float, keyword-only
         g (m/s^2), > 0 (any value when ``mgl = 0``).
+    degrees : bool, keyword-only
+        True: the angles of ``state0`` in degrees, its rates in deg/s.
 
     Returns
     -------
@@ -71,6 +74,7 @@ def heavy_top(params: RotorParams, state0: Any, *, mass: float = 1.0, gravity: f
         ``I - m l^2`` is no longer a valid moment about the centre of mass
         (it must be > 0 and >= I3 / 2).
     """
+    state0 = radians(state0, "state0", degrees)
     if not isinstance(params, RotorParams):
         raise ValueError(f"params: expected a core.gyroscope.RotorParams, got {type(params).__name__}")
     s = float_array(state0, "state0", expected="(phi, theta, psi, phi_dot, theta_dot, psi_dot)")

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from rigidlab.core._validation import float_array, real_number
+from rigidlab.core._validation import float_array, radians, real_number
 from rigidlab.core.gyroscope import RotorParams, steady_precession_rates
 from rigidlab.core.multibody import Body, Joint, SpringDamper, System
 
@@ -219,7 +219,8 @@ class SteadyTop:
 
 
 def steady_top(params: RotorParams, *, spin: float, theta: float = 0.0, precession: str = "slow",
-               mass: float = 1.0, gravity: float = 9.81) -> SteadyTop:
+               mass: float = 1.0, gravity: float = 9.81,
+               degrees: bool = False) -> SteadyTop:
     """The heavy top of :func:`rigidlab.core.models.heavy_top` in steady precession, or sleeping at ``theta = 0``.
 
     At ``theta = 0`` the top spins upright at ``spin`` (stable above
@@ -240,6 +241,8 @@ def steady_top(params: RotorParams, *, spin: float, theta: float = 0.0, precessi
         ``"slow"`` or ``"fast"`` (ignored at ``theta = 0``).
     mass, gravity : float, keyword-only
         As :func:`rigidlab.core.models.heavy_top`.
+    degrees : bool, keyword-only
+        True: ``theta`` in degrees and ``spin`` in deg/s.
 
     Returns
     -------
@@ -250,6 +253,8 @@ def steady_top(params: RotorParams, *, spin: float, theta: float = 0.0, precessi
     ValueError
         For bad arguments, or where no steady precession exists.
     """
+    theta = radians(theta, "theta", degrees)
+    spin = radians(spin, "spin", degrees)
     w3 = real_number(spin, "spin", expected="a finite spin omega3 (rad/s)")
     th = real_number(theta, "theta", expected="a nutation angle in [0, pi) (rad)")
     if not 0.0 <= th < math.pi:

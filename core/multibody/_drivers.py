@@ -138,3 +138,15 @@ def _call(g: Callable, t: float, name: str) -> Any:
         return g(t)
     except Exception as exc:  # noqa: BLE001 - reported with the argument's name
         raise ValueError(f"{name}: the function raised {type(exc).__name__} at t={t:g}: {exc}") from exc
+
+
+class ScaledLaw:
+    """A motor law's ``values`` times a constant (a law given in degrees, read in radians)."""
+
+    def __init__(self, values: Callable[[float], tuple[float, float, float]], factor: float):
+        self.values, self.factor = values, factor
+
+    def __call__(self, t: float) -> tuple[float, float, float]:
+        f, f_dot, f_ddot = self.values(t)
+        k = self.factor
+        return (f * k, f_dot * k, f_ddot * k)

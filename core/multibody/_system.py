@@ -20,11 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from rigidlab.core._validation import float_array, output_times, positive_integer, real_number, short_repr
+from rigidlab.core._validation import (RADIANS_PER_DEGREE, check_degrees, float_array, output_times, positive_integer,
+                                       radians, real_number, short_repr)
 from rigidlab.core.integrators import ADAPTIVE_METHODS, MAX_STEPS, MIN_RTOL
 from rigidlab.core.rotations import UNIT_NORM_TOL
 
-from ._drivers import driver_function
+from ._drivers import ScaledLaw, driver_function
 from ._elements import (
     JOINT_KINDS,
     Body,
@@ -695,7 +696,8 @@ class System:
         return joint
 
     def add_motor(
-        self, joint: Joint, *, angle: Any = None, displacement: Any = None, name: str | None = None
+        self, joint: Joint, *, angle: Any = None, displacement: Any = None, name: str | None = None,
+        degrees: bool = False
     ) -> Motor:
         """Drive a joint coordinate as a function of time (a driving constraint).
 
@@ -718,6 +720,8 @@ class System:
             accepts complex input, else from finite differences (see
             docs/multibody.md for the rules and their accuracy).
         name : str or None
+        degrees : bool, keyword-only
+            True: the ``angle`` law (and its given rates) in degrees, deg/s, deg/s^2.
 
         Returns
         -------
@@ -734,6 +738,7 @@ class System:
             returns a complex (or non-finite) value at a later time raises
             the same ValueError where that value is first taken.
         """
+        check_degrees(degrees)
         jt = self._joint(joint)
         if (angle is None) == (displacement is None):
             raise ValueError("angle, displacement: expected exactly one of them")
@@ -755,6 +760,8 @@ class System:
             label = f"motor{k}"
         func, how = driver_function(angle if angle is not None else displacement, f"motor {label!r}, {coord}",
                                     self._t)
+        if degrees and coord == "angle":
+            func = ScaledLaw(func, RADIANS_PER_DEGREE)
         name = self._item_name(name, "motor")
         motor = Motor(name, jt, coord, how, len(self._motors), func, self)
         self._motors.append(motor)
@@ -817,7 +824,8 @@ class System:
         return sp
 
     def add_rotational_spring_damper(
-        self, joint: Joint, *, stiffness: float, damping: float = 0.0, angle0: float = 0.0, name: str | None = None
+        self, joint: Joint, *, stiffness: float, damping: float = 0.0, angle0: float = 0.0, name: str | None = None,
+        degrees: bool = False
     ) -> RotationalSpringDamper:
         """Add a torsion spring-damper in a revolute or cylindrical joint.
 
@@ -836,11 +844,14 @@ class System:
         angle0 : float
             Angle at which the spring is relaxed (rad).
         name : str or None
+        degrees : bool, keyword-only
+            True: ``angle0`` is in degrees (``stiffness`` stays N m/rad).
 
         Returns
         -------
         RotationalSpringDamper
         """
+        angle0 = radians(angle0, "angle0", degrees)
         jt = self._joint(joint)
         if jt.kind not in ("revolute", "cylindrical"):
             raise ValueError(f"joint: a rotational spring-damper needs a revolute or cylindrical joint, got {jt.kind}")
