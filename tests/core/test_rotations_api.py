@@ -72,7 +72,7 @@ def test_equation_table_names_existing_functions():
     from pathlib import Path
 
     text = (Path(__file__).resolve().parents[2] / "docs" / "rotations.md").read_text()
-    rows = re.findall(r"^\| (8\.[0-9.\-]+) \| core\.rotations\.(\w+) \|$", text, flags=re.M)
+    rows = re.findall(r"^\| (8\.[0-9.\-]+) \| rigidlab\.core\.rotations\.(\w+) \|$", text, flags=re.M)
     assert len(rows) > 40
     for eq, name in rows:
         assert name in cr.__all__, name
