@@ -1398,7 +1398,8 @@ class CamFollower:
                 raise ArgumentError("base_radius",
                     f"base_radius: a flat-faced follower needs a convex cam, radius of curvature R_b + s + s'' > 0, "
                     f"but it is {worst:.6g} m at cam angle {where:.6g} rad; use base_radius > {needed:.6g} m, "
-                    f"longer rise/fall angles or a smaller lift, or a roller follower"
+                    f"longer rise/fall angles or a smaller lift, or a roller follower",
+                    limit=needed,
                 )
             return
         rho, where = self._smallest_convex_pitch_radius()
@@ -1410,7 +1411,8 @@ class CamFollower:
             raise ArgumentError("roller_radius",
                 f"roller_radius: expected less than the pitch curve's smallest convex radius of curvature, which is "
                 f"{rho:.6g} m (at cam angle {where:.6g} rad) with this roller, got {self.roller_radius!r}: the cam "
-                f"would be undercut; {fix}"
+                f"would be undercut; {fix}",
+                limit=largest,
             )
 
     def _smallest_convex_pitch_radius(self, pitch_height: float | None = None) -> tuple[float, float]:

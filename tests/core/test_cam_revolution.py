@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -93,6 +94,7 @@ def test_the_smallest_convex_rise_is_where_a_flat_face_starts_to_fit(law):
     with pytest.raises(ArgumentError) as info:
         flat(rise - 1e-6)  # and refused just below
     assert info.value.argument == "base_radius"
+    assert base <= info.value.limit < 1.01 * base  # the base radius that would make this cam convex
 
 
 def test_the_smallest_convex_rise_is_inf_when_no_rise_is_convex_and_refuses_bad_arguments():
@@ -136,6 +138,11 @@ def test_the_largest_roller_radius_needs_only_the_profile(offset):
     with pytest.raises(ArgumentError) as refused:
         CamFollower(profile, follower="roller", roller_radius=0.03, offset=offset)
     assert refused.value.argument == "roller_radius"
+    # the refusal carries that largest roller (no second search), also across a process boundary
+    assert refused.value.limit == largest and f"{largest:.6g} m" in str(refused.value)
+    copy = pickle.loads(pickle.dumps(refused.value))
+    assert (type(copy), copy.argument, copy.limit, str(copy)) == (ArgumentError, "roller_radius", largest,
+                                                                  str(refused.value))
     assert largest_roller_radius(CamProfile.eccentric()) == math.inf
     for args, argument in (({"profile": "cam"}, "profile"), ({"profile": profile, "offset": math.nan}, "offset")):
         with pytest.raises(ArgumentError, match=f"^{argument}: expected") as bad:
