@@ -68,7 +68,8 @@ class Playback:
         self._time_scale = 1.0
         self._pending_preset: str | None = None
         self._preset_keys: dict[str, str] = {}
-        self._has_gui = False
+        self._has_slider = False  # the time scale is the slider's
+        self._has_row = False  # the Play / Pause / Reset row is on the panel
 
     # -- requests (any thread) -----------------------------------------------
     @property
@@ -78,7 +79,7 @@ class Playback:
 
     @property
     def time_scale(self) -> float:
-        if self._has_gui and self.controls is not None:
+        if self._has_slider and self.controls is not None:
             return float(self.controls.value("time_scale"))
         with self._lock:
             return self._time_scale
@@ -93,7 +94,7 @@ class Playback:
         scale = float(scale)
         if not (math.isfinite(scale) and scale > 0.0):
             raise ValueError(f"scale: expected a finite number > 0, got {scale!r}")
-        if self._has_gui and self.controls is not None:
+        if self._has_slider and self.controls is not None:
             self.controls.set("time_scale", scale)
             return
         with self._lock:
@@ -119,7 +120,7 @@ class Playback:
 
     # -- the session loop --------------------------------------------------------
     def _take_clicks(self) -> None:
-        if self.controls is None or not (self._has_gui or self._preset_keys):
+        if self.controls is None or not (self._has_row or self._preset_keys):
             return
         keys = ["playback", *self._preset_keys]
         for key, value, _ in self.controls.take_clicks(keys):
@@ -153,19 +154,25 @@ class Playback:
         return Tick(reset=reset, step=step)
 
     # -- GUI ---------------------------------------------------------------------
-    def add_gui(self) -> dict[str, Any]:
+    def add_gui(self, *, time_scale: bool = True) -> dict[str, Any]:
         """Add the Play / Pause / Reset row and the "Time scale" slider to the
-        current GUI folder; returns their handles."""
+        current GUI folder; returns their handles.
+
+        ``time_scale`` False leaves the slider out: the scene sets the scale
+        itself (:meth:`set_time_scale`, any finite scale > 0), e.g. from a
+        control of its own in other units (the cam's seconds per turn).
+        """
         if self.controls is None:
             raise ValueError("controls: expected the scene's ControlPanel, got None")
         lo, hi = TIME_SCALE_RANGE
-        row = self.controls.add(ButtonGroup("playback", "Playback", options=PLAYBACK_OPTIONS))
-        scale = self.controls.add(Slider(
-            "time_scale", "Time scale", min=lo, max=hi, step=0.05, default=self.time_scale,
-            hint="Simulated seconds per wall-clock second",
-        ))
-        self._has_gui = True
-        return {"playback": row, "time_scale": scale}
+        handles = {"playback": self.controls.add(ButtonGroup("playback", "Playback", options=PLAYBACK_OPTIONS))}
+        if time_scale:
+            handles["time_scale"] = self.controls.add(Slider(
+                "time_scale", "Time scale", min=lo, max=hi, step=0.05, default=self.time_scale,
+                hint="Simulated seconds per wall-clock second",
+            ))
+        self._has_slider, self._has_row = time_scale, True
+        return handles
 
     def add_preset_buttons(self) -> dict[str, Any]:
         """Add a "Presets" folder with one button per preset; a click requests it."""

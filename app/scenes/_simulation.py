@@ -348,9 +348,10 @@ class SimulationScene(PlaybackRequests, Scene):
                                   hint="the samples of the plotted window, up to the time shown")
         self._refresh = PlotRefresh(("readout", *(s.name for s in self._specs)), self.refresh_period)
 
-    def add_playback(self) -> None:
-        """The Play / Pause / Reset row, the time scale and the status readout, here in the folder."""
-        self.playback.add_gui()
+    def add_playback(self, *, time_scale: bool = True) -> None:
+        """The Play / Pause / Reset row, the time scale and the status readout, here in the folder
+        (``time_scale`` False: no time-scale slider, the scene sets the scale: :meth:`Playback.add_gui`)."""
+        self.playback.add_gui(time_scale=time_scale)
         self.status = self.add_readout("Computing the motion…")
 
     def add_legend(self, items: Sequence[tuple[Sequence[int], str]], title: str = "") -> Legend:

@@ -119,3 +119,20 @@ def test_refused_time_scales_keep_the_value_in_use(panel, raw) -> None:
     assert playback.time_scale == 2.0 and handles["time_scale"].value == 2.0
     wait_until(lambda: panel.gate.refused_count > 0)
     assert playback.tick(0.1).step == pytest.approx(0.2)
+
+
+def test_gui_without_the_time_scale_slider_leaves_the_scale_to_the_scene(panel) -> None:
+    # a scene that sets the scale from a control of its own (the cam's seconds per turn: 0.004 and less)
+    playback = Playback(controls=panel)
+    handles = playback.add_gui(time_scale=False)
+    assert list(handles) == ["playback"] and "time_scale" not in panel.specs
+    playback.set_time_scale(0.004)  # outside the slider's range: the scene's own
+    assert playback.time_scale == 0.004
+    assert playback.tick(0.5).step == pytest.approx(0.002, rel=1e-15)
+    click(panel, "playback", "Pause")  # the row works as with the slider
+    assert playback.tick(0.1) == Tick(reset=False, step=0.0) and not playback.playing
+    click(panel, "playback", "Reset")
+    assert playback.tick(0.0).reset
+    assert panel.state() == {}  # nothing of the playback in the scene's state
+    with pytest.raises(ValueError, match=r"scale: expected a finite number > 0, got"):
+        playback.set_time_scale(0.0)
