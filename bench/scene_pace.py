@@ -117,7 +117,7 @@ class _Clock:
         if scene.compliant:
             rev = scene.revolution
             return scene.sim_time * rev.speed if rev is not None else 0.0
-        a = scene._angle  # the closed form's display angle (wraps at 2 pi): unwrapped here
+        a = scene.cam_angle  # the closed form's display angle (wraps at 2 pi): unwrapped here
         if self._last is not None:
             d = (a - self._last) % (2.0 * math.pi)
             self._angle += d if d < math.pi else d - 2.0 * math.pi
@@ -129,7 +129,7 @@ class _Clock:
         if scene.name == "cam_follower":
             clock = self._cam_angle()
             turn = float(scene.controls.value("turn_seconds"))
-            rate = 2.0 * math.pi / turn if scene.controls.value("animate") else 0.0
+            rate = 2.0 * math.pi / turn if scene.playing else 0.0
             waiting = bool(scene.waiting) if scene.compliant else scene.revolution is None
         else:
             clock = float(scene.sim_time)

@@ -26,6 +26,7 @@ import pytest
 
 from rigidlab.app.readout import significant
 from rigidlab.app.scenes._arrows import vertex_rgb
+from rigidlab.app.scenes._cam import cam_layout
 from rigidlab.app.scenes._plots import capped_range
 from rigidlab.app.scenes.base import PRESENTER_ARROW_SCALE, PRESENTER_LABEL_SCALE
 from rigidlab.app.scenes.cam_follower import (
@@ -42,7 +43,6 @@ from rigidlab.app.scenes.cam_follower import (
     build_cam,
     compute_chunk,
     compute_revolution,
-    layout,
 )
 from tests.app._views import Camera, label_box, overlapping_pairs
 from tests.app.conftest import GatedExecutor
@@ -94,8 +94,8 @@ def cam_app(running_app):
 
 
 def pause(scene) -> None:
-    """Stop the cam (as the page's checkbox does) and wait until the readout shows the angle drawn."""
-    assert send_value(scene, "animate", False)
+    """Stop the cam (as the page's Pause button does) and wait until the readout shows the angle drawn."""
+    click(scene, "playback", "Pause")
     wait_until(lambda: not scene.playing)  # (the clock stands from this frame on; the readout follows)
     wait_until(lambda: scene.drawn_revision == scene.revision
                and f"**θ** = {math.degrees(scene.cam_angle):.2f}°" in scene.status.content)
@@ -127,8 +127,8 @@ def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_ap
     # turning: every drawn frame puts the follower at the closed-form lift of the angle drawn
     for _ in range(20):
         with app.session_for().run_lock:
-            theta, z = scene.cam_angle, float(scene.follower_frame.position[2])
-            wxyz = np.array(scene.cam_frame.wxyz)
+            theta, z = scene.cam_angle, float(scene.mechanism.follower_frame.position[2])
+            wxyz = np.array(scene.mechanism.cam_frame.wxyz)
         s = E * (1 - math.cos(theta))
         assert z == pytest.approx(RB + s, abs=1e-15)
         np.testing.assert_allclose(wxyz, [math.cos(theta / 2), 0, 0, math.sin(theta / 2)], atol=1e-15)
@@ -138,10 +138,10 @@ def test_follower_pose_and_readout_are_the_closed_form_at_the_angle_shown(cam_ap
     pause(scene)
     with app.session_for().run_lock:
         theta, text = scene.cam_angle, scene.status.content
-        z = float(scene.follower_frame.position[2])
-        point = np.array(scene.contact_point.position)
-        arrow = _in_global(scene.contact_point, np.array(scene.force_arrow.arrow.points)[0])
-        normal = _in_global(scene.contact_point, np.array(scene.normal_line.points)[0])
+        z = float(scene.mechanism.follower_frame.position[2])
+        point = np.array(scene.mechanism.contact_point.position)
+        arrow = _in_global(scene.mechanism.contact_point, np.array(scene.mechanism.force_arrow.arrow.points)[0])
+        normal = _in_global(scene.mechanism.contact_point, np.array(scene.mechanism.normal_line.points)[0])
     inputs = scene.revolution.inputs
     s, ds, dds, force = flat_closed_form(theta, inputs)
     w = inputs.rpm * math.pi / 30.0
@@ -172,9 +172,9 @@ def test_roller_follows_the_slider_crank_closed_form(cam_app):
     pause(scene)
     r = 0.015
     with app.session_for().run_lock:
-        theta, z = scene.cam_angle, float(scene.follower_frame.position[2])
-        point = np.array(scene.contact_point.position)
-        normal = _in_global(scene.contact_point, np.array(scene.normal_line.points)[0])
+        theta, z = scene.cam_angle, float(scene.mechanism.follower_frame.position[2])
+        point = np.array(scene.mechanism.contact_point.position)
+        normal = _in_global(scene.mechanism.contact_point, np.array(scene.mechanism.normal_line.points)[0])
     s = roller_lift(theta, r)
     assert z == pytest.approx(R + r - E + s, abs=1e-14)  # the roller's centre
     assert numbers(scene.status.content, "**s**") == f"{1000 * s:.4f}"
@@ -187,8 +187,8 @@ def test_roller_follows_the_slider_crank_closed_form(cam_app):
     to_centre = np.array([0.0, 0.0, z]) - point
     assert abs(d[0] * to_centre[2] - d[2] * to_centre[0]) < 1e-9 * np.linalg.norm(d) * r
     # the roller's mesh is shown with its radius, the flat face hidden
-    wait_until(lambda: scene.roller_mesh.visible and not scene.follower_meshes["flat"].visible)
-    vertices = np.asarray(scene.roller_mesh.vertices)
+    wait_until(lambda: scene.mechanism.roller_mesh.visible and not scene.mechanism.follower_meshes["flat"].visible)
+    vertices = np.asarray(scene.mechanism.roller_mesh.vertices)
     assert np.max(np.hypot(vertices[:, 0], vertices[:, 2])) == pytest.approx(r, rel=1e-6)
 
 
@@ -199,7 +199,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     assert scene.revolution.closed.jump_speed == pytest.approx(jump, rel=1e-14)
     wait_until(lambda: "**Jump speed**: 1088.0 rpm" in scene.info.content)
     assert f"**Jump speed**: {jump * 30 / math.pi:.1f} rpm" in scene.info.content
-    assert "No separation" in scene.info.content and not scene.separation_arc.visible
+    assert "No separation" in scene.info.content and not scene.mechanism.separation_arc.visible
     force_plot = scene.plot_handles["force"]
     assert np.all(np.asarray(force_plot.data[4]) == 0.0)  # nothing shaded
     # just below the jump speed: still no separation; just above: an interval around theta = pi
@@ -209,7 +209,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     assert scene.revolution.closed.separations == ()
     assert send_value(scene, "rpm", 1300.0)
     wait_for_inputs(scene, rpm=1300.0)
-    wait_until(lambda: "Separation" in scene.info.content and scene.separation_arc.visible)
+    wait_until(lambda: "Separation" in scene.info.content and scene.mechanism.separation_arc.visible)
     assert "Turn on *Compliant contact* to see the follower jump." in scene.info.content
     (start, end), = scene.revolution.closed.separations
     # N = 0 where m w^2 e cos(theta) + k e (1 - cos theta) + F = 0 (closed form, both roots)
@@ -229,7 +229,7 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
     lift_shade = np.asarray(scene.plot_handles["lift"].data[2])
     assert np.all(lift_shade[~inside] == 0) and np.all(lift_shade[inside] > 0)
     # the arc on the cam: contour points u of the interval, on the cam's front face (body frame)
-    segments = np.asarray(scene.separation_arc.points, dtype=float)
+    segments = np.asarray(scene.mechanism.separation_arc.points, dtype=float)
     u = np.arange(720) * (2 * math.pi / 720)
     contour = build_cam(inputs).cam_curve(u).point
     nearest = np.argmin(np.linalg.norm(segments[:, 0, None, :2] - contour[None], axis=-1), axis=1)
@@ -244,7 +244,8 @@ def test_past_the_jump_speed_the_separation_interval_is_marked(cam_app):
         assert scene.load_state(load) == []
     wait_until(lambda: scene.index == REVOLUTION_SAMPLES // 2)
     wait_until(lambda: "would have to pull" in scene.status.content)
-    assert scene.force < 0 and np.array_equal(np.asarray(scene.force_arrow.arrow.colors)[0], vertex_rgb((150, 60, 200)))
+    colors = np.asarray(scene.mechanism.force_arrow.arrow.colors)
+    assert scene.force < 0 and np.array_equal(colors[0], vertex_rgb((150, 60, 200)))
 
 
 @pytest.mark.parametrize(("key", "raw"), [("rpm", 1e308), ("rpm", math.nan), ("mass", -1.0), ("stiffness", "abc"),
@@ -332,42 +333,43 @@ def test_state_round_trip_reproduces_the_cam_and_the_angle(running_app):
     pause(scene)
     state = scene.state()
     assert state["scene"] == "cam_follower" and state["values"]["profile"] == PROFILES[3]
-    assert state["values"]["animate"] is False and 0.0 <= state["cam_angle_deg"] < 360.0
+    assert state["playing"] is False and 0.0 <= state["cam_angle_deg"] < 360.0
 
     second = running_app(scene="cam_follower")
     other = second.scene_for()
     wait_until(lambda: other.revolution is not None)
     second.session_for().request_state(state)
     wait_for_inputs(other, profile=PROFILES[3], roller_mm=7.5, rpm=640.0, stiffness=3500.0)
-    wait_until(lambda: other.index == scene.index)
+    wait_until(lambda: other.index == scene.index and not other.playing)
     assert other.revolution.inputs == scene.revolution.inputs
-    assert other.cam_angle == scene.cam_angle and not other.contact_frame.visible
-    assert other.follower_z == scene.follower_z and other.force == scene.force
+    assert other.cam_angle == scene.cam_angle and not other.mechanism.contact_frame.visible
+    assert other.mechanism.follower_z == scene.mechanism.follower_z and other.force == scene.force
     assert other.csv_bytes() == scene.csv_bytes()
     # refused entries are listed, the others applied
     with second.session_for().run_lock:
         refused = other.load_state({"scene": "cam_follower", "values": {"rpm": -5.0}, "cam_angle_deg": math.inf,
-                                    "extra": 1})
-    assert len(refused) == 3 and any("cam_angle_deg: expected a number from 0 to 360" in r for r in refused)
+                                    "extra": 1, "playing": "no"})
+    assert len(refused) == 4 and any("cam_angle_deg: expected a number from 0 to 360" in r for r in refused)
+    assert any("playing: expected true or false, got 'no'" in r for r in refused) and not other.playing
 
 
 def test_presenter_view_scales_labels_arrow_and_lines(cam_app):
     app, scene = cam_app
-    base = scene.force_arrow.arrow.shaft_radius
-    label = scene.labels["cam"].font_screen_scale
-    wire = scene.spring.wire_radius
-    extent = np.ptp(np.array(scene.spring.node.vertices)[:, 0])
+    base = scene.mechanism.force_arrow.arrow.shaft_radius
+    label = scene.mechanism.labels["cam"].font_screen_scale
+    wire = scene.mechanism.spring.wire_radius
+    extent = np.ptp(np.array(scene.mechanism.spring.node.vertices)[:, 0])
     app.session_for().set_presenter(True)
     wait_until(lambda: scene.presenter)
-    assert scene.force_arrow.arrow.shaft_radius == pytest.approx(base * PRESENTER_ARROW_SCALE)
-    assert scene.labels["cam"].font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
-    assert scene.force_label.font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
-    assert scene.spring.wire_radius > wire
-    assert np.ptp(np.array(scene.spring.node.vertices)[:, 0]) > extent  # the wire's mesh was sent again
+    assert scene.mechanism.force_arrow.arrow.shaft_radius == pytest.approx(base * PRESENTER_ARROW_SCALE)
+    assert scene.mechanism.labels["cam"].font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
+    assert scene.mechanism.force_label.font_screen_scale == pytest.approx(label * PRESENTER_LABEL_SCALE)
+    assert scene.mechanism.spring.wire_radius > wire
+    assert np.ptp(np.array(scene.mechanism.spring.node.vertices)[:, 0]) > extent  # the wire's mesh was sent again
     assert "1.45em" in scene.legend.html()
     app.session_for().set_presenter(False)
     wait_until(lambda: not scene.presenter)
-    assert scene.force_arrow.arrow.shaft_radius == pytest.approx(base)
+    assert scene.mechanism.force_arrow.arrow.shaft_radius == pytest.approx(base)
 
 
 def test_help_cites_the_contact_equations_and_the_closed_forms():
@@ -410,9 +412,10 @@ def test_compliant_run_leaves_the_cam_and_lands_past_the_jump_speed(cam_app):
     # the scene draws the run: wait for a frame in flight (the arrow hidden, the follower above the cam)
     wait_until(lambda: scene.run_chunk is not None and "in flight" in scene.status.content, timeout=60.0)
     # in flight: no force arrow and no contact normal (the dot is the cam's point nearest the follower)
-    wait_until(lambda: not scene.force_arrow.frame.visible and not scene.normal_line.visible, timeout=10.0)
+    marks = scene.mechanism
+    wait_until(lambda: not marks.force_arrow.frame.visible and not marks.normal_line.visible, timeout=10.0)
     # on the cam again: the normal is back
-    wait_until(lambda: "on the cam" in scene.status.content and scene.normal_line.visible, timeout=60.0)
+    wait_until(lambda: "on the cam" in scene.status.content and scene.mechanism.normal_line.visible, timeout=60.0)
     # the next revolution continues from the last state of this one; its plots start at exactly 0 deg (uPlot
     # drops the axis's 0 tick for 5.7e-14)
     wait_until(lambda: scene.run_chunk is not None and scene.run_chunk.k >= 1, timeout=180.0)
@@ -438,8 +441,8 @@ def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notic
     for key, value in (("stiffness", 0.0), ("preload", 0.0), ("rpm", 3000.0), ("turn_seconds", 0.5)):
         assert send_value(scene, key, value)
     wait_for_inputs(scene, rpm=3000.0, stiffness=0.0, preload=0.0)
-    limit = scene._travel_limit()
-    geometry = scene.layout
+    limit = scene.mechanism.travel_limit
+    geometry = scene.mechanism.layout
     assert 0.01 < limit - float(np.max(scene.revolution.closed.lift)) < 0.02  # room above the cam's highest lift
     assert send_value(scene, "compliant", True)
     drawn = []
@@ -447,7 +450,7 @@ def test_a_follower_thrown_beyond_the_stand_stops_the_compliant_run_with_a_notic
     def stopped() -> bool:  # (each look records the lift drawn)
         with app.session_for().run_lock:
             if scene.compliant:
-                drawn.append(scene.follower_z - geometry.pitch_height)
+                drawn.append(scene.mechanism.follower_z - geometry.pitch_height)
         return bool(notices_with(app, "Compliant run stopped"))
 
     wait_until(stopped, timeout=240.0)
@@ -532,7 +535,7 @@ def test_every_cam_and_follower_gives_a_closed_mesh_and_finite_tables():
             theta = np.arange(REVOLUTION_SAMPLES + 1) * (2 * math.pi / REVOLUTION_SAMPLES)
             np.testing.assert_array_equal(rev.lift, cam.kinematics(theta).lift)
             np.testing.assert_array_equal(rev.contact_force, cam.contact_force(theta, inputs.speed))
-            vertices, faces = layout(inputs.geometry_key()).cam
+            vertices, faces = cam_layout(build_cam(inputs, shape_only=True)).cam
             assert faces.max() < vertices.shape[0] and np.all(np.isfinite(vertices))
             # the contour drawn passes through every contact point (turned back into the cam frame)
             c, s = np.cos(theta), np.sin(theta)
@@ -590,21 +593,69 @@ def test_labels_are_framed_left_of_the_panel_and_do_not_overlap(bare_scene):
     scene, _ = bare_scene()
     wait_until(lambda: (scene.frame(1 / 60), scene.revolution is not None)[1])
     camera = Camera(CamFollowerScene.camera_position, CamFollowerScene.camera_look_at)
-    assert send_value(scene, "animate", False)
+    click(scene, "playback", "Pause")
     for angle in (0.0, 90.0, 180.0, 270.0):
         scene.load_state({"scene": "cam_follower", "values": {}, "cam_angle_deg": angle})
         for _ in range(3):
             scene.frame(1 / 60)
         boxes = {}
-        for name, handle in (*scene.labels.items(), ("N", scene.force_label)):
+        for name, handle in (*scene.mechanism.labels.items(), ("N", scene.mechanism.force_label)):
             x, y = camera.pixels(np.asarray(handle.position))
             boxes[name] = label_box(x, y, _LABEL_TEXT[name], handle._impl.props.anchor, 1.3)
             assert 0 < x < 0.62 * 1200 and 0 < y < 750, (name, x, y)
         assert overlapping_pairs(boxes) == [], angle
     # the mechanism fills a good part of the view, left of the panel
-    top = camera.pixels((0.0, 0.0, scene.layout.spring_top))
+    top = camera.pixels((0.0, 0.0, scene.mechanism.layout.spring_top))
     bottom = camera.pixels((0.0, 0.0, -0.05))
     assert 250 < bottom[1] - top[1] < 700 and top[0] < 0.62 * 1200
 
 
 _LABEL_TEXT = {"cam": "cam (turns at ω)", "follower": "follower", "spring": "spring k, F0", "N": "N"}
+
+
+def test_the_mechanism_draws_the_cam_and_follower_it_is_given(bare_scene):
+    # the drawing component alone (app/scenes/_cam.py), on a scene whose clock never ran: use() swaps in a cam's
+    # meshes and its separation arc, pose() draws one instant
+    scene, _ = bare_scene()
+    mechanism = scene.mechanism
+    assert mechanism.follower_meshes["flat"].visible and not mechanism.roller_mesh.visible
+    cam = build_cam(Inputs(follower=FOLLOWERS[1], roller_mm=15.0), shape_only=True)
+    layout = cam_layout(cam)
+    assert cam_layout(cam) is layout and layout.pitch_height == pytest.approx(R + 0.015 - E, abs=1e-15)
+    rev = cam.revolution(1.3 * cam.jump_speed(), samples=720)  # past the jump speed: an interval to mark
+    mechanism.use(layout, rev.separated)
+    assert mechanism.layout is layout and mechanism.roller_mesh.visible and mechanism.follower_meshes["roller"].visible
+    assert not mechanism.follower_meshes["flat"].visible and mechanism.separation_arc.visible
+    vertices = np.asarray(mechanism.roller_mesh.vertices)
+    assert np.max(np.hypot(vertices[:, 0], vertices[:, 2])) == pytest.approx(0.015, rel=1e-6)
+    mechanism.use(layout)  # no separation to mark
+    assert not mechanism.separation_arc.visible
+    # the follower at the pitch height plus the lift, the cam turned by theta about -y (its plane's z)
+    theta, lift = 0.7, 0.004
+    mechanism.pose(theta, lift, np.array([0.01, 0.05]), np.array([0.6, 0.8]), 25.0, in_contact=True,
+                   show_contact=True)
+    assert float(mechanism.follower_frame.position[2]) == pytest.approx(layout.pitch_height + lift, abs=1e-15)
+    assert mechanism.follower_z == pytest.approx(layout.pitch_height + lift, abs=1e-15)
+    np.testing.assert_allclose(mechanism.cam_frame.wxyz, [math.cos(theta / 2), 0, 0, math.sin(theta / 2)], atol=1e-15)
+    np.testing.assert_allclose(np.asarray(mechanism.contact_point.position)[[0, 2]], [0.01, 0.05], atol=1e-15)
+    normal = _in_global(mechanism.contact_point, np.array(mechanism.normal_line.points)[0])
+    direction = (normal[1] - normal[0]) / np.linalg.norm(normal[1] - normal[0])
+    np.testing.assert_allclose(direction[[0, 2]], [0.6, 0.8], atol=1e-7)
+    assert mechanism.contact_frame.visible and mechanism.normal_line.visible and mechanism.force_label.visible
+    arrow = mechanism.force_arrow
+    assert arrow.frame.visible
+    for force, color in ((-5.0, (150, 60, 200)), (25.0, (245, 140, 0))):  # a pull purple, a push orange
+        mechanism.pose(theta, lift, np.array([0.01, 0.05]), np.array([0.6, 0.8]), force, in_contact=True,
+                       show_contact=True)
+        assert np.array_equal(np.asarray(arrow.arrow.colors)[0], vertex_rgb(color))
+    # in flight: the dot only; contact marks off: nothing
+    mechanism.pose(theta, 0.02, np.array([0.01, 0.05]), np.array([0.0, 1.0]), 0.0, in_contact=False,
+                   show_contact=True)
+    assert not (arrow.frame.visible or mechanism.normal_line.visible or mechanism.force_label.visible)
+    mechanism.pose(theta, lift, np.array([0.01, 0.05]), np.array([0.0, 1.0]), 25.0, in_contact=True,
+                   show_contact=False)
+    assert not mechanism.contact_frame.visible
+    # the stand's travel ends where the drawn spring is solid
+    assert mechanism.travel_limit == pytest.approx(layout.spring_top - layout.pitch_height - layout.seat
+                                                   - mechanism.spring.solid, abs=1e-15)
+    assert mechanism.travel_limit > float(np.max(rev.lift)) + 0.01

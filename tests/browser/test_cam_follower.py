@@ -1,7 +1,7 @@
 """Browser test of the cam-follower scene: headless Chromium drives the page.
 
 Open the page of an app showing the cam-follower; stop the cam with
-the page's checkbox; pick the roller in the *Follower* dropdown and move the
+the page's Pause button; pick the roller in the *Follower* dropdown and move the
 *Roller radius* slider from the keyboard: the follower rises by the change of
 radius (its pose is the closed form) and the lift plot changes; then move
 the *Cam speed* slider past the jump speed: the force plot shows the
@@ -41,17 +41,18 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
 
     # stop the cam from the page: the pose then changes only when a control does
     # (generous timeouts: the software renderer of a loaded machine can take seconds per frame)
-    _row(page, "Turn the cam").locator("input[type='checkbox']").first.click(timeout=_CLICK_MS)
-    wait_until(lambda: scene.controls.value("animate") is False)
+    page.get_by_role("button", name="Pause", exact=True).click(timeout=_CLICK_MS)
+    wait_until(lambda: not scene.playing)
 
     # the roller, chosen in the page's dropdown
     _row(page, "Follower").locator("input.mantine-Select-input").first.click(timeout=_CLICK_MS)
     page.get_by_role("option", name=FOLLOWERS[1], exact=True).click(timeout=_CLICK_MS)
-    wait_until(lambda: scene.revolution.inputs.follower == FOLLOWERS[1] and scene.roller_mesh.visible, timeout=120.0)
+    wait_until(lambda: scene.revolution.inputs.follower == FOLLOWERS[1] and scene.mechanism.roller_mesh.visible,
+               timeout=120.0)
     wait_until(lambda: not scene.controls.handles["roller_mm"].disabled)
     frames = scene.frames
     wait_until(lambda: scene.frames > frames + 1)  # a loop tick after the roller is drawn
-    z_before = float(scene.follower_frame.position[2])
+    z_before = float(scene.mechanism.follower_frame.position[2])
     theta = scene.cam_angle
     lift_before = np.array(scene.plot_handles["lift"].data[1])
     view_before = settled_view(page)
@@ -63,12 +64,12 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     wait_until(lambda: scene.controls.value("roller_mm") == 40.0)
     wait_until(lambda: scene.revolution.inputs.roller_mm == 40.0
                and not np.array_equal(np.asarray(scene.plot_handles["lift"].data[1]), lift_before), timeout=120.0)
-    wait_until(lambda: float(scene.follower_frame.position[2]) != z_before)
+    wait_until(lambda: float(scene.mechanism.follower_frame.position[2]) != z_before)
     assert scene.cam_angle == theta  # the cam stands still
     # the roller's centre: the slider-crank of crank e and rod R + r (closed form), 30 mm higher pitch
     r, R, e = 0.04, ECCENTRIC_RADIUS, ECCENTRICITY
     lift = np.sqrt((R + r) ** 2 - (e * np.sin(theta)) ** 2) - e * np.cos(theta) - (R + r - e)
-    assert float(scene.follower_frame.position[2]) == pytest.approx(R + r - e + lift, abs=1e-14)
+    assert float(scene.mechanism.follower_frame.position[2]) == pytest.approx(R + r - e + lift, abs=1e-14)
     view_changed_from(page, view_before, 300)
 
     # the cam speed past the jump speed: the force plot shades the separation interval
@@ -76,7 +77,7 @@ def test_sliders_from_the_page_move_the_follower_and_change_the_plots(running_ap
     speed = _row(page, "Cam speed (rpm)").get_by_role("slider").first
     speed.focus()
     page.keyboard.press("End")  # 3000 rpm
-    wait_until(lambda: scene.revolution.inputs.rpm == 3000.0 and scene.separation_arc.visible, timeout=120.0)
+    wait_until(lambda: scene.revolution.inputs.rpm == 3000.0 and scene.mechanism.separation_arc.visible, timeout=120.0)
     wait_until(lambda: np.any(np.asarray(scene.plot_handles["force"].data[4]) < 0.0))
     assert not np.array_equal(np.asarray(scene.plot_handles["force"].data[1]), force_before)
     wait_until(lambda: "Separation" in scene.info.content)
