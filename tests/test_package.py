@@ -13,7 +13,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 PROBE = """
-import importlib.util, sys
+import importlib.util, os, sys
 import rigidlab, rigidlab.core, rigidlab.app
 import rigidlab.core.models, rigidlab.core.modal, rigidlab.core.rotations, rigidlab.core.contact
 import rigidlab.app.cli, rigidlab.app.model_file
@@ -22,6 +22,9 @@ scenes = discover_scenes()
 assert {"gyroscope", "modes", "cam_follower"} <= set(scenes), sorted(scenes)
 top = sorted({m.split(".")[0] for m in sys.modules} & {"core", "app"})
 assert not top, f"top-level modules imported: {top}"
+# a checkout put on sys.path by hand (PYTHONPATH=<repository>) shows its folders; nothing installed may
+root = os.path.realpath(sys.argv[1])
+sys.path[:] = [p for p in sys.path if os.path.realpath(p or ".") != root]
 found = [name for name in ("core", "app") if importlib.util.find_spec(name) is not None]
 assert not found, f"importable as top-level modules: {found}"
 print("ok", rigidlab.__version__)
@@ -32,7 +35,7 @@ def test_the_package_imports_as_rigidlab_and_never_as_core_or_app(tmp_path):
     """From a directory outside the repository (so the repository is not on sys.path by accident):
     every public module imports under ``rigidlab.``, every scene is discovered, and neither ``core``
     nor ``app`` is imported or importable at the top level."""
-    done = subprocess.run([sys.executable, "-c", PROBE], cwd=tmp_path, capture_output=True, text=True,
+    done = subprocess.run([sys.executable, "-c", PROBE, str(ROOT)], cwd=tmp_path, capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.startswith("ok ")
