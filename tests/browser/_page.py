@@ -62,6 +62,14 @@ def view(page: Any) -> np.ndarray:
     return pixels[:, : int(0.6 * pixels.shape[1])]
 
 
+def canvas_view(page: Any) -> np.ndarray:
+    """The 3-D view alone: :func:`view` from the 3-D canvas's left edge on, without a plot panel docked on the
+    left (a timed scene redraws its plots once more after a pause, the window up to the time shown)."""
+    left = int(page.locator("canvas").first.bounding_box()["x"])
+    pixels = png_pixels(page.screenshot())[..., :3]
+    return pixels[:, left: int(0.6 * pixels.shape[1])]
+
+
 def next_frames(page: Any, n: int = 2) -> None:
     """Return once the page has drawn ``n`` more animation frames (``requestAnimationFrame``)."""
     page.evaluate(
