@@ -47,6 +47,16 @@ def test_presenter_toggle_enlarges_labels_arrows_and_readouts(running_app: Any, 
     assert wait_until(lambda: not _plot_css_in_page(page), 30.0)
 
 
+def _load_report(page: Any, session: Any, box: Any, string: str) -> str:
+    """What a load that did not happen left behind: the text on the page and in the server, the loads
+    pending, the notices."""
+    stored = session.controls.handles["state_in"].value
+    return (f"nothing loaded; pasted {string!r}; the page's field holds {box.input_value()!r}, the server's "
+            f"{stored!r} (in use {session.controls.value('state_in')!r}); loads pending "
+            f"{[(entry[1], entry[4].done()) for entry in session._loads]}; notices {list(session.notices)[-5:]}; "
+            f"the page's notices {page.locator('.mantine-Notification-root').all_inner_texts()}")
+
+
 def test_load_state_from_the_page_reproduces_a_pose(running_app: Any, open_page: Any) -> None:
     app = running_app(scene="manipulator", run_unwatched=False)
     page = open_page(app)
@@ -58,7 +68,10 @@ def test_load_state_from_the_page_reproduces_a_pose(running_app: Any, open_page:
     box.wait_for(state="visible")
     box.fill(string)
     page.get_by_role("button", name="Load state", exact=True).click()
-    assert wait_until(lambda: np.allclose(np.degrees(scene.joint_angles), [-100.0, 20.5, 7.0]), 15.0)
+    try:
+        wait_until(lambda: np.allclose(np.degrees(scene.joint_angles), [-100.0, 20.5, 7.0]), 15.0)
+    except AssertionError:
+        raise AssertionError(_load_report(page, app.session_for(), box, string)) from None
     # The page's sliders show the loaded values and a notice confirms.
     thumb = page.get_by_role("slider").first
     assert wait_until(lambda: thumb.get_attribute("aria-valuenow") == "-100", 15.0)
