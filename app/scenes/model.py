@@ -38,13 +38,9 @@ another model is refused.
 from __future__ import annotations
 
 import collections
-import concurrent.futures
 import dataclasses
 import functools
-import json
-import math
 import os
-import threading
 import time
 from pathlib import Path
 from typing import Any, ClassVar
@@ -56,9 +52,11 @@ from rigidlab.app.model_file import ModelFile, ModelFileError, load_model_file
 from rigidlab.app.nodes import set_pose
 from rigidlab.app.readout import one_digit, significant
 from rigidlab.app.scenes._bodies import Parts, PartsView, Placed
-from rigidlab.app.scenes._modal_view import (MAX_MODES, MODE_OPTIONS, Cancelled, ModalStatus, ModeChoice, STATUS_TEXT,
-                                    Throttled, animate_group, complex_plane_svg, mode_groups, mode_row, modes_table,
-                                    remember, ro, sig, xi_text)
+from rigidlab.app.scenes._modal_view import (CURVE_COLORS, Clip, MAX_MODES, MODE_OPTIONS, ModalResults, ModeChoice,
+                                             ProgressBar, SolutionArrays, SweepRun, advance, animate_group,
+                                             campbell_chart, complex_plane_svg, mark_campbell, mark_root_locus,
+                                             mode_groups, mode_label, mode_status, modes_table, remember, ro,
+                                             root_locus_chart, send_mode_options, set_label, sig, solution_arrays)
 from rigidlab.app.scenes._plots import Table, log10_floor
 from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene
 from rigidlab.app.scenes._svg import FONT, PRESENTER_FONT, Chart
@@ -84,7 +82,6 @@ _SPRING_COLOR = (150, 120, 60)
 _GHOST_COLOR = (140, 170, 255)
 _GHOST_OPACITY = 0.35
 _MESH_COLOR = (178, 184, 196)
-_CURVE_COLORS = ("#0f766e", "#b45309", "#1d4ed8", "#be185d", "#4d7c0f", "#7c3aed", "#0e7490", "#a16207")
 
 
 # -- the model in a worker -------------------------------------------------------------------------
@@ -235,58 +232,17 @@ def _reference(key: Key) -> _Reference:
 
 
 @dataclasses.dataclass(frozen=True)
-class Solution(ModalStatus):
-    """The eigen solution of one parameter set, as the panel shows it (picklable, read-only arrays).
+class Solution(SolutionArrays):
+    """The eigen solution of one parameter set, as the panel shows it (see
+    :class:`rigidlab.app.scenes._modal_view.SolutionArrays`; ``key`` the :class:`Key`, ``groups`` includes the
+    rigid-body modes, animating one warns; global coordinates).
 
-    Attributes as :class:`rigidlab.app.scenes.modes.Solution`; ``groups`` includes the rigid-body modes (animating one
-    warns); ``ghost`` the equilibrium placed, ``ghost_R``, ``ghost_P`` (n, 3), (n, 4) its body poses.
+    Attributes
+    ----------
+    how : how the reference was found (Markdown)
     """
 
-    key: Key
-    eigenvalues: np.ndarray
-    omega_n: np.ndarray
-    damping_ratio: np.ndarray
-    frequency_hz: np.ndarray
-    stable: np.ndarray
-    critical: np.ndarray
-    rigid: np.ndarray
-    method: str
-    groups: tuple[tuple[int, ...], ...]
-    n_dof: int
-    n_bodies: int
     how: str
-    parts: Parts
-    ghost: Placed
-    ghost_R: np.ndarray
-    ghost_P: np.ndarray
-    csv: str
-    json: str
-
-
-@dataclasses.dataclass(frozen=True)
-class Clip:
-    """One mode animated (global coordinates): see :class:`rigidlab.app.scenes._modal_view.Animated`."""
-
-    key: Key
-    mode: int
-    fraction: float
-    t: np.ndarray
-    positions: np.ndarray
-    orientations: np.ndarray
-    placed: Placed
-    residual: np.ndarray
-    eigenvalue: complex
-    period: float
-    cycles: int
-    amplitude: float
-    unit: str
-    reduced: bool
-    still: int
-    rigid: bool
-
-    @property
-    def oscillates(self) -> bool:
-        return math.isfinite(self.period)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -301,11 +257,8 @@ def _solution(key: Key, ref: _Reference, parts: Parts) -> Solution:
     n = m.embedding.n_bodies
     R = m.embedding.q0[: 3 * n].reshape(1, n, 3)
     P = m.embedding.q0[3 * n:].reshape(1, n, 4)
-    doc = {"format": "rigidlab modes 1", "model": key.name, "sha256": key.sha256,
-           "parameters": dict(key.values), "modes": json.loads(m.to_json())}
-    return Solution(key, ro(m.eigenvalues, complex), ro(m.omega_n), ro(m.damping_ratio), ro(m.frequency_hz),
-                    ro(m.stable, bool), ro(m.critical, bool), ro(m.rigid, bool), m.method, ref.groups, ref.n_dof, n,
-                    ref.how, parts, parts.place(R, P), ro(R[0]), ro(P[0]), m.to_csv(), json.dumps(doc, allow_nan=False))
+    doc = {"format": "rigidlab modes 1", "model": key.name, "sha256": key.sha256, "parameters": dict(key.values)}
+    return Solution(**solution_arrays(key, m, ref.groups, ref.n_dof, parts, R, P, doc), how=ref.how)
 
 
 def _modal_job(key: Key, meshed: frozenset[int], mode: int, fraction: float) -> _ModalResult:
@@ -319,12 +272,8 @@ def _modal_job(key: Key, meshed: frozenset[int], mode: int, fraction: float) -> 
     mode = min(max(int(mode), 1), min(len(solution.groups), MAX_MODES))
     group = solution.groups[mode - 1]
     a = animate_group(ref.modes, ref.system, group, mode, fraction, drawn.size)
-    for name, arr in (("positions", a.positions), ("orientations", a.orientations)):
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name}: the animation of mode {mode} left the finite range")
-    clip = Clip(key, mode, fraction, ro(a.t), ro(a.positions), ro(a.orientations),
-                drawn.parts.place(a.positions, a.orientations), ro(a.residual), a.eigenvalue, a.period, a.cycles,
-                a.amplitude, a.unit, a.reduced, a.still, bool(ref.modes.rigid[group[0]]))
+    clip = Clip.of(key, mode, fraction, a, a.positions, a.orientations, drawn.parts,
+                   rigid=bool(ref.modes.rigid[group[0]]))
     return _ModalResult(solution, clip, time.thread_time() - cpu0)
 
 
@@ -561,75 +510,18 @@ def mjcf_meshes(path: Path, system: Any) -> tuple[dict[int, list], list]:
     return dict(on_bodies), ground
 
 
-# -- formatting ---------------------------------------------------------------------------------------
-def sweep_chart(values: np.ndarray, eigenvalues: np.ndarray, rigid: np.ndarray, name: str, unit: str, *,
-                font: float = FONT) -> Chart:
-    """The modes over the swept parameter: f = |Im s| / 2 pi of every tracked branch (a Campbell diagram when
-    the parameter is a spin). Drawn off the loop thread; :func:`sweep_svg` marks the value in use."""
-    f = np.abs(eigenvalues.imag) / (2 * math.pi)
-    live = [k for k in range(eigenvalues.shape[1]) if not np.all(rigid[:, k])]
-    top = float(np.max(f[:, live])) if live and f.size else 1.0
-    chart = Chart((float(values[0]), float(values[-1])), (0.0, 1.08 * max(top, 1e-6)),
-                  f"{name} ({unit})" if unit else name, "f (Hz)", font=font)
-    shown: list[np.ndarray] = []
-    for k in live:
-        if any(np.allclose(f[:, k], g, rtol=1e-9, atol=1e-9) for g in shown):
-            continue  # the other member of a conjugate pair
-        shown.append(f[:, k])
-        chart.curve(values, f[:, k], _CURVE_COLORS[len(shown) % len(_CURVE_COLORS)], width=1.8)
-    return chart
+# -- the sweep ---------------------------------------------------------------------------------------------
+def sweep_charts(result: Any, x_label: str) -> dict[float, tuple[Chart, Chart]]:
+    """The sweep ``result`` (:class:`rigidlab.core.modal.SweepResult`) drawn per font size (normal and presenter
+    view) off the loop thread: ``{font: (campbell, root_locus)}``, the modes' frequencies over the swept
+    parameter (:func:`rigidlab.app.scenes._modal_view.campbell_chart`) and the eigenvalues in the complex plane
+    across the sweep (:func:`rigidlab.app.scenes._modal_view.root_locus_chart`)."""
+    return {font: (campbell_chart(result.values, result.eigenvalues, result.rigid, x_label, font=font),
+                   root_locus_chart(result.eigenvalues, result.rigid, font=font)) for font in (FONT, PRESENTER_FONT)}
 
 
-def sweep_svg(chart: Chart, current: float | None) -> str:
-    """``chart`` (:func:`sweep_chart`) with the value in use as a purple line."""
-    chart = chart.copy()
-    if current is not None:
-        chart.vline(current, "#7c3aed")
-    return chart.svg()
-
-
-# -- the scene -------------------------------------------------------------------------------------------
-class _SweepRun:
-    """A sweep in a thread of this process that only waits; its values reach the executor one at a time."""
-
-    def __init__(self, key: Key, name: str, values: np.ndarray, executor: concurrent.futures.Executor,
-                 labels: tuple[str, str]) -> None:
-        self.key, self.name, self.values, self.labels = key, name, values, labels
-        self.charts: dict[float, Chart] = {}
-        self.total, self.done = int(values.size), 0
-        self.cancel = threading.Event()
-        self.finished = threading.Event()
-        self.result: Any = None
-        self.error: BaseException | None = None
-        self.seconds = 0.0
-        self._executor = executor
-        threading.Thread(target=self._run, name="rigidlab-model-sweep", daemon=True).start()
-
-    def _progress(self, done: int, total: int) -> None:
-        self.done = done
-        if self.cancel.is_set():
-            raise Cancelled()
-
-    def _run(self) -> None:
-        from rigidlab.core.modal import sweep
-
-        wall0 = time.perf_counter()
-        throttled = Throttled(self._executor, 1)
-        try:
-            result = sweep(functools.partial(_sweep_model, self.key, self.name), self.values,
-                           executor=throttled, progress=self._progress)
-            for font in (FONT, PRESENTER_FONT):  # drawn here, not in a frame of the loop
-                self.charts[font] = sweep_chart(result.values, result.eigenvalues, result.rigid, *self.labels,
-                                                font=font)
-            self.result = result
-        except Cancelled:
-            pass
-        except Exception as exc:  # reported by the scene
-            self.error = exc
-        finally:
-            self.seconds = time.perf_counter() - wall0
-            throttled.shutdown()
-            self.finished.set()
+def _sweep_finish(run: SweepRun, result: Any, executor: Any, *, x_label: str) -> tuple[Any, dict]:
+    return result, sweep_charts(result, x_label)
 
 
 class ModelScene(SimulationScene):
@@ -647,21 +539,36 @@ class ModelScene(SimulationScene):
     chunk_time: ClassVar[float] = 1.0
     help: ClassVar[str] = (
         "Your model file, named on the command line (`rigidlab serve --model PATH`; the browser cannot choose "
-        "a file).\n\n"
+        "a file), built by its `build()` with the *Parameters* sliders; the first line below the title names "
+        "the file, its SHA-256, the degrees of freedom and how the modes were found. *View* shows one of two "
+        "things in the 3-D view:\n\n"
+        "- **Mode shape**: the System linearized (`rigidlab.core.modal.linearize`, Eqs. 8.110-8.112) about "
+        "the state the file builds when it is an equilibrium or a steady motion, else about the nearest static "
+        "equilibrium. The chosen mode moves as q0 + a Re(S e^(st)) (Eqs. 8.125-8.129), every sample projected "
+        "back onto the constraints by Newton, so the joints stay closed at any amplitude; one period takes "
+        "*Seconds per cycle* on screen (a damped or growing mode over several periods, so its envelope shows). "
+        "a is the largest displacement: the amplitude times the model's size (m) for a translation, in rad for "
+        "a rotation. The translucent **ghost** is the equilibrium; the label above the model names the mode "
+        "and its frequency. A rigid-body mode (s = 0, listed last) has no vibration: it is shown as its shape "
+        "swinging, with a warning.\n"
         "- **Simulation**: `System.simulate` (DOP853, rtol 1e-8, every step projected back onto C = 0) in "
-        "chunks of 1 s; plots of the energy change E − E0, log10 max |C| and the joints' reaction forces |F| "
-        "(from the multipliers, −Dᵀλ of each joint's rows). *Download CSV* exports the plotted window.\n"
-        "- **Modes**: `rigidlab.core.modal.linearize` about the state the file builds when it is an equilibrium or a "
-        "steady motion, else about the nearest static equilibrium (Eqs. 8.110-8.112); the table gives f = "
-        "|Im s|/2π, ω_n = |s|, ξ = −Re s/|s| (Eqs. 8.130-8.131) and the stability. The chosen mode moves as "
-        "q0 + a Re(S e^(st)) (Eqs. 8.125-8.129), every sample projected onto the constraints, beside a "
-        "translucent ghost of the equilibrium. A rigid-body mode (s = 0) has no vibration: it is shown "
-        "swinging with a warning.\n"
-        "- **Bodies**: a URDF's visual meshes where it has them, else the uniform box (or rod) with the "
-        "body's mass and principal moments; joints as small cylinders on their axes (revolute, prismatic) "
-        "or balls; springs as zigzags.\n"
-        "- **Sweep** (a file with SWEEP): the modes over the swept parameter in the background, tracked "
-        "by shape (`rigidlab.core.modal.sweep`)."
+        "chunks of 1 s, from the state the file builds or from the equilibrium displaced along the chosen "
+        "mode (*Start*). Its plots, shown in this view only: the energy change E − E0 (zero but for the "
+        "integrator's error when nothing dissipates), log10 max |C| against the bound 1e-8, and the joints' "
+        "reaction forces |F| (from the multipliers, −Dᵀλ of each joint's rows). *Download CSV* exports the "
+        "plotted window.\n\n"
+        "The plots panel, in both views: the **table** of modes (the *Mode* dropdown lists its rows): the "
+        "damped frequency f = |Im s|/2π, ω_n = |s| (Eq. 8.130), ξ = −Re s/|s| (Eq. 8.131), s and the "
+        "stability (Re s < 0 damped, = 0 neutral, > 0 unstable); the **complex plane**: every eigenvalue "
+        "(teal damped, blue neutral, orange unstable, hollow grey rigid), the chosen mode ringed, the unstable "
+        "half shaded; with `SWEEP` in the file, the **sweep** over that parameter, computed in the background "
+        "and tracked by shape (`rigidlab.core.modal.sweep`): the modes' frequencies over it (a Campbell "
+        "diagram when it is a spin) and the root locus, the eigenvalues in the complex plane across the "
+        "sweep, purple marking the value in use.\n\n"
+        "**Bodies**: a URDF's visual meshes or an MJCF's geoms where the file has them, else the uniform box "
+        "(or rod) with the body's mass and principal moments; joints as small cylinders on their axes "
+        "(revolute, prismatic, cylindrical) or balls; springs as zigzags. *Export* gives the modes (CSV, JSON "
+        "with the file's name, SHA-256 and parameters)."
     )
 
     def __init__(self, target: Any, notify: Any, *, context: Any = None) -> None:
@@ -676,12 +583,11 @@ class ModelScene(SimulationScene):
         self.sweep_result: Any = None
         self._sweep_key: Key | None = None
         self._sweep_seconds = 0.0
-        self._sweeps: collections.OrderedDict[Key, tuple[Any, float]] = collections.OrderedDict()
+        self._sweep_charts: dict[float, tuple[Chart, Chart]] = {}
+        self._sweeps: collections.OrderedDict[Key, tuple[Any, float, dict]] = collections.OrderedDict()
         self._sweep_errors: set[Key] = set()
-        self._run: _SweepRun | None = None
-        self._solutions: collections.OrderedDict[Key, Solution] = collections.OrderedDict()
-        self._clips: collections.OrderedDict[tuple[Key, int, float], Clip] = collections.OrderedDict()
-        self._job: tuple[tuple[Key, int, float], concurrent.futures.Future] | None = None
+        self._run: SweepRun | None = None
+        self._results = ModalResults(24)
         self._staged: collections.deque = collections.deque()
         self._phase = 0.0
         self._mode_drawn: tuple[int, int] | None = None
@@ -690,7 +596,6 @@ class ModelScene(SimulationScene):
         self._solve_seconds = 0.0
         self._failed: tuple[Key, int, float] | None = None
         self._shown_parts: Parts | None = None
-        self._progress_shown = -1.0
         self._last_dt = 0.0
 
     # -- what the model file gives -------------------------------------------------------------------------
@@ -804,8 +709,11 @@ class ModelScene(SimulationScene):
             with gui.add_folder(f"Sweep over {self.model.sweep}" if self.model.sweep else "Sweep",
                                 visible=self.model.sweep is not None):
                 self.progress = gui.add_progress_bar(0.0, animated=True, visible=False)
+                self._progress = ProgressBar(self.progress)
                 self.sweep_caption = self.add_readout("")
                 self.sweep_plot = gui.add_html("")
+                self.locus_caption = self.add_readout("")
+                self.locus_plot = gui.add_html("")
         with gui.add_folder("Export"):
             self.add_download("download_modes_csv", "Modes (CSV)", "modes.csv", self.modes_csv,
                               hint="One row per eigenvalue: s, ω_n, f, ξ, flags and the real shape")
@@ -823,7 +731,7 @@ class ModelScene(SimulationScene):
         ]
         if names:
             specs.append(PlotSpec("reactions", "joint reaction forces |F| (N)", tuple(
-                (name, _CURVE_COLORS[i % len(_CURVE_COLORS)]) for i, name in enumerate(names)),
+                (name, CURVE_COLORS[i % len(CURVE_COLORS)]) for i, name in enumerate(names)),
                 lambda t, c: tuple(c[:, 2 + i] if c.shape[1] > 2 + i else np.full_like(t, np.nan)
                                    for i in range(len(names)))))
         return specs
@@ -884,6 +792,9 @@ class ModelScene(SimulationScene):
         with self.target.atomic():
             self.ghost.frame.visible = not sim and bool(self.controls.value("show_ghost"))
             self.mode_label.visible = not sim
+            for handle in self.plot_handles.values():  # the motion's plots: nothing to show in the mode view
+                if handle.visible != sim:
+                    handle.visible = sim
         self._mode_drawn = None
         self._drawn = None  # the simulation's sample is drawn again
 
@@ -897,7 +808,7 @@ class ModelScene(SimulationScene):
     @property
     def busy(self) -> bool:
         """A modal job is queued or running."""
-        return self._job is not None
+        return self._results.job is not None
 
     @property
     def panel_current(self) -> bool:
@@ -925,34 +836,23 @@ class ModelScene(SimulationScene):
             self._staged.append(fn)
 
     def _request(self, want: tuple[Key, int, float]) -> bool:
+        want, shown = self._results.lookup(want)
+        if shown is not None:
+            return self._show(*shown)
         key, mode, fraction = want
-        solution = self._solutions.get(key)
-        if solution is not None:
-            mode = min(max(mode, 1), min(len(solution.groups), MAX_MODES))
-            want = (key, mode, fraction)
-            clip = self._clips.get(want)
-            if clip is not None:
-                return self._show(solution, clip)
-        if self._job is not None or want == self._failed:
+        if want == self._failed or not self._results.submit(self.executor, want, _modal_job, key, self.meshed,
+                                                            mode, fraction):
             return False
-        try:
-            future = self.executor.submit(_modal_job, key, self.meshed, mode, fraction)
-        except RuntimeError:  # the executor is shut down (the app stops)
-            return False
-        self._job = (want, future)
         self.jobs_submitted += 1
         if self.solution is None or self.solution.key != key:
             self.mode_status.content = "Solving…"
         return False
 
     def _collect(self) -> None:
-        if self._job is None or not self._job[1].done():
+        taken = self._results.take()
+        if taken is None:
             return
-        want, future = self._job
-        self._job = None
-        if future.cancelled():
-            return
-        exc = future.exception()
+        want, result, exc = taken
         if exc is not None:
             self._failed = want
             if want[0] == self.params_key:
@@ -960,14 +860,8 @@ class ModelScene(SimulationScene):
                             "try again.", "warning")
                 self.mode_status.content = f"No modes for these values: {type(exc).__name__}: {exc}"
             return
-        result: _ModalResult = future.result()
         self.solves += 1
         self._solve_seconds = result.seconds
-        remember(self._solutions, result.solution.key, result.solution, 24)
-        clip = result.clip
-        remember(self._clips, (clip.key, clip.mode, clip.fraction), clip, 24)
-        if want[1] != clip.mode:  # a mode number beyond this model's: the last one
-            remember(self._clips, want, clip, 24)
 
     def _show(self, solution: Solution, clip: Clip) -> bool:
         if solution is self.solution and clip is self.clip:
@@ -1007,30 +901,14 @@ class ModelScene(SimulationScene):
         self._mode_drawn = (id(clip), i)
 
     def _label(self) -> None:
-        clip, solution = self.clip, self.solution
-        i = solution.groups[clip.mode - 1][0]
-        text = f"mode {clip.mode}: {sig(float(solution.frequency_hz[i]))} Hz"
-        if solution.status(i) in ("unstable", "mirrored"):
-            text += " (unstable)"
-        elif clip.rigid:
-            text += " (rigid-body mode)"
-        if self.mode_label.text != text:
-            self.mode_label.text = text
-            # viser 1.1.1's page draws a label changed while it is connected only once its visibility changes
-            self.mode_label.visible = False
-            self.mode_label.visible = True
+        set_label(self.mode_label, mode_label(self.solution, self.clip))
 
     def _play(self) -> None:
         clip = self.clip
         if clip is None or self._view != MODE_VIEW:
             return
-        dt = self._last_dt
-        if self.controls.value("animate"):
-            cycle = float(self.controls.value("cycle_seconds"))
-            self._phase = (self._phase + min(dt, 0.1) / (cycle * clip.cycles)) % 1.0
-            i = min(int(self._phase * clip.t.size), clip.t.size - 1)
-        else:
-            i = clip.still
+        self._phase, i = advance(clip, self._phase, self._last_dt, cycle=float(self.controls.value("cycle_seconds")),
+                                 animate=bool(self.controls.value("animate")))
         if self._mode_drawn != (id(clip), i):
             with self.target.atomic():
                 self._draw_mode(i)
@@ -1054,26 +932,10 @@ class ModelScene(SimulationScene):
             self.ghost.frame.visible = self._view == MODE_VIEW and bool(self.controls.value("show_ghost"))
 
     def _send_status(self) -> None:
-        clip, solution = self.clip, self.solution
-        if clip is None or solution is None:
-            return
-        i = solution.groups[clip.mode - 1][0]
-        lines = [f"**Mode {clip.mode}** of {min(len(solution.groups), MAX_MODES)}: f = "
-                 f"{sig(float(solution.frequency_hz[i]))} Hz · ω_n = {sig(float(solution.omega_n[i]))} rad/s · "
-                 f"ξ = {xi_text(float(solution.damping_ratio[i]))} · {STATUS_TEXT[solution.status(i)]}"]
-        if clip.rigid:
-            lines.append("**rigid-body mode** (s = 0): no restoring force; its shape is shown swinging")
-        elif clip.oscillates:
+        if self.clip is not None and self.solution is not None:
             cycle = float(self.controls.value("cycle_seconds"))
-            lines.append(f"period {sig(clip.period, 3)} s, shown in {cycle:g} s"
-                         + (f", {clip.cycles} periods per loop" if clip.cycles > 1 else ""))
-        else:
-            lines.append(f"does not oscillate: s = {sig(clip.eigenvalue.real, 3)} 1/s; its shape is shown swinging")
-        amp = f"a = {sig(clip.amplitude, 3)} {clip.unit}"
-        if clip.reduced:
-            amp += ", reduced so that the projection onto the constraints converges"
-        lines.append(amp + f"; max |C| after projection {float(np.max(clip.residual)):.0e}")
-        self.mode_status.content = "  \n".join(lines)
+            self.mode_status.content = mode_status(self.solution, self.clip, cycle,
+                                                   animate=bool(self.controls.value("animate")))
 
     def _send_table(self) -> None:
         if self.solution is not None and self.clip is not None:
@@ -1093,26 +955,8 @@ class ModelScene(SimulationScene):
             "the worker.")
 
     def _send_mode_options(self) -> None:
-        solution = self.solution
-        if solution is None:
-            return
-        count = max(1, min(len(solution.groups), MAX_MODES))
-        handle, spec = self.controls.handles["mode"], self.controls.specs["mode"]
-        numbers = MODE_OPTIONS[:count]
-        rows = {n: mode_row(solution, int(n)) for n in numbers} if solution.groups else {n: n for n in numbers}
-        options = tuple(rows[n] for n in numbers)
-        if tuple(handle.options) != options:
-            value = self.controls.value("mode")
-            if value not in numbers:
-                if solution.key != self.params_key:
-                    return
-                value = numbers[-1]
-            spec.rows.clear()
-            spec.rows.update(rows)
-            handle.options = options
-            self.controls.set("mode", value)
-            if handle.value != rows[value]:
-                handle.value = rows[value]
+        if self.solution is not None:
+            send_mode_options(self.controls, self.solution, current=self.solution.key == self.params_key)
 
     def _send_plane(self) -> None:
         if self.solution is not None and self.clip is not None:
@@ -1126,12 +970,22 @@ class ModelScene(SimulationScene):
         name = self.model.sweep
         p = next(p for p in self.model.parameters if p.name == name)
         current = dict(self.params_key.values).get(name) if self.params_key is not None else None
-        font = PRESENTER_FONT if self.presenter else FONT
-        self.sweep_plot.content = sweep_svg(self._sweep_charts[font], current)
-        self.sweep_caption.content = (f"The modes over {p.label or name}: {result.values.size} values from "
-                                      f"{sig(float(result.values[0]))} to {sig(float(result.values[-1]))} {p.unit}, "
+        solution = self.solution if self.solution is not None and self.solution.key == self.params_key else None
+        campbell, locus = self._sweep_charts[PRESENTER_FONT if self.presenter else FONT]
+        if current is not None:
+            campbell = mark_campbell(campbell, current, solution)
+        if solution is not None:
+            locus = mark_root_locus(locus, solution)
+        label, unit = p.label or name, f" {p.unit}" if p.unit else ""
+        lo, hi = sig(float(result.values[0])), sig(float(result.values[-1]))
+        self.sweep_plot.content = campbell.svg()
+        self.locus_plot.content = locus.svg()
+        self.sweep_caption.content = (f"The modes over {label}: {result.values.size} values from {lo} to {hi}{unit}, "
                                       f"tracked by shape ({self._sweep_seconds:.1f} s in the background); purple: "
                                       "the value in use.")
+        self.locus_caption.content = (f"Root locus: the eigenvalues in the complex plane for {label} from {lo} to "
+                                      f"{hi}{unit} (small rings: {name} = {lo}); purple: the eigenvalues at the "
+                                      "value in use.")
 
     # -- the sweep -------------------------------------------------------------------------------------
     def _sweep_base(self) -> Key | None:
@@ -1150,15 +1004,16 @@ class ModelScene(SimulationScene):
             self._run = run = None
         if run is not None and run.finished.is_set():
             self._run = None
-            if run.result is not None:
-                remember(self._sweeps, run.key, (run.result, run.seconds, run.charts), 8)
+            if run.outcome is not None:
+                result, charts = run.outcome
+                remember(self._sweeps, run.key, (result, run.seconds, charts), 8)
             elif run.error is not None:
                 self._sweep_errors.add(run.key)
                 self.notify("Sweep failed", f"{type(run.error).__name__}: {run.error}", "warning")
             run = None
         done = self._sweeps.get(base)
         if done is not None:
-            self._set_progress(None)
+            self._progress.set(None)
             if self.sweep_result is not done[0] or self._sweep_key != self.params_key:
                 self.sweep_result, self._sweep_seconds, self._sweep_charts = done
                 self._sweep_key = self.params_key
@@ -1166,25 +1021,16 @@ class ModelScene(SimulationScene):
             return
         if run is None and base not in self._sweep_errors:
             p = next(p for p in self.model.parameters if p.name == self.model.sweep)
-            run = self._run = _SweepRun(base, p.name, np.linspace(p.low, p.high, SWEEP_VALUES), self.executor,
-                                        (p.label or p.name, p.unit))
+            label = p.label or p.name
+            run = self._run = SweepRun(base, functools.partial(_sweep_model, base, p.name),
+                                       np.linspace(p.low, p.high, SWEEP_VALUES), self.executor,
+                                       functools.partial(_sweep_finish, x_label=f"{label} ({p.unit})" if p.unit
+                                                         else label), name="rigidlab-model-sweep")
             self.sweep_caption.content = f"Computing {run.total} values of {p.name} in the background…"
-            self.sweep_plot.content = ""
+            self.sweep_plot.content = self.locus_caption.content = self.locus_plot.content = ""
             self.sweep_result = None
         if run is not None:
-            self._set_progress(100.0 * run.done / max(run.total, 1))
-
-    def _set_progress(self, value: float | None) -> None:
-        bar = self.progress
-        if value is None:
-            if bar.visible:
-                bar.visible = False
-            return
-        if not bar.visible:
-            bar.visible = True
-        if abs(value - self._progress_shown) >= 1.0:
-            bar.value = float(min(max(value, 0.0), 100.0))
-            self._progress_shown = value
+            self._progress.set(100.0 * run.done / max(run.total, 1))
 
     def set_active(self, active: bool) -> None:
         super().set_active(active)
@@ -1195,8 +1041,7 @@ class ModelScene(SimulationScene):
     def close(self) -> None:
         if self._run is not None:
             self._run.cancel.set()
-        if self._job is not None:
-            self._job[1].cancel()
+        self._results.cancel()
         super().close()
 
     # -- export ------------------------------------------------------------------------------------------

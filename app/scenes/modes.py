@@ -42,9 +42,7 @@ import collections
 import concurrent.futures
 import dataclasses
 import functools
-import json
 import math
-import threading
 import time
 from collections.abc import Callable
 from typing import Any, ClassVar
@@ -54,22 +52,17 @@ import trimesh
 
 from rigidlab.app.controls import Choice, Slider, Toggle
 from rigidlab.app.nodes import set_pose, set_visible
-from rigidlab.app.scenes._bodies import Parts, PartsView, Placed
-from rigidlab.app.scenes._modal_view import MAX_MODES, MODE_OPTIONS, SAMPLES_PER_CYCLE, ModalStatus, ModeChoice
-from rigidlab.app.scenes._modal_view import Cancelled as _Cancelled
-from rigidlab.app.scenes._modal_view import SELECTED_COLOR as _SELECTED_COLOR
-from rigidlab.app.scenes._modal_view import STATUS_TEXT as _STATUS_TEXT
-from rigidlab.app.scenes._modal_view import Throttled as _Throttled
-from rigidlab.app.scenes._modal_view import (animate_group, complex_plane_svg, mode_groups, mode_row, modes_table)
-from rigidlab.app.scenes._modal_view import remember as _remember
-from rigidlab.app.scenes._modal_view import ro as _ro
-from rigidlab.app.scenes._modal_view import sig as _sig
-from rigidlab.app.scenes._modal_view import xi_text as _xi_text
+from rigidlab.app.scenes._bodies import Parts, PartsView
+from rigidlab.app.scenes._modal_view import (Clip, MAX_MODES, MODE_OPTIONS, ModalResults, ModeChoice, ProgressBar,
+                                             SAMPLES_PER_CYCLE, SolutionArrays, SweepRun, advance, animate_group,
+                                             campbell_chart, complex_plane_svg, mark_campbell, mark_root_locus,
+                                             mode_groups, mode_label, mode_status, modes_table, remember, ro,
+                                             root_locus_chart, send_mode_options, set_label, solution_arrays)
 from rigidlab.app.scenes._plots import Legend
 from rigidlab.app.scenes._svg import FONT, PRESENTER_FONT, Chart
 from rigidlab.app.scenes.base import Scene
 from rigidlab.core.gyroscope import RotorParams, sleeping_top_critical_spin
-from rigidlab.core.modal import LinearModel, Modes, linearize, sweep
+from rigidlab.core.modal import LinearModel, Modes, linearize
 from rigidlab.core.models import disk_rotor, pendulum_chain, spherical_pendulum, steady_top, two_mass_oscillator
 from rigidlab.core.rotations import euler_parameters_from_axis_angle, quaternion_product, rotate_vector
 
@@ -128,7 +121,6 @@ _GHOST_COLOR = (140, 170, 255)
 _GHOST_OPACITY = 0.35
 _SUPPORT_COLOR = (150, 150, 160)
 _LABEL_SCALE = 1.3
-_CURVE_COLORS = ("#0f766e", "#b45309", "#1d4ed8", "#be185d", "#4d7c0f", "#7c3aed", "#0e7490", "#a16207")
 
 
 # -- parameters ------------------------------------------------------------------
@@ -373,91 +365,20 @@ def _built(params: Params) -> _Built:
 
 # -- results ---------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
-class Solution(ModalStatus):
-    """The eigen solution of one parameter set, as the panel shows it (picklable, read-only arrays).
+class Solution(SolutionArrays):
+    """The eigen solution of one parameter set, as the panel shows it (see
+    :class:`rigidlab.app.scenes._modal_view.SolutionArrays`; ``key`` the :class:`Params`, ``groups`` the
+    non-rigid modes; display units and coordinates).
 
     Attributes
     ----------
-    params : Params
-    eigenvalues : (k,) complex, sorted as :class:`rigidlab.core.modal.Modes` (pairs adjacent, +Im first)
-    omega_n, damping_ratio, frequency_hz : (k,) rad/s, -, Hz
-    stable, critical, rigid : (k,) bool
-    method : "symmetric" or "state-space"
-    groups : the selectable modes (non-rigid): eigenvalue indices of each, the +Im member first
-    n_dof, n_bodies : degrees of freedom, bodies
     description : the model in a sentence (Markdown)
-    parts : what is drawn (display units)
     special, special_body : the body drawn by its own mesh ("disk", "top" or "")
-    ghost : the reference configuration, placed (one instant)
-    ghost_R, ghost_P : (n, 3), (n, 4) the reference, display coordinates
-    supports : model name of the static supports to show
-    csv, json : :meth:`rigidlab.core.modal.Modes.to_csv` and a JSON document of the modes
     """
 
-    params: Params
-    eigenvalues: np.ndarray
-    omega_n: np.ndarray
-    damping_ratio: np.ndarray
-    frequency_hz: np.ndarray
-    stable: np.ndarray
-    critical: np.ndarray
-    rigid: np.ndarray
-    method: str
-    groups: tuple[tuple[int, ...], ...]
-    n_dof: int
-    n_bodies: int
     description: str
-    parts: Parts
     special: str
     special_body: int
-    ghost: Placed
-    ghost_R: np.ndarray
-    ghost_P: np.ndarray
-    csv: str
-    json: str
-
-
-@dataclasses.dataclass(frozen=True)
-class Clip:
-    """One mode animated over whole periods (read-only arrays; display coordinates).
-
-    Attributes
-    ----------
-    params : Params
-    mode : 1-based mode number (into :attr:`Solution.groups`)
-    fraction : the amplitude slider's value
-    t : (m,) times after the reference (s)
-    positions, orientations : (m, n, 3), (m, n, 4) body poses (display coordinates)
-    placed : the parts at every sample
-    residual : (m,) max |C| after the projection onto the constraints
-    eigenvalue : s of the mode
-    period : real period 2 pi / |Im s| (s); inf for a mode that does not oscillate
-    cycles : periods in the clip (the samples of a mode that does not oscillate show its shape swinging once)
-    amplitude : a (m or rad), as passed to animate
-    unit : "m" (the largest displacement is a translation) or "rad"
-    reduced : the amplitude was reduced so the projection converged
-    still : the sample shown when the animation is off (largest displacement)
-    """
-
-    params: Params
-    mode: int
-    fraction: float
-    t: np.ndarray
-    positions: np.ndarray
-    orientations: np.ndarray
-    placed: Placed
-    residual: np.ndarray
-    eigenvalue: complex
-    period: float
-    cycles: int
-    amplitude: float
-    unit: str
-    reduced: bool
-    still: int
-
-    @property
-    def oscillates(self) -> bool:
-        return math.isfinite(self.period)
 
 
 def _display(params: Params, R: np.ndarray, P: np.ndarray, t: np.ndarray,
@@ -474,36 +395,22 @@ def _display(params: Params, R: np.ndarray, P: np.ndarray, t: np.ndarray,
 
 def _solution(params: Params, built: _Built) -> Solution:
     m = built.modes
-    ev = m.eigenvalues
-    groups = mode_groups(m)
-    emb = m.embedding
-    n = emb.n_bodies
-    R0 = emb.q0[: 3 * n].reshape(1, n, 3)
-    P0 = emb.q0[3 * n :].reshape(1, n, 4)
+    n = m.embedding.n_bodies
+    R0 = m.embedding.q0[: 3 * n].reshape(1, n, 3)
+    P0 = m.embedding.q0[3 * n :].reshape(1, n, 4)
     R, P = _display(params, R0, P0, np.zeros(1), built.frame_omega)
     doc = {"format": "rigidlab modes 1", "model": params.model,
-           "parameters": {k: v for k, v in dataclasses.asdict(params).items() if v not in (0, 0.0, "")},
-           "modes": json.loads(m.to_json())}
-    return Solution(
-        params, _ro(ev, complex), _ro(m.omega_n), _ro(m.damping_ratio), _ro(m.frequency_hz), _ro(m.stable, bool),
-        _ro(m.critical, bool), _ro(m.rigid, bool), m.method, groups, built.n_dof, n, built.description,
-        built.parts, built.special, built.special_body, built.parts.place(R, P), _ro(R[0]), _ro(P[0]),
-        m.to_csv(), json.dumps(doc, allow_nan=False),
-    )
+           "parameters": {k: v for k, v in dataclasses.asdict(params).items() if v not in (0, 0.0, "")}}
+    return Solution(**solution_arrays(params, m, mode_groups(m), built.n_dof, built.parts, R, P, doc),
+                    description=built.description, special=built.special, special_body=built.special_body)
 
 
 def _clip(params: Params, built: _Built, group: tuple[int, ...], mode: int, fraction: float) -> Clip:
-    """Mode ``group`` animated by :meth:`rigidlab.core.modal.Modes.animate` (runs in the worker; :func:`animate_group`)."""
+    """Mode ``group`` animated by :meth:`rigidlab.core.modal.Modes.animate` (runs in the worker;
+    :func:`rigidlab.app.scenes._modal_view.animate_group`)."""
     a = animate_group(built.modes, built.system, group, mode, fraction, built.size)
-    t, s, res, amplitude, unit = a.t, a.eigenvalue, a.residual, a.amplitude, a.unit
-    period, cycles, reduced, still = a.period, a.cycles, a.reduced, a.still
-    R, P = a.positions, a.orientations
-    R, P = _display(params, R, P, t, built.frame_omega)
-    for name, a in (("positions", R), ("orientations", P)):
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"{name}: the animation of mode {mode} left the finite range")
-    return Clip(params, mode, fraction, _ro(t), _ro(R), _ro(P), built.parts.place(R, P), _ro(res), s, period,
-                cycles, float(amplitude), unit, reduced, still)
+    R, P = _display(params, a.positions, a.orientations, a.t, built.frame_omega)
+    return Clip.of(params, mode, fraction, a, R, P, built.parts)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -569,88 +476,34 @@ class SweepOutcome:
         return self.charts[font]
 
 
-class _SweepRun:
-    """One sweep in a thread of this process that waits on the executor (see the module docstring)."""
+def _sweep_run(key: Params, executor: concurrent.futures.Executor) -> SweepRun:
+    """The sweep of ``key`` over its spins in the background (see the module docstring); its outcome a
+    :class:`SweepOutcome`, with the top's stability boundaries found by Brent's method in a worker too."""
+    return SweepRun(key, functools.partial(_sweep_model, key), key.sweep_values(), executor, _sweep_outcome,
+                    name="rigidlab-modes-sweep")
 
-    def __init__(self, key: Params, executor: concurrent.futures.Executor) -> None:
-        self.key = key
-        self.values = key.sweep_values()
-        self.total = int(self.values.size)
-        self.done = 0
-        self.cancel = threading.Event()
-        self.outcome: SweepOutcome | None = None
-        self.error: BaseException | None = None
-        self.finished = threading.Event()
-        self._executor = executor
-        self._thread = threading.Thread(target=self._run, name="rigidlab-modes-sweep", daemon=True)
-        self._thread.start()
 
-    def _progress(self, done: int, total: int) -> None:
-        self.done = done
-        if self.cancel.is_set():
-            raise _Cancelled()
-
-    def _run(self) -> None:
-        wall0 = time.perf_counter()
-        throttled = _Throttled(self._executor, 1)
-        try:
-            result = sweep(functools.partial(_sweep_model, self.key), self.values, executor=throttled,
-                           progress=self._progress)
-            boundaries = np.zeros(0)
-            if self.key.model == TOP:  # Brent's method on build, in a worker too
-                future = throttled.submit(_boundaries, result)
-                while not future.done():
-                    if self.cancel.wait(0.05):
-                        future.cancel()
-                        raise _Cancelled()
-                boundaries = np.asarray(future.result(), dtype=float)
-            outcome = SweepOutcome(self.key, _ro(result.values), _ro(result.eigenvalues, complex),
-                                   _ro(result.rigid, bool), _ro(boundaries), result.to_csv(),
-                                   time.perf_counter() - wall0)
-            for font in (FONT, PRESENTER_FONT):  # drawn here, not in a frame of the loop
-                outcome.chart(font)
-            self.outcome = outcome
-        except _Cancelled:
-            pass
-        except Exception as exc:  # reported by the scene
-            self.error = exc
-        finally:
-            throttled.shutdown()
-            self.finished.set()
+def _sweep_outcome(run: SweepRun, result: Any, executor: concurrent.futures.Executor) -> SweepOutcome:
+    key = run.key
+    boundaries = np.zeros(0)
+    if key.model == TOP:  # Brent's method on build, in a worker too
+        boundaries = np.asarray(run.wait(executor.submit(_boundaries, result)), dtype=float)
+    outcome = SweepOutcome(key, ro(result.values), ro(result.eigenvalues, complex), ro(result.rigid, bool),
+                           ro(boundaries), result.to_csv(), run.elapsed())
+    for font in (FONT, PRESENTER_FONT):  # drawn here, not in a frame of the loop
+        outcome.chart(font)
+    return outcome
 
 
 def _sweep_chart(outcome: SweepOutcome, *, font: float) -> tuple[Chart, str]:
     """The static part of the sweep's chart: a Campbell diagram (rotor) or root locus (top)."""
     v, ev, rigid = outcome.values, outcome.eigenvalues, outcome.rigid
-    live = [k for k in range(ev.shape[1]) if not np.all(rigid[:, k])]
     if outcome.key.model == ROTOR:
-        f = np.abs(ev.imag) / (2 * math.pi)
-        top = float(np.max(f[:, live])) if live else 1.0
-        chart = Chart((float(v[0]), float(v[-1])), (0.0, 1.08 * top), "spin Ω (rad/s)", "f (Hz)", font=font)
-        chart.curve(v, v / (2 * math.pi), "#6b7280", width=1.2, dash="5 4")
-        shown: list[np.ndarray] = []
-        for n, k in enumerate(live):
-            if any(np.allclose(f[:, k], g, rtol=1e-9, atol=1e-9) for g in shown):
-                continue  # the other member of a conjugate pair
-            shown.append(f[:, k])
-            chart.curve(v, f[:, k], _CURVE_COLORS[len(shown) % len(_CURVE_COLORS)], width=1.8)
-        x_label = min(float(v[-1]), 2 * math.pi * top)
-        chart.text(x_label, x_label / (2 * math.pi), "1× (f = Ω/2π)", color="#4b5563", anchor="end", dx=-4,
-                   dy=-6)
+        chart = campbell_chart(v, ev, rigid, "spin Ω (rad/s)", spin_line=True, font=font)
         title = (f"Campbell diagram: {v.size} spins from 0 to {v[-1]:.0f} rad/s; dashed: the spin frequency "
                  "(it meets a branch at a critical speed)")
         return chart, title
-    re, im = ev.real[:, live], ev.imag[:, live]
-    y = 1.1 * max(float(np.max(np.abs(im))) if im.size else 1.0, 1e-3)
-    lo, hi = min(0.0, float(np.min(re))), max(0.0, float(np.max(re)))
-    span = max(hi - lo, 0.15 * y)
-    mid = 0.5 * (lo + hi)
-    chart = Chart((mid - 0.6 * span, mid + 0.6 * span), (-y, y), "Re s (1/s)", "Im s (rad/s)", font=font)
-    chart.shade_right_half("#fdecea")
-    for n, k in enumerate(live):
-        color = _CURVE_COLORS[n % len(_CURVE_COLORS)]
-        chart.curve(ev.real[:, k], ev.imag[:, k], color, width=1.6, opacity=0.85)
-        chart.points([ev.real[0, k]], [ev.imag[0, k]], color, radius=2.5, hollow=True)
+    chart = root_locus_chart(ev, rigid, font=font)
     title = (f"Root locus: eigenvalues for ω3 from {v[0]:.3g} to {v[-1]:.3g} rad/s (small rings: "
              f"ω3 = {v[0]:.3g})")
     if outcome.boundaries.size:
@@ -663,19 +516,13 @@ def _sweep_chart(outcome: SweepOutcome, *, font: float) -> tuple[Chart, str]:
 def sweep_svg(outcome: SweepOutcome, solution: Solution | None, *, font: float = FONT) -> tuple[str, str]:
     """``(svg, caption)`` of the sweep with the current parameter (``solution``) marked in purple."""
     chart, caption = outcome.chart(font)
-    chart = chart.copy()
-    if solution is not None and solution.params.sweep_key() == outcome.key:
-        value = getattr(solution.params, solution.params.sweep_field)
-        if outcome.key.model == ROTOR:
-            live = [g[0] for g in solution.groups]
-            chart.vline(value, _SELECTED_COLOR)
-            chart.points(np.full(len(live), value), solution.frequency_hz[live], _SELECTED_COLOR, radius=3.5)
-        else:
-            idx = [i for g in solution.groups for i in g]
-            chart.points(solution.eigenvalues.real[idx], solution.eigenvalues.imag[idx], _SELECTED_COLOR,
-                         radius=4.5, stroke="#ffffff")
-        caption += "; purple: the current spin"
-    return chart.svg(), caption
+    if solution is None or solution.key.sweep_key() != outcome.key:
+        return chart.svg(), caption
+    if outcome.key.model == ROTOR:
+        chart = mark_campbell(chart, getattr(solution.key, solution.key.sweep_field), solution)
+    else:
+        chart = mark_root_locus(chart, solution)
+    return chart.svg(), caption + "; purple: the current spin"
 
 
 # -- controls ------------------------------------------------------------------------------
@@ -717,8 +564,7 @@ PARAMETERS: tuple[tuple[Any, tuple[str, ...]], ...] = (
     (Slider("m2", "Mass m2 (kg)", min=0.2, max=5.0, step=0.05, default=_DEFAULTS["m2"],
             hint="Second block (m1 = 1 kg)"), (TWO_MASS,)),
 )
-_SOLUTIONS_KEPT = 24
-_CLIPS_KEPT = 24
+_KEPT = 24  # solutions and clips
 _SWEEPS_KEPT = 12
 
 
@@ -840,16 +686,13 @@ class ModesScene(Scene):
         self.jobs_submitted = 0
         self.sweeps_cancelled = 0
         self.sweeps_started = 0
-        self._solutions: collections.OrderedDict[Params, Solution] = collections.OrderedDict()
-        self._clips: collections.OrderedDict[tuple[Params, int, float], Clip] = collections.OrderedDict()
+        self._results = ModalResults(_KEPT)
         self._sweeps: collections.OrderedDict[Params, SweepOutcome] = collections.OrderedDict()
-        self._job: tuple[tuple[Params, int, float], concurrent.futures.Future] | None = None
-        self._run: _SweepRun | None = None
+        self._run: SweepRun | None = None
         self._sweep_errors: set[Params] = set()
         self._staged: collections.deque[Callable[[], None]] = collections.deque()
         self._phase = 0.0
         self._drawn: tuple[int, int] | None = None
-        self._progress_shown = -1.0
         self._solve_seconds = 0.0
         self._collected = False  # a result was shown by _collect in this frame
         self._staging = False  # a panel update is being sent
@@ -931,6 +774,7 @@ class ModesScene(Scene):
                 self.add_download("download_sweep", "Sweep (CSV)", "sweep.csv", self.sweep_bytes,
                                   hint="The tracked eigenvalues at every spin of the sweep")
         self.gui = _Gui(status, info, table, plane, sweep_folder, progress, sweep_caption, sweep_plot, legend)
+        self._progress = ProgressBar(progress)
         self._show_controls(_DEFAULTS["model"], _DEFAULTS["top_motion"])
 
     def on_presenter(self, on: bool) -> None:
@@ -952,15 +796,14 @@ class ModesScene(Scene):
 
     def close(self) -> None:
         self._cancel_sweep()
-        if self._job is not None:
-            self._job[1].cancel()
+        self._results.cancel()
         super().close()
 
     # -- requests (tests, notebooks) -----------------------------------------------------
     @property
     def busy(self) -> bool:
         """A job is queued or running."""
-        return self._job is not None
+        return self._results.job is not None
 
     @property
     def panel_current(self) -> bool:
@@ -1036,53 +879,33 @@ class ModesScene(Scene):
 
         Returns whether a new solution or clip was shown in this frame.
         """
-        params, mode, fraction = want
-        solution = self._solutions.get(params)
-        if solution is not None:
-            mode = min(max(mode, 1), min(len(solution.groups), MAX_MODES))
-            want = (params, mode, fraction)
-            clip = self._clips.get(want)
-            if clip is not None:
-                return self._show(solution, clip)
-        if self._job is not None:
-            # one job at a time: while a slider is dragged, each job takes the
-            # value the slider has when the one before is done (and that one
-            # is shown meanwhile, see _collect)
+        want, shown = self._results.lookup(want)
+        if shown is not None:
+            return self._show(*shown)
+        # one job at a time: while a slider is dragged, each job takes the value the slider has when the one
+        # before is done (and that one is shown meanwhile, see _collect)
+        if not self._results.submit(self.executor, want, _job, *want):
             return False
-        try:
-            future = self.executor.submit(_job, *want)
-        except RuntimeError:  # the executor is shut down (the app stops)
-            return False
-        self._job = (want, future)
         self.jobs_submitted += 1
-        if self.solution is None or self.solution.params != params:
+        if self.solution is None or self.solution.key != want[0]:
             self.gui.status.content = "Solving…"
         return False
 
     def _collect(self) -> None:
-        if self._job is None or not self._job[1].done():
+        taken = self._results.take()
+        if taken is None:
             return
-        want, future = self._job
-        self._job = None
-        if future.cancelled():
-            return
-        exc = future.exception()
+        want, result, exc = taken
         if exc is not None:
             self._refuse(want, exc)
             return
-        result: _Result = future.result()
         self.solves += 1
         self._solve_seconds = result.seconds
-        _remember(self._solutions, result.solution.params, result.solution, _SOLUTIONS_KEPT)
-        clip = result.clip
-        _remember(self._clips, (clip.params, clip.mode, clip.fraction), clip, _CLIPS_KEPT)
-        if want[1] != clip.mode:  # a mode number beyond this model's: the last one
-            _remember(self._clips, want, clip, _CLIPS_KEPT)
         shown = self.clip
-        if shown is None or (shown.params, shown.fraction) != (self.params, self.controls.value("amplitude")):
+        if shown is None or (shown.key, shown.fraction) != (self.params, self.controls.value("amplitude")):
             # the controls moved on while this was computed (a slider being
             # dragged): show it until the result they ask for is in
-            self._show(result.solution, clip)
+            self._show(result.solution, result.clip)
             self._collected = True
 
     def _refuse(self, want: tuple[Params, int, float], exc: BaseException) -> None:
@@ -1098,12 +921,12 @@ class ModesScene(Scene):
         if not isinstance(exc, ValueError) or shown[0] is None or shown[1] is None:
             raise exc
         solution, clip = shown
-        if want[0] != solution.params:
+        if want[0] != solution.key:
             self.notify("Invalid parameters", f"{exc}. Keeping the previous values (the controls are set back).",
                         "warning")
-            self.controls.set("model", solution.params.model)
-            self.controls.set_many(solution.params.control_values())
-            self._show_controls(solution.params.model, solution.params.top_motion or SLEEPING)
+            self.controls.set("model", solution.key.model)
+            self.controls.set_many(solution.key.control_values())
+            self._show_controls(solution.key.model, solution.key.top_motion or SLEEPING)
         else:
             self.notify("Animation refused", f"{exc}. Keeping the mode shown (the controls are set back).",
                         "warning")
@@ -1117,7 +940,7 @@ class ModesScene(Scene):
         new_model = self.solution is None or solution.parts is not self.solution.parts
         new_solution = solution is not self.solution
         count = min(len(solution.groups), MAX_MODES)
-        if solution.params == self.params and int(self.controls.value("mode")) > count:
+        if solution.key == self.params and int(self.controls.value("mode")) > count:
             self.controls.set("mode", str(count))  # a mode beyond this model's: the last one
         # The panel updates are staged before the new solution is assigned, so that a
         # reader on another thread never sees the new solution with ``panel_current``
@@ -1130,10 +953,10 @@ class ModesScene(Scene):
             self._stage(self._send_info)
             self._stage(self._send_mode_options)
         self._stage(self._send_plane)
-        if new_solution and solution.params.sweep_field is not None:
+        if new_solution and solution.key.sweep_field is not None:
             self._stage(self._send_sweep)
         self.solution, self.clip = solution, clip
-        framing = (solution.params.model, clip.mode)
+        framing = (solution.key.model, clip.mode)
         if framing != self._framing:  # a new model or mode: a camera that shows its motion
             self._framing = framing
             self.reframe()
@@ -1162,13 +985,13 @@ class ModesScene(Scene):
         """A new set of parts: scales, supports and special meshes (in the frame's atomic group)."""
         self.live.show(solution.parts)
         for model, node in self.supports.items():
-            set_visible(node, model == solution.params.model)
+            set_visible(node, model == solution.key.model)
         for key in ("disk", "top"):
             shown = solution.special == key
             if self.special[key].visible != shown:
                 self.special[key].visible = shown
-        anchor, _ = _DISPLAY[solution.params.model]
-        set_pose(self.mode_label, position=_label_position(solution.params.model, anchor))
+        anchor, _ = _DISPLAY[solution.key.model]
+        set_pose(self.mode_label, position=_label_position(solution.key.model, anchor))
 
     def _send_ghost(self) -> None:
         """The equilibrium ghost of the solution shown."""
@@ -1197,17 +1020,7 @@ class ModesScene(Scene):
         self._drawn = (id(clip), i)
 
     def _label(self) -> None:
-        clip, solution = self.clip, self.solution
-        i = solution.groups[clip.mode - 1][0]
-        text = f"mode {clip.mode}: {_sig(float(solution.frequency_hz[i]))} Hz"
-        if solution.status(i) in ("unstable", "mirrored"):
-            text += " (unstable)"
-        if self.mode_label.text != text:
-            self.mode_label.text = text
-            # viser 1.1.1's page draws a label changed while it is connected
-            # only once its visibility changes
-            self.mode_label.visible = False
-            self.mode_label.visible = True
+        set_label(self.mode_label, mode_label(self.solution, self.clip))
 
     def _play(self, dt: float, changed: set[str]) -> None:
         clip = self.clip
@@ -1219,13 +1032,11 @@ class ModesScene(Scene):
                 self.ghost.frame.visible = show
                 for key in ("disk", "top"):
                     self.special_ghost[key].visible = show and self.solution.special == key
-        if self.controls.value("animate"):
-            cycle = float(self.controls.value("cycle_seconds"))
-            self._phase = (self._phase + min(dt, 0.1) / (cycle * clip.cycles)) % 1.0
+        animate = bool(self.controls.value("animate"))
+        self._phase, i = advance(clip, self._phase, dt, cycle=float(self.controls.value("cycle_seconds")),
+                                 animate=animate)
+        if animate:
             self.sim_time += min(dt, 0.1)
-            i = min(int(self._phase * clip.t.size), clip.t.size - 1)
-        else:
-            i = clip.still
         if self._drawn != (id(clip), i):
             with self.target.atomic():
                 self._draw(i)
@@ -1234,34 +1045,9 @@ class ModesScene(Scene):
 
     # -- the panel -------------------------------------------------------------------------
     def _send_status(self) -> None:
-        clip, solution = self.clip, self.solution
-        if clip is None or solution is None:
-            return
-        i = solution.groups[clip.mode - 1][0]
-        s = clip.eigenvalue
-        lines = [f"**Mode {clip.mode}** of {min(len(solution.groups), MAX_MODES)}: f = "
-                 f"{_sig(float(solution.frequency_hz[i]))} Hz · ω_n = {_sig(float(solution.omega_n[i]))} rad/s · "
-                 f"ξ = {_xi_text(float(solution.damping_ratio[i]))} · {_STATUS_TEXT[solution.status(i)]}"]
-        cycle = float(self.controls.value("cycle_seconds"))
-        if clip.oscillates:
-            ratio = cycle / clip.period
-            speed = f"{_sig(ratio, 3)}× slower" if ratio >= 1 else f"{_sig(1 / ratio, 3)}× faster"
-            line = (f"period {_sig(clip.period, 3)} s, shown in {cycle:g} s ({speed})"
-                    + (f", {clip.cycles} periods per loop" if clip.cycles > 1 else ""))
-            if abs(s.real) * clip.period >= 1e-3:
-                line += f"; the amplitude {'grows' if s.real > 0 else 'decays'} as e^({_sig(s.real, 3)} t)"
-        else:
-            line = (f"does not oscillate: s = {_sig(s.real, 3)} 1/s (the shape {'grows' if s.real > 0 else 'decays'} "
-                    "as e^(st)); its shape is shown swinging")
-        lines.append(line)
-        what = "largest translation" if clip.unit == "m" else "largest rotation"
-        amp = f"a = {_sig(clip.amplitude, 3)} {clip.unit} ({what})"
-        if clip.reduced:
-            amp += ", reduced so that the projection onto the constraints converges"
-        lines.append(amp + f"; max |C| after projection {float(np.max(clip.residual)):.0e}")
-        if not self.controls.value("animate"):
-            lines.append("*animation off: the largest displacement is shown*")
-        self.gui.status.content = "  \n".join(lines)
+        if self.clip is not None and self.solution is not None:
+            self.gui.status.content = mode_status(self.solution, self.clip, float(self.controls.value("cycle_seconds")),
+                                                  animate=bool(self.controls.value("animate")))
 
     def _send_table(self) -> None:
         if self.solution is not None and self.clip is not None:
@@ -1281,27 +1067,8 @@ class ModesScene(Scene):
         )
 
     def _send_mode_options(self) -> None:
-        solution = self.solution
-        if solution is None:
-            return
-        count = max(1, min(len(solution.groups), MAX_MODES))
-        handle = self.controls.handles["mode"]
-        spec = self.controls.specs["mode"]
-        numbers = MODE_OPTIONS[:count]
-        rows = {n: mode_row(solution, int(n)) for n in numbers} if solution.groups else {n: n for n in numbers}
-        options = tuple(rows[n] for n in numbers)
-        if tuple(handle.options) != options:
-            value = self.controls.value("mode")
-            if value not in numbers:
-                if solution.params != self.params:
-                    return  # shown while the controls move on: the next solution sets the list
-                value = numbers[-1]
-            spec.rows.clear()
-            spec.rows.update(rows)
-            handle.options = options  # (viser moves a value not in the options to the first one)
-            self.controls.set("mode", value)
-            if handle.value != rows[value]:
-                handle.value = rows[value]
+        if self.solution is not None:
+            send_mode_options(self.controls, self.solution, current=self.solution.key == self.params)
 
     def _send_plane(self) -> None:
         if self.solution is not None and self.clip is not None:
@@ -1309,7 +1076,7 @@ class ModesScene(Scene):
 
     def _send_sweep(self) -> None:
         outcome = self.sweep
-        if outcome is None or self.solution is None or self.solution.params.sweep_key() != outcome.key:
+        if outcome is None or self.solution is None or self.solution.key.sweep_key() != outcome.key:
             return
         svg, caption = sweep_svg(outcome, self.solution, font=self.font)
         self.gui.sweep_plot.content = svg
@@ -1327,44 +1094,31 @@ class ModesScene(Scene):
         if run is not None and run.finished.is_set():
             self._run = None
             if run.outcome is not None:
-                _remember(self._sweeps, run.key, run.outcome, _SWEEPS_KEPT)
+                remember(self._sweeps, run.key, run.outcome, _SWEEPS_KEPT)
             elif run.error is not None:
                 self._sweep_errors.add(run.key)
                 self.notify("Sweep failed", f"{type(run.error).__name__}: {run.error}", "warning")
             run = None
         if key is None:
-            self._set_progress(None)
+            self._progress.set(None)
             return
         outcome = self._sweeps.get(key)
         if outcome is not None:
-            self._set_progress(None)
+            self._progress.set(None)
             if self.sweep is not outcome:
                 self._stage(self._send_sweep)  # staged first: see _show
                 self.sweep = outcome
                 self._sync_sweep_button()
             return
         if run is None and key not in self._sweep_errors:
-            run = self._run = _SweepRun(key, self.executor)
+            run = self._run = _sweep_run(key, self.executor)
             self.sweeps_started += 1
             self.gui.sweep_caption.content = f"Computing {run.total} spins in the background…"
             self.gui.sweep_plot.content = ""
             self.sweep = None
             self._sync_sweep_button()
         if run is not None:
-            self._set_progress(100.0 * run.done / max(run.total, 1))
-
-    def _set_progress(self, value: float | None) -> None:
-        bar = self.gui.progress
-        if value is None:
-            if bar.visible:
-                bar.visible = False
-            self._progress_shown = -1.0
-            return
-        if not bar.visible:
-            bar.visible = True
-        if abs(value - self._progress_shown) >= 1.0 or (value >= 100.0 and self._progress_shown < 100.0):
-            bar.value = float(min(max(value, 0.0), 100.0))
-            self._progress_shown = value
+            self._progress.set(100.0 * run.done / max(run.total, 1))
 
     def _cancel_sweep(self) -> None:
         run = self._run

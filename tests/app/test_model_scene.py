@@ -223,3 +223,50 @@ def test_a_rigid_body_mode_animates_with_a_warning_and_the_modes_export(model_ap
     doc = json.loads(scene.modes_json())
     assert doc["model"] == "arm.urdf" and doc["sha256"] == scene.model.sha256
     assert scene.modes_csv().decode().count("\n") >= len(solution.eigenvalues)
+
+
+def test_the_motion_plots_show_in_the_simulation_view_only_and_what_you_see_describes_both(model_app):
+    app, scene = model_app(EXAMPLES / "four_bar.py")
+    wait_for_clip(scene)
+    plots = scene.plot_handles
+    assert set(plots) == {"energy", "residual", "reactions"}
+    # the mode view has no motion: its energy, residual and reaction plots are hidden, not shown empty
+    wait_until(lambda: not any(h.visible for h in plots.values()), 60.0)
+    assert send_value(scene, "view", SIM_VIEW)
+    wait_until(lambda: all(h.visible for h in plots.values()), 60.0)
+    assert send_value(scene, "view", "Mode shape")
+    wait_until(lambda: not any(h.visible for h in plots.values()), 60.0)
+    text = scene.help_readout.content
+    assert text == ModelScene.help
+    for words in ("**Mode shape**", "**Simulation**", "ghost", "Eqs. 8.125-8.129", "Eq. 8.130", "Eq. 8.131",
+                  "root locus", "Campbell"):
+        assert words in text
+
+
+def test_the_sweep_draws_a_campbell_diagram_and_a_root_locus_of_the_eigenvalues(model_app):
+    """examples/rotor.py sweeps the spin: the root locus's data are the eigenvalues that rigidlab.core.modal
+    gives for the System the file builds at every swept value, and the chart draws one curve per branch."""
+    from rigidlab.app.scenes._modal_view import live_branches
+    from rigidlab.app.scenes.model import SWEEP_VALUES
+    from rigidlab.core.modal import linearize
+
+    app, scene = model_app(EXAMPLES / "rotor.py")
+    wait_for_clip(scene)
+    wait_until(lambda: scene.sweep_result is not None and scene.panel_current and "<polyline" in
+               scene.locus_plot.content, timeout=600.0)
+    result = scene.sweep_result
+    p = next(p for p in scene.model.parameters if p.name == "spin")
+    np.testing.assert_allclose(result.values, np.linspace(p.low, p.high, SWEEP_VALUES))
+    live = live_branches(result.rigid)
+    values = dict(scene.solution.key.values)
+    for k, spin in enumerate(result.values):
+        modes = linearize(scene.model.build(**{**values, "spin": float(spin)})).modes()
+        want = np.sort_complex(modes.eigenvalues[~modes.rigid])
+        got = np.sort_complex(result.eigenvalues[k, live])
+        np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-7 * float(np.max(np.abs(want))))
+    svg = scene.locus_plot.content
+    assert svg.count("<polyline") >= len(live)  # a curve per tracked branch
+    assert "Root locus" in scene.locus_caption.content and "spin" in scene.locus_caption.content
+    # the eigenvalues in use are marked on the locus (purple), and they are the solution's
+    assert "#7c3aed" in svg
+    assert "<polyline" in scene.sweep_plot.content and "Campbell" not in scene.locus_caption.content

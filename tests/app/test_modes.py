@@ -70,10 +70,10 @@ def wait_for(scene, timeout=120.0, mode=None, **fields):
     """Wait until the clip shown is the one the controls ask for, with ``fields`` in its
     parameters (and ``mode``)."""
     wait_until(lambda: scene.clip is not None and scene.solution is not None
-               and scene.solution.params == scene.clip.params == scene.params
+               and scene.solution.key == scene.clip.key == scene.params
                and scene.clip.fraction == scene.controls.value("amplitude")
                and scene.panel_current  # the panel has caught up (one update per frame)
-               and all(getattr(scene.clip.params, k) == v for k, v in fields.items())
+               and all(getattr(scene.clip.key, k) == v for k, v in fields.items())
                and (mode is None or scene.clip.mode == mode), timeout=timeout)
     return scene.solution, scene.clip
 
@@ -167,7 +167,7 @@ def test_the_spherical_pendulum_stays_on_its_pivot(modes):
     assert send_value(scene, "model", SPHERICAL)
     assert send_value(scene, "amplitude", 1.0)  # 1 rad
     solution, clip = wait_for(scene, model=SPHERICAL)
-    L = clip.params.rod_length
+    L = clip.key.rod_length
     top = clip.positions[:, 0] + rotate_vector(clip.orientations[:, 0], np.array([0.0, 0.0, 0.5 * L]))
     assert np.linalg.norm(top - (0.0, 0.0, 2.7), axis=-1).max() < GAP_TOL
     # omega^2 = 3 g / (2 L), twice; the spin about the rod is rigid
@@ -239,7 +239,7 @@ def test_rotor_whirl_and_campbell_diagram_match_the_closed_form(modes):
 
     omegas = np.sort(solution.omega_n[[g[0] for g in solution.groups]])
     np.testing.assert_allclose(omegas, np.sort(np.r_[[math.sqrt(2 * k / m)] * 3, whirl(400.0)]), rtol=1e-9)
-    wait_until(lambda: scene.sweep is not None and scene.sweep.key == solution.params.sweep_key(), timeout=120.0)
+    wait_until(lambda: scene.sweep is not None and scene.sweep.key == solution.key.sweep_key(), timeout=120.0)
     outcome = scene.sweep
     wait_until(lambda: scene.panel_current)  # the caption follows the sweep in a later frame
     f = np.abs(outcome.eigenvalues.imag) / (2 * math.pi)
@@ -266,7 +266,7 @@ def test_top_root_locus_finds_the_sleeping_tops_critical_spin(modes):
     app, scene = modes
     assert send_value(scene, "model", TOP)
     solution, _ = wait_for(scene, model=TOP)
-    wait_until(lambda: scene.sweep is not None and scene.sweep.key == solution.params.sweep_key(), timeout=120.0)
+    wait_until(lambda: scene.sweep is not None and scene.sweep.key == solution.key.sweep_key(), timeout=120.0)
     critical = sleeping_top_critical_spin(RotorParams(I=1.0, I3=0.8, mgl=2.0))
     np.testing.assert_allclose(scene.sweep.boundaries, [critical], rtol=1e-9)
     wait_until(lambda: "Root locus" in scene.gui.sweep_caption.content)
@@ -373,8 +373,8 @@ def test_no_steady_precession_is_refused_and_the_controls_go_back(modes):
     wait_until(lambda: notices_with(app, "Invalid parameters"), timeout=60.0)
     assert notices_with(app, "no steady precession exists")
     # the controls show the parameters of the top shown (a valid one) again
-    wait_until(lambda: scene.params == scene.solution.params)
-    shown = scene.solution.params
+    wait_until(lambda: scene.params == scene.solution.key)
+    shown = scene.solution.key
     assert shown.model == TOP and shown.top_spin == 6.0
     assert scene.controls.value("top_spin") == 6.0 and scene.controls.handles["top_spin"].value == 6.0
     assert scene.controls.value("top_motion") == shown.top_motion
@@ -425,7 +425,7 @@ def test_state_round_trip(running_app):
     wait_until(lambda: other.clip is not None, timeout=60.0)
     second.session_for().request_state(state)
     other_solution, other_clip = wait_for(other, model=TWO_MASS, c1=7.5, k2=1500.0, mode=2)
-    assert other_solution.params == solution.params
+    assert other_solution.key == solution.key
     np.testing.assert_array_equal(other_solution.eigenvalues, solution.eigenvalues)
     np.testing.assert_array_equal(other_clip.positions, clip.positions)
     assert other.controls.values() == scene.controls.values()
@@ -505,7 +505,7 @@ def test_a_sweep_is_cancelled_by_a_parameter_change_and_kept_per_parameter_set(m
     assert scene.sweeps_started == started + 1  # from the cache
     # the spin is not a parameter of the sweep: moving it keeps the sweep
     assert send_value(scene, "spin", 700.0)
-    drive(scene, lambda: scene.solution is not None and scene.solution.params.spin == 700.0)
+    drive(scene, lambda: scene.solution is not None and scene.solution.key.spin == 700.0)
     assert scene.sweeps_started == started + 1 and not scene.sweeping
     # another model has no sweep: the running one would stop, the folder hides
     assert send_value(scene, "model", CHAIN)
@@ -536,7 +536,7 @@ def test_nothing_is_solved_on_the_loop_thread_while_the_scene_solves_and_sweeps(
     drive(scene, lambda: scene.clip is not None)
     for model in (ROTOR, TOP, TWO_MASS, SPHERICAL, CHAIN):
         assert send_value(scene, "model", model)
-        drive(scene, lambda: scene.clip is not None and scene.clip.params.model == model and scene.panel_current)
+        drive(scene, lambda: scene.clip is not None and scene.clip.key.model == model and scene.panel_current)
         if model in (ROTOR, TOP):
             drive(scene, lambda: scene.sweep is not None and scene.sweep.key.model == model and scene.panel_current,
                   timeout=120.0)
@@ -553,7 +553,7 @@ def test_a_dragged_slider_is_solved_one_value_after_another(modes):
     shown = set()
     for n in range(4, 11):  # as a drag sends them, faster than the jobs finish
         assert send_value(scene, "n_links", n)
-        shown.add(scene.solution.params.n_links)
+        shown.add(scene.solution.key.n_links)
         time.sleep(0.03)
     solution, _ = wait_for(scene, n_links=10)
     assert solution.n_dof == 10 and len(table_rows(scene)) == 10

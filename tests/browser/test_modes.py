@@ -95,7 +95,7 @@ def test_moving_a_parameter_slider_updates_the_frequency_table(modes_page) -> No
     thumb.focus()
     page.keyboard.press("End")  # the slider's maximum: 10 links
     wait_until(lambda: scene.controls.value("n_links") == 10)
-    wait_until(lambda: scene.solution is not None and scene.solution.params.n_links == 10
+    wait_until(lambda: scene.solution is not None and scene.solution.key.n_links == 10
                and scene.panel_current, timeout=60.0)
     wait_until(lambda: len(_table_frequencies(page)) == 10, timeout=120.0)
     shown = _table_frequencies(page)
