@@ -67,6 +67,10 @@ def test_load_state_from_the_page_reproduces_a_pose(running_app: Any, open_page:
     box = field(page, "State to load")
     box.wait_for(state="visible")
     box.fill(string)
+    # The page's panel sends its messages through a 50 ms throttle that keeps only the newest: a click within
+    # 50 ms of the paste (no person is that quick) could replace the text's message. Click once it has arrived.
+    session = app.session_for()
+    wait_until(lambda: session.controls.handles["state_in"].value == string)
     page.get_by_role("button", name="Load state", exact=True).click()
     try:
         wait_until(lambda: np.allclose(np.degrees(scene.joint_angles), [-100.0, 20.5, 7.0]), 15.0)
