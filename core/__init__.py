@@ -3,6 +3,6 @@
 Conventions are stated once in ``docs/conventions.md``.
 """
 
-from rigidlab.core._errors import ArgumentError  # (a leaf module: importing core stays cheap)
+from rigidlab.core._errors import ArgumentError, RigidModeWarning  # (a leaf module: importing core stays cheap)
 
-__all__ = ["ArgumentError"]
+__all__ = ["ArgumentError", "RigidModeWarning"]

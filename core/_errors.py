@@ -16,7 +16,7 @@ core again)::
 
 from __future__ import annotations
 
-__all__ = ["ArgumentError"]
+__all__ = ["ArgumentError", "RigidModeWarning"]
 
 
 class ArgumentError(ValueError):
@@ -48,3 +48,9 @@ class ArgumentError(ValueError):
 
 def _rebuild(cls: type[ArgumentError], argument: str, message: str, limit: float | None) -> ArgumentError:
     return cls(argument, message, limit=limit)
+
+
+class RigidModeWarning(UserWarning):
+    """:meth:`rigidlab.core.modal.Modes.animate` of a rigid-body (zero-eigenvalue) mode: the mechanism moves
+    along it as a rigid body, it does not oscillate (:attr:`~rigidlab.core.modal.Modes.flexible` leaves such
+    modes out). Here, in the leaf module, so an application can filter it without importing the modal code."""

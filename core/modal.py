@@ -53,6 +53,7 @@ import scipy.linalg
 import scipy.sparse
 from scipy.optimize import brentq, linear_sum_assignment
 
+from rigidlab.core._errors import RigidModeWarning
 from rigidlab.core._validation import float_array, real_number, short_repr
 
 __all__ = [
@@ -108,11 +109,6 @@ def _ro(a: np.ndarray) -> np.ndarray:
     a = np.array(a)
     a.setflags(write=False)
     return a
-
-
-class RigidModeWarning(UserWarning):
-    """:meth:`Modes.animate` of a rigid-body (zero-eigenvalue) mode: the mechanism moves along it as a rigid
-    body, it does not oscillate (:attr:`Modes.flexible` leaves such modes out)."""
 
 
 # ------------------------------------------------------------------ embedding

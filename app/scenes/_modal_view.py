@@ -24,6 +24,7 @@ import json
 import math
 import threading
 import time
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -32,6 +33,7 @@ import numpy as np
 from rigidlab.app.controls import Choice, Refused, describe
 from rigidlab.app.jobs import settle
 from rigidlab.app.scenes._svg import FONT, Chart
+from rigidlab.core import RigidModeWarning
 
 __all__ = ["Animated", "CURVE_COLORS", "Cancelled", "Clip", "MAX_CYCLES", "MAX_MODES", "MODE_OPTIONS",
            "ModalResults", "ModalStatus", "ModeChoice", "ProgressBar", "SAMPLES_PER_CYCLE", "SELECTED_COLOR",
@@ -161,8 +163,10 @@ def animate_group(modes: Any, system: Any, group: tuple[int, ...], mode: int, fr
                 motion = modes.animate(system, j, t, amplitude=amplitude)
                 R, P, res = motion.positions, motion.orientations, motion.residual_position
             else:  # no oscillation: the shape swung once, amplitude a cos(2 pi k / m)
-                frames = [modes.animate(system, j, [0.0], amplitude=amplitude * math.cos(2 * math.pi * i / m))
-                          for i in range(m)]
+                with warnings.catch_warnings():  # (a rigid-body mode: the table says so; core warns)
+                    warnings.simplefilter("ignore", RigidModeWarning)
+                    frames = [modes.animate(system, j, [0.0], amplitude=amplitude * math.cos(2 * math.pi * i / m))
+                              for i in range(m)]
                 R = np.concatenate([f.positions for f in frames])
                 P = np.concatenate([f.orientations for f in frames])
                 res = np.concatenate([f.residual_position for f in frames])

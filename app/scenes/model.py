@@ -42,6 +42,7 @@ import dataclasses
 import functools
 import os
 import time
+import warnings
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -60,6 +61,7 @@ from rigidlab.app.scenes._modal_view import (CURVE_COLORS, Clip, MAX_MODES, MODE
 from rigidlab.app.scenes._plots import Table, log10_floor
 from rigidlab.app.scenes._simulation import PlotSpec, SimulationScene
 from rigidlab.app.scenes._svg import FONT, PRESENTER_FONT, Chart
+from rigidlab.core import RigidModeWarning
 
 __all__ = ["ALONG_MODE", "AS_BUILT", "Clip", "Key", "MODE_VIEW", "ModelScene", "SIM_VIEW", "Solution",
            "model_scene_class", "model_scene_classes"]
@@ -329,7 +331,9 @@ def _start_state(key: Key, mode: int, fraction: float) -> Any:
     amplitude = fraction * (size if int(np.argmax(np.abs(shape))) < 3 * n else 1.0)
     for _ in range(4):
         try:
-            pose = ref.modes.animate(ref.system, j, [0.0], amplitude=amplitude)
+            with warnings.catch_warnings():  # (the start pose along a rigid-body mode: the table says so)
+                warnings.simplefilter("ignore", RigidModeWarning)
+                pose = ref.modes.animate(ref.system, j, [0.0], amplitude=amplitude)
             break
         except Exception:
             amplitude *= 0.5
