@@ -282,6 +282,11 @@ class PlotRefresh:
         self._since = math.inf
         self._queue = []
 
+    @property
+    def queued(self) -> bool:
+        """Refreshes of the current cycle are still to come (one a frame)."""
+        return bool(self._queue)
+
     def due(self, dt: float, *, moving: bool, hold: bool = False) -> str | None:
         """The plot to refresh in this frame, if any (``moving``: the data changed).
 

@@ -543,6 +543,11 @@ class SimulationScene(PlaybackRequests, Scene):
     def window_start(self) -> float:
         return max(0.0, self.display_time - self.window)
 
+    @property
+    def plots_current(self) -> bool:
+        """The readout and the plots have been sent for the time shown (paused, nothing more is sent)."""
+        return self._refreshed_time == self.sim_time and not self._refresh.queued and self.refresh_due is None
+
     def rate_text(self) -> str | None:
         """The readout's line on the rate, when the scene runs slower than the time scale asks."""
         rate, scale = self.real_time_rate, self.playback.time_scale

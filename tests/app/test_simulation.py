@@ -463,3 +463,17 @@ def test_side_jobs_hand_back_their_results_once_and_a_failure_is_a_notice(make_b
     assert sorted(got) == [("Root of 4", 2.0), ("Root of 9", 3.0)]
     assert ("Root of -1 not computed", "ValueError: x: expected >= 0, got -1.0", "warning") in notices
     assert scene.side_results() == []
+
+
+def test_paused_the_plots_become_current_and_nothing_more_is_sent(make_bare_scene) -> None:
+    """``plots_current``: paused, the layer sends the readout and each plot once more for the time shown (one a
+    frame, up to a refresh period later), and then nothing."""
+    scene, _ = make_bare_scene(_Toy)
+    _play_until(scene, 1.0)
+    scene.playback.set_playing(False)
+    wait_until(lambda: (scene.frame(1 / 60), scene.plots_current)[1], timeout=60.0, interval=0.0)
+    sent = scene.plot_handles["x"].data
+    for _ in range(30):
+        scene.frame(1 / 60)
+        assert scene.plots_current and scene.refresh_due is None
+    assert scene.plot_handles["x"].data is sent

@@ -68,8 +68,10 @@ def test_play_moves_the_chain_and_pause_holds_it(scene_page) -> None:
     wait_until(lambda: scene.frames > frames + 1)  # a loop tick after the pause
     t_paused = scene.sim_time
     positions = np.array(scene.parts.rods.batched_positions)
-    # the 3-D view only: the plots docked on the left are drawn once more after the pause (the readout and each
-    # plot in turn, a loop tick apart), and a page on a loaded machine may show them after the view settled
+    # After the pause the readout and the plots docked on the left are sent once more, up to a refresh period
+    # later and one a loop tick: a redrawn plot can change the panel's width and so the 3-D canvas' (every edge
+    # of the view moved by a pixel in a fresh-clone run). The view is held once they have all been sent.
+    wait_until(lambda: scene.plots_current)
     held = settled_view(page, take=canvas_view)
     # half a second of loop ticks and a few page frames later, nothing has moved
     frames = scene.frames
